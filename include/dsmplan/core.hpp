@@ -1,0 +1,74 @@
+// dsmplan/core.hpp: what every stage shares: errors, progress, coordinate reference.
+//
+// Errors. Every failure the library reports is a dsmplan::Error (a std::runtime_error) whose
+// what() is one line of the form "FILE: PLACE: PROBLEM" (file and place omitted when they do
+// not apply), ready to print as it is. The subclasses say whose fault it is:
+//   InputError   - an input file is missing, unreadable or says something impossible;
+//   ArgumentError - an option has a value the operation cannot work with;
+//   OutputError  - an output cannot be written (nothing is left behind: outputs are written to a
+//                  temporary file in the same folder and renamed into place only when complete).
+// Functions never crash or hang on bad input; they throw one of these.
+//
+// Progress. Long operations take a Progress callback, called with the fraction done in [0, 1]
+// (monotonic, the last call with exactly 1). Returning false asks the operation to stop: it then
+// throws Cancelled. An empty callback costs nothing.
+#pragma once
+
+#include <functional>
+#include <stdexcept>
+#include <string>
+
+namespace dsmplan {
+
+class Error : public std::runtime_error {
+public:
+  using std::runtime_error::runtime_error;
+};
+
+/// Formats "file: place: problem", leaving out empty parts.
+std::string located_message(const std::string& file, const std::string& place, const std::string& problem);
+
+class InputError : public Error {
+public:
+  InputError(const std::string& file, const std::string& place, const std::string& problem)
+      : Error(located_message(file, place, problem)) {}
+};
+
+class ArgumentError : public Error {
+public:
+  ArgumentError(const std::string& option, const std::string& problem) : Error(located_message("", option, problem)) {}
+};
+
+class OutputError : public Error {
+public:
+  OutputError(const std::string& file, const std::string& problem) : Error(located_message(file, "", problem)) {}
+};
+
+class Cancelled : public Error {
+public:
+  Cancelled() : Error("cancelled") {}
+};
+
+/// Fraction done in [0, 1]; return false to cancel.
+using Progress = std::function<bool(double fraction)>;
+
+/// Reports `fraction` through `progress` (if any) and throws Cancelled when asked to stop.
+void report(const Progress& progress, double fraction);
+
+/// The part [begin, end] of a parent's progress, for a sub-step of a longer operation.
+Progress sub_progress(const Progress& parent, double begin, double end);
+
+/// A coordinate reference system as the data declared it. The core only carries it along;
+/// the I/O layer (GDAL/PROJ) resolves `definition` into the descriptive fields.
+struct Crs {
+  std::string definition;      ///< WKT, PROJJSON or "EPSG:n" as found or given; empty = unknown
+  std::string name;            ///< e.g. "ETRS89 / UTM zone 32N" (filled by the I/O layer)
+  int epsg = 0;                ///< horizontal EPSG code, 0 when there is none
+  std::string wkt;             ///< single-line WKT2 (filled by the I/O layer)
+  std::string vertical_name;   ///< vertical datum/CRS name, empty when not known
+  std::string vertical_unit;   ///< e.g. "metre", empty when not known
+
+  bool known() const { return !definition.empty() || !wkt.empty(); }
+};
+
+}  // namespace dsmplan

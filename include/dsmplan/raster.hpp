@@ -1,0 +1,156 @@
+// dsmplan/raster.hpp: stage 1, the DSM in.
+//
+// A Grid is a north-up height raster: cell (col, row) covers
+//   x in [x0 + col*cell_x, x0 + (col+1)*cell_x),  y in (y0 - (row+1)*cell_y, y0 - row*cell_y]
+// and its height stands for the cell centre. Heights are in the vertical unit of the CRS
+// (metres for every dataset dsmplan ships with); NaN marks nodata, which becomes a hole.
+//
+// Sources:
+//   read_raster()  any single-band GDAL raster (GeoTIFF, VRT mosaic, ESRI ASCII grid, ...);
+//   read_las(), read_xyz() + grid_points()  point clouds gridded with the median (or max) per cell,
+//                  the fusion rule of Adolf & Hirschmueller, Section 2.
+// Transforms (all O(cells), no GDAL involved):
+//   resample()     block aggregation to a coarser resolution (median by default, max conservative);
+//   quantize_height()  the vertical resolution of Table 1 (0.1 m steps).
+//
+// Errors: InputError naming the file and place (cell, line, byte offset); see core.hpp.
+#pragma once
+
+#include <cmath>
+#include <cstdint>
+#include <limits>
+#include <string>
+#include <vector>
+
+#include "dsmplan/core.hpp"
+
+namespace dsmplan {
+
+struct Grid {
+  int width = 0, height = 0;   ///< columns, rows
+  double x0 = 0, y0 = 0;       ///< top-left corner of cell (0, 0), CRS units
+  double cell_x = 1, cell_y = 1;  ///< cell size along x and y, > 0 (rows run south)
+  std::vector<float> z;        ///< row-major heights, NaN = nodata
+  Crs crs;
+
+  static constexpr float nodata = std::numeric_limits<float>::quiet_NaN();
+
+  Grid() = default;
+  Grid(int w, int h, double x0_, double y0_, double cx, double cy)
+      : width(w), height(h), x0(x0_), y0(y0_), cell_x(cx), cell_y(cy),
+        z(static_cast<size_t>(w) * static_cast<size_t>(h), nodata) {}
+
+  size_t cells() const { return z.size(); }
+  size_t index(int col, int row) const { return static_cast<size_t>(row) * width + col; }
+  float at(int col, int row) const { return z[index(col, row)]; }
+  bool valid(int col, int row) const { return !std::isnan(at(col, row)); }
+  double center_x(int col) const { return x0 + (col + 0.5) * cell_x; }
+  double center_y(int row) const { return y0 - (row + 0.5) * cell_y; }
+  double x1() const { return x0 + width * cell_x; }    ///< east edge
+  double y1() const { return y0 - height * cell_y; }   ///< south edge
+};
+
+/// Counts and ranges of a grid, computed in one pass.
+struct GridSummary {
+  size_t cells = 0, valid = 0, nodata = 0;
+  size_t holes = 0;            ///< 4-connected regions of nodata cells
+  double z_min = NAN, z_max = NAN;  ///< over valid cells; NaN when there are none
+};
+GridSummary summarize(const Grid& grid);
+
+// ---- resampling ---------------------------------------------------------------------------
+
+enum class Resampling {
+  Median,  ///< median of the cells whose centres fall in the block (default; robust, the paper's fusion rule)
+  Max,     ///< highest cell: conservative, never lowers an obstacle
+  Mean,
+  Min,
+  Nearest  ///< the cell under the block centre
+};
+const char* to_string(Resampling);
+/// Parses "median", "max", "mean", "min", "nearest"; throws ArgumentError otherwise.
+Resampling parse_resampling(const std::string& name);
+
+/// Aggregates `grid` to square cells of size `resolution` (CRS units). The output keeps the
+/// input's top-left corner and covers it completely: ceil(width*cell_x/resolution) columns.
+/// An output cell aggregates the valid input cells whose centres lie inside it; with none it
+/// is nodata. resolution equal to the input's returns a copy. Throws ArgumentError when
+/// resolution <= 0 or not finite. O(input cells).
+Grid resample(const Grid& grid, double resolution, Resampling method, const Progress& progress = {});
+
+/// The height nearest to z on the lattice k*step, as the double nearest to k*step
+/// (so 0.1-steps print as 123.4, not 123.40000000000001). step <= 0 returns z unchanged.
+double quantize_height(double z, double step);
+
+// ---- point clouds ------------------------------------------------------------------------
+
+struct PointCloud {
+  std::vector<double> x, y, z;
+  std::vector<uint8_t> classification;  ///< ASPRS class per point (0 when the source has none)
+  Crs crs;                              ///< from the file (LAS WKT or GeoTIFF keys); may be unknown
+  double min_x = INFINITY, min_y = INFINITY, min_z = INFINITY;
+  double max_x = -INFINITY, max_y = -INFINITY, max_z = -INFINITY;
+
+  size_t size() const { return x.size(); }
+  void add(double px, double py, double pz, uint8_t cls);
+};
+
+/// Reads an uncompressed LAS 1.0-1.4 file, point formats 0-10. Checks the header against the
+/// file (signature, sizes, point count x record length <= file size, scale factors); a header
+/// that lies gives InputError naming the field. CRS from the OGC WKT VLR/EVLR (record 2112) or
+/// the GeoTIFF key directory (record 34735, EPSG codes only). O(points).
+PointCloud read_las(const std::string& path, const Progress& progress = {});
+
+/// Reads "x y z [class]" text lines (separators: blanks, comma, semicolon). Blank lines and
+/// lines starting with '#' are skipped, as is a first line without any digit (a column header).
+/// A line that does not parse gives InputError with its line number. No CRS.
+PointCloud read_xyz(const std::string& path, const Progress& progress = {});
+
+/// read_las or read_xyz by extension (.las / .xyz, .txt, .csv); InputError for anything else.
+PointCloud read_points(const std::string& path, const Progress& progress = {});
+
+enum class Fusion {
+  Median,  ///< median height of the points in a cell (mean of the two middle ones when even)
+  Max
+};
+
+struct GridPointsOptions {
+  double resolution = 1.0;                 ///< cell size, CRS units, > 0
+  Fusion fusion = Fusion::Median;
+  std::vector<int> drop_classes = {7, 18}; ///< ASPRS low/high noise by default
+};
+
+/// Grids point clouds (all in one CRS) into one DSM. The grid is aligned to multiples of the
+/// resolution and just covers the kept points; a point on a cell's west/north edge belongs to
+/// that cell. Cells without points are nodata (filling holes is a separate, explicit step).
+/// Throws ArgumentError for resolution <= 0, InputError when no point is left after filtering.
+/// O(points log points-per-cell).
+Grid grid_points(const std::vector<PointCloud>& clouds, const GridPointsOptions& options,
+                 const Progress& progress = {});
+
+// ---- GDAL I/O (the only part of this module that needs GDAL/PROJ) -------------------------
+
+struct ReadRasterOptions {
+  int band = 1;
+  std::string assign_crs;   ///< CRS to use when the raster has none ("EPSG:25832", WKT, ...)
+  bool allow_no_crs = false;
+};
+
+/// Reads one band of any GDAL raster. Declared nodata becomes NaN. Throws InputError when the
+/// file is missing or not a raster, has no cells or no valid cell, has a rotated geotransform,
+/// has NaN (not declared nodata) or infinite heights (naming the first cell and its
+/// coordinates), or has no CRS and none is assigned. O(cells).
+Grid read_raster(const std::string& path, const ReadRasterOptions& options = {}, const Progress& progress = {});
+
+/// Fills `crs.name`, `crs.epsg`, `crs.wkt` and the vertical fields from `crs.definition`
+/// (PROJ via GDAL's OGRSpatialReference). Throws ArgumentError when it cannot be parsed.
+void resolve_crs(Crs& crs);
+
+/// Writes a Float32 GeoTIFF (DEFLATE, tiled, nodata -9999). Atomic: temp file + rename.
+void write_geotiff(const Grid& grid, const std::string& path, const Progress& progress = {});
+
+/// GDAL's FillNodata (inverse-distance interpolation) for holes up to `max_distance` cells
+/// from valid data. Holes farther away stay holes.
+void fill_holes(Grid& grid, double max_distance, const Progress& progress = {});
+
+}  // namespace dsmplan

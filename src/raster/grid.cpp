@@ -1,0 +1,59 @@
+// Grid bookkeeping: one-pass summary (counts, height range, connected holes) and the vertical
+// quantization of Adolf & Hirschmueller, Table 1 ("the vertical resolution is always 10 cm").
+#include <cmath>
+#include <vector>
+
+#include "dsmplan/raster.hpp"
+
+namespace dsmplan {
+
+GridSummary summarize(const Grid& grid) {
+  GridSummary summary;
+  summary.cells = grid.cells();
+  for (float z : grid.z) {
+    if (std::isnan(z)) continue;
+    ++summary.valid;
+    if (!(z >= summary.z_min)) summary.z_min = z;  // NaN-aware: the first valid height wins
+    if (!(z <= summary.z_max)) summary.z_max = z;
+  }
+  summary.nodata = summary.cells - summary.valid;
+
+  // Holes: 4-connected nodata regions, by flood fill with an explicit stack (no recursion depth).
+  std::vector<bool> seen(grid.cells(), false);
+  std::vector<size_t> stack;
+  for (size_t start = 0; start < grid.cells(); ++start) {
+    if (seen[start] || !std::isnan(grid.z[start])) continue;
+    ++summary.holes;
+    seen[start] = true;
+    stack.push_back(start);
+    while (!stack.empty()) {
+      size_t i = stack.back();
+      stack.pop_back();
+      int col = static_cast<int>(i % grid.width), row = static_cast<int>(i / grid.width);
+      auto visit = [&](int c, int r) {
+        if (c < 0 || r < 0 || c >= grid.width || r >= grid.height) return;
+        size_t j = grid.index(c, r);
+        if (!seen[j] && std::isnan(grid.z[j])) {
+          seen[j] = true;
+          stack.push_back(j);
+        }
+      };
+      visit(col - 1, row);
+      visit(col + 1, row);
+      visit(col, row - 1);
+      visit(col, row + 1);
+    }
+  }
+  return summary;
+}
+
+double quantize_height(double z, double step) {
+  if (!(step > 0) || !std::isfinite(z)) return z;
+  const double steps = std::round(z / step);
+  // For steps like 0.1 = 1/10, k/10 is the double nearest to the decimal k*0.1; k*0.1 may not be.
+  const double per_unit = 1.0 / step;
+  if (std::abs(per_unit - std::round(per_unit)) < 1e-9 * per_unit) return steps / std::round(per_unit);
+  return steps * step;
+}
+
+}  // namespace dsmplan

@@ -1,0 +1,641 @@
+// The dsmplan command line, tested through the real binary (testkit::run_cli).
+//
+// Expectations come from independent sources, never from an earlier run of dsmplan:
+//   - raster facts from GDAL's own C API, called here in the test;
+//   - LAS bounds from the LAS header bytes, decoded here;
+//   - grid and mesh counts from arithmetic on the raster size (a full grid of nx x ny vertices
+//     has 2 (nx-1)(ny-1) triangles);
+//   - bad inputs are written by the test itself, so it knows what is wrong with them.
+#include <gdal.h>
+#include <cpl_conv.h>
+#include <cpl_error.h>
+#include <ogr_srs_api.h>
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cctype>
+#include <cmath>
+#include <cstdint>
+#include <cstring>
+#include <filesystem>
+#include <limits>
+#include <mutex>
+#include <nlohmann/json.hpp>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "testkit.hpp"
+
+using nlohmann::json;
+using testkit::run_cli;
+using testkit::TempDir;
+
+namespace {
+
+const std::string kSample = "nrw-dom1/nrw_dom1_crop500m_1m.tif";
+const std::string kProgress = "0...10...20...30...40...50...60...70...80...90...100 - done.";
+
+void init_gdal() {
+  static std::once_flag once;
+  std::call_once(once, [] {
+    GDALAllRegister();
+    // Statistics computed here must not leave a .aux.xml next to the bundled data.
+    CPLSetConfigOption("GDAL_PAM_ENABLED", "NO");
+  });
+}
+
+// ---- rasters through GDAL (the oracle and the writer of test inputs) ----------------------
+
+struct Raster {
+  int width = 0, height = 0;
+  double gt[6] = {0, 1, 0, 0, 0, -1};
+  std::string wkt;  // empty: no CRS
+  std::vector<float> z;  // row-major, as stored
+  bool has_nodata = false;
+  double nodata = 0;
+};
+
+Raster read_with_gdal(const std::string& path) {
+  init_gdal();
+  GDALDatasetH dataset = GDALOpen(path.c_str(), GA_ReadOnly);
+  if (!dataset) throw std::runtime_error("GDAL cannot open " + path);
+  Raster r;
+  r.width = GDALGetRasterXSize(dataset);
+  r.height = GDALGetRasterYSize(dataset);
+  GDALGetGeoTransform(dataset, r.gt);
+  if (const char* wkt = GDALGetProjectionRef(dataset)) r.wkt = wkt;
+  GDALRasterBandH band = GDALGetRasterBand(dataset, 1);
+  int has_nodata = 0;
+  r.nodata = GDALGetRasterNoDataValue(band, &has_nodata);
+  r.has_nodata = has_nodata != 0;
+  r.z.resize(static_cast<size_t>(r.width) * r.height);
+  if (GDALRasterIO(band, GF_Read, 0, 0, r.width, r.height, r.z.data(), r.width, r.height, GDT_Float32, 0, 0) != CE_None) {
+    GDALClose(dataset);
+    throw std::runtime_error("GDAL cannot read " + path);
+  }
+  GDALClose(dataset);
+  return r;
+}
+
+void write_with_gdal(const Raster& r, const std::string& path) {
+  init_gdal();
+  GDALDriverH driver = GDALGetDriverByName("GTiff");
+  GDALDatasetH dataset = GDALCreate(driver, path.c_str(), r.width, r.height, 1, GDT_Float32, nullptr);
+  if (!dataset) throw std::runtime_error("GDAL cannot create " + path);
+  double gt[6];
+  std::copy(std::begin(r.gt), std::end(r.gt), gt);
+  GDALSetGeoTransform(dataset, gt);
+  if (!r.wkt.empty()) GDALSetProjection(dataset, r.wkt.c_str());
+  GDALRasterBandH band = GDALGetRasterBand(dataset, 1);
+  if (r.has_nodata) GDALSetRasterNoDataValue(band, r.nodata);
+  std::vector<float> z = r.z;
+  const CPLErr status = GDALRasterIO(band, GF_Write, 0, 0, r.width, r.height, z.data(), r.width, r.height, GDT_Float32, 0, 0);
+  GDALClose(dataset);
+  if (status != CE_None) throw std::runtime_error("GDAL cannot write " + path);
+}
+
+std::string epsg_wkt(int code) {
+  init_gdal();
+  OGRSpatialReferenceH srs = OSRNewSpatialReference(nullptr);
+  OSRImportFromEPSG(srs, code);
+  char* wkt = nullptr;
+  OSRExportToWkt(srs, &wkt);
+  std::string out = wkt;
+  CPLFree(wkt);
+  OSRDestroySpatialReference(srs);
+  return out;
+}
+
+// A small geo-referenced raster (EPSG:25832 unless told otherwise) with distinct heights.
+Raster small_raster(int width, int height, bool with_crs = true) {
+  Raster r;
+  r.width = width;
+  r.height = height;
+  const double gt[6] = {356300, 1, 0, 5699750, 0, -1};
+  std::copy(std::begin(gt), std::end(gt), r.gt);
+  if (with_crs) r.wkt = epsg_wkt(25832);
+  for (int i = 0; i < width * height; ++i) r.z.push_back(100.0f + 0.5f * static_cast<float>(i));
+  return r;
+}
+
+// Authority code of a WKT's (horizontal) CRS as GDAL/OSR sees it; 0 when there is none.
+int epsg_of(const std::string& wkt) {
+  OGRSpatialReferenceH srs = OSRNewSpatialReference(wkt.c_str());
+  const char* code = OSRGetAuthorityCode(srs, nullptr);
+  if (!code && OSRAutoIdentifyEPSG(srs) == OGRERR_NONE) code = OSRGetAuthorityCode(srs, nullptr);
+  const int result = code ? std::atoi(code) : 0;
+  OSRDestroySpatialReference(srs);
+  return result;
+}
+
+// Number of 4-connected regions of cells for which `is_nodata` holds (plain flood fill).
+size_t count_regions(int width, int height, const std::vector<bool>& is_nodata) {
+  std::vector<bool> seen(is_nodata.size(), false);
+  size_t regions = 0;
+  std::vector<size_t> stack;
+  for (size_t start = 0; start < is_nodata.size(); ++start) {
+    if (!is_nodata[start] || seen[start]) continue;
+    ++regions;
+    seen[start] = true;
+    stack.push_back(start);
+    while (!stack.empty()) {
+      const size_t i = stack.back();
+      stack.pop_back();
+      const int col = static_cast<int>(i % width), row = static_cast<int>(i / width);
+      const int dc[4] = {1, -1, 0, 0}, dr[4] = {0, 0, 1, -1};
+      for (int k = 0; k < 4; ++k) {
+        const int c = col + dc[k], r = row + dr[k];
+        if (c < 0 || r < 0 || c >= width || r >= height) continue;
+        const size_t j = static_cast<size_t>(r) * width + c;
+        if (is_nodata[j] && !seen[j]) {
+          seen[j] = true;
+          stack.push_back(j);
+        }
+      }
+    }
+  }
+  return regions;
+}
+
+// ---- LAS header bytes (LAS 1.2 public header block) ---------------------------------------
+
+struct LasBounds {
+  double max_x, min_x, max_y, min_y, max_z, min_z;
+};
+
+LasBounds las_bounds(const std::string& path) {
+  const std::string bytes = testkit::read_file(path);
+  if (bytes.size() < 227) throw std::runtime_error("short LAS header in " + path);
+  double v[6];
+  std::memcpy(v, bytes.data() + 179, sizeof v);  // little-endian doubles; the test host is little-endian
+  return {v[0], v[1], v[2], v[3], v[4], v[5]};
+}
+
+// ---- output checks -------------------------------------------------------------------------
+
+std::string lower(std::string s) {
+  std::transform(s.begin(), s.end(), s.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  return s;
+}
+
+bool contains_any(const std::string& text, const std::vector<std::string>& needles) {
+  const std::string haystack = lower(text);
+  return std::any_of(needles.begin(), needles.end(), [&](const std::string& n) { return haystack.find(lower(n)) != std::string::npos; });
+}
+
+// The error contract: failure exit code, one line on stderr naming `subject`, saying `what`
+// (any one of the given phrases), and nothing left in the output folder.
+void expect_clean_failure(const testkit::CliResult& result, const TempDir& output, const std::string& subject,
+                          const std::vector<std::string>& what) {
+  EXPECT_NE(result.exit_code, 0);
+  EXPECT_EQ(std::count(result.err.begin(), result.err.end(), '\n'), 1) << "stderr: " << result.err;
+  EXPECT_TRUE(!result.err.empty() && result.err.back() == '\n') << "stderr: " << result.err;
+  EXPECT_NE(result.err.find(subject), std::string::npos) << "stderr should name '" << subject << "': " << result.err;
+  EXPECT_TRUE(contains_any(result.err, what)) << "stderr should say what is wrong: " << result.err;
+  EXPECT_TRUE(output.files().empty()) << "left behind: " << (output.files().empty() ? "" : output.files().front());
+}
+
+// A height from dsmplan's JSON as the float32 it stands for.
+float as_float(const json& value) { return static_cast<float>(value.get<double>()); }
+
+// The PLY header (up to "end_header"), as lines.
+std::vector<std::string> ply_header(const std::string& bytes) {
+  const size_t end = bytes.find("end_header\n");
+  if (end == std::string::npos) throw std::runtime_error("no end_header in PLY");
+  std::vector<std::string> lines;
+  std::istringstream in(bytes.substr(0, end));
+  for (std::string line; std::getline(in, line);) lines.push_back(line);
+  return lines;
+}
+
+long long header_count(const std::vector<std::string>& lines, const std::string& prefix) {
+  for (const auto& line : lines) {
+    if (line.rfind(prefix, 0) == 0) return std::stoll(line.substr(prefix.size()));
+  }
+  return -1;
+}
+
+bool has_line_starting(const std::vector<std::string>& lines, const std::string& prefix) {
+  return std::any_of(lines.begin(), lines.end(), [&](const std::string& l) { return l.rfind(prefix, 0) == 0; });
+}
+
+bool has_line(const std::vector<std::string>& lines, const std::string& line) {
+  return std::find(lines.begin(), lines.end(), line) != lines.end();
+}
+
+size_t count_lines_starting(const std::string& text, const std::string& prefix) {
+  std::istringstream in(text);
+  size_t n = 0;
+  for (std::string line; std::getline(in, line);) n += line.rfind(prefix, 0) == 0;
+  return n;
+}
+
+}  // namespace
+
+// ==== info ==================================================================================
+
+TEST(CliInfo, JsonMatchesGdalOnRealSample) {
+  const std::string path = testkit::data_path(kSample);
+  init_gdal();
+  GDALDatasetH dataset = GDALOpen(path.c_str(), GA_ReadOnly);
+  ASSERT_NE(dataset, nullptr);
+  const int width = GDALGetRasterXSize(dataset), height = GDALGetRasterYSize(dataset);
+  double gt[6];
+  ASSERT_EQ(GDALGetGeoTransform(dataset, gt), CE_None);
+  GDALRasterBandH band = GDALGetRasterBand(dataset, 1);
+  double minmax[2];
+  ASSERT_EQ(GDALComputeRasterMinMax(band, FALSE, minmax), CE_None);  // exact, not approximate
+  OGRSpatialReferenceH srs = OSRNewSpatialReference(GDALGetProjectionRef(dataset));
+  const std::string crs_name = OSRGetName(srs);
+  const char* code = OSRGetAuthorityCode(srs, nullptr);
+  ASSERT_NE(code, nullptr);
+  const int epsg = std::atoi(code);
+  const bool compound = OSRIsCompound(srs);
+  OSRDestroySpatialReference(srs);
+  const char* unit_type = GDALGetRasterUnitType(band);
+  const std::string unit = unit_type ? unit_type : "";
+  GDALClose(dataset);
+  // The sample has no declared nodata (so every cell counts as valid) and a 2D CRS; the
+  // expectations below for nodata and vertical datum rely on that.
+  const Raster cells = read_with_gdal(path);
+  ASSERT_FALSE(cells.has_nodata);
+  ASSERT_FALSE(compound);
+
+  const auto result = run_cli({"info", path, "--json"});
+  ASSERT_EQ(result.exit_code, 0) << result.err;
+  EXPECT_EQ(result.err, "");
+  const json info = json::parse(result.out);
+
+  EXPECT_EQ(info["width"].get<int>(), width);
+  EXPECT_EQ(info["height"].get<int>(), height);
+  EXPECT_DOUBLE_EQ(info["resolution"][0].get<double>(), gt[1]);
+  EXPECT_DOUBLE_EQ(info["resolution"][1].get<double>(), -gt[5]);
+  EXPECT_DOUBLE_EQ(info["extent"]["xmin"].get<double>(), gt[0]);
+  EXPECT_DOUBLE_EQ(info["extent"]["ymax"].get<double>(), gt[3]);
+  EXPECT_DOUBLE_EQ(info["extent"]["xmax"].get<double>(), gt[0] + width * gt[1]);
+  EXPECT_DOUBLE_EQ(info["extent"]["ymin"].get<double>(), gt[3] + height * gt[5]);
+  EXPECT_EQ(info["crs"]["name"].get<std::string>(), crs_name);
+  EXPECT_EQ(info["crs"]["epsg"].get<int>(), epsg);
+  ASSERT_TRUE(info["crs"]["wkt"].is_string());
+  EXPECT_EQ(epsg_of(info["crs"]["wkt"].get<std::string>()), epsg) << "the WKT should describe the same CRS";
+  EXPECT_TRUE(info["vertical"]["name"].is_null()) << "a 2D CRS names no vertical datum";
+  if (unit.empty()) EXPECT_TRUE(info["vertical"]["unit"].is_null());
+  else EXPECT_EQ(info["vertical"]["unit"].get<std::string>(), unit);
+  EXPECT_EQ(info["cells"].get<size_t>(), static_cast<size_t>(width) * height);
+  EXPECT_EQ(info["valid_cells"].get<size_t>(), static_cast<size_t>(width) * height);
+  EXPECT_EQ(info["nodata_cells"].get<size_t>(), 0u);
+  EXPECT_EQ(info["holes"].get<size_t>(), 0u);
+  // Heights are float32 cells; dsmplan may print them as the float's shortest decimal (109.18
+  // rather than 109.18000030517578), so compare as the float both must denote.
+  EXPECT_EQ(as_float(info["height_range"][0]), static_cast<float>(minmax[0]));
+  EXPECT_EQ(as_float(info["height_range"][1]), static_cast<float>(minmax[1]));
+}
+
+TEST(CliInfo, TextNamesCrsAndEpsg) {
+  const std::string path = testkit::data_path(kSample);
+  const Raster r = read_with_gdal(path);
+  OGRSpatialReferenceH srs = OSRNewSpatialReference(r.wkt.c_str());
+  const std::string name = OSRGetName(srs);
+  OSRDestroySpatialReference(srs);
+
+  const auto result = run_cli({"info", path});
+  ASSERT_EQ(result.exit_code, 0) << result.err;
+  EXPECT_NE(result.out.find(name), std::string::npos) << result.out;
+  EXPECT_NE(result.out.find(std::to_string(epsg_of(r.wkt))), std::string::npos) << result.out;
+}
+
+TEST(CliInfo, CountsDeclaredNodataCellsAndHoles) {
+  // The sample with every cell below 115 m replaced by a declared nodata value.
+  Raster r = read_with_gdal(testkit::data_path(kSample));
+  r.has_nodata = true;
+  r.nodata = -9999;
+  size_t nodata = 0;
+  double z_min = INFINITY, z_max = -INFINITY;
+  std::vector<bool> is_nodata(r.z.size(), false);
+  for (size_t i = 0; i < r.z.size(); ++i) {
+    if (r.z[i] < 115) {
+      r.z[i] = -9999;
+      is_nodata[i] = true;
+      ++nodata;
+    } else {
+      z_min = std::min<double>(z_min, r.z[i]);
+      z_max = std::max<double>(z_max, r.z[i]);
+    }
+  }
+  ASSERT_GT(nodata, 0u) << "the threshold must cut something, or the test proves nothing";
+  ASSERT_LT(nodata, r.z.size());
+  TempDir dir;
+  const std::string path = dir.path("with_nodata.tif");
+  write_with_gdal(r, path);
+
+  const auto result = run_cli({"info", path, "--json"});
+  ASSERT_EQ(result.exit_code, 0) << result.err;
+  const json info = json::parse(result.out);
+  EXPECT_EQ(info["cells"].get<size_t>(), r.z.size());
+  EXPECT_EQ(info["nodata_cells"].get<size_t>(), nodata);
+  EXPECT_EQ(info["valid_cells"].get<size_t>(), r.z.size() - nodata);
+  EXPECT_EQ(info["holes"].get<size_t>(), count_regions(r.width, r.height, is_nodata));
+  // -9999 must not leak into the range: only valid cells count.
+  EXPECT_EQ(as_float(info["height_range"][0]), static_cast<float>(z_min));
+  EXPECT_EQ(as_float(info["height_range"][1]), static_cast<float>(z_max));
+}
+
+// ==== mesh ==================================================================================
+
+TEST(CliMesh, RealSampleAtTwoMetresGivesFullGridCountsAndConsistentPly) {
+  const std::string input = testkit::data_path(kSample);
+  const Raster source = read_with_gdal(input);
+  ASSERT_FALSE(source.has_nodata) << "full-grid counts assume a sample without nodata";
+  // Resampling to 2 m covers the raster with ceil(extent / 2) cells per axis, one vertex each;
+  // a full nx x ny grid of vertices has 2 (nx-1)(ny-1) triangles.
+  const long long nx = static_cast<long long>(std::ceil(source.width * source.gt[1] / 2.0));
+  const long long ny = static_cast<long long>(std::ceil(source.height * -source.gt[5] / 2.0));
+  const int epsg = epsg_of(source.wkt);
+  ASSERT_NE(epsg, 0);
+
+  TempDir out;
+  const auto result = run_cli({"mesh", input, "-o", out.path("mesh.ply"), "--res", "2", "--zstep", "0.1", "--stats",
+                               out.path("stats.json"), "-q"});
+  ASSERT_EQ(result.exit_code, 0) << result.err;
+  EXPECT_EQ(result.out, "") << "-q must silence the progress output";
+  EXPECT_EQ(result.err, "");
+
+  const json stats = json::parse(testkit::read_file(out.path("stats.json")));
+  for (const char* key : {"vertices", "faces", "cells", "holes", "seconds"}) EXPECT_TRUE(stats.contains(key)) << key;
+  EXPECT_TRUE(stats["seconds"].is_object());
+  EXPECT_EQ(stats["vertices"].get<long long>(), nx * ny);
+  EXPECT_EQ(stats["faces"].get<long long>(), 2 * (nx - 1) * (ny - 1));
+  EXPECT_EQ(stats["cells"].get<long long>(), nx * ny);
+  EXPECT_EQ(stats["holes"].get<long long>(), 0);
+
+  const std::string ply = testkit::read_file(out.path("mesh.ply"));
+  const auto header = ply_header(ply);
+  ASSERT_FALSE(header.empty());
+  EXPECT_EQ(header[0], "ply");
+  EXPECT_EQ(header_count(header, "element vertex "), stats["vertices"].get<long long>());
+  EXPECT_EQ(header_count(header, "element face "), stats["faces"].get<long long>());
+  EXPECT_TRUE(has_line(header, "comment crs_epsg " + std::to_string(epsg)))
+      << "the PLY header must carry the CRS code";
+  EXPECT_TRUE(has_line_starting(header, "comment crs_wkt ")) << "the PLY header must carry the WKT";
+  // The counts must also describe the body: 3 doubles per vertex, 1 + 3*4 bytes per triangle.
+  const size_t body = ply.size() - (ply.find("end_header\n") + std::strlen("end_header\n"));
+  EXPECT_EQ(body, static_cast<size_t>(nx * ny * 24 + 2 * (nx - 1) * (ny - 1) * 13));
+}
+
+TEST(CliMesh, ShowsGdalProgressUnlessQuiet) {
+  const std::string input = testkit::data_path(kSample);
+  TempDir out;
+  const auto loud = run_cli({"mesh", input, "-o", out.path("loud.ply"), "--res", "10"});
+  ASSERT_EQ(loud.exit_code, 0) << loud.err;
+  EXPECT_NE(loud.out.find(kProgress), std::string::npos) << "stdout: " << loud.out;
+  EXPECT_EQ(loud.err, "");
+
+  const auto quiet = run_cli({"mesh", input, "-o", out.path("quiet.ply"), "--res", "10", "-q"});
+  ASSERT_EQ(quiet.exit_code, 0) << quiet.err;
+  EXPECT_EQ(quiet.out, "");
+}
+
+TEST(CliMesh, ObjAndOffByExtension) {
+  const std::string input = testkit::data_path(kSample);
+  const Raster source = read_with_gdal(input);
+  ASSERT_FALSE(source.has_nodata);
+  const size_t nx = static_cast<size_t>(std::ceil(source.width * source.gt[1] / 10.0));
+  const size_t ny = static_cast<size_t>(std::ceil(source.height * -source.gt[5] / 10.0));
+  const size_t vertices = nx * ny, faces = 2 * (nx - 1) * (ny - 1);
+  TempDir out;
+
+  ASSERT_EQ(run_cli({"mesh", input, "-o", out.path("m.obj"), "--res", "10", "-q"}).exit_code, 0);
+  const std::string obj = testkit::read_file(out.path("m.obj"));
+  EXPECT_EQ(count_lines_starting(obj, "v "), vertices);
+  EXPECT_EQ(count_lines_starting(obj, "f "), faces);
+
+  ASSERT_EQ(run_cli({"mesh", input, "-o", out.path("m.off"), "--res", "10", "-q"}).exit_code, 0);
+  std::istringstream off(testkit::read_file(out.path("m.off")));
+  std::string line;
+  std::getline(off, line);
+  EXPECT_EQ(line, "OFF");
+  while (std::getline(off, line) && (line.empty() || line[0] == '#')) {
+  }
+  EXPECT_EQ(line, std::to_string(vertices) + " " + std::to_string(faces) + " 0");
+}
+
+// ==== grid ==================================================================================
+
+TEST(CliGrid, DelftLasPairToGeoTiff) {
+  const std::string las1 = testkit::data_path("delft-ahn3/ahn3_cropped_1.las");
+  const std::string las2 = testkit::data_path("delft-ahn3/ahn3_cropped_2.las");
+  const LasBounds a = las_bounds(las1), b = las_bounds(las2);
+  const double min_x = std::min(a.min_x, b.min_x), max_x = std::max(a.max_x, b.max_x);
+  const double min_y = std::min(a.min_y, b.min_y), max_y = std::max(a.max_y, b.max_y);
+  const double res = 0.5;
+
+  TempDir out;
+  const std::string tif = out.path("dsm.tif");
+  const auto result = run_cli({"grid", las1, las2, "-o", tif, "--res", "0.5", "--crs", "EPSG:28992", "-q"});
+  ASSERT_EQ(result.exit_code, 0) << result.err;
+  EXPECT_EQ(result.out, "");
+
+  const Raster dsm = read_with_gdal(tif);
+  EXPECT_EQ(epsg_of(dsm.wkt), 28992);
+  EXPECT_DOUBLE_EQ(dsm.gt[1], res);
+  EXPECT_DOUBLE_EQ(dsm.gt[5], -res);
+  const double xmin = dsm.gt[0], xmax = dsm.gt[0] + dsm.width * dsm.gt[1];
+  const double ymax = dsm.gt[3], ymin = dsm.gt[3] + dsm.height * dsm.gt[5];
+  // Covers every point of both files ...
+  EXPECT_LE(xmin, min_x);
+  EXPECT_GE(xmax, max_x);
+  EXPECT_LE(ymin, min_y);
+  EXPECT_GE(ymax, max_y);
+  // ... and "just covers" them: no more than one cell of margin on any side.
+  EXPECT_GT(xmin, min_x - res);
+  EXPECT_LT(xmax, max_x + res + 1e-9);
+  EXPECT_GT(ymin, min_y - res - 1e-9);
+  EXPECT_LT(ymax, max_y + res);
+
+  // The canals have no LiDAR returns: they stay declared nodata, not invented heights.
+  ASSERT_TRUE(dsm.has_nodata);
+  const size_t holes = std::count(dsm.z.begin(), dsm.z.end(), static_cast<float>(dsm.nodata));
+  EXPECT_GT(holes, 0u);
+  EXPECT_LT(holes, dsm.z.size());
+}
+
+TEST(CliGrid, LasWithoutCrsNeedsCrsOption) {
+  const std::string las1 = testkit::data_path("delft-ahn3/ahn3_cropped_1.las");
+  const std::string las2 = testkit::data_path("delft-ahn3/ahn3_cropped_2.las");
+  TempDir out;
+  const auto result = run_cli({"grid", las1, las2, "-o", out.path("dsm.tif"), "--res", "0.5", "-q"});
+  // Either file is a fair one to name: neither has a CRS.
+  const std::string named = result.err.find("ahn3_cropped_1.las") != std::string::npos ? las1 : las2;
+  expect_clean_failure(result, out, named, {"crs"});
+}
+
+// ==== bad input: one line on stderr, non-zero exit, nothing left behind =====================
+
+TEST(CliBadInput, MissingFile) {
+  TempDir in, out;
+  const std::string missing = in.path("no-such-file.tif");  // a fresh folder: it cannot exist
+  expect_clean_failure(run_cli({"mesh", missing, "-o", out.path("out.ply")}), out, missing,
+                       {"no such file", "not found", "does not exist"});
+}
+
+TEST(CliBadInput, TextFileNamedTif) {
+  TempDir in, out;
+  const std::string path = in.path("notes.tif");
+  testkit::write_file(path, "these are notes, not a raster\n");
+  expect_clean_failure(run_cli({"mesh", path, "-o", out.path("out.ply")}), out, path, {"not a raster", "cannot read", "not recognized"});
+}
+
+TEST(CliBadInput, EmptyTif) {
+  TempDir in, out;
+  const std::string path = in.path("empty.tif");
+  testkit::write_file(path, "");
+  expect_clean_failure(run_cli({"mesh", path, "-o", out.path("out.ply")}), out, path, {"not a raster", "empty", "cannot read"});
+}
+
+TEST(CliBadInput, AllNodataRaster) {
+  TempDir in, out;
+  Raster r = small_raster(6, 5);
+  r.has_nodata = true;
+  r.nodata = -9999;
+  std::fill(r.z.begin(), r.z.end(), -9999.0f);
+  const std::string path = in.path("all_nodata.tif");
+  write_with_gdal(r, path);
+  expect_clean_failure(run_cli({"mesh", path, "-o", out.path("out.ply")}), out, path, {"nodata", "no valid"});
+}
+
+TEST(CliBadInput, UndeclaredNanHeightNamesTheCell) {
+  TempDir in, out;
+  Raster r = small_raster(6, 5);  // no nodata declared
+  r.z[2 * 6 + 3] = std::numeric_limits<float>::quiet_NaN();  // col 3, row 2
+  const std::string path = in.path("nan.tif");
+  write_with_gdal(r, path);
+  const auto result = run_cli({"mesh", path, "-o", out.path("out.ply")});
+  expect_clean_failure(result, out, path, {"nan"});
+  EXPECT_NE(result.err.find("col 3"), std::string::npos) << result.err;
+  EXPECT_NE(result.err.find("row 2"), std::string::npos) << result.err;
+}
+
+TEST(CliBadInput, InfiniteHeight) {
+  TempDir in, out;
+  Raster r = small_raster(6, 5);
+  r.z[1 * 6 + 4] = std::numeric_limits<float>::infinity();  // col 4, row 1
+  const std::string path = in.path("inf.tif");
+  write_with_gdal(r, path);
+  const auto result = run_cli({"mesh", path, "-o", out.path("out.ply")});
+  expect_clean_failure(result, out, path, {"infinite", "inf"});
+  EXPECT_NE(result.err.find("col 4"), std::string::npos) << result.err;
+  EXPECT_NE(result.err.find("row 1"), std::string::npos) << result.err;
+}
+
+TEST(CliBadInput, RasterWithoutCrsUnlessAssigned) {
+  TempDir in, out;
+  const std::string path = in.path("no_crs.tif");
+  write_with_gdal(small_raster(6, 5, /*with_crs=*/false), path);
+  expect_clean_failure(run_cli({"mesh", path, "-o", out.path("out.ply")}), out, path, {"crs"});
+
+  // Assigning the CRS makes the same file usable, and the mesh carries the assigned CRS.
+  const auto fixed = run_cli({"mesh", path, "-o", out.path("out.ply"), "--crs", "EPSG:25832", "-q"});
+  ASSERT_EQ(fixed.exit_code, 0) << fixed.err;
+  const auto header = ply_header(testkit::read_file(out.path("out.ply")));
+  EXPECT_TRUE(has_line(header, "comment crs_epsg 25832"));
+  EXPECT_EQ(header_count(header, "element vertex "), 6 * 5);
+}
+
+TEST(CliBadInput, TruncatedLas) {
+  TempDir in, out;
+  const std::string path = in.path("truncated.las");
+  testkit::write_file(path, testkit::read_file(testkit::data_path("delft-ahn3/ahn3_cropped_2.las")).substr(0, 100));
+  expect_clean_failure(run_cli({"grid", path, "-o", out.path("dsm.tif"), "--res", "0.5", "--crs", "EPSG:28992"}), out, path,
+                       {"truncated", "too short", "ended early"});
+}
+
+TEST(CliBadInput, LasHeaderClaimsMorePointsThanTheFileHolds) {
+  TempDir in, out;
+  std::string bytes = testkit::read_file(testkit::data_path("delft-ahn3/ahn3_cropped_2.las"));
+  uint32_t count = 0;
+  std::memcpy(&count, bytes.data() + 107, 4);  // legacy point count, little-endian
+  count += 1000;
+  std::memcpy(bytes.data() + 107, &count, 4);
+  const std::string path = in.path("lying.las");
+  testkit::write_file(path, bytes);
+  expect_clean_failure(run_cli({"grid", path, "-o", out.path("dsm.tif"), "--res", "0.5", "--crs", "EPSG:28992"}), out, path,
+                       {"point count", "107"});
+}
+
+TEST(CliBadInput, XyzLineThatDoesNotParseNamesTheLine) {
+  TempDir in, out;
+  const std::string path = in.path("points.xyz");
+  testkit::write_file(path, "85000.0 447500.0 1.5\n85000.5 447500.0 1.6\n85001.0 four 1.7\n85001.5 447500.0 1.8\n");
+  const auto result = run_cli({"grid", path, "-o", out.path("dsm.tif"), "--res", "0.5", "--crs", "EPSG:28992"});
+  expect_clean_failure(result, out, path, {"line 3"});
+}
+
+TEST(CliBadInput, MeshResolutionZero) {
+  // BUG (apps/dsmplan.cpp, run_mesh): "--res 0" is taken as "keep the DSM's resolution" (the
+  // option's default value is 0 and only < 0 is rejected), so this exits 0 and writes a mesh.
+  // The contract requires --res 0 to be rejected like any non-positive resolution.
+  TempDir out;
+  expect_clean_failure(run_cli({"mesh", testkit::data_path(kSample), "-o", out.path("out.ply"), "--res", "0"}), out,
+                       "--res", {"positive"});
+}
+
+TEST(CliBadInput, MeshResolutionNegative) {
+  TempDir out;
+  expect_clean_failure(run_cli({"mesh", testkit::data_path(kSample), "-o", out.path("out.ply"), "--res", "-1"}), out,
+                       "--res", {"positive"});
+}
+
+TEST(CliBadInput, GridResolutionZeroAndNegative) {
+  const std::string las = testkit::data_path("delft-ahn3/ahn3_cropped_2.las");
+  for (const std::string res : {"0", "-1"}) {
+    SCOPED_TRACE("--res " + res);
+    TempDir out;
+    expect_clean_failure(run_cli({"grid", las, "-o", out.path("dsm.tif"), "--res", res, "--crs", "EPSG:28992"}), out,
+                         "--res", {"positive"});
+  }
+}
+
+TEST(CliBadInput, UnknownMeshFormat) {
+  TempDir out;
+  expect_clean_failure(run_cli({"mesh", testkit::data_path(kSample), "-o", out.path("out.xyz")}), out, ".xyz",
+                       {"format", "extension"});
+}
+
+TEST(CliBadInput, OutputInNonexistentFolder) {
+  TempDir out;  // stays empty: the target is elsewhere
+  const std::string target = "/nonexistent-dir/out.ply";
+  ASSERT_FALSE(std::filesystem::exists("/nonexistent-dir"));
+  expect_clean_failure(run_cli({"mesh", testkit::data_path(kSample), "-o", target, "--res", "10"}), out, target,
+                       {"cannot write", "no such file", "cannot create"});
+}
+
+TEST(CliBadInput, OutputInReadOnlyFolder) {
+  if (::geteuid() == 0) GTEST_SKIP() << "root ignores directory permissions";
+  TempDir out;
+  const std::filesystem::path locked = out.dir() / "locked";
+  std::filesystem::create_directory(locked);
+  std::filesystem::permissions(locked, std::filesystem::perms(0555));
+  const std::string target = (locked / "out.ply").string();
+  const auto result = run_cli({"mesh", testkit::data_path(kSample), "-o", target, "--res", "10"});
+  const bool locked_empty = std::filesystem::is_empty(locked);
+  std::filesystem::permissions(locked, std::filesystem::perms(0755));  // so TempDir can clean up
+  EXPECT_TRUE(locked_empty) << "nothing, not even a .partial file, may be left in the folder";
+  EXPECT_NE(result.exit_code, 0);
+  EXPECT_EQ(std::count(result.err.begin(), result.err.end(), '\n'), 1) << result.err;
+  EXPECT_NE(result.err.find(target), std::string::npos) << result.err;
+  EXPECT_TRUE(contains_any(result.err, {"permission", "cannot write"})) << result.err;
+}
+
+// ==== usage errors (CLI11) ==================================================================
+
+TEST(CliUsage, UnknownSubcommandOrMissingOptionFails) {
+  TempDir out;
+  EXPECT_NE(run_cli({"frobnicate"}).exit_code, 0);
+  EXPECT_NE(run_cli({}).exit_code, 0);
+  EXPECT_NE(run_cli({"mesh", testkit::data_path(kSample)}).exit_code, 0);  // no -o
+  EXPECT_NE(run_cli({"grid", testkit::data_path("delft-ahn3/ahn3_cropped_2.las"), "-o", out.path("dsm.tif")}).exit_code,
+            0);  // no --res
+  EXPECT_TRUE(out.files().empty());
+}
