@@ -140,6 +140,7 @@ void run_grid(GridCommandOptions options) {
     const double begin = 0.6 * i / options.inputs.size(), end = 0.6 * (i + 1) / options.inputs.size();
     clouds.push_back(read_points(options.inputs[i], sub_progress(progress, begin, end)));
     PointCloud& cloud = clouds.back();
+    if (cloud.size() == 0) throw InputError(options.inputs[i], "", "holds no points");
     if (!options.crs.empty()) {
       cloud.crs = Crs();
       cloud.crs.definition = options.crs;
@@ -180,8 +181,6 @@ void run_mesh(const MeshCommandOptions& options) {
   const double source_resolution = dsm.cell_x;
   if (options.resolution_given) dsm = resample(dsm, options.resolution, resampling, sub_progress(progress, 0.3, 0.4));
   seconds["resample"] = clock.lap();
-  const GridSummary summary = summarize(dsm);
-  const double max_edge = max_edge_length(dsm, options.mesh);
   const Mesh mesh = triangulate_xy3(dsm, options.mesh, sub_progress(progress, 0.4, 0.7));
   seconds["triangulate"] = clock.lap();
   write_mesh(mesh, options.output, format, sub_progress(progress, 0.7, 1.0));
@@ -191,6 +190,7 @@ void run_mesh(const MeshCommandOptions& options) {
   seconds["total"] = total;
   if (options.stats.empty()) return;
 
+  const GridSummary summary = summarize(dsm);
   json stats;
   stats["input"] = options.input;
   stats["output"] = options.output;
@@ -206,7 +206,7 @@ void run_mesh(const MeshCommandOptions& options) {
   stats["resolution"] = dsm.cell_x;
   stats["resampling"] = options.resolution_given ? to_string(resampling) : "none";
   stats["zstep"] = options.mesh.zstep;
-  stats["max_edge_length"] = max_edge;
+  stats["max_edge_length"] = max_edge_length(dsm, options.mesh);
   stats["file_bytes"] = std::filesystem::file_size(options.output);
   stats["crs"] = crs_json(mesh.crs);
   stats["vertical"] = vertical_json(mesh.crs);

@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
@@ -15,6 +16,7 @@
 #include <random>
 #include <set>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "dsmplan/raster.hpp"
@@ -100,8 +102,10 @@ std::string vlr(const std::string& user, uint16_t record_id, const std::string& 
   std::string header(extended ? 60 : 54, '\0');
   std::memcpy(header.data() + 2, user.data(), std::min<size_t>(user.size(), 16));
   put<uint16_t>(header, 18, record_id);
-  if (extended) put<uint64_t>(header, 20, payload.size());
-  else put<uint16_t>(header, 20, static_cast<uint16_t>(payload.size()));
+  if (extended)
+    put<uint64_t>(header, 20, payload.size());
+  else
+    put<uint16_t>(header, 20, static_cast<uint16_t>(payload.size()));
   return header + payload;
 }
 
@@ -137,7 +141,8 @@ std::string las_bytes(const LasSpec& spec) {
   put<uint8_t>(header, 104, static_cast<uint8_t>(spec.format));
   put<uint16_t>(header, 105, static_cast<uint16_t>(length));
   const uint64_t count = spec.points.size();
-  if (spec.minor < 4 || (spec.legacy_count && spec.format < 6)) put<uint32_t>(header, 107, static_cast<uint32_t>(count));
+  if (spec.minor < 4 || (spec.legacy_count && spec.format < 6))
+    put<uint32_t>(header, 107, static_cast<uint32_t>(count));
   double min[3] = {INFINITY, INFINITY, INFINITY}, max[3] = {-INFINITY, -INFINITY, -INFINITY};
 
   std::string records;
@@ -174,8 +179,8 @@ std::string las_bytes(const LasSpec& spec) {
 std::vector<SynthPoint> synthetic_points(const std::vector<uint8_t>& classes) {
   std::vector<SynthPoint> points;
   for (int i = 0; i < 40; ++i) {
-    points.push_back({84950.0 + i * 1.37 - (i % 3) * 0.004, 447500.0 - i * 0.53 + (i % 5) * 0.0123,
-                      -12.345 + i * 0.777, classes[static_cast<size_t>(i) % classes.size()]});
+    points.push_back({84950.0 + i * 1.37 - (i % 3) * 0.004, 447500.0 - i * 0.53 + (i % 5) * 0.0123, -12.345 + i * 0.777,
+                      classes[static_cast<size_t>(i) % classes.size()]});
   }
   return points;
 }
@@ -203,7 +208,8 @@ std::vector<PointCloud> delft_clouds() { return {dsmplan::read_las(kDelft1), dsm
 
 // Brute force: every kept point goes to the cell floor((x-x0)/res), floor((y0-y)/res) of the
 // grid's lattice; a cell's height is the sorted middle (or the maximum) of its points.
-void expect_brute_force_grid(const std::vector<PointCloud>& clouds, const GridPointsOptions& options, const Grid& grid) {
+void expect_brute_force_grid(const std::vector<PointCloud>& clouds, const GridPointsOptions& options,
+                             const Grid& grid) {
   const double res = options.resolution;
   const std::set<int> dropped(options.drop_classes.begin(), options.drop_classes.end());
   std::vector<std::vector<double>> cells(grid.cells());
@@ -241,8 +247,10 @@ void expect_brute_force_grid(const std::vector<PointCloud>& clouds, const GridPo
     if (!z.empty()) {
       std::sort(z.begin(), z.end());
       const size_t n = z.size();
-      if (options.fusion == Fusion::Max) expected = static_cast<float>(z.back());
-      else expected = static_cast<float>(n % 2 ? z[n / 2] : (z[n / 2 - 1] + z[n / 2]) / 2);
+      if (options.fusion == Fusion::Max)
+        expected = static_cast<float>(z.back());
+      else
+        expected = static_cast<float>(n % 2 ? z[n / 2] : (z[n / 2 - 1] + z[n / 2]) / 2);
     }
     holes += z.empty();
     const bool same = std::isnan(expected) ? std::isnan(grid.z[c]) : grid.z[c] == expected;
@@ -310,7 +318,10 @@ TEST(DelftLas, ReadsEveryPointAsTheHeaderAndRecordsSay) {
 
 TEST(DelftLas, ProgressIsMonotonicEndsAtOneAndCanCancel) {
   std::vector<double> seen;
-  dsmplan::read_las(kDelft1, [&](double f) { seen.push_back(f); return true; });
+  dsmplan::read_las(kDelft1, [&](double f) {
+    seen.push_back(f);
+    return true;
+  });
   ASSERT_FALSE(seen.empty());
   EXPECT_TRUE(std::is_sorted(seen.begin(), seen.end()));
   EXPECT_EQ(seen.back(), 1.0);
@@ -322,7 +333,10 @@ TEST(DelftGrid, MedianAtHalfMetreMatchesBruteForceAndKeepsCanalHoles) {
   GridPointsOptions options;
   options.resolution = 0.5;
   std::vector<double> seen;
-  const Grid grid = dsmplan::grid_points(clouds, options, [&](double f) { seen.push_back(f); return true; });
+  const Grid grid = dsmplan::grid_points(clouds, options, [&](double f) {
+    seen.push_back(f);
+    return true;
+  });
   EXPECT_TRUE(std::is_sorted(seen.begin(), seen.end()));
   ASSERT_FALSE(seen.empty());
   EXPECT_EQ(seen.back(), 1.0);
@@ -339,7 +353,7 @@ TEST(DelftGrid, MedianAtHalfMetreMatchesBruteForceAndKeepsCanalHoles) {
   size_t holes = 0, valid = 0;
   for (int row = 0; row < 40; ++row)
     for (int col = 240; col < 280; ++col) (grid.valid(col, row) ? valid : holes)++;
-  EXPECT_GT(holes, 400u);  // 499 when written
+  EXPECT_GT(holes, 400u);   // 499 when written
   EXPECT_GT(valid, 1000u);  // 1101
 }
 
@@ -473,9 +487,8 @@ TEST(SyntheticLas, DefaultGriddingDropsNoiseClassesSevenAndEighteen) {
   spec.format = 6;
   spec.offset[0] = spec.offset[1] = 0;
   // res 1: ground/other points in cells (0,0) and (2,0); only noise in (1,0) and far away.
-  spec.points = {{0.5, 0.5, 1, 2},  {0.5, 0.5, 2, 2},    {0.5, 0.5, 3, 2},  {0.5, 0.5, 2.5, 200},
-                 {0.5, 0.5, 100, 7}, {0.5, 0.5, -50, 18}, {1.5, 0.5, 99, 18}, {2.5, 0.5, 4, 1},
-                 {50, 50, 500, 7}};
+  spec.points = {{0.5, 0.5, 1, 2},    {0.5, 0.5, 2, 2},   {0.5, 0.5, 3, 2}, {0.5, 0.5, 2.5, 200}, {0.5, 0.5, 100, 7},
+                 {0.5, 0.5, -50, 18}, {1.5, 0.5, 99, 18}, {2.5, 0.5, 4, 1}, {50, 50, 500, 7}};
   testkit::TempDir dir;
   testkit::write_file(dir.path("noise.las"), las_bytes(spec));
   const PointCloud cloud = dsmplan::read_las(dir.path("noise.las"));
@@ -542,9 +555,9 @@ TEST(PointGrid, PointsOnWestAndNorthEdgesBelongToThatCell) {
 }
 
 TEST(PointGrid, MedianOfEvenCountIsTheMeanOfTheMiddlePairAndMaxIsTheMaximum) {
-  const std::vector<PointCloud> clouds = {cloud_of({{0.1, 0.9, 4, 2}, {0.2, 0.8, 1, 2}, {0.3, 0.7, 3, 2}}),
-                                          cloud_of({{0.4, 0.6, 2, 2}, {1.5, 0.5, 5, 2}, {1.5, 0.5, 1, 2},
-                                                    {1.5, 0.5, 3, 2}})};
+  const std::vector<PointCloud> clouds = {
+      cloud_of({{0.1, 0.9, 4, 2}, {0.2, 0.8, 1, 2}, {0.3, 0.7, 3, 2}}),
+      cloud_of({{0.4, 0.6, 2, 2}, {1.5, 0.5, 5, 2}, {1.5, 0.5, 1, 2}, {1.5, 0.5, 3, 2}})};
   GridPointsOptions options;
   Grid grid = dsmplan::grid_points(clouds, options);
   ASSERT_EQ(grid.width, 2);
@@ -580,6 +593,8 @@ TEST(PointGrid, RejectsBadResolutionsAndEmptyInput) {
   options.resolution = 1e-6;  // 3 million x 1 cells are fine, a million million are not
   EXPECT_NEAR(dsmplan::grid_points({cloud}, {1e-6, Fusion::Median, {}}).width, 3000001, 1);
   EXPECT_THROW(dsmplan::grid_points({cloud_of({{0, 0, 1, 2}, {1000, 1000, 1, 2}})}, options), dsmplan::ArgumentError);
+  options.resolution = 1e-310;  // 85000 / res overflows to infinity
+  EXPECT_THROW(dsmplan::grid_points({cloud_of({{85000, 447000, 1, 2}})}, options), dsmplan::ArgumentError);
 
   options.resolution = 1;
   options.drop_classes = {2, 7};
@@ -617,8 +632,9 @@ TEST(BadInput, DamagedDelftCopiesGiveOneLineInputErrorsNamingTheFileAndField) {
   };
 
   expect_las_error(damaged("a-100-bytes.las", original.substr(0, 100)), "truncated");
-  expect_las_error(damaged("b-half-points.las", original.substr(0, h.point_offset + h.count / 2 * h.record_length + 13)),
-                   "byte 107 (point count)");
+  expect_las_error(
+      damaged("b-half-points.las", original.substr(0, h.point_offset + h.count / 2 * h.record_length + 13)),
+      "byte 107 (point count)");
   std::string bytes = original;
   put<uint32_t>(bytes, 107, h.count + 1);
   expect_las_error(damaged("c-count.las", bytes), "byte 107 (point count)");
@@ -652,7 +668,8 @@ TEST(BadInput, LyingHeaderFieldsAreNamed) {
       {"byte 24 (version)", [](std::string& b) { b[24] = 2; }},
       {"byte 94 (header size)", [](std::string& b) { put<uint16_t>(b, 94, 200); }},
       {"byte 96 (offset to point data)", [](std::string& b) { put<uint32_t>(b, 96, 100); }},
-      {"byte 96 (offset to point data)", [&](std::string& b) { put<uint32_t>(b, 96, static_cast<uint32_t>(b.size() + 1)); }},
+      {"byte 96 (offset to point data)",
+       [&](std::string& b) { put<uint32_t>(b, 96, static_cast<uint32_t>(b.size() + 1)); }},
       {"byte 104 (point data format)", [](std::string& b) { b[104] = 11; }},
       {"byte 105 (point record length)", [](std::string& b) { put<uint16_t>(b, 105, 27); }},
       {"byte 131 (x scale factor)", [](std::string& b) { put<double>(b, 131, 0.0); }},
@@ -736,8 +753,10 @@ TEST(Xyz, RealPointsPrintedWithMillimetresReadBack) {
   std::string text = "X Y Z Classification\n";
   char line[128];
   for (size_t i = 0; i < 1000; ++i) {
-    if (i % 2) std::snprintf(line, sizeof line, "%.3f %.3f %.3f %d\n", las.x[i], las.y[i], las.z[i], las.classification[i]);
-    else std::snprintf(line, sizeof line, "%.3f,%.3f,%.3f\n", las.x[i], las.y[i], las.z[i]);
+    if (i % 2)
+      std::snprintf(line, sizeof line, "%.3f %.3f %.3f %d\n", las.x[i], las.y[i], las.z[i], las.classification[i]);
+    else
+      std::snprintf(line, sizeof line, "%.3f,%.3f,%.3f\n", las.x[i], las.y[i], las.z[i]);
     text += line;
   }
   testkit::write_file(dir.path("delft.xyz"), text);

@@ -93,8 +93,8 @@ TEST(ReadRaster, RealGeoTiffAsGdalSeesIt) {
   EXPECT_EQ(summary.nodata, 0u);
   // Spot check orientation: row 0 is the north edge.
   float corner[2];
-  GDALRasterIO(GDALGetRasterBand(dataset, 1), GF_Read, 499, 0, 1, 1, &corner[0], 1, 1, GDT_Float32, 0, 0);
-  GDALRasterIO(GDALGetRasterBand(dataset, 1), GF_Read, 0, 499, 1, 1, &corner[1], 1, 1, GDT_Float32, 0, 0);
+  ASSERT_EQ(GDALRasterIO(GDALGetRasterBand(dataset, 1), GF_Read, 499, 0, 1, 1, &corner[0], 1, 1, GDT_Float32, 0, 0), CE_None);
+  ASSERT_EQ(GDALRasterIO(GDALGetRasterBand(dataset, 1), GF_Read, 0, 499, 1, 1, &corner[1], 1, 1, GDT_Float32, 0, 0), CE_None);
   EXPECT_EQ(grid.at(499, 0), corner[0]);
   EXPECT_EQ(grid.at(0, 499), corner[1]);
   GDALClose(dataset);

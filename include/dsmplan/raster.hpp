@@ -78,9 +78,23 @@ Resampling parse_resampling(const std::string& name);
 /// resolution <= 0 or not finite. O(input cells).
 Grid resample(const Grid& grid, double resolution, Resampling method, const Progress& progress = {});
 
-/// The height nearest to z on the lattice k*step, as the double nearest to k*step
-/// (so 0.1-steps print as 123.4, not 123.40000000000001). step <= 0 returns z unchanged.
-double quantize_height(double z, double step);
+/// Rounds heights to the nearest multiple k*step of the vertical resolution (step <= 0: no
+/// rounding). When 1/step is a whole number n (0.1, 0.25, 1 ...) the result is k/n, the double
+/// nearest to the decimal k*step, so 0.1-steps print as 123.4, not 123.40000000000001.
+class HeightQuantizer {
+public:
+  explicit HeightQuantizer(double step);
+  double operator()(double z) const {
+    if (!(step_ > 0) || !std::isfinite(z)) return z;
+    return per_unit_ > 0 ? std::round(z * per_unit_) / per_unit_ : std::round(z / step_) * step_;
+  }
+
+private:
+  double step_;
+  double per_unit_ = 0;  ///< n when step = 1/n exactly enough, else 0
+};
+
+inline double quantize_height(double z, double step) { return HeightQuantizer(step)(z); }
 
 // ---- point clouds ------------------------------------------------------------------------
 
@@ -122,7 +136,7 @@ struct GridPointsOptions {
 
 /// Grids point clouds (all in one CRS) into one DSM. The grid is aligned to multiples of the
 /// resolution and just covers the kept points; a point on a cell's west/north edge belongs to
-/// that cell. Cells without points are nodata (filling holes is a separate, explicit step).
+/// that cell (up to floating-point rounding of x/resolution). At most 2^31-1 cells. Cells without points are nodata (filling holes is a separate, explicit step).
 /// Throws ArgumentError for resolution <= 0, InputError when no point is left after filtering.
 /// O(points log points-per-cell).
 Grid grid_points(const std::vector<PointCloud>& clouds, const GridPointsOptions& options,

@@ -15,6 +15,8 @@
 #include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
 #include <CGAL/Triangulation_vertex_base_with_info_2.h>
 
+#include <sys/mman.h>
+
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -28,6 +30,20 @@ namespace {
 
 constexpr uint32_t no_vertex = std::numeric_limits<uint32_t>::max();
 
+// Reserved but untouched vector storage may be backed by 2 MiB pages: a million-cell mesh then
+// takes a few dozen page faults instead of tens of thousands, which halves meshing time.
+template <typename T>
+void prefer_huge_pages(const std::vector<T>& storage) {
+#ifdef MADV_HUGEPAGE
+  constexpr uintptr_t huge = uintptr_t{2} << 20;
+  const auto begin = (reinterpret_cast<uintptr_t>(storage.data()) + huge - 1) & ~(huge - 1);
+  const auto end = (reinterpret_cast<uintptr_t>(storage.data() + storage.capacity())) & ~(huge - 1);
+  if (end > begin) ::madvise(reinterpret_cast<void*>(begin), end - begin, MADV_HUGEPAGE);
+#else
+  (void)storage;
+#endif
+}
+
 struct Lattice {
   const Grid& grid;
   std::vector<uint32_t> id;  // vertex index per cell, no_vertex for nodata
@@ -38,15 +54,6 @@ struct Lattice {
   // The square with corners (col,row) .. (col+1,row+1) has four valid corners.
   bool full_square(int col, int row) const {
     return valid(col, row) && valid(col + 1, row) && valid(col, row + 1) && valid(col + 1, row + 1);
-  }
-  bool border(int col, int row) const {
-    for (int r = row - 1; r <= row + 1; ++r) {
-      for (int c = col - 1; c <= col + 1; ++c) {
-        const bool inside = c >= 0 && r >= 0 && c < grid.width && r < grid.height;
-        if (inside && !valid(c, r)) return true;
-      }
-    }
-    return false;
   }
 };
 
@@ -77,12 +84,22 @@ using Delaunay = CGAL::Delaunay_triangulation_2<Kernel, Tds>;
 // Delaunay faces next to holes, from CGAL's exact-predicate triangulation of the border vertices.
 void triangulate_border(const Lattice& lattice, std::vector<Triangle>& triangles, const Progress& progress) {
   const Grid& grid = lattice.grid;
+  // Border vertices: the valid 8-neighbours of nodata cells (work proportional to the holes).
+  std::vector<bool> is_border(grid.cells(), false);
+  for (int row = 0; row < grid.height; ++row) {
+    for (int col = 0; col < grid.width; ++col) {
+      if (lattice.valid(col, row)) continue;
+      for (int r = row - 1; r <= row + 1; ++r)
+        for (int c = col - 1; c <= col + 1; ++c)
+          if (lattice.valid(c, r)) is_border[grid.index(c, r)] = true;
+    }
+  }
   std::vector<std::pair<Kernel::Point_2, uint32_t>> border;
   for (int row = 0; row < grid.height; ++row) {
     for (int col = 0; col < grid.width; ++col) {
       // Lattice coordinates (col, -row) scaled by the cell size: exact for the usual cell sizes,
       // and oriented like the CRS (x east, y north), so CGAL's counter-clockwise is ours.
-      if (lattice.valid(col, row) && lattice.border(col, row)) {
+      if (is_border[grid.index(col, row)]) {
         border.emplace_back(Kernel::Point_2(col * grid.cell_x, -row * grid.cell_y), lattice.id[grid.index(col, row)]);
       }
     }
@@ -115,36 +132,41 @@ double max_edge_length(const Grid& grid, const MeshOptions& options) {
 
 Mesh triangulate_xy3(const Grid& grid, const MeshOptions& options, const Progress& progress) {
   const double max_edge = max_edge_length(grid, options);
+  const HeightQuantizer quantize(options.zstep);
+  const size_t valid = grid.cells() - std::count_if(grid.z.begin(), grid.z.end(), [](float z) { return std::isnan(z); });
+  if (valid >= no_vertex) throw ArgumentError("grid", "too many valid cells for 32-bit vertex indices");
   Mesh mesh;
   mesh.crs = grid.crs;
-  Lattice lattice{grid, std::vector<uint32_t>(grid.cells(), no_vertex)};
-  mesh.vertices.reserve(grid.cells() - std::count_if(grid.z.begin(), grid.z.end(), [](float z) { return std::isnan(z); }));
-
+  mesh.vertices.reserve(valid);
+  prefer_huge_pages(mesh.vertices);
+  Lattice lattice{grid, {}};
+  lattice.id.reserve(grid.cells());
+  prefer_huge_pages(lattice.id);
+  lattice.id.assign(grid.cells(), no_vertex);
   for (int row = 0; row < grid.height; ++row) {
     for (int col = 0; col < grid.width; ++col) {
       const float z = grid.at(col, row);
       if (std::isnan(z)) continue;
-      if (mesh.vertices.size() == no_vertex) throw ArgumentError("grid", "too many valid cells for 32-bit vertex indices");
       lattice.id[grid.index(col, row)] = static_cast<uint32_t>(mesh.vertices.size());
-      mesh.vertices.push_back({grid.center_x(col), grid.center_y(row), quantize_height(z, options.zstep)});
+      mesh.vertices.push_back({grid.center_x(col), grid.center_y(row), quantize(z)});
     }
   }
   report(progress, 0.2);
 
   // Full squares: split along the diagonal with the higher midpoint, the upper of the two
   // interpolations, so the surface never sags below what the other diagonal would give.
+  // Reserving for every square costs address space, not memory: untouched pages stay unmapped.
   const bool squares_fit = std::hypot(grid.cell_x, grid.cell_y) <= max_edge;
-  size_t full_squares = 0;
+  const size_t squares = grid.width > 1 && grid.height > 1 ? size_t(grid.width - 1) * size_t(grid.height - 1) : 0;
+  mesh.triangles.reserve(squares_fit ? 2 * squares : 0);
+  prefer_huge_pages(mesh.triangles);
   for (int row = 0; squares_fit && row + 1 < grid.height; ++row) {
-    for (int col = 0; col + 1 < grid.width; ++col) full_squares += lattice.full_square(col, row);
-  }
-  mesh.triangles.reserve(2 * full_squares);
-  for (int row = 0; full_squares && row + 1 < grid.height; ++row) {
+    const uint32_t* north = &lattice.id[grid.index(0, row)];
+    const uint32_t* south = north + grid.width;
     for (int col = 0; col + 1 < grid.width; ++col) {
-      if (!lattice.full_square(col, row)) continue;
       // a (col,row)  b (col+1,row)  c (col+1,row+1)  d (col,row+1); rows run south.
-      const uint32_t a = lattice.id[grid.index(col, row)], b = lattice.id[grid.index(col + 1, row)];
-      const uint32_t c = lattice.id[grid.index(col + 1, row + 1)], d = lattice.id[grid.index(col, row + 1)];
+      const uint32_t a = north[col], b = north[col + 1], c = south[col + 1], d = south[col];
+      if (a == no_vertex || b == no_vertex || c == no_vertex || d == no_vertex) continue;
       const auto& v = mesh.vertices;
       if (v[a].z + v[c].z >= v[b].z + v[d].z) {
         mesh.triangles.push_back({a, d, c});
@@ -157,6 +179,10 @@ Mesh triangulate_xy3(const Grid& grid, const MeshOptions& options, const Progres
     if (row % 256 == 0) report(progress, 0.2 + 0.3 * row / grid.height);
   }
   report(progress, 0.5);
+  if (valid == grid.cells()) {
+    report(progress, 1);
+    return mesh;  // no holes: the squares are the whole triangulation
+  }
 
   const size_t square_triangles = mesh.triangles.size();
   triangulate_border(lattice, mesh.triangles, sub_progress(progress, 0.5, 0.95));

@@ -25,6 +25,8 @@ void init_gdal() {
     GDALAllRegister();
     // Reading must not leave .aux.xml files next to the user's data.
     CPLSetConfigOption("GDAL_PAM_ENABLED", "NO");
+    // Decode compressed GeoTIFF blocks on all cores, unless the user chose otherwise.
+    if (!CPLGetConfigOption("GDAL_NUM_THREADS", nullptr)) CPLSetConfigOption("GDAL_NUM_THREADS", "ALL_CPUS");
     // GDAL's own messages would be a second, unlocated line; ours name the file and place.
     CPLSetErrorHandler(CPLQuietErrorHandler);
   });

@@ -47,13 +47,10 @@ GridSummary summarize(const Grid& grid) {
   return summary;
 }
 
-double quantize_height(double z, double step) {
-  if (!(step > 0) || !std::isfinite(z)) return z;
-  const double steps = std::round(z / step);
-  // For steps like 0.1 = 1/10, k/10 is the double nearest to the decimal k*0.1; k*0.1 may not be.
+HeightQuantizer::HeightQuantizer(double step) : step_(step) {
+  if (!(step > 0)) return;
   const double per_unit = 1.0 / step;
-  if (std::abs(per_unit - std::round(per_unit)) < 1e-9 * per_unit) return steps / std::round(per_unit);
-  return steps * step;
+  if (std::abs(per_unit - std::round(per_unit)) < 1e-9 * per_unit) per_unit_ = std::round(per_unit);
 }
 
 }  // namespace dsmplan

@@ -138,8 +138,8 @@ Header LasReader::header() const {
 
   Header h;
   if (b[24] != 1 || b[25] > 4)
-    fail(field(24, "version"), "unsupported LAS version " + std::to_string(b[24]) + "." + std::to_string(b[25]) +
-                                   " (dsmplan reads 1.0-1.4)");
+    fail(field(24, "version"),
+         "unsupported LAS version " + std::to_string(b[24]) + "." + std::to_string(b[25]) + " (dsmplan reads 1.0-1.4)");
   h.minor = b[25];
   const std::string version = "LAS 1." + std::to_string(h.minor);
   const int needed = header_size_of_version(h.minor);
@@ -157,8 +157,8 @@ Header LasReader::header() const {
 
   h.point_offset = u32(b + 96);
   if (h.point_offset < h.header_size)
-    fail(field(96, "offset to point data"), std::to_string(h.point_offset) + " lies inside the " +
-                                                std::to_string(h.header_size) + "-byte header");
+    fail(field(96, "offset to point data"),
+         std::to_string(h.point_offset) + " lies inside the " + std::to_string(h.header_size) + "-byte header");
   if (h.point_offset > size_)
     fail(field(96, "offset to point data"), std::to_string(h.point_offset) + " lies beyond the end of the file (" +
                                                 std::to_string(size_) + " bytes; truncated file?)");
@@ -177,8 +177,8 @@ Header LasReader::header() const {
   h.record_length = u16(b + 105);
   if (h.record_length < kMinRecordLength[h.format])
     fail(field(105, "point record length"), std::to_string(h.record_length) + " bytes is shorter than the " +
-                                                std::to_string(kMinRecordLength[h.format]) +
-                                                " bytes of point format " + std::to_string(h.format));
+                                                std::to_string(kMinRecordLength[h.format]) + " bytes of point format " +
+                                                std::to_string(h.format));
 
   // LAS 1.4 moved the count to 64 bits and leaves the legacy field 0 when it cannot hold it
   // (and for formats 6-10); both present and different means one of them lies.
@@ -207,9 +207,9 @@ Header LasReader::header() const {
     h.offset[i] = f64(b + 155 + 8 * i);
     if (!std::isfinite(h.scale[i]) || h.scale[i] == 0)
       fail(field(131 + 8 * i, std::string(axes[i]) + " scale factor"),
-           "must be a finite, non-zero number, found " + std::to_string(h.scale[i]));
+           h.scale[i] == 0 ? "is 0, which would put every point at the offset" : "is not a finite number");
     if (!std::isfinite(h.offset[i]))
-      fail(field(155 + 8 * i, std::string(axes[i]) + " offset"), "must be a finite number");
+      fail(field(155 + 8 * i, std::string(axes[i]) + " offset"), "is not a finite number");
   }
 
   if (h.minor >= 4) {
@@ -319,13 +319,15 @@ void LasReader::points(const Header& h, PointCloud& cloud, const Progress& progr
   const uint8_t class_mask = h.format >= 6 ? 0xFF : 0x1F;
   const size_t length = h.record_length;
   const uint64_t block = std::max<uint64_t>(1, (uint64_t{4} << 20) / length);  // ~4 MB per read
-  std::vector<unsigned char> buffer(static_cast<size_t>(std::min(block, std::max<uint64_t>(h.point_count, 1))) * length);
+  std::vector<unsigned char> buffer(static_cast<size_t>(std::min(block, std::max<uint64_t>(h.point_count, 1))) *
+                                    length);
 
   uint64_t next_report = kReportEvery;
   for (uint64_t done = 0; done < h.point_count;) {
     const size_t n = static_cast<size_t>(std::min(block, h.point_count - done));
     const uint64_t offset = h.point_offset + done * length;
-    read(offset, buffer.data(), n * length, "point " + std::to_string(done + 1) + " (byte " + std::to_string(offset) + ")");
+    read(offset, buffer.data(), n * length,
+         "point " + std::to_string(done + 1) + " (byte " + std::to_string(offset) + ")");
     for (size_t i = 0; i < n; ++i) {
       const unsigned char* record = buffer.data() + i * length;
       cloud.add(i32(record) * h.scale[0] + h.offset[0], i32(record + 4) * h.scale[1] + h.offset[1],

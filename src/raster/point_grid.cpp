@@ -22,9 +22,7 @@ constexpr double kMaxCells = double(std::numeric_limits<int32_t>::max());
 
 std::string crs_text(const Crs& crs) { return crs.definition.empty() ? crs.wkt : crs.definition; }
 
-std::string shortened(const std::string& text) {
-  return text.size() <= 60 ? text : text.substr(0, 60) + "...";
-}
+std::string shortened(const std::string& text) { return text.size() <= 60 ? text : text.substr(0, 60) + "..."; }
 
 std::string number(double value) {
   char text[32];
@@ -52,7 +50,8 @@ Grid grid_points(const std::vector<PointCloud>& clouds, const GridPointsOptions&
   std::array<bool, 256> dropped{};
   std::string dropped_list;
   for (int cls : options.drop_classes) {
-    if (cls < 0 || cls > 255) throw ArgumentError("--drop-classes", "class " + std::to_string(cls) + " is not in 0-255");
+    if (cls < 0 || cls > 255)
+      throw ArgumentError("--drop-classes", "class " + std::to_string(cls) + " is not in 0-255");
     dropped[cls] = true;
     dropped_list += (dropped_list.empty() ? "" : ", ") + std::to_string(cls);
   }
@@ -64,10 +63,11 @@ Grid grid_points(const std::vector<PointCloud>& clouds, const GridPointsOptions&
       throw ArgumentError("points", "a point cloud has coordinate and class arrays of different lengths");
     total += cloud.size();
     if (!cloud.crs.known()) continue;
-    if (!crs) crs = &cloud.crs;
+    if (!crs)
+      crs = &cloud.crs;
     else if (crs_text(cloud.crs) != crs_text(*crs))
-      throw ArgumentError("points", "the point clouds are in different CRSs ('" + shortened(crs_text(*crs)) + "' and '" +
-                                        shortened(crs_text(cloud.crs)) + "'); reproject them to one first");
+      throw ArgumentError("points", "the point clouds are in different CRSs ('" + shortened(crs_text(*crs)) +
+                                        "' and '" + shortened(crs_text(cloud.crs)) + "'); reproject them to one first");
   }
 
   // Every pass visits the kept points in the same order and reports its share of the progress.
@@ -85,8 +85,8 @@ Grid grid_points(const std::vector<PointCloud>& clouds, const GridPointsOptions&
   double min_x = INFINITY, max_x = -INFINITY, min_y = INFINITY, max_y = -INFINITY;
   for_each_kept(0.0, 0.2, [&](double x, double y, double z) {
     if (!std::isfinite(x) || !std::isfinite(y) || !std::isfinite(z))
-      throw ArgumentError("points", "a point has a non-finite coordinate (" + number(x) + " " + number(y) + " " +
-                                        number(z) + ")");
+      throw ArgumentError(
+          "points", "a point has a non-finite coordinate (" + number(x) + " " + number(y) + " " + number(z) + ")");
     ++kept;
     min_x = std::min(min_x, x);
     max_x = std::max(max_x, x);
@@ -94,9 +94,10 @@ Grid grid_points(const std::vector<PointCloud>& clouds, const GridPointsOptions&
     max_y = std::max(max_y, y);
   });
   if (kept == 0)
-    throw InputError("", "", total == 0 ? "the point clouds hold no points"
-                                        : "no points left after dropping classes " + dropped_list + " (all " +
-                                              std::to_string(total) + " points had them)");
+    throw InputError("", "",
+                     total == 0 ? "the point clouds hold no points"
+                                : "no points left after dropping classes " + dropped_list + " (all " +
+                                      std::to_string(total) + " points had them)");
   if (kept >= std::numeric_limits<uint32_t>::max())
     throw ArgumentError("points", std::to_string(kept) + " points are more than one grid can take; grid them in tiles");
 
@@ -105,7 +106,7 @@ Grid grid_points(const std::vector<PointCloud>& clouds, const GridPointsOptions&
   if (lattice.x0 > min_x) lattice.x0 -= res;
   if (lattice.y0 < max_y) lattice.y0 += res;
   const double columns = std::floor((max_x - lattice.x0) / res) + 1, rows = std::floor((lattice.y0 - min_y) / res) + 1;
-  if (columns * rows > kMaxCells)
+  if (!(columns >= 1 && rows >= 1 && columns * rows <= kMaxCells))  // also catches overflow to inf
     throw ArgumentError("--res", "a resolution of " + number(res) + " gives " + number(columns) + " x " + number(rows) +
                                      " cells for the points' extent; choose a coarser one");
   Grid grid(static_cast<int>(columns), static_cast<int>(rows), lattice.x0, lattice.y0, res, res);

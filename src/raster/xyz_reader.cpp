@@ -85,8 +85,7 @@ void XyzParser::line(std::string_view text) {
     if (token.size() > 1 && token[0] == '+' && token[1] != '+' && token[1] != '-') token.remove_prefix(1);
     const auto [stop, error] = std::from_chars(token.data(), token.data() + token.size(), value[count]);
     if (error != std::errc() || stop != token.data() + token.size()) fail(std::string(kExpected) + quoted(text));
-    if (!std::isfinite(value[count]))
-      fail("'" + std::string(token) + "' is not a finite number in " + quoted(text));
+    if (!std::isfinite(value[count])) fail("'" + std::string(token) + "' is not a finite number in " + quoted(text));
     ++count;
     pos = end;
   }
@@ -144,8 +143,9 @@ PointCloud read_points(const std::string& path, const Progress& progress) {
   // .laz goes to read_las too: its header check explains that compressed points need decompressing.
   if (extension == ".las" || extension == ".laz") return read_las(path, progress);
   if (extension == ".xyz" || extension == ".txt" || extension == ".csv") return read_xyz(path, progress);
-  throw InputError(path, "", (extension.empty() ? std::string("no file extension") : "unknown extension '" + extension + "'") +
-                                 ": point clouds are read from .las, .xyz, .txt or .csv files");
+  throw InputError(path, "",
+                   (extension.empty() ? std::string("no file extension") : "unknown extension '" + extension + "'") +
+                       ": point clouds are read from .las, .xyz, .txt or .csv files");
 }
 
 }  // namespace dsmplan
