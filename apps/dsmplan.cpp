@@ -1,8 +1,8 @@
 // dsmplan: the command-line face of the library. Each subcommand parses its options into the
 // library's option structs and calls the library; nothing here computes anything itself.
-#include <CLI/CLI.hpp>
 #include <cpl_progress.h>
 
+#include <CLI/CLI.hpp>
 #include <charconv>
 #include <chrono>
 #include <cstdio>
@@ -104,7 +104,8 @@ void run_info(const InfoOptions& options) {
   std::printf("Extent:      x %.10g .. %.10g, y %.10g .. %.10g\n", grid.x0, grid.x1(), grid.y1(), grid.y0);
   std::printf("CRS:         %s", grid.crs.name.empty() ? "none" : grid.crs.name.c_str());
   if (grid.crs.epsg) std::printf(" (EPSG:%d)", grid.crs.epsg);
-  std::printf("\nVertical:    %s%s\n", grid.crs.vertical_name.empty() ? "datum unknown" : grid.crs.vertical_name.c_str(),
+  std::printf("\nVertical:    %s%s\n",
+              grid.crs.vertical_name.empty() ? "datum unknown" : grid.crs.vertical_name.c_str(),
               grid.crs.vertical_unit.empty() ? ", unit unknown" : (", unit " + grid.crs.vertical_unit).c_str());
   std::printf("Nodata:      %zu of %zu cells (%zu holes)\n", summary.nodata, summary.cells, summary.holes);
   std::printf("Heights:     %.10g .. %.10g\n", as_stored(summary.z_min), as_stored(summary.z_max));
@@ -222,16 +223,19 @@ int main(int argc, char** argv) {
   app.set_version_flag("--version", "dsmplan " DSMPLAN_VERSION);
 
   InfoOptions info;
-  CLI::App* info_cmd = app.add_subcommand("info", "Describe a DSM raster: size, resolution, extent, CRS, nodata, heights");
+  CLI::App* info_cmd =
+      app.add_subcommand("info", "Describe a DSM raster: size, resolution, extent, CRS, nodata, heights");
   info_cmd->add_option("DSM", info.input, "Raster file (GeoTIFF, VRT, ASCII grid, any GDAL raster)")->required();
   info_cmd->add_flag("--json", info.as_json, "Print JSON");
   info_cmd->add_option("--band", info.read.band, "Band to read")->capture_default_str();
-  info_cmd->add_option("--crs", info.read.assign_crs, "CRS to assume when the raster has none (EPSG:n, WKT, PROJ string)");
+  info_cmd->add_option("--crs", info.read.assign_crs,
+                       "CRS to assume when the raster has none (EPSG:n, WKT, PROJ string)");
 
   GridCommandOptions grid;
   std::vector<int> drop_classes;
   bool keep_all_classes = false;
-  CLI::App* grid_cmd = app.add_subcommand("grid", "Grid point clouds (LAS, XYZ) into a GeoTIFF DSM, median height per cell");
+  CLI::App* grid_cmd =
+      app.add_subcommand("grid", "Grid point clouds (LAS, XYZ) into a GeoTIFF DSM, median height per cell");
   grid_cmd->add_option("POINTS", grid.inputs, "LAS 1.0-1.4 (uncompressed) or XYZ text files")->required();
   grid_cmd->add_option("-o,--output", grid.output, "Output GeoTIFF")->required();
   grid_cmd->add_option("--res", grid.grid.resolution, "Cell size in CRS units")->required();
@@ -244,14 +248,20 @@ int main(int argc, char** argv) {
   grid_cmd->add_flag("-q,--quiet", grid.quiet, "No progress output");
 
   MeshCommandOptions mesh;
-  CLI::App* mesh_cmd = app.add_subcommand("mesh", "Build the XY-3 Delaunay mesh of a DSM (PLY, OBJ or OFF by extension)");
+  CLI::App* mesh_cmd =
+      app.add_subcommand("mesh", "Build the XY-3 Delaunay mesh of a DSM (PLY, OBJ or OFF by extension)");
   mesh_cmd->add_option("DSM", mesh.input, "Raster file")->required();
   mesh_cmd->add_option("-o,--output", mesh.output, "Mesh file: .ply (binary, double x,y,z), .obj or .off")->required();
-  CLI::Option* mesh_res = mesh_cmd->add_option("--res", mesh.resolution, "Resample to this x/y resolution (CRS units) first");
-  mesh_cmd->add_option("--resampling", mesh.resampling, "median, max (conservative), mean, min or nearest")->capture_default_str();
-  mesh_cmd->add_option("--zstep", mesh.mesh.zstep, "Vertical resolution: heights are rounded to multiples (0: keep)")->capture_default_str();
-  mesh_cmd->add_option("--max-edge", mesh.mesh.max_edge_length,
-                       "Drop triangles with a longer x,y edge, so holes stay holes (0: 2.5 cells)")->capture_default_str();
+  CLI::Option* mesh_res =
+      mesh_cmd->add_option("--res", mesh.resolution, "Resample to this x/y resolution (CRS units) first");
+  mesh_cmd->add_option("--resampling", mesh.resampling, "median, max (conservative), mean, min or nearest")
+      ->capture_default_str();
+  mesh_cmd->add_option("--zstep", mesh.mesh.zstep, "Vertical resolution: heights are rounded to multiples (0: keep)")
+      ->capture_default_str();
+  mesh_cmd
+      ->add_option("--max-edge", mesh.mesh.max_edge_length,
+                   "Drop triangles with a longer x,y edge, so holes stay holes (0: 2.5 cells)")
+      ->capture_default_str();
   mesh_cmd->add_option("--stats", mesh.stats, "Write statistics as JSON to this file");
   mesh_cmd->add_option("--band", mesh.read.band, "Band to read")->capture_default_str();
   mesh_cmd->add_option("--crs", mesh.read.assign_crs, "CRS to assume when the raster has none");
@@ -260,8 +270,10 @@ int main(int argc, char** argv) {
   try {
     app.parse(argc, argv);
     mesh.resolution_given = mesh_res->count() > 0;
-    if (keep_all_classes) grid.grid.drop_classes.clear();
-    else if (!drop_classes.empty()) grid.grid.drop_classes = drop_classes;
+    if (keep_all_classes)
+      grid.grid.drop_classes.clear();
+    else if (!drop_classes.empty())
+      grid.grid.drop_classes = drop_classes;
     if (*info_cmd) run_info(info);
     if (*grid_cmd) run_grid(grid);
     if (*mesh_cmd) run_mesh(mesh);

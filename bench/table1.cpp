@@ -15,7 +15,6 @@
 #include <CGAL/Delaunay_triangulation_2.h>
 #include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
 #include <CGAL/Projection_traits_xy_3.h>
-
 #include <spawn.h>
 #include <sys/resource.h>
 #include <sys/wait.h>
@@ -45,8 +44,8 @@ namespace {
 
 const std::string tile = DSMPLAN_DATA_DIR "/nrw-dom1/dom1_32_356_5699_1_nw_2020.tif";
 constexpr int runs = 3;
-constexpr double speed_bar = 5.0;            // CGAL seconds / our end-to-end seconds, at least
-constexpr double memory_bar = 150.0;         // peak RSS bytes per DSM cell, at most
+constexpr double speed_bar = 5.0;                                  // CGAL seconds / our end-to-end seconds, at least
+constexpr double memory_bar = 150.0;                               // peak RSS bytes per DSM cell, at most
 constexpr double never = std::numeric_limits<double>::infinity();  // start value of a best-of
 
 double seconds_since(std::chrono::steady_clock::time_point start) {
@@ -91,7 +90,8 @@ Row mesh_in_process(double res, const fs::path& out) {
     Mesh mesh;
     const double read = timed([&] { dsm = read_raster(tile); });
     // At the DSM's own 1 m there is nothing to resample (the CLI skips the stage too).
-    const double resample = res == dsm.cell_x ? 0 : timed([&] { dsm = dsmplan::resample(dsm, res, Resampling::Median); });
+    const double resample =
+        res == dsm.cell_x ? 0 : timed([&] { dsm = dsmplan::resample(dsm, res, Resampling::Median); });
     const double triangulate = timed([&] { mesh = triangulate_xy3(dsm); });
     const double write = timed([&] { write_mesh(mesh, out.string(), MeshFormat::Ply); });
     row.read = std::min(row.read, read);
@@ -114,12 +114,10 @@ struct PaperRow {
   size_t vertices, faces, megabytes;
 };
 constexpr PaperRow paper[] = {
-    {"Mitte", 1, 2450000, 4893702, 730},   {"Mitte", 2, 612500, 1221852, 182},
-    {"Mitte", 3, 272728, 543356, 81},      {"Mitte", 4, 153300, 305026, 45},
-    {"Potsdamer", 1, 276051, 550000, 80},  {"Potsdamer", 2, 69000, 136950, 20},
-    {"Potsdamer", 3, 30728, 60756, 9},     {"Potsdamer", 4, 17250, 33976, 5},
-    {"Reichstag", 1, 113176, 225000, 33},  {"Reichstag", 2, 28388, 56100, 8},
-    {"Reichstag", 3, 12600, 24750, 4},     {"Reichstag", 4, 7144, 13950, 2},
+    {"Mitte", 1, 2450000, 4893702, 730}, {"Mitte", 2, 612500, 1221852, 182},   {"Mitte", 3, 272728, 543356, 81},
+    {"Mitte", 4, 153300, 305026, 45},    {"Potsdamer", 1, 276051, 550000, 80}, {"Potsdamer", 2, 69000, 136950, 20},
+    {"Potsdamer", 3, 30728, 60756, 9},   {"Potsdamer", 4, 17250, 33976, 5},    {"Reichstag", 1, 113176, 225000, 33},
+    {"Reichstag", 2, 28388, 56100, 8},   {"Reichstag", 3, 12600, 24750, 4},    {"Reichstag", 4, 7144, 13950, 2},
 };
 
 // 1234567 -> "1,234,567"
@@ -212,8 +210,8 @@ struct Bars {
   size_t cells = 0, cgal_faces = 0;
   int cgal_runs = 0;
   double cgal_seconds = never, cli_seconds = never;  // best of the runs
-  long cli_peak_kib = 0;  // from the first CLI run, see measure_bars
-  long own_kib = 0;       // our peak RSS at that run: the floor of what it can show
+  long cli_peak_kib = 0;                             // from the first CLI run, see measure_bars
+  long own_kib = 0;                                  // our peak RSS at that run: the floor of what it can show
 };
 
 // Linux carries the spawning process's peak RSS over into the child's ru_maxrss (exec records

@@ -6,11 +6,11 @@
 //   - grid and mesh counts from arithmetic on the raster size (a full grid of nx x ny vertices
 //     has 2 (nx-1)(ny-1) triangles);
 //   - bad inputs are written by the test itself, so it knows what is wrong with them.
-#include <gdal.h>
 #include <cpl_conv.h>
 #include <cpl_error.h>
-#include <ogr_srs_api.h>
+#include <gdal.h>
 #include <gtest/gtest.h>
+#include <ogr_srs_api.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -51,7 +51,7 @@ void init_gdal() {
 struct Raster {
   int width = 0, height = 0;
   double gt[6] = {0, 1, 0, 0, 0, -1};
-  std::string wkt;  // empty: no CRS
+  std::string wkt;       // empty: no CRS
   std::vector<float> z;  // row-major, as stored
   bool has_nodata = false;
   double nodata = 0;
@@ -71,7 +71,8 @@ Raster read_with_gdal(const std::string& path) {
   r.nodata = GDALGetRasterNoDataValue(band, &has_nodata);
   r.has_nodata = has_nodata != 0;
   r.z.resize(static_cast<size_t>(r.width) * r.height);
-  if (GDALRasterIO(band, GF_Read, 0, 0, r.width, r.height, r.z.data(), r.width, r.height, GDT_Float32, 0, 0) != CE_None) {
+  if (GDALRasterIO(band, GF_Read, 0, 0, r.width, r.height, r.z.data(), r.width, r.height, GDT_Float32, 0, 0) !=
+      CE_None) {
     GDALClose(dataset);
     throw std::runtime_error("GDAL cannot read " + path);
   }
@@ -91,7 +92,8 @@ void write_with_gdal(const Raster& r, const std::string& path) {
   GDALRasterBandH band = GDALGetRasterBand(dataset, 1);
   if (r.has_nodata) GDALSetRasterNoDataValue(band, r.nodata);
   std::vector<float> z = r.z;
-  const CPLErr status = GDALRasterIO(band, GF_Write, 0, 0, r.width, r.height, z.data(), r.width, r.height, GDT_Float32, 0, 0);
+  const CPLErr status =
+      GDALRasterIO(band, GF_Write, 0, 0, r.width, r.height, z.data(), r.width, r.height, GDT_Float32, 0, 0);
   GDALClose(dataset);
   if (status != CE_None) throw std::runtime_error("GDAL cannot write " + path);
 }
@@ -182,7 +184,8 @@ std::string lower(std::string s) {
 
 bool contains_any(const std::string& text, const std::vector<std::string>& needles) {
   const std::string haystack = lower(text);
-  return std::any_of(needles.begin(), needles.end(), [&](const std::string& n) { return haystack.find(lower(n)) != std::string::npos; });
+  return std::any_of(needles.begin(), needles.end(),
+                     [&](const std::string& n) { return haystack.find(lower(n)) != std::string::npos; });
 }
 
 // The error contract: failure exit code, one line on stderr naming `subject`, saying `what`
@@ -281,8 +284,10 @@ TEST(CliInfo, JsonMatchesGdalOnRealSample) {
   ASSERT_TRUE(info["crs"]["wkt"].is_string());
   EXPECT_EQ(epsg_of(info["crs"]["wkt"].get<std::string>()), epsg) << "the WKT should describe the same CRS";
   EXPECT_TRUE(info["vertical"]["name"].is_null()) << "a 2D CRS names no vertical datum";
-  if (unit.empty()) EXPECT_TRUE(info["vertical"]["unit"].is_null());
-  else EXPECT_EQ(info["vertical"]["unit"].get<std::string>(), unit);
+  if (unit.empty())
+    EXPECT_TRUE(info["vertical"]["unit"].is_null());
+  else
+    EXPECT_EQ(info["vertical"]["unit"].get<std::string>(), unit);
   EXPECT_EQ(info["cells"].get<size_t>(), static_cast<size_t>(width) * height);
   EXPECT_EQ(info["valid_cells"].get<size_t>(), static_cast<size_t>(width) * height);
   EXPECT_EQ(info["nodata_cells"].get<size_t>(), 0u);
@@ -376,8 +381,7 @@ TEST(CliMesh, RealSampleAtTwoMetresGivesFullGridCountsAndConsistentPly) {
   EXPECT_EQ(header[0], "ply");
   EXPECT_EQ(header_count(header, "element vertex "), stats["vertices"].get<long long>());
   EXPECT_EQ(header_count(header, "element face "), stats["faces"].get<long long>());
-  EXPECT_TRUE(has_line(header, "comment crs_epsg " + std::to_string(epsg)))
-      << "the PLY header must carry the CRS code";
+  EXPECT_TRUE(has_line(header, "comment crs_epsg " + std::to_string(epsg))) << "the PLY header must carry the CRS code";
   EXPECT_TRUE(has_line_starting(header, "comment crs_wkt ")) << "the PLY header must carry the WKT";
   // The counts must also describe the body: 3 doubles per vertex, 1 + 3*4 bytes per triangle.
   const size_t body = ply.size() - (ply.find("end_header\n") + std::strlen("end_header\n"));
@@ -484,14 +488,16 @@ TEST(CliBadInput, TextFileNamedTif) {
   TempDir in, out;
   const std::string path = in.path("notes.tif");
   testkit::write_file(path, "these are notes, not a raster\n");
-  expect_clean_failure(run_cli({"mesh", path, "-o", out.path("out.ply")}), out, path, {"not a raster", "cannot read", "not recognized"});
+  expect_clean_failure(run_cli({"mesh", path, "-o", out.path("out.ply")}), out, path,
+                       {"not a raster", "cannot read", "not recognized"});
 }
 
 TEST(CliBadInput, EmptyTif) {
   TempDir in, out;
   const std::string path = in.path("empty.tif");
   testkit::write_file(path, "");
-  expect_clean_failure(run_cli({"mesh", path, "-o", out.path("out.ply")}), out, path, {"not a raster", "empty", "cannot read"});
+  expect_clean_failure(run_cli({"mesh", path, "-o", out.path("out.ply")}), out, path,
+                       {"not a raster", "empty", "cannot read"});
 }
 
 TEST(CliBadInput, AllNodataRaster) {
@@ -507,7 +513,7 @@ TEST(CliBadInput, AllNodataRaster) {
 
 TEST(CliBadInput, UndeclaredNanHeightNamesTheCell) {
   TempDir in, out;
-  Raster r = small_raster(6, 5);  // no nodata declared
+  Raster r = small_raster(6, 5);                             // no nodata declared
   r.z[2 * 6 + 3] = std::numeric_limits<float>::quiet_NaN();  // col 3, row 2
   const std::string path = in.path("nan.tif");
   write_with_gdal(r, path);
@@ -547,8 +553,8 @@ TEST(CliBadInput, TruncatedLas) {
   TempDir in, out;
   const std::string path = in.path("truncated.las");
   testkit::write_file(path, testkit::read_file(testkit::data_path("delft-ahn3/ahn3_cropped_2.las")).substr(0, 100));
-  expect_clean_failure(run_cli({"grid", path, "-o", out.path("dsm.tif"), "--res", "0.5", "--crs", "EPSG:28992"}), out, path,
-                       {"truncated", "too short", "ended early"});
+  expect_clean_failure(run_cli({"grid", path, "-o", out.path("dsm.tif"), "--res", "0.5", "--crs", "EPSG:28992"}), out,
+                       path, {"truncated", "too short", "ended early"});
 }
 
 TEST(CliBadInput, LasHeaderClaimsMorePointsThanTheFileHolds) {
@@ -560,8 +566,8 @@ TEST(CliBadInput, LasHeaderClaimsMorePointsThanTheFileHolds) {
   std::memcpy(bytes.data() + 107, &count, 4);
   const std::string path = in.path("lying.las");
   testkit::write_file(path, bytes);
-  expect_clean_failure(run_cli({"grid", path, "-o", out.path("dsm.tif"), "--res", "0.5", "--crs", "EPSG:28992"}), out, path,
-                       {"point count", "107"});
+  expect_clean_failure(run_cli({"grid", path, "-o", out.path("dsm.tif"), "--res", "0.5", "--crs", "EPSG:28992"}), out,
+                       path, {"point count", "107"});
 }
 
 TEST(CliBadInput, XyzLineThatDoesNotParseNamesTheLine) {

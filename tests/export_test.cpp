@@ -1,5 +1,7 @@
 // Export stage: mesh files read back by an independent reader (CGAL's polygon-soup I/O) must give
 // exactly the mesh written, with the CRS in the header, and failed writes must leave nothing.
+#include "dsmplan/export.hpp"
+
 #include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
 #include <CGAL/IO/polygon_soup_io.h>
 #include <gtest/gtest.h>
@@ -8,7 +10,6 @@
 #include <fstream>
 #include <vector>
 
-#include "dsmplan/export.hpp"
 #include "dsmplan/mesh.hpp"
 #include "dsmplan/raster.hpp"
 #include "testkit.hpp"

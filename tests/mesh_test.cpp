@@ -1,5 +1,7 @@
 // Mesh stage: the XY-3 Delaunay triangulation, checked on real DSMs against exact predicates,
 // brute force and CGAL's own Delaunay_triangulation_2 with Projection_traits_xy_3.
+#include "dsmplan/mesh.hpp"
+
 #include <CGAL/Delaunay_triangulation_2.h>
 #include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
 #include <CGAL/Projection_traits_xy_3.h>
@@ -11,7 +13,6 @@
 #include <random>
 #include <set>
 
-#include "dsmplan/mesh.hpp"
 #include "dsmplan/raster.hpp"
 #include "testkit.hpp"
 
@@ -87,7 +88,8 @@ size_t count_nonempty_circles(const Grid& grid, const Mesh& mesh) {
     const int r1 = static_cast<int>(std::ceil((-centre.y() + radius) / grid.cell_y)) + 1;
     for (int r = std::max(r0, 0); r <= std::min(r1, grid.height - 1); ++r) {
       for (int c = std::max(c0, 0); c <= std::min(c1, grid.width - 1); ++c) {
-        if (grid.valid(c, r) && CGAL::side_of_bounded_circle(p[0], p[1], p[2], lattice(grid, c, r)) == CGAL::ON_BOUNDED_SIDE) {
+        if (grid.valid(c, r) &&
+            CGAL::side_of_bounded_circle(p[0], p[1], p[2], lattice(grid, c, r)) == CGAL::ON_BOUNDED_SIDE) {
           ++violations;
         }
       }
@@ -208,7 +210,8 @@ TEST(Xy3Delaunay, TrianglesAreCounterClockwiseAndNotDegenerate) {
       const auto& [c0, r0] = cells.of_vertex[t[0]];
       const auto& [c1, r1] = cells.of_vertex[t[1]];
       const auto& [c2, r2] = cells.of_vertex[t[2]];
-      if (CGAL::orientation(lattice(grid, c0, r0), lattice(grid, c1, r1), lattice(grid, c2, r2)) != CGAL::LEFT_TURN) ++bad;
+      if (CGAL::orientation(lattice(grid, c0, r0), lattice(grid, c1, r1), lattice(grid, c2, r2)) != CGAL::LEFT_TURN)
+        ++bad;
     }
     EXPECT_EQ(bad, 0u);
   }
@@ -281,8 +284,8 @@ TEST(Xy3Delaunay, LongEdgesDropExactlyTheBridgingTriangles) {
         bool near = false;
         for (int dr = -2; dr <= 2 && !near; ++dr)
           for (int dc = -2; dc <= 2 && !near; ++dc)
-            near = c + dc >= 0 && r + dr >= 0 && c + dc < grid.width && r + dr < grid.height && grid.valid(c + dc, r + dr) &&
-                   std::hypot(dc * grid.cell_x, dr * grid.cell_y) <= limit;
+            near = c + dc >= 0 && r + dr >= 0 && c + dc < grid.width && r + dr < grid.height &&
+                   grid.valid(c + dc, r + dr) && std::hypot(dc * grid.cell_x, dr * grid.cell_y) <= limit;
         if (!near) ++bridged_far;
       }
     }

@@ -1,6 +1,8 @@
 // Raster stage: GDAL input (GeoTIFF, VRT mosaic, ESRI ASCII grid), nodata, CRS, resampling and
 // quantization, each checked against GDAL's own tools (gdal_translate, gdalbuildvrt, gdalwarp)
 // or brute force on the real NRW DSM.
+#include "dsmplan/raster.hpp"
+
 #include <cpl_conv.h>
 #include <gdal_priv.h>
 #include <gdal_utils.h>
@@ -10,7 +12,6 @@
 #include <cmath>
 #include <numeric>
 
-#include "dsmplan/raster.hpp"
 #include "testkit.hpp"
 
 using namespace dsmplan;
@@ -40,17 +41,18 @@ void gdal_tool(std::vector<std::string> args, NewOptions make, FreeOptions relea
 void translate(const std::string& from, const std::string& to, std::vector<std::string> args) {
   GDALDatasetH source = GDALOpen(from.c_str(), GA_ReadOnly);
   ASSERT_NE(source, nullptr);
-  gdal_tool<GDALTranslateOptions>(args, GDALTranslateOptionsNew, GDALTranslateOptionsFree,
-                                  [&](GDALTranslateOptions* o, int* e) { return GDALTranslate(to.c_str(), source, o, e); });
+  gdal_tool<GDALTranslateOptions>(
+      args, GDALTranslateOptionsNew, GDALTranslateOptionsFree,
+      [&](GDALTranslateOptions* o, int* e) { return GDALTranslate(to.c_str(), source, o, e); });
   GDALClose(source);
 }
 
 void warp(const std::string& from, const std::string& to, std::vector<std::string> args) {
   GDALDatasetH source = GDALOpen(from.c_str(), GA_ReadOnly);
   ASSERT_NE(source, nullptr);
-  gdal_tool<GDALWarpAppOptions>(args, GDALWarpAppOptionsNew, GDALWarpAppOptionsFree, [&](GDALWarpAppOptions* o, int* e) {
-    return GDALWarp(to.c_str(), nullptr, 1, &source, o, e);
-  });
+  gdal_tool<GDALWarpAppOptions>(
+      args, GDALWarpAppOptionsNew, GDALWarpAppOptionsFree,
+      [&](GDALWarpAppOptions* o, int* e) { return GDALWarp(to.c_str(), nullptr, 1, &source, o, e); });
   GDALClose(source);
 }
 
@@ -93,8 +95,10 @@ TEST(ReadRaster, RealGeoTiffAsGdalSeesIt) {
   EXPECT_EQ(summary.nodata, 0u);
   // Spot check orientation: row 0 is the north edge.
   float corner[2];
-  ASSERT_EQ(GDALRasterIO(GDALGetRasterBand(dataset, 1), GF_Read, 499, 0, 1, 1, &corner[0], 1, 1, GDT_Float32, 0, 0), CE_None);
-  ASSERT_EQ(GDALRasterIO(GDALGetRasterBand(dataset, 1), GF_Read, 0, 499, 1, 1, &corner[1], 1, 1, GDT_Float32, 0, 0), CE_None);
+  ASSERT_EQ(GDALRasterIO(GDALGetRasterBand(dataset, 1), GF_Read, 499, 0, 1, 1, &corner[0], 1, 1, GDT_Float32, 0, 0),
+            CE_None);
+  ASSERT_EQ(GDALRasterIO(GDALGetRasterBand(dataset, 1), GF_Read, 0, 499, 1, 1, &corner[1], 1, 1, GDT_Float32, 0, 0),
+            CE_None);
   EXPECT_EQ(grid.at(499, 0), corner[0]);
   EXPECT_EQ(grid.at(0, 499), corner[1]);
   GDALClose(dataset);
@@ -128,8 +132,9 @@ TEST(ReadRaster, EsriAsciiGridWithPrj) {
 TEST(ReadRaster, DeclaredNodataBecomesHolesAndScaleApplies) {
   testkit::TempDir dir;
   // Int16 centimetres with scale 0.01 and nodata for everything below 115 m, as some DSMs ship.
-  translate(sample, dir.path("cm.tif"), {"-ot", "Int16", "-scale", "100", "200", "0", "10000", "-a_scale", "0.01",
-                                         "-a_offset", "100", "-a_nodata", "-1"});
+  translate(sample, dir.path("cm.tif"),
+            {"-ot", "Int16", "-scale", "100", "200", "0", "10000", "-a_scale", "0.01", "-a_offset", "100", "-a_nodata",
+             "-1"});
   GDALDatasetH dataset = GDALOpen(dir.path("cm.tif").c_str(), GA_Update);
   ASSERT_NE(dataset, nullptr);
   GDALRasterBandH band = GDALGetRasterBand(dataset, 1);
@@ -160,11 +165,14 @@ TEST(ReadRaster, RefusesWhatCannotBeUsed) {
   EXPECT_THROW(read_raster(dir.path("text.tif")), InputError);
   {
     // A geo-referenced raster without a spatial reference.
-    GDALDatasetH dataset = GDALCreate(GDALGetDriverByName("GTiff"), dir.path("nocrs.tif").c_str(), 10, 10, 1, GDT_Float32, nullptr);
+    GDALDatasetH dataset =
+        GDALCreate(GDALGetDriverByName("GTiff"), dir.path("nocrs.tif").c_str(), 10, 10, 1, GDT_Float32, nullptr);
     double gt[6] = {356300, 1, 0, 5699750, 0, -1};
     GDALSetGeoTransform(dataset, gt);
     std::vector<float> heights(100, 120.0f);
-    ASSERT_EQ(GDALRasterIO(GDALGetRasterBand(dataset, 1), GF_Write, 0, 0, 10, 10, heights.data(), 10, 10, GDT_Float32, 0, 0), CE_None);
+    ASSERT_EQ(
+        GDALRasterIO(GDALGetRasterBand(dataset, 1), GF_Write, 0, 0, 10, 10, heights.data(), 10, 10, GDT_Float32, 0, 0),
+        CE_None);
     GDALClose(dataset);
   }
   try {
@@ -182,7 +190,8 @@ TEST(ReadRaster, RefusesWhatCannotBeUsed) {
 TEST(Resample, MaxMinMeanAgreeWithGdalwarp) {
   testkit::TempDir dir;
   // gdalwarp aggregates the same 1 m cells into 2 m blocks; 500 m divides evenly.
-  for (auto [ours, theirs] : {std::pair{Resampling::Max, "max"}, {Resampling::Min, "min"}, {Resampling::Mean, "average"}}) {
+  for (auto [ours, theirs] :
+       {std::pair{Resampling::Max, "max"}, {Resampling::Min, "min"}, {Resampling::Mean, "average"}}) {
     const std::string out = dir.path(std::string(theirs) + ".tif");
     warp(sample, out, {"-tr", "2", "2", "-r", theirs, "-ot", "Float32"});
     const Grid expected = read_raster(out);
@@ -246,4 +255,50 @@ TEST(Summary, HolesAreFourConnectedNodataRegions) {
   for (size_t i = 0; i < grid.cells(); ++i) roots += std::isnan(grid.z[i]) && find(i) == i;
   EXPECT_GT(roots, 3u);
   EXPECT_EQ(summarize(grid).holes, roots);
+}
+
+TEST(FillHoles, FillsNearDataWithNeighbourHeightsAndLeavesCanals) {
+  std::vector<PointCloud> clouds{read_las(testkit::data_path("delft-ahn3/ahn3_cropped_1.las")),
+                                 read_las(testkit::data_path("delft-ahn3/ahn3_cropped_2.las"))};
+  GridPointsOptions options;
+  options.resolution = 0.5;
+  const Grid original = grid_points(clouds, options);
+  Grid filled = original;
+  const int reach = 4;  // cells
+  fill_holes(filled, reach);
+
+  size_t kept_valid = 0, filled_next_to_data = 0, next_to_data = 0, still_empty = 0, outside_neighbourhood = 0;
+  for (int r = 0; r < original.height; ++r) {
+    for (int c = 0; c < original.width; ++c) {
+      if (original.valid(c, r)) {
+        kept_valid += filled.at(c, r) == original.at(c, r);
+        continue;
+      }
+      // Inverse-distance weights average heights found within `reach`: the result must lie
+      // within the range of the valid heights in that window.
+      float low = INFINITY, high = -INFINITY;
+      bool touches_data = false;
+      for (int dr = -reach; dr <= reach; ++dr)
+        for (int dc = -reach; dc <= reach; ++dc) {
+          const int cc = c + dc, rr = r + dr;
+          if (cc < 0 || rr < 0 || cc >= original.width || rr >= original.height || !original.valid(cc, rr)) continue;
+          low = std::min(low, original.at(cc, rr)), high = std::max(high, original.at(cc, rr));
+          touches_data |= std::abs(dr) <= 1 && std::abs(dc) <= 1;
+        }
+      next_to_data += touches_data;
+      if (!filled.valid(c, r)) {
+        ++still_empty;
+        continue;
+      }
+      filled_next_to_data += touches_data;
+      if (filled.at(c, r) < low - 1e-3f || filled.at(c, r) > high + 1e-3f) ++outside_neighbourhood;
+    }
+  }
+  const GridSummary before = summarize(original);
+  EXPECT_EQ(kept_valid, before.valid);
+  EXPECT_EQ(filled_next_to_data, next_to_data);
+  EXPECT_EQ(outside_neighbourhood, 0u);
+  EXPECT_GT(still_empty, 100u);                   // the canals are far wider than 2 m
+  EXPECT_GT(before.nodata - still_empty, 1000u);  // single-cell dropouts and canal banks
+  EXPECT_THROW(fill_holes(filled, 0), ArgumentError);
 }

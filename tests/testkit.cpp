@@ -1,9 +1,8 @@
 #include "testkit.hpp"
 
 #include <cpl_conv.h>
-#include <gdal.h>
-
 #include <fcntl.h>
+#include <gdal.h>
 #include <spawn.h>
 #include <sys/wait.h>
 #include <unistd.h>

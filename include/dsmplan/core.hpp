@@ -61,12 +61,12 @@ Progress sub_progress(const Progress& parent, double begin, double end);
 /// A coordinate reference system as the data declared it. The core only carries it along;
 /// the I/O layer (GDAL/PROJ) resolves `definition` into the descriptive fields.
 struct Crs {
-  std::string definition;      ///< WKT, PROJJSON or "EPSG:n" as found or given; empty = unknown
-  std::string name;            ///< e.g. "ETRS89 / UTM zone 32N" (filled by the I/O layer)
-  int epsg = 0;                ///< horizontal EPSG code, 0 when there is none
-  std::string wkt;             ///< single-line WKT2 (filled by the I/O layer)
-  std::string vertical_name;   ///< vertical datum/CRS name, empty when not known
-  std::string vertical_unit;   ///< e.g. "metre", empty when not known
+  std::string definition;     ///< WKT, PROJJSON or "EPSG:n" as found or given; empty = unknown
+  std::string name;           ///< e.g. "ETRS89 / UTM zone 32N" (filled by the I/O layer)
+  int epsg = 0;               ///< horizontal EPSG code, 0 when there is none
+  std::string wkt;            ///< single-line WKT2 (filled by the I/O layer)
+  std::string vertical_name;  ///< vertical datum/CRS name, empty when not known
+  std::string vertical_unit;  ///< e.g. "metre", empty when not known
 
   bool known() const { return !definition.empty() || !wkt.empty(); }
 };

@@ -27,17 +27,22 @@
 namespace dsmplan {
 
 struct Grid {
-  int width = 0, height = 0;   ///< columns, rows
-  double x0 = 0, y0 = 0;       ///< top-left corner of cell (0, 0), CRS units
+  int width = 0, height = 0;      ///< columns, rows
+  double x0 = 0, y0 = 0;          ///< top-left corner of cell (0, 0), CRS units
   double cell_x = 1, cell_y = 1;  ///< cell size along x and y, > 0 (rows run south)
-  std::vector<float> z;        ///< row-major heights, NaN = nodata
+  std::vector<float> z;           ///< row-major heights, NaN = nodata
   Crs crs;
 
   static constexpr float nodata = std::numeric_limits<float>::quiet_NaN();
 
   Grid() = default;
   Grid(int w, int h, double x0_, double y0_, double cx, double cy)
-      : width(w), height(h), x0(x0_), y0(y0_), cell_x(cx), cell_y(cy),
+      : width(w),
+        height(h),
+        x0(x0_),
+        y0(y0_),
+        cell_x(cx),
+        cell_y(cy),
         z(static_cast<size_t>(w) * static_cast<size_t>(h), nodata) {}
 
   size_t cells() const { return z.size(); }
@@ -46,14 +51,14 @@ struct Grid {
   bool valid(int col, int row) const { return !std::isnan(at(col, row)); }
   double center_x(int col) const { return x0 + (col + 0.5) * cell_x; }
   double center_y(int row) const { return y0 - (row + 0.5) * cell_y; }
-  double x1() const { return x0 + width * cell_x; }    ///< east edge
-  double y1() const { return y0 - height * cell_y; }   ///< south edge
+  double x1() const { return x0 + width * cell_x; }   ///< east edge
+  double y1() const { return y0 - height * cell_y; }  ///< south edge
 };
 
 /// Counts and ranges of a grid, computed in one pass.
 struct GridSummary {
   size_t cells = 0, valid = 0, nodata = 0;
-  size_t holes = 0;            ///< 4-connected regions of nodata cells
+  size_t holes = 0;                 ///< 4-connected regions of nodata cells
   double z_min = NAN, z_max = NAN;  ///< over valid cells; NaN when there are none
 };
 GridSummary summarize(const Grid& grid);
@@ -129,16 +134,16 @@ enum class Fusion {
 };
 
 struct GridPointsOptions {
-  double resolution = 1.0;                 ///< cell size, CRS units, > 0
+  double resolution = 1.0;  ///< cell size, CRS units, > 0
   Fusion fusion = Fusion::Median;
-  std::vector<int> drop_classes = {7, 18}; ///< ASPRS low/high noise by default
+  std::vector<int> drop_classes = {7, 18};  ///< ASPRS low/high noise by default
 };
 
 /// Grids point clouds (all in one CRS) into one DSM. The grid is aligned to multiples of the
 /// resolution and just covers the kept points; a point on a cell's west/north edge belongs to
-/// that cell (up to floating-point rounding of x/resolution). At most 2^31-1 cells. Cells without points are nodata (filling holes is a separate, explicit step).
-/// Throws ArgumentError for resolution <= 0, InputError when no point is left after filtering.
-/// O(points log points-per-cell).
+/// that cell (up to floating-point rounding of x/resolution). At most 2^31-1 cells. Cells without points are nodata
+/// (filling holes is a separate, explicit step). Throws ArgumentError for resolution <= 0, InputError when no point is
+/// left after filtering. O(points log points-per-cell).
 Grid grid_points(const std::vector<PointCloud>& clouds, const GridPointsOptions& options,
                  const Progress& progress = {});
 
@@ -146,7 +151,7 @@ Grid grid_points(const std::vector<PointCloud>& clouds, const GridPointsOptions&
 
 struct ReadRasterOptions {
   int band = 1;
-  std::string assign_crs;   ///< CRS to use when the raster has none ("EPSG:25832", WKT, ...)
+  std::string assign_crs;  ///< CRS to use when the raster has none ("EPSG:25832", WKT, ...)
   bool allow_no_crs = false;
 };
 

@@ -45,8 +45,8 @@ void write_ply(const Mesh& mesh, AtomicFile& file, const Progress& progress) {
   for (const auto& line : crs_lines(mesh.crs)) header += "comment " + line + "\n";
   header += "element vertex " + std::to_string(mesh.vertices.size()) +
             "\nproperty double x\nproperty double y\nproperty double z\n"
-            "element face " + std::to_string(mesh.triangles.size()) +
-            "\nproperty list uchar uint vertex_indices\nend_header\n";
+            "element face " +
+            std::to_string(mesh.triangles.size()) + "\nproperty list uchar uint vertex_indices\nend_header\n";
   file.write(header);
   file.write(mesh.vertices.data(), mesh.vertices.size() * sizeof(Vertex));
   report(progress, 0.4);
@@ -108,7 +108,8 @@ void write_text(const Mesh& mesh, AtomicFile& file, MeshFormat format, const Pro
 
 MeshFormat mesh_format_for(const std::string& path) {
   std::string extension = std::filesystem::path(path).extension().string();
-  std::transform(extension.begin(), extension.end(), extension.begin(), [](unsigned char c) { return std::tolower(c); });
+  std::transform(extension.begin(), extension.end(), extension.begin(),
+                 [](unsigned char c) { return std::tolower(c); });
   if (extension == ".ply") return MeshFormat::Ply;
   if (extension == ".obj") return MeshFormat::Obj;
   if (extension == ".off") return MeshFormat::Off;

@@ -14,7 +14,6 @@
 #include <CGAL/Delaunay_triangulation_2.h>
 #include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
 #include <CGAL/Triangulation_vertex_base_with_info_2.h>
-
 #include <sys/mman.h>
 
 #include <algorithm>
@@ -133,7 +132,8 @@ double max_edge_length(const Grid& grid, const MeshOptions& options) {
 Mesh triangulate_xy3(const Grid& grid, const MeshOptions& options, const Progress& progress) {
   const double max_edge = max_edge_length(grid, options);
   const HeightQuantizer quantize(options.zstep);
-  const size_t valid = grid.cells() - std::count_if(grid.z.begin(), grid.z.end(), [](float z) { return std::isnan(z); });
+  const size_t valid =
+      grid.cells() - std::count_if(grid.z.begin(), grid.z.end(), [](float z) { return std::isnan(z); });
   if (valid >= no_vertex) throw ArgumentError("grid", "too many valid cells for 32-bit vertex indices");
   Mesh mesh;
   mesh.crs = grid.crs;

@@ -56,8 +56,8 @@ struct GdalProgress {
 };
 
 std::string cell_place(const Grid& grid, int col, int row) {
-  return "cell (col " + std::to_string(col) + ", row " + std::to_string(row) + ") at x=" +
-         format_number(grid.center_x(col)) + " y=" + format_number(grid.center_y(row));
+  return "cell (col " + std::to_string(col) + ", row " + std::to_string(row) +
+         ") at x=" + format_number(grid.center_x(col)) + " y=" + format_number(grid.center_y(row));
 }
 
 }  // namespace
@@ -144,7 +144,8 @@ Grid read_raster(const std::string& path, const ReadRasterOptions& options, cons
   extra.pfnProgress = GdalProgress::call;
   extra.pProgressData = &bridge;
   CPLErrorReset();
-  if (band->RasterIO(GF_Read, 0, 0, width, height, grid.z.data(), width, height, GDT_Float32, 0, 0, &extra) != CE_None) {
+  if (band->RasterIO(GF_Read, 0, 0, width, height, grid.z.data(), width, height, GDT_Float32, 0, 0, &extra) !=
+      CE_None) {
     if (bridge.cancelled) throw Cancelled();
     throw InputError(path, "band " + std::to_string(options.band), "cannot read heights" + gdal_message());
   }
@@ -164,7 +165,8 @@ Grid read_raster(const std::string& path, const ReadRasterOptions& options, cons
   std::vector<GByte> mask;
   if (!(mask_flags & (GMF_ALL_VALID | GMF_NODATA))) {
     mask.resize(grid.cells());
-    if (band->GetMaskBand()->RasterIO(GF_Read, 0, 0, width, height, mask.data(), width, height, GDT_Byte, 0, 0) != CE_None) {
+    if (band->GetMaskBand()->RasterIO(GF_Read, 0, 0, width, height, mask.data(), width, height, GDT_Byte, 0, 0) !=
+        CE_None) {
       throw InputError(path, "mask band", "cannot read" + gdal_message());
     }
   }
@@ -209,13 +211,15 @@ void write_geotiff(const Grid& grid, const std::string& path, const Progress& pr
   create_options.SetNameValue("TILED", "YES");
   create_options.SetNameValue("BIGTIFF", "IF_SAFER");
   CPLErrorReset();
-  GDALDataset* dataset = driver->Create(file.temp_path().c_str(), grid.width, grid.height, 1, GDT_Float32, create_options.List());
+  GDALDataset* dataset =
+      driver->Create(file.temp_path().c_str(), grid.width, grid.height, 1, GDT_Float32, create_options.List());
   if (!dataset) throw OutputError(path, "cannot create GeoTIFF" + gdal_message());
   double gt[6] = {grid.x0, grid.cell_x, 0, grid.y0, 0, -grid.cell_y};
   dataset->SetGeoTransform(gt);
   if (grid.crs.known()) {
     OGRSpatialReference srs;
-    if (srs.SetFromUserInput(grid.crs.wkt.empty() ? grid.crs.definition.c_str() : grid.crs.wkt.c_str()) == OGRERR_NONE) {
+    if (srs.SetFromUserInput(grid.crs.wkt.empty() ? grid.crs.definition.c_str() : grid.crs.wkt.c_str()) ==
+        OGRERR_NONE) {
       dataset->SetSpatialRef(&srs);
     }
   }
@@ -247,7 +251,8 @@ void fill_holes(Grid& grid, double max_distance, const Progress& progress) {
   GDALDatasetUniquePtr dataset(driver->Create("", grid.width, grid.height, 1, GDT_Float32, nullptr));
   GDALRasterBand* band = dataset->GetRasterBand(1);
   band->SetNoDataValue(NAN);
-  if (band->RasterIO(GF_Write, 0, 0, grid.width, grid.height, grid.z.data(), grid.width, grid.height, GDT_Float32, 0, 0) != CE_None) {
+  if (band->RasterIO(GF_Write, 0, 0, grid.width, grid.height, grid.z.data(), grid.width, grid.height, GDT_Float32, 0,
+                     0) != CE_None) {
     throw Error("fill holes: cannot stage grid" + gdal_message());
   }
   GdalProgress bridge{progress};
@@ -255,7 +260,8 @@ void fill_holes(Grid& grid, double max_distance, const Progress& progress) {
     if (bridge.cancelled) throw Cancelled();
     throw Error("fill holes: GDALFillNodata failed" + gdal_message());
   }
-  if (band->RasterIO(GF_Read, 0, 0, grid.width, grid.height, grid.z.data(), grid.width, grid.height, GDT_Float32, 0, 0) != CE_None) {
+  if (band->RasterIO(GF_Read, 0, 0, grid.width, grid.height, grid.z.data(), grid.width, grid.height, GDT_Float32, 0,
+                     0) != CE_None) {
     throw Error("fill holes: cannot read back" + gdal_message());
   }
 }

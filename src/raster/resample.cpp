@@ -12,17 +12,23 @@ namespace dsmplan {
 
 const char* to_string(Resampling method) {
   switch (method) {
-    case Resampling::Median: return "median";
-    case Resampling::Max: return "max";
-    case Resampling::Mean: return "mean";
-    case Resampling::Min: return "min";
-    case Resampling::Nearest: return "nearest";
+    case Resampling::Median:
+      return "median";
+    case Resampling::Max:
+      return "max";
+    case Resampling::Mean:
+      return "mean";
+    case Resampling::Min:
+      return "min";
+    case Resampling::Nearest:
+      return "nearest";
   }
   return "?";
 }
 
 Resampling parse_resampling(const std::string& name) {
-  for (Resampling method : {Resampling::Median, Resampling::Max, Resampling::Mean, Resampling::Min, Resampling::Nearest}) {
+  for (Resampling method :
+       {Resampling::Median, Resampling::Max, Resampling::Mean, Resampling::Min, Resampling::Nearest}) {
     if (name == to_string(method)) return method;
   }
   throw ArgumentError("--resampling", "unknown method '" + name + "' (use median, max, mean, min or nearest)");
@@ -50,14 +56,17 @@ std::vector<std::pair<int, int>> ranges_of(const std::vector<int>& block, int bl
 
 float aggregate(std::vector<float>& values, Resampling method, float nearest) {
   switch (method) {
-    case Resampling::Max: return *std::max_element(values.begin(), values.end());
-    case Resampling::Min: return *std::min_element(values.begin(), values.end());
+    case Resampling::Max:
+      return *std::max_element(values.begin(), values.end());
+    case Resampling::Min:
+      return *std::min_element(values.begin(), values.end());
     case Resampling::Mean: {
       double sum = 0;
       for (float v : values) sum += v;
       return static_cast<float>(sum / values.size());
     }
-    case Resampling::Nearest: return nearest;
+    case Resampling::Nearest:
+      return nearest;
     case Resampling::Median: {
       const size_t half = values.size() / 2;
       std::nth_element(values.begin(), values.begin() + half, values.end());
@@ -78,8 +87,8 @@ Grid resample(const Grid& grid, double resolution, Resampling method, const Prog
   }
   const double finest = std::max(grid.cell_x, grid.cell_y);
   if (resolution < finest * (1 - 1e-9)) {
-    throw ArgumentError("--res", std::to_string(resolution) + " is finer than the DSM's cells (" + std::to_string(finest) +
-                                     "); resampling only aggregates");
+    throw ArgumentError("--res", std::to_string(resolution) + " is finer than the DSM's cells (" +
+                                     std::to_string(finest) + "); resampling only aggregates");
   }
   if (resolution == grid.cell_x && resolution == grid.cell_y) {
     report(progress, 1);
