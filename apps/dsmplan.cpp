@@ -178,9 +178,18 @@ void run_mesh(const MeshCommandOptions& options) {
   Stopwatch clock;
   json seconds;
   Grid dsm = read_raster(options.input, options.read, sub_progress(progress, 0, 0.3));
+  if (dsm.crs.geographic) {
+    // Delaunay on degrees, heights in metres: neither the mesh nor a safety distance means anything.
+    throw InputError(options.input, "",
+                     "CRS '" + dsm.crs.name +
+                         "' is geographic (degrees); reproject to a projected CRS in metres first, "
+                         "e.g. gdalwarp -t_srs EPSG:25832");
+  }
   seconds["read"] = clock.lap();
   const double source_resolution = dsm.cell_x;
-  if (options.resolution_given) dsm = resample(dsm, options.resolution, resampling, sub_progress(progress, 0.3, 0.4));
+  const bool resampled =
+      options.resolution_given && (options.resolution != dsm.cell_x || options.resolution != dsm.cell_y);
+  if (resampled) dsm = resample(dsm, options.resolution, resampling, sub_progress(progress, 0.3, 0.4));
   seconds["resample"] = clock.lap();
   const Mesh mesh = triangulate_xy3(dsm, options.mesh, sub_progress(progress, 0.4, 0.7));
   seconds["triangulate"] = clock.lap();
@@ -205,7 +214,7 @@ void run_mesh(const MeshCommandOptions& options) {
   stats["height"] = dsm.height;
   stats["source_resolution"] = source_resolution;
   stats["resolution"] = dsm.cell_x;
-  stats["resampling"] = options.resolution_given ? to_string(resampling) : "none";
+  stats["resampling"] = resampled ? to_string(resampling) : "none";
   stats["zstep"] = options.mesh.zstep;
   stats["max_edge_length"] = max_edge_length(dsm, options.mesh);
   stats["file_bytes"] = std::filesystem::file_size(options.output);

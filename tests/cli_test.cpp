@@ -549,6 +549,19 @@ TEST(CliBadInput, RasterWithoutCrsUnlessAssigned) {
   EXPECT_EQ(header_count(header, "element vertex "), 6 * 5);
 }
 
+TEST(CliBadInput, GeographicCrsIsRefusedForMeshing) {
+  // Degrees in x,y and metres in z make no mesh a safety distance can be measured on.
+  TempDir in, out;
+  const std::string path = in.path("lonlat.tif");
+  Raster r = small_raster(6, 5);
+  r.wkt = epsg_wkt(4326);
+  r.gt[0] = 6.9, r.gt[1] = 1e-5, r.gt[3] = 51.4, r.gt[5] = -1e-5;
+  write_with_gdal(r, path);
+  expect_clean_failure(run_cli({"mesh", path, "-o", out.path("out.ply")}), out, path, {"geographic"});
+  // info still describes it.
+  EXPECT_EQ(run_cli({"info", path}).exit_code, 0);
+}
+
 TEST(CliBadInput, TruncatedLas) {
   TempDir in, out;
   const std::string path = in.path("truncated.las");

@@ -67,6 +67,7 @@ struct Crs {
   std::string wkt;            ///< single-line WKT2 (filled by the I/O layer)
   std::string vertical_name;  ///< vertical datum/CRS name, empty when not known
   std::string vertical_unit;  ///< e.g. "metre", empty when not known
+  bool geographic = false;    ///< x,y are angles (longitude, latitude), not lengths
 
   bool known() const { return !definition.empty() || !wkt.empty(); }
 };

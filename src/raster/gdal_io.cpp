@@ -71,6 +71,7 @@ void resolve_crs(Crs& crs) {
     throw ArgumentError("--crs", "cannot interpret CRS '" + shown + "'" + gdal_message());
   }
   crs.name = srs.GetName() ? srs.GetName() : "";
+  crs.geographic = srs.IsGeographic();
   char* wkt = nullptr;
   const char* wkt_options[] = {"FORMAT=WKT2_2019", "MULTILINE=NO", nullptr};
   if (srs.exportToWkt(&wkt, wkt_options) == OGRERR_NONE && wkt) crs.wkt = wkt;
