@@ -20,7 +20,6 @@
 #include <cstring>
 #include <filesystem>
 #include <limits>
-#include <mutex>
 #include <nlohmann/json.hpp>
 #include <sstream>
 #include <string>
@@ -37,15 +36,6 @@ namespace {
 const std::string kSample = "nrw-dom1/nrw_dom1_crop500m_1m.tif";
 const std::string kProgress = "0...10...20...30...40...50...60...70...80...90...100 - done.";
 
-void init_gdal() {
-  static std::once_flag once;
-  std::call_once(once, [] {
-    GDALAllRegister();
-    // Statistics computed here must not leave a .aux.xml next to the bundled data.
-    CPLSetConfigOption("GDAL_PAM_ENABLED", "NO");
-  });
-}
-
 // ---- rasters through GDAL (the oracle and the writer of test inputs) ----------------------
 
 struct Raster {
@@ -58,7 +48,6 @@ struct Raster {
 };
 
 Raster read_with_gdal(const std::string& path) {
-  init_gdal();
   GDALDatasetH dataset = GDALOpen(path.c_str(), GA_ReadOnly);
   if (!dataset) throw std::runtime_error("GDAL cannot open " + path);
   Raster r;
@@ -81,7 +70,6 @@ Raster read_with_gdal(const std::string& path) {
 }
 
 void write_with_gdal(const Raster& r, const std::string& path) {
-  init_gdal();
   GDALDriverH driver = GDALGetDriverByName("GTiff");
   GDALDatasetH dataset = GDALCreate(driver, path.c_str(), r.width, r.height, 1, GDT_Float32, nullptr);
   if (!dataset) throw std::runtime_error("GDAL cannot create " + path);
@@ -99,7 +87,6 @@ void write_with_gdal(const Raster& r, const std::string& path) {
 }
 
 std::string epsg_wkt(int code) {
-  init_gdal();
   OGRSpatialReferenceH srs = OSRNewSpatialReference(nullptr);
   OSRImportFromEPSG(srs, code);
   char* wkt = nullptr;
@@ -241,7 +228,6 @@ size_t count_lines_starting(const std::string& text, const std::string& prefix) 
 
 TEST(CliInfo, JsonMatchesGdalOnRealSample) {
   const std::string path = testkit::data_path(kSample);
-  init_gdal();
   GDALDatasetH dataset = GDALOpen(path.c_str(), GA_ReadOnly);
   ASSERT_NE(dataset, nullptr);
   const int width = GDALGetRasterXSize(dataset), height = GDALGetRasterYSize(dataset);

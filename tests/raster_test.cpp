@@ -80,7 +80,6 @@ TEST(ReadRaster, RealGeoTiffAsGdalSeesIt) {
   EXPECT_EQ(grid.crs.epsg, 25832);
   EXPECT_EQ(grid.crs.name, "ETRS89 / UTM zone 32N");
   // The file's own numbers, read through GDAL's C API.
-  CPLSetConfigOption("GDAL_PAM_ENABLED", "NO");
   GDALDatasetH dataset = GDALOpen(sample.c_str(), GA_ReadOnly);
   ASSERT_NE(dataset, nullptr);
   double gt[6];

@@ -1,4 +1,5 @@
-// Shared by the tests: where the real data is, scratch folders, running the CLI.
+// Shared by the tests: where the real data is, scratch folders, running the CLI. Linking it also
+// registers GDAL (with .aux.xml writing off), so tests may call GDAL as an oracle directly.
 #pragma once
 
 #include <filesystem>
