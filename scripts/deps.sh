@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
 # Installs the Debian 12 packages dsmplan builds with, when any is missing.
 set -euo pipefail
-packages=(cmake make g++ pkg-config libcgal-dev libgmp-dev libmpfr-dev libgdal-dev libproj-dev
-          libcli11-dev nlohmann-json3-dev libgtest-dev libgmock-dev libeigen3-dev)
+packages=(cmake make g++ libcgal-dev libgmp-dev libmpfr-dev libgdal-dev libproj-dev
+          libcli11-dev nlohmann-json3-dev libgtest-dev libgmock-dev)
 missing=()
 for p in "${packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
@@ -11,6 +11,12 @@ done
 echo "Installing Debian packages: ${missing[*]}"
 sudo=""
 [ "$(id -u)" -ne 0 ] && sudo="sudo"
+log=$(mktemp /tmp/dsmplan-apt-XXXXXX.log)
 export DEBIAN_FRONTEND=noninteractive
-$sudo apt-get update -qq
-$sudo apt-get install -y -qq --no-install-recommends "${missing[@]}"
+if ! { $sudo apt-get update -qq && $sudo apt-get install -y -qq --no-install-recommends "${missing[@]}"; } >"$log" 2>&1; then
+  tail -n 30 "$log"
+  echo "deps.sh: apt-get failed; full log in $log" >&2
+  exit 1
+fi
+rm -f "$log"
+echo "Installed."
