@@ -18,7 +18,11 @@
 //     z = quantize_height(height, zstep) exactly; nodata cells have no vertex;
 //   - triangles are counter-clockwise seen from above (+z), none degenerate;
 //   - every triangle has an empty circumcircle in x,y among all vertices (exact predicates);
-//   - with max_edge_length = infinity the triangles tile the convex hull of the vertices.
+//   - with max_edge_length = infinity the triangles tile the convex hull of the vertices, so
+//     every valid cell centre is covered; with a limit, exactly the triangles with a longer edge
+//     are missing, and no nodata cell farther than the limit from data is covered. A lone
+//     valid cell inside a wide hole then keeps its vertex but has no triangle (78 of 214,455
+//     on the Delft data at 0.5 m).
 #pragma once
 
 #include <array>
