@@ -31,9 +31,8 @@
 #include <string>
 #include <vector>
 
-#include "dsmplan/export.hpp"
-#include "dsmplan/mesh.hpp"
 #include "dsmplan/raster.hpp"
+#include "dsmplan/tools.hpp"
 
 extern char** environ;
 
@@ -43,10 +42,10 @@ using namespace dsmplan;
 namespace {
 
 const std::string tile = DSMPLAN_DATA_DIR "/nrw-dom1/dom1_32_356_5699_1_nw_2020.tif";
-constexpr int runs = 3;      // per stage in process, and for CGAL
-constexpr int cli_runs = 5;  // a CLI run is cheap and its wall time the noisiest (process start, page cache)
-constexpr double speed_bar = 5.0;                                  // CGAL seconds / our end-to-end seconds, at least
-constexpr double memory_bar = 150.0;                               // peak RSS bytes per DSM cell, at most
+constexpr int runs = 3;               // per stage in process, and for CGAL
+constexpr int cli_runs = 5;           // a CLI run is cheap and its wall time the noisiest (process start, page cache)
+constexpr double speed_bar = 5.0;     // CGAL seconds / our end-to-end seconds, at least
+constexpr double memory_bar = 150.0;  // peak RSS bytes per DSM cell, at most
 constexpr double never = std::numeric_limits<double>::infinity();  // start value of a best-of
 
 double seconds_since(std::chrono::steady_clock::time_point start) {
@@ -84,25 +83,28 @@ struct Row {
   double read = never, resample = never, triangulate = never, write = never, total = never;
 };
 
+// The same job as `dsmplan mesh TILE --res RES -o OUT.ply`, in process, through the library.
 Row mesh_in_process(double res, const fs::path& out) {
   Row row{res};
+  MeshJobOptions job;
+  job.input = tile;
+  job.output = out.string();
+  job.resolution = res;
   for (int run = 0; run < runs; ++run) {
-    Grid dsm;
-    Mesh mesh;
-    const double read = timed([&] { dsm = read_raster(tile); });
-    // At the DSM's own 1 m there is nothing to resample (the CLI skips the stage too).
-    const double resample =
-        res == dsm.cell_x ? 0 : timed([&] { dsm = dsmplan::resample(dsm, res, Resampling::Median); });
-    const double triangulate = timed([&] { mesh = triangulate_xy3(dsm); });
-    const double write = timed([&] { write_mesh(mesh, out.string(), MeshFormat::Ply); });
-    row.read = std::min(row.read, read);
-    row.resample = std::min(row.resample, resample);
-    row.triangulate = std::min(row.triangulate, triangulate);
-    row.write = std::min(row.write, write);
-    row.total = std::min(row.total, read + resample + triangulate + write);
-    row.vertices = mesh.vertices.size();
-    row.faces = mesh.triangles.size();
-    row.bytes = fs::file_size(out);
+    const MeshReport report = mesh_dsm(job);
+    auto stage = [&](const char* name) {
+      for (const auto& [stage, seconds] : report.seconds)
+        if (stage == name) return seconds;
+      throw std::runtime_error(std::string("mesh report lacks stage ") + name);
+    };
+    row.read = std::min(row.read, stage("read"));
+    row.resample = std::min(row.resample, report.resampling ? stage("resample") : 0.0);  // "-" when none
+    row.triangulate = std::min(row.triangulate, stage("triangulate"));
+    row.write = std::min(row.write, stage("write"));
+    row.total = std::min(row.total, stage("total"));
+    row.vertices = report.vertices;
+    row.faces = report.faces;
+    row.bytes = report.file_bytes;
   }
   fs::remove(out);
   return row;

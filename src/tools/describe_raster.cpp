@@ -1,0 +1,67 @@
+// dsmplan info: what a DSM raster holds, read through GDAL.
+#include <cstdio>
+
+#include "dsmplan/tools.hpp"
+#include "tools/report_json.hpp"
+
+namespace dsmplan {
+
+RasterReport describe_raster(const InfoOptions& options) {
+  ReadRasterOptions read = options.read;
+  read.allow_no_crs = true;  // info describes what is there, CRS or not
+  const Grid grid = read_raster(options.input, read);
+  RasterReport report;
+  report.input = options.input;
+  report.width = grid.width;
+  report.height = grid.height;
+  report.cell_x = grid.cell_x;
+  report.cell_y = grid.cell_y;
+  report.xmin = grid.x0;
+  report.xmax = grid.x1();
+  report.ymin = grid.y1();
+  report.ymax = grid.y0;
+  report.crs = grid.crs;
+  report.summary = summarize(grid);
+  return report;
+}
+
+Json to_json(const RasterReport& report) {
+  const GridSummary& summary = report.summary;
+  return {{"file", report.input},
+          {"width", report.width},
+          {"height", report.height},
+          {"resolution", {report.cell_x, report.cell_y}},
+          {"extent", {{"xmin", report.xmin}, {"ymin", report.ymin}, {"xmax", report.xmax}, {"ymax", report.ymax}}},
+          {"crs", crs_json(report.crs)},
+          {"vertical", vertical_json(report.crs)},
+          {"cells", summary.cells},
+          {"valid_cells", summary.valid},
+          {"nodata_cells", summary.nodata},
+          {"holes", summary.holes},
+          {"height_range", {as_stored(summary.z_min), as_stored(summary.z_max)}}};
+}
+
+std::string to_text(const RasterReport& report) {
+  const Crs& crs = report.crs;
+  const GridSummary& summary = report.summary;
+  std::string crs_text = crs.name.empty() ? "none" : crs.name;
+  if (crs.epsg) crs_text += " (EPSG:" + std::to_string(crs.epsg) + ")";
+  const std::string vertical = (crs.vertical_name.empty() ? "datum unknown" : crs.vertical_name) +
+                               (crs.vertical_unit.empty() ? ", unit unknown" : ", unit " + crs.vertical_unit);
+  char text[2048];
+  std::snprintf(text, sizeof text,
+                "File:        %s\n"
+                "Size:        %d x %d cells\n"
+                "Resolution:  %.10g x %.10g\n"
+                "Extent:      x %.10g .. %.10g, y %.10g .. %.10g\n"
+                "CRS:         %s\n"
+                "Vertical:    %s\n"
+                "Nodata:      %zu of %zu cells (%zu holes)\n"
+                "Heights:     %.10g .. %.10g\n",
+                report.input.c_str(), report.width, report.height, report.cell_x, report.cell_y, report.xmin,
+                report.xmax, report.ymin, report.ymax, crs_text.c_str(), vertical.c_str(), summary.nodata,
+                summary.cells, summary.holes, as_stored(summary.z_min), as_stored(summary.z_max));
+  return text;
+}
+
+}  // namespace dsmplan

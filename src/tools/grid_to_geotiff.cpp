@@ -1,0 +1,37 @@
+// dsmplan grid: point clouds to a GeoTIFF DSM, median height per cell (Adolf & Hirschmueller,
+// Section 2), holes kept unless filling is asked for.
+#include <filesystem>
+
+#include "dsmplan/tools.hpp"
+
+namespace dsmplan {
+
+GridSummary grid_to_geotiff(const GridOptions& options, const Progress& progress) {
+  const std::string extension = std::filesystem::path(options.output).extension().string();
+  if (extension != ".tif" && extension != ".tiff")
+    throw ArgumentError(options.output, "output must be a GeoTIFF (.tif)");
+  if (!(options.grid.resolution > 0)) throw ArgumentError("--res", "must be a positive number of CRS units");
+  if (!(options.fill_distance >= 0)) throw ArgumentError("--fill-holes", "must be >= 0");
+  if (options.inputs.empty()) throw ArgumentError("POINTS", "no point cloud given");
+
+  std::vector<PointCloud> clouds;
+  const double files = static_cast<double>(options.inputs.size());
+  for (size_t i = 0; i < options.inputs.size(); ++i) {
+    clouds.push_back(read_points(options.inputs[i], sub_progress(progress, 0.6 * i / files, 0.6 * (i + 1) / files)));
+    PointCloud& cloud = clouds.back();
+    if (cloud.size() == 0) throw InputError(options.inputs[i], "", "holds no points");
+    if (!options.crs.empty()) {
+      cloud.crs = Crs();
+      cloud.crs.definition = options.crs;
+    } else if (!cloud.crs.known()) {
+      throw InputError(options.inputs[i], "", "has no CRS; give one with --crs (e.g. --crs EPSG:28992)");
+    }
+  }
+  Grid grid = grid_points(clouds, options.grid, sub_progress(progress, 0.6, 0.8));
+  resolve_crs(grid.crs);
+  if (options.fill_distance > 0) fill_holes(grid, options.fill_distance / options.grid.resolution);
+  write_geotiff(grid, options.output, sub_progress(progress, 0.8, 1.0));
+  return summarize(grid);
+}
+
+}  // namespace dsmplan

@@ -1,0 +1,101 @@
+// dsmplan mesh: DSM raster to the XY-3 Delaunay mesh of Adolf & Hirschmueller, Section 3 and
+// Table 1 (resampled to the x/y resolution, heights in 0.1 m steps), written to a mesh file.
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+
+#include "dsmplan/export.hpp"
+#include "dsmplan/tools.hpp"
+#include "tools/report_json.hpp"
+
+namespace dsmplan {
+
+namespace {
+
+class Stopwatch {
+public:
+  double lap() {
+    const auto now = std::chrono::steady_clock::now();
+    const double seconds = std::chrono::duration<double>(now - last_).count();
+    last_ = now;
+    return seconds;
+  }
+
+private:
+  std::chrono::steady_clock::time_point last_ = std::chrono::steady_clock::now();
+};
+
+}  // namespace
+
+MeshReport mesh_dsm(const MeshJobOptions& options, const Progress& progress) {
+  // Everything that can be checked is checked before the long work starts.
+  const MeshFormat format = mesh_format_for(options.output);
+  if (options.resolution && !(*options.resolution > 0 && std::isfinite(*options.resolution))) {
+    throw ArgumentError("--res", "must be a positive number of CRS units");
+  }
+
+  MeshReport report;
+  report.input = options.input;
+  report.output = options.output;
+  Stopwatch clock;
+  Grid dsm = read_raster(options.input, options.read, sub_progress(progress, 0, 0.3));
+  if (dsm.crs.geographic) {
+    // Delaunay on degrees, heights in metres: neither the mesh nor a safety distance means anything.
+    throw InputError(options.input, "",
+                     "CRS '" + dsm.crs.name +
+                         "' is geographic (degrees); reproject to a projected CRS in metres first, "
+                         "e.g. gdalwarp -t_srs EPSG:25832");
+  }
+  report.seconds.emplace_back("read", clock.lap());
+  report.source_resolution = dsm.cell_x;
+  if (options.resolution && (*options.resolution != dsm.cell_x || *options.resolution != dsm.cell_y)) {
+    dsm = resample(dsm, *options.resolution, options.resampling, sub_progress(progress, 0.3, 0.4));
+    report.resampling = options.resampling;
+  }
+  report.seconds.emplace_back("resample", clock.lap());
+  const Mesh mesh = triangulate_xy3(dsm, options.mesh, sub_progress(progress, 0.4, 0.7));
+  report.seconds.emplace_back("triangulate", clock.lap());
+  write_mesh(mesh, options.output, format, sub_progress(progress, 0.7, 1.0));
+  report.seconds.emplace_back("write", clock.lap());
+  double total = 0;
+  for (const auto& [stage, seconds] : report.seconds) total += seconds;
+  report.seconds.emplace_back("total", total);
+
+  report.vertices = mesh.vertices.size();
+  report.faces = mesh.triangles.size();
+  report.summary = summarize(dsm);
+  report.width = dsm.width;
+  report.height = dsm.height;
+  report.resolution = dsm.cell_x;
+  report.zstep = options.mesh.zstep;
+  report.max_edge_length = max_edge_length(dsm, options.mesh);
+  report.file_bytes = std::filesystem::file_size(options.output);
+  report.crs = mesh.crs;
+  return report;
+}
+
+Json to_json(const MeshReport& report) {
+  Json seconds = Json::object();
+  for (const auto& [stage, value] : report.seconds) seconds[stage] = value;
+  return {{"input", report.input},
+          {"output", report.output},
+          {"vertices", report.vertices},
+          {"faces", report.faces},
+          {"cells", report.summary.cells},
+          {"valid_cells", report.summary.valid},
+          {"nodata_cells", report.summary.nodata},
+          {"holes", report.summary.holes},
+          {"width", report.width},
+          {"height", report.height},
+          {"source_resolution", report.source_resolution},
+          {"resolution", report.resolution},
+          {"resampling", report.resampling ? to_string(*report.resampling) : "none"},
+          {"zstep", report.zstep},
+          {"max_edge_length", report.max_edge_length},
+          {"file_bytes", report.file_bytes},
+          {"crs", crs_json(report.crs)},
+          {"vertical", vertical_json(report.crs)},
+          {"seconds", seconds}};
+}
+
+}  // namespace dsmplan

@@ -1,0 +1,30 @@
+// JSON pieces every tool report shares.
+#include "tools/report_json.hpp"
+
+#include <charconv>
+#include <cstdlib>
+
+namespace dsmplan {
+
+namespace {
+Json text_or_null(const std::string& text) { return text.empty() ? Json(nullptr) : Json(text); }
+}  // namespace
+
+Json crs_json(const Crs& crs) {
+  return {{"name", text_or_null(crs.name)},
+          {"epsg", crs.epsg ? Json(crs.epsg) : Json(nullptr)},
+          {"wkt", text_or_null(crs.wkt)}};
+}
+
+Json vertical_json(const Crs& crs) {
+  return {{"name", text_or_null(crs.vertical_name)}, {"unit", text_or_null(crs.vertical_unit)}};
+}
+
+double as_stored(double height) {
+  char text[32];
+  auto [end, ec] = std::to_chars(text, text + sizeof text - 1, static_cast<float>(height));
+  *end = '\0';
+  return std::strtod(text, nullptr);
+}
+
+}  // namespace dsmplan
