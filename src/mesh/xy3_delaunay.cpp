@@ -83,7 +83,7 @@ using Delaunay = CGAL::Delaunay_triangulation_2<Kernel, Tds>;
 // Delaunay faces next to holes, from CGAL's exact-predicate triangulation of the border vertices.
 void triangulate_border(const Lattice& lattice, std::vector<Triangle>& triangles, const Progress& progress) {
   const Grid& grid = lattice.grid;
-  // Border vertices: the valid 8-neighbours of nodata cells (work proportional to the holes).
+  // Border vertices: the valid 8-neighbours of nodata cells.
   std::vector<bool> is_border(grid.cells(), false);
   for (int row = 0; row < grid.height; ++row) {
     for (int col = 0; col < grid.width; ++col) {

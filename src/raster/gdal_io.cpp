@@ -60,22 +60,15 @@ std::string cell_place(const Grid& grid, int col, int row) {
          ") at x=" + format_number(grid.center_x(col)) + " y=" + format_number(grid.center_y(row));
 }
 
-}  // namespace
-
-void resolve_crs(Crs& crs) {
-  init_gdal();
-  if (crs.definition.empty()) return;
-  OGRSpatialReference srs;
-  if (srs.SetFromUserInput(crs.definition.c_str()) != OGRERR_NONE) {
-    std::string shown = crs.definition.substr(0, 60);
-    throw ArgumentError("--crs", "cannot interpret CRS '" + shown + "'" + gdal_message());
-  }
-  crs.name = srs.GetName() ? srs.GetName() : "";
-  crs.geographic = srs.IsGeographic();
+// Fills the descriptive fields of `crs` (definition included) from a parsed reference system.
+void describe(const OGRSpatialReference& srs, Crs& crs) {
   char* wkt = nullptr;
   const char* wkt_options[] = {"FORMAT=WKT2_2019", "MULTILINE=NO", nullptr};
   if (srs.exportToWkt(&wkt, wkt_options) == OGRERR_NONE && wkt) crs.wkt = wkt;
   CPLFree(wkt);
+  if (crs.definition.empty()) crs.definition = crs.wkt;
+  crs.name = srs.GetName() ? srs.GetName() : "";
+  crs.geographic = srs.IsGeographic();
 
   OGRSpatialReference horizontal(srs);
   if (horizontal.IsCompound()) horizontal.StripVertical();
@@ -103,6 +96,18 @@ void resolve_crs(Crs& crs) {
   }
 }
 
+}  // namespace
+
+void resolve_crs(Crs& crs) {
+  init_gdal();
+  if (crs.definition.empty()) return;
+  OGRSpatialReference srs;
+  if (srs.SetFromUserInput(crs.definition.c_str()) != OGRERR_NONE) {
+    throw ArgumentError("--crs", "cannot interpret CRS '" + crs.definition.substr(0, 60) + "'" + gdal_message());
+  }
+  describe(srs, crs);
+}
+
 Grid read_raster(const std::string& path, const ReadRasterOptions& options, const Progress& progress) {
   init_gdal();
   VSIStatBufL stat;
@@ -127,16 +132,13 @@ Grid read_raster(const std::string& path, const ReadRasterOptions& options, cons
   Grid grid(width, height, gt[0], south_up ? gt[3] + height * gt[5] : gt[3], gt[1], std::abs(gt[5]));
   const OGRSpatialReference* srs = dataset->GetSpatialRef();
   if (srs && !srs->IsEmpty()) {
-    char* wkt = nullptr;
-    srs->exportToWkt(&wkt);
-    grid.crs.definition = wkt ? wkt : "";
-    CPLFree(wkt);
+    describe(*srs, grid.crs);
   } else if (!options.assign_crs.empty()) {
     grid.crs.definition = options.assign_crs;
+    resolve_crs(grid.crs);
   } else if (!options.allow_no_crs) {
     throw InputError(path, "", "raster has no CRS; assign one with --crs (e.g. --crs EPSG:25832)");
   }
-  resolve_crs(grid.crs);
 
   GDALRasterBand* band = dataset->GetRasterBand(options.band);
   GdalProgress bridge{progress};
