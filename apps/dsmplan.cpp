@@ -4,6 +4,7 @@
 
 #include <CLI/CLI.hpp>
 #include <cstdio>
+#include <new>
 #include <string>
 #include <vector>
 
@@ -24,6 +25,14 @@ Progress terminal_progress(bool quiet) {
     progress_line_open = fraction < 1;
     return GDALTermProgress(fraction, nullptr, nullptr) != 0;
   };
+}
+
+// One line on stderr, on a line of its own; returns the exit code.
+int fail(const std::string& message, int exit_code) {
+  if (progress_line_open) std::printf("\n");
+  std::fflush(stdout);
+  std::fprintf(stderr, "dsmplan: %s\n", message.c_str());
+  return exit_code;
 }
 
 }  // namespace
@@ -109,15 +118,11 @@ int main(int argc, char** argv) {
   } catch (const CLI::ParseError& error) {
     return app.exit(error);
   } catch (const Error& error) {
-    if (progress_line_open) std::printf("\n");
-    std::fflush(stdout);
-    std::fprintf(stderr, "dsmplan: %s\n", error.what());
-    return 1;
+    return fail(error.what(), 1);
+  } catch (const std::bad_alloc&) {
+    return fail("out of memory: use a coarser --res or a smaller area", 1);
   } catch (const std::exception& error) {
-    if (progress_line_open) std::printf("\n");
-    std::fflush(stdout);
-    std::fprintf(stderr, "dsmplan: internal error: %s\n", error.what());
-    return 3;
+    return fail(std::string("internal error: ") + error.what(), 3);
   }
   return 0;
 }
