@@ -98,10 +98,7 @@ int main(int argc, char** argv) {
       std::fputs(info_json ? (to_json(report).dump(2) + "\n").c_str() : to_text(report).c_str(), stdout);
     }
     if (*grid_cmd) {
-      if (fusion != "median" && fusion != "max") {
-        throw ArgumentError("--fusion", "unknown rule '" + fusion + "' (use median or max)");
-      }
-      grid.grid.fusion = fusion == "max" ? Fusion::Max : Fusion::Median;
+      grid.grid.fusion = parse_fusion(fusion);
       if (keep_all_classes) {
         grid.grid.drop_classes.clear();
       } else if (!drop_classes.empty()) {

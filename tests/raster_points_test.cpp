@@ -824,3 +824,9 @@ TEST(Xyz, ReadPointsPicksTheReaderByExtension) {
   testkit::write_file(dir.path("points"), "1 2 3\n");
   expect_input_error([&] { dsmplan::read_points(dir.path("points")); }, dir.path("points"), "extension");
 }
+
+TEST(PointGrid, FusionNamesRoundTripAndUnknownOnesAreRefused) {
+  for (dsmplan::Fusion fusion : {dsmplan::Fusion::Median, dsmplan::Fusion::Max})
+    EXPECT_EQ(dsmplan::parse_fusion(dsmplan::to_string(fusion)), fusion);
+  EXPECT_THROW(dsmplan::parse_fusion("mean"), dsmplan::ArgumentError);
+}

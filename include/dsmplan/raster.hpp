@@ -132,6 +132,9 @@ enum class Fusion {
   Median,  ///< median height of the points in a cell (mean of the two middle ones when even)
   Max
 };
+const char* to_string(Fusion);
+/// Parses "median" or "max"; throws ArgumentError otherwise.
+Fusion parse_fusion(const std::string& name);
 
 struct GridPointsOptions {
   double resolution = 1.0;  ///< cell size, CRS units, > 0

@@ -43,6 +43,15 @@ struct Lattice {
 
 }  // namespace
 
+const char* to_string(Fusion fusion) { return fusion == Fusion::Max ? "max" : "median"; }
+
+Fusion parse_fusion(const std::string& name) {
+  for (Fusion fusion : {Fusion::Median, Fusion::Max}) {
+    if (name == to_string(fusion)) return fusion;
+  }
+  throw ArgumentError("--fusion", "unknown rule '" + name + "' (use median or max)");
+}
+
 Grid grid_points(const std::vector<PointCloud>& clouds, const GridPointsOptions& options, const Progress& progress) {
   const double res = options.resolution;
   if (!(res > 0) || !std::isfinite(res))
