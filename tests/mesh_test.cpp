@@ -64,8 +64,9 @@ struct Cells {
   }
 };
 
-// Exact lattice position of a cell centre (the CRS coordinates may carry rounding).
-Point lattice(const Grid& grid, int col, int row) { return Point(col * grid.cell_x, -row * grid.cell_y); }
+// Lattice position of a cell centre in units of the cell width: exact for square cells of any
+// size (the CRS coordinates may carry rounding, which would break cocircular ties).
+Point lattice(const Grid& grid, int col, int row) { return Point(col, -row * (grid.cell_y / grid.cell_x)); }
 
 MeshOptions unlimited() {
   MeshOptions options;
@@ -82,10 +83,11 @@ size_t count_nonempty_circles(const Grid& grid, const Mesh& mesh) {
     for (int k = 0; k < 3; ++k) p[k] = lattice(grid, cells.of_vertex[t[k]].first, cells.of_vertex[t[k]].second);
     const Point centre = CGAL::circumcenter(p[0], p[1], p[2]);
     const double radius = std::sqrt(CGAL::squared_distance(centre, p[0]));
-    const int c0 = static_cast<int>(std::floor((centre.x() - radius) / grid.cell_x)) - 1;
-    const int c1 = static_cast<int>(std::ceil((centre.x() + radius) / grid.cell_x)) + 1;
-    const int r0 = static_cast<int>(std::floor((-centre.y() - radius) / grid.cell_y)) - 1;
-    const int r1 = static_cast<int>(std::ceil((-centre.y() + radius) / grid.cell_y)) + 1;
+    const double aspect = grid.cell_y / grid.cell_x;
+    const int c0 = static_cast<int>(std::floor(centre.x() - radius)) - 1;
+    const int c1 = static_cast<int>(std::ceil(centre.x() + radius)) + 1;
+    const int r0 = static_cast<int>(std::floor((-centre.y() - radius) / aspect)) - 1;
+    const int r1 = static_cast<int>(std::ceil((-centre.y() + radius) / aspect)) + 1;
     for (int r = std::max(r0, 0); r <= std::min(r1, grid.height - 1); ++r) {
       for (int c = std::max(c0, 0); c <= std::min(c1, grid.width - 1); ++c) {
         if (grid.valid(c, r) &&
@@ -123,7 +125,8 @@ struct CgalReference {
     std::vector<std::pair<K::Point_3, uint32_t>> points;
     for (uint32_t i = 0; i < cells.of_vertex.size(); ++i) {
       const auto [c, r] = cells.of_vertex[i];
-      points.emplace_back(K::Point_3(c * grid.cell_x, -r * grid.cell_y, grid.at(c, r)), i);
+      const Point p = lattice(grid, c, r);
+      points.emplace_back(K::Point_3(p.x(), p.y(), grid.at(c, r)), i);
     }
     delaunay.insert(points.begin(), points.end());
   }
@@ -246,6 +249,18 @@ TEST(Xy3Delaunay, EqualsCgalOnRealWindows) {
       if (random() % 7 == 0) z = Grid::nodata;
     SCOPED_TRACE("nrw window " + std::to_string(k));
     expect_delaunay_equivalent(part, triangulate_xy3(part, unlimited()));
+  }
+}
+
+TEST(Xy3Delaunay, EqualsCgalForOddAndRectangularCells) {
+  // Real heights and holes on cells of 0.3 m (not a binary fraction) and of 1 x 2 m.
+  const Grid part = window(delft_grid(), 240, 0, 44, 40);  // across the canal in the north
+  for (auto [cell_x, cell_y] : {std::pair{0.3, 0.3}, {1.0, 2.0}, {2.0, 1.0}}) {
+    Grid grid = part;
+    grid.cell_x = cell_x, grid.cell_y = cell_y;
+    SCOPED_TRACE(std::to_string(cell_x) + " x " + std::to_string(cell_y));
+    ASSERT_GT(summarize(grid).nodata, 200u);
+    expect_delaunay_equivalent(grid, triangulate_xy3(grid, unlimited()));
   }
 }
 

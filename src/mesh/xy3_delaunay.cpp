@@ -93,13 +93,15 @@ void triangulate_border(const Lattice& lattice, std::vector<Triangle>& triangles
           if (lattice.valid(c, r)) is_border[grid.index(c, r)] = true;
     }
   }
+  // Lattice coordinates (col, -row * cell_y/cell_x): whole numbers for square cells of any size,
+  // so a cocircular square stays exactly cocircular, and oriented like the CRS (x east, y north),
+  // so CGAL's counter-clockwise is ours.
+  const double aspect = grid.cell_y / grid.cell_x;
   std::vector<std::pair<Kernel::Point_2, uint32_t>> border;
   for (int row = 0; row < grid.height; ++row) {
     for (int col = 0; col < grid.width; ++col) {
-      // Lattice coordinates (col, -row) scaled by the cell size: exact for the usual cell sizes,
-      // and oriented like the CRS (x east, y north), so CGAL's counter-clockwise is ours.
       if (is_border[grid.index(col, row)]) {
-        border.emplace_back(Kernel::Point_2(col * grid.cell_x, -row * grid.cell_y), lattice.id[grid.index(col, row)]);
+        border.emplace_back(Kernel::Point_2(col, -row * aspect), lattice.id[grid.index(col, row)]);
       }
     }
   }
@@ -112,8 +114,8 @@ void triangulate_border(const Lattice& lattice, std::vector<Triangle>& triangles
     int cols[3], rows[3];
     for (int k = 0; k < 3; ++k) {
       const auto& point = face->vertex(k)->point();
-      cols[k] = static_cast<int>(std::lround(point.x() / grid.cell_x));
-      rows[k] = static_cast<int>(std::lround(-point.y() / grid.cell_y));
+      cols[k] = static_cast<int>(std::lround(point.x()));
+      rows[k] = static_cast<int>(std::lround(-point.y() / aspect));
       triangle[k] = face->vertex(k)->info();
     }
     if (!inside_full_squares(lattice, cols, rows)) triangles.push_back(triangle);
