@@ -301,3 +301,50 @@ TEST(FillHoles, FillsNearDataWithNeighbourHeightsAndLeavesCanals) {
   EXPECT_GT(before.nodata - still_empty, 1000u);  // single-cell dropouts and canal banks
   EXPECT_THROW(fill_holes(filled, 0), ArgumentError);
 }
+
+TEST(ReadRaster, SouthUpAndMaskedRastersReadAsTheTile) {
+  testkit::TempDir dir;
+  const Grid& tile = nrw();
+  GDALDriverH gtiff = GDALGetDriverByName("GTiff");
+  std::vector<float> rows(tile.z.size());
+
+  // South-up: row 0 is the southern edge and the y pixel size is positive.
+  for (int r = 0; r < tile.height; ++r)
+    std::copy_n(&tile.z[tile.index(0, tile.height - 1 - r)], tile.width, &rows[tile.index(0, r)]);
+  GDALDatasetH south_up =
+      GDALCreate(gtiff, dir.path("south_up.tif").c_str(), tile.width, tile.height, 1, GDT_Float32, nullptr);
+  double gt[6] = {tile.x0, tile.cell_x, 0, tile.y1(), 0, tile.cell_y};
+  GDALSetGeoTransform(south_up, gt);
+  GDALSetProjection(south_up, tile.crs.wkt.c_str());
+  ASSERT_EQ(GDALRasterIO(GDALGetRasterBand(south_up, 1), GF_Write, 0, 0, tile.width, tile.height, rows.data(),
+                         tile.width, tile.height, GDT_Float32, 0, 0),
+            CE_None);
+  GDALClose(south_up);
+  expect_same_cells(read_raster(dir.path("south_up.tif")), tile);
+
+  // An internal mask (no nodata value) hides the cells below 115 m.
+  GDALDatasetH masked =
+      GDALCreate(gtiff, dir.path("masked.tif").c_str(), tile.width, tile.height, 1, GDT_Float32, nullptr);
+  double north_up[6] = {tile.x0, tile.cell_x, 0, tile.y0, 0, -tile.cell_y};
+  GDALSetGeoTransform(masked, north_up);
+  GDALSetProjection(masked, tile.crs.wkt.c_str());
+  GDALRasterBandH band = GDALGetRasterBand(masked, 1);
+  std::vector<float> heights = tile.z;
+  ASSERT_EQ(GDALRasterIO(band, GF_Write, 0, 0, tile.width, tile.height, heights.data(), tile.width, tile.height,
+                         GDT_Float32, 0, 0),
+            CE_None);
+  ASSERT_EQ(GDALCreateMaskBand(band, GMF_PER_DATASET), CE_None);
+  std::vector<GByte> mask(tile.cells());
+  Grid expected = tile;
+  for (size_t i = 0; i < tile.cells(); ++i) {
+    mask[i] = tile.z[i] < 115.0f ? 0 : 255;
+    if (!mask[i]) expected.z[i] = Grid::nodata;
+  }
+  ASSERT_EQ(GDALRasterIO(GDALGetMaskBand(band), GF_Write, 0, 0, tile.width, tile.height, mask.data(), tile.width,
+                         tile.height, GDT_Byte, 0, 0),
+            CE_None);
+  GDALClose(masked);
+  const Grid read = read_raster(dir.path("masked.tif"));
+  EXPECT_GT(summarize(read).nodata, 1000u);
+  expect_same_cells(read, expected);
+}
