@@ -144,9 +144,10 @@ struct GridPointsOptions {
 
 /// Grids point clouds (all in one CRS) into one DSM. The grid is aligned to multiples of the
 /// resolution and just covers the kept points; a point on a cell's west/north edge belongs to
-/// that cell (up to floating-point rounding of x/resolution). At most 2^31-1 cells. Cells without points are nodata
-/// (filling holes is a separate, explicit step). Throws ArgumentError for resolution <= 0, InputError when no point is
-/// left after filtering. O(points log points-per-cell).
+/// that cell (up to floating-point rounding of x/resolution). At most 2^31-1 cells. Cells
+/// without points are nodata (filling holes is a separate, explicit step). Throws ArgumentError
+/// for resolution <= 0, InputError when no point is left after filtering.
+/// O(points log points-per-cell).
 Grid grid_points(const std::vector<PointCloud>& clouds, const GridPointsOptions& options,
                  const Progress& progress = {});
 
