@@ -91,6 +91,59 @@ int main(int argc, char** argv) {
   mesh_cmd->add_option("--crs", mesh.read.assign_crs, "CRS to assume when the raster has none");
   mesh_cmd->add_flag("-q,--quiet", quiet, "No progress output");
 
+  SimplifyJobOptions simplify;
+  double simplify_resolution = 0;
+  std::string method = "variant2", simplify_resampling = "median", simplify_stats;
+  bool simplify_json = false;
+  CLI::App* simplify_cmd = app.add_subcommand(
+      "simplify", "Simplify a DSM's mesh: the paper's variant one or two, or the bounded mode (--max-error)");
+  simplify_cmd->add_option("INPUT", simplify.input, "DSM raster, or a mesh (.ply, .obj, .off) with --dsm")->required();
+  simplify_cmd->add_option("-o,--output", simplify.output, "Mesh file: .ply, .obj or .off")->required();
+  CLI::Option* method_option =
+      simplify_cmd->add_option("--method", method, "variant1, variant2 (the paper's) or bounded")
+          ->capture_default_str();
+  simplify_cmd->add_option("--dz", simplify.paper.dz, "Co-planar tolerance (vertical units)")->capture_default_str();
+  simplify_cmd->add_option("--dco", simplify.paper.dco, "Co-linear tolerance (CRS units)")->capture_default_str();
+  CLI::Option* max_error = simplify_cmd->add_option("--max-error", simplify.bounded.max_error,
+                                                    "Bounded mode: certified |mesh - DSM| <= E at every cell");
+  simplify_cmd->add_flag("--conservative", simplify.bounded.conservative,
+                         "Bounded mode: the mesh never below the DSM (0 <= mesh - DSM <= E)");
+  simplify_cmd->add_flag("--delaunay", simplify.bounded.delaunay,
+                         "Bounded mode: one global Delaunay triangulation (single-threaded) instead of tiles");
+  simplify_cmd->add_option("--threads", simplify.bounded.threads, "Bounded mode: threads (0: every core)")
+      ->capture_default_str();
+  simplify_cmd->add_option("--dsm", simplify.dsm, "With a mesh input: the DSM it was made from (for the error)");
+  CLI::Option* simplify_res =
+      simplify_cmd->add_option("--res", simplify_resolution, "Resample the DSM to this x/y resolution first");
+  simplify_cmd->add_option("--resampling", simplify_resampling, "median, max, mean, min or nearest")
+      ->capture_default_str();
+  simplify_cmd->add_option("--zstep", simplify.mesh.zstep, "Vertical resolution of the paper's mesh (0: keep)")
+      ->capture_default_str();
+  simplify_cmd->add_option("--stats", simplify_stats, "Write statistics as JSON to this file");
+  simplify_cmd->add_flag("--json", simplify_json, "Print the statistics as JSON instead of the summary line");
+  simplify_cmd->add_option("--band", simplify.read.band, "Band to read")->capture_default_str();
+  simplify_cmd->add_option("--crs", simplify.read.assign_crs, "CRS to assume when the raster has none");
+  simplify_cmd->add_flag("-q,--quiet", quiet, "No progress output");
+
+  RenderJobOptions render;
+  double render_resolution = 0;
+  std::string window;
+  bool no_edges = false;
+  CLI::App* render_cmd = app.add_subcommand(
+      "render", "Draw a DSM from above, hillshaded, with meshes' edges over it, side by side, as a PNG");
+  render_cmd->add_option("DSM", render.dsm, "Raster file")->required();
+  render_cmd->add_option("--mesh", render.meshes, "Mesh file (.ply, .obj, .off) in the DSM's CRS; one panel each");
+  render_cmd->add_option("--title", render.titles, "Panel title, in --mesh order (default: the file names)");
+  render_cmd->add_option("-o,--output", render.output, "Picture: .png")->required();
+  render_cmd->add_option("--window", window, "Area to draw: xmin,ymin,xmax,ymax in CRS units (default: all)");
+  render_cmd->add_option("--zoom", render.render.pixels_per_cell, "Pixels per DSM cell")->capture_default_str();
+  render_cmd->add_flag("--no-edges", no_edges, "Do not draw the meshes' edges");
+  CLI::Option* render_res =
+      render_cmd->add_option("--res", render_resolution, "Resample the DSM to this x/y resolution first");
+  render_cmd->add_option("--band", render.read.band, "Band to read")->capture_default_str();
+  render_cmd->add_option("--crs", render.read.assign_crs, "CRS to assume when the raster has none");
+  render_cmd->add_flag("-q,--quiet", quiet, "No progress output");
+
   try {
     app.parse(argc, argv);
     if (*info_cmd) {
@@ -111,6 +164,28 @@ int main(int argc, char** argv) {
       mesh.resampling = parse_resampling(resampling);
       const MeshReport report = mesh_dsm(mesh, terminal_progress(quiet));
       if (!stats_path.empty()) write_text_file(stats_path, to_json(report).dump(2) + "\n");
+    }
+    if (*simplify_cmd) {
+      if (simplify_res->count()) simplify.resolution = simplify_resolution;
+      simplify.resampling = parse_resampling(simplify_resampling);
+      simplify.method = parse_simplify_method(method);
+      if (max_error->count()) {
+        if (method_option->count() && simplify.method != SimplifyMethod::Bounded) {
+          throw ArgumentError("--max-error", "belongs to the bounded mode, not --method " + method);
+        }
+        simplify.method = SimplifyMethod::Bounded;
+      } else if (simplify.method == SimplifyMethod::Bounded) {
+        throw ArgumentError("--method bounded", "needs --max-error E");
+      }
+      const SimplifyReport report = simplify_job(simplify, terminal_progress(quiet));
+      if (!simplify_stats.empty()) write_text_file(simplify_stats, to_json(report).dump(2) + "\n");
+      std::fputs(simplify_json ? (to_json(report).dump(2) + "\n").c_str() : to_text(report).c_str(), stdout);
+    }
+    if (*render_cmd) {
+      if (render_res->count()) render.resolution = render_resolution;
+      if (!window.empty()) render.render.window = parse_window(window);
+      render.render.edges = !no_edges;
+      render_job(render, terminal_progress(quiet));
     }
   } catch (const CLI::ParseError& error) {
     return app.exit(error);

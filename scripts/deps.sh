@@ -2,7 +2,7 @@
 # Installs the Debian 12 packages dsmplan builds with, when any is missing.
 set -euo pipefail
 packages=(cmake make g++ libcgal-dev libgmp-dev libmpfr-dev libgdal-dev libproj-dev
-          libcli11-dev nlohmann-json3-dev libgtest-dev libgmock-dev)
+          libcli11-dev nlohmann-json3-dev libgtest-dev libgmock-dev libtbb-dev libpng-dev)
 missing=()
 for p in "${packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")

@@ -644,3 +644,159 @@ TEST(CliUsage, UnknownSubcommandOrMissingOptionFails) {
             0);  // no --res
   EXPECT_TRUE(out.files().empty());
 }
+
+// ==== dsmplan simplify ======================================================================
+
+// Table 2's columns from the real sample at 2 m: counts add up to the grid (250 x 250 cells, no
+// nodata), the written PLY has the reported counts, the bounded mode keeps its promise.
+TEST(CliSimplify, RealSampleVariantTwoAndBoundedReportTableTwoColumns) {
+  TempDir out;
+  const auto variant = run_cli({"simplify", testkit::data_path(kSample), "--res", "2", "--method", "variant2", "-o",
+                                out.path("v2.ply"), "--stats", out.path("v2.json"), "-q"});
+  ASSERT_EQ(variant.exit_code, 0) << variant.err;
+  const json v2 = json::parse(testkit::read_file(out.path("v2.json")));
+  EXPECT_EQ(v2["vertices_in"], 250 * 250);
+  EXPECT_EQ(v2["vertices_in"].get<int>() - v2["removed_coplanar"].get<int>() - v2["removed_colinear"].get<int>(),
+            v2["vertices_out"].get<int>());
+  EXPECT_GT(v2["removed_coplanar"].get<int>(), 0);
+  EXPECT_EQ(v2["certified_cells"], 250 * 250);
+  const auto header = ply_header(testkit::read_file(out.path("v2.ply")));
+  EXPECT_NE(std::find(header.begin(), header.end(), "element vertex " + std::to_string(v2["vertices_out"].get<int>())),
+            header.end());
+  // The summary line says the same as the stats.
+  EXPECT_NE(variant.out.find(std::to_string(v2["vertices_out"].get<int>()) + " vertices"), std::string::npos)
+      << variant.out;
+
+  const auto bounded = run_cli({"simplify", testkit::data_path(kSample), "--res", "2", "--max-error", "0.5",
+                                "--conservative", "-o", out.path("b.ply"), "--json", "-q"});
+  ASSERT_EQ(bounded.exit_code, 0) << bounded.err;
+  const json b = json::parse(bounded.out);
+  EXPECT_EQ(b["method"], "bounded");
+  EXPECT_EQ(b["max_below_m"], 0.0);
+  EXPECT_LE(b["max_above_m"].get<double>(), 0.5);
+  EXPECT_TRUE(b["removed_coplanar"].is_null());
+}
+
+TEST(CliBadInput, SimplifyNegativeDzOrNonPositiveMaxError) {
+  TempDir out;
+  const std::string dsm = testkit::data_path(kSample);
+  expect_clean_failure(run_cli({"simplify", dsm, "-o", out.path("o.ply"), "--dz", "-0.1"}), out, "--dz", {">= 0"});
+  expect_clean_failure(run_cli({"simplify", dsm, "-o", out.path("o.ply"), "--dco", "-1"}), out, "--dco", {">= 0"});
+  for (const char* e : {"0", "-1", "inf", "nan"}) {
+    expect_clean_failure(run_cli({"simplify", dsm, "-o", out.path("o.ply"), "--max-error", e}), out, "--max-error",
+                         {"positive"});
+  }
+  expect_clean_failure(run_cli({"simplify", dsm, "-o", out.path("o.ply"), "--conservative"}), out, "--conservative",
+                       {"bounded"});
+}
+
+TEST(CliBadInput, SimplifyMeshWithoutItsDsm) {
+  TempDir in, out;
+  const std::string mesh = in.path("mesh.ply");
+  ASSERT_EQ(run_cli({"mesh", testkit::data_path(kSample), "--res", "4", "-o", mesh, "-q"}).exit_code, 0);
+  expect_clean_failure(run_cli({"simplify", mesh, "-o", out.path("o.ply")}), out, mesh, {"--dsm"});
+}
+
+TEST(CliBadInput, SimplifyMeshThatIsNot25D) {
+  TempDir in, out;
+  const std::string dsm = testkit::data_path(kSample);
+  // Cell centres of the sample, so the mesh would be certifiable if it were 2.5D.
+  const std::string square =
+      "v 356300.5 5699749.5 120\nv 356301.5 5699749.5 120\nv 356301.5 5699748.5 120\nv 356300.5 5699748.5 120\n";
+  struct Case {
+    const char* name;
+    std::string faces, what;
+  };
+  const std::vector<Case> cases = {
+      {"clockwise.obj", "f 1 2 3\n", "clockwise"},                   // seen from above it turns clockwise
+      {"folded.obj", "f 1 3 2\nf 1 3 2\n", "not 2.5D"},              // the same triangle twice: folds over
+      {"flat.obj", "v 356301 5699749.5 120\nf 1 5 2\n", "no area"},  // three points on a line
+  };
+  for (const Case& c : cases) {
+    const std::string path = in.path(c.name);
+    testkit::write_file(path, square + c.faces);
+    expect_clean_failure(run_cli({"simplify", path, "--dsm", dsm, "-o", out.path("o.ply")}), out, path,
+                         {c.what, "2.5D"});
+  }
+  const std::string twin = in.path("twin.obj");
+  testkit::write_file(twin, square + "v 356300.5 5699749.5 130\nf 1 3 2\nf 5 4 3\n");
+  expect_clean_failure(run_cli({"simplify", twin, "--dsm", dsm, "-o", out.path("o.ply")}), out, twin, {"share x,y"});
+}
+
+// ==== dsmplan render ========================================================================
+
+namespace {
+
+// Width and height from a PNG's IHDR chunk, read here byte by byte (PNG spec, section 11.2.2).
+std::pair<uint32_t, uint32_t> png_size(const std::string& path) {
+  const std::string bytes = testkit::read_file(path);
+  if (bytes.size() < 24 || bytes.compare(0, 8, "\x89PNG\r\n\x1a\n") != 0 || bytes.compare(12, 4, "IHDR") != 0) {
+    throw std::runtime_error(path + " is not a PNG");
+  }
+  auto be32 = [&](size_t at) {
+    uint32_t v = 0;
+    for (size_t k = 0; k < 4; ++k) v = v << 8 | static_cast<unsigned char>(bytes[at + k]);
+    return v;
+  };
+  return {be32(16), be32(20)};
+}
+
+}  // namespace
+
+TEST(CliRender, SampleWithItsMeshGivesAPictureOfTheWindowsSize) {
+  const std::string input = testkit::data_path(kSample);
+  const Raster source = read_with_gdal(input);
+  // A 150 m square inside the sample, 4 pixels per cell.
+  const double xmin = source.gt[0] + 150, ymax = source.gt[3] - 150;
+  const double cell = source.gt[1];
+  const auto side = static_cast<uint32_t>(std::lround(150 / cell * 4));
+  std::ostringstream window;
+  window.precision(12);
+  window << xmin << "," << ymax - 150 << "," << xmin + 150 << "," << ymax;
+
+  TempDir out;
+  const std::string mesh = out.path("mesh.ply"), coarse = out.path("coarse.obj");
+  ASSERT_EQ(run_cli({"mesh", input, "-o", mesh, "-q"}).exit_code, 0);
+  ASSERT_EQ(run_cli({"mesh", input, "-o", coarse, "--res", "5", "-q"}).exit_code, 0);
+
+  const auto one = run_cli({"render", input, "--mesh", mesh, "-o", out.path("one.png"), "--window", window.str(),
+                            "--zoom", "4", "--title", "XY-3 1 m", "-q"});
+  ASSERT_EQ(one.exit_code, 0) << one.err;
+  EXPECT_EQ(one.out, "");
+  EXPECT_EQ(one.err, "");
+  EXPECT_EQ(png_size(out.path("one.png")), std::make_pair(side, side));
+
+  // Two meshes side by side, 8 pixels apart; without edges the same size.
+  const auto two = run_cli({"render", input, "--mesh", mesh, "--mesh", coarse, "-o", out.path("two.png"), "--window",
+                            window.str(), "--no-edges", "-q"});
+  ASSERT_EQ(two.exit_code, 0) << two.err;
+  EXPECT_EQ(png_size(out.path("two.png")), std::make_pair(2 * side + 8, side));
+
+  // The DSM alone, whole, one pixel per cell; progress unless -q.
+  const auto dsm = run_cli({"render", input, "-o", out.path("dsm.png"), "--zoom", "1"});
+  ASSERT_EQ(dsm.exit_code, 0) << dsm.err;
+  EXPECT_NE(dsm.out.find(kProgress), std::string::npos) << dsm.out;
+  EXPECT_EQ(png_size(out.path("dsm.png")),
+            std::make_pair(static_cast<uint32_t>(source.width), static_cast<uint32_t>(source.height)));
+}
+
+TEST(CliBadInput, RenderWindowOutsideOrMalformed) {
+  const std::string input = testkit::data_path(kSample);
+  TempDir out;
+  // Outside the sample (which lies near 356300, 5699250).
+  expect_clean_failure(run_cli({"render", input, "-o", out.path("p.png"), "--window", "0,0,100,100"}), out, "--window",
+                       {"outside"});
+  expect_clean_failure(run_cli({"render", input, "-o", out.path("p.png"), "--window", "356300,5699300,356400"}), out,
+                       "--window", {"four numbers"});
+  expect_clean_failure(run_cli({"render", input, "-o", out.path("p.png"), "--window", "356400,5699300,356300,5699400"}),
+                       out, "--window", {"xmin < xmax"});
+  expect_clean_failure(run_cli({"render", input, "-o", out.path("p.png"), "--zoom", "0"}), out, "--zoom", {"positive"});
+}
+
+TEST(CliBadInput, RenderBrokenMeshNamesIt) {
+  TempDir in, out;
+  const std::string mesh = in.path("broken.obj");
+  testkit::write_file(mesh, "v 356300.5 5699749.5 120\nv 356301.5 5699749.5 120\nf 1 2 3\n");
+  expect_clean_failure(run_cli({"render", testkit::data_path(kSample), "--mesh", mesh, "-o", out.path("p.png")}), out,
+                       mesh, {"does not exist"});
+}

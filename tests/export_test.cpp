@@ -1,13 +1,22 @@
 // Export stage: mesh files read back by an independent reader (CGAL's polygon-soup I/O) must give
 // exactly the mesh written, with the CRS in the header, and failed writes must leave nothing.
+// read_mesh must give back exactly what write_mesh wrote and refuse broken files; pictures must
+// have the promised size, change only where edges are drawn, and read back through libpng.
 #include "dsmplan/export.hpp"
 
 #include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
 #include <CGAL/IO/polygon_soup_io.h>
 #include <gtest/gtest.h>
+#include <png.h>
 
+#include <algorithm>
 #include <array>
+#include <cmath>
+#include <cstring>
+#include <filesystem>
 #include <fstream>
+#include <limits>
+#include <optional>
 #include <vector>
 
 #include "dsmplan/mesh.hpp"
@@ -102,4 +111,456 @@ TEST(MeshWriter, FormatByExtension) {
   EXPECT_EQ(mesh_format_for("b.off"), MeshFormat::Off);
   EXPECT_THROW(mesh_format_for("b.xyz"), ArgumentError);
   EXPECT_THROW(mesh_format_for("noextension"), ArgumentError);
+}
+
+// ==== mesh files in =========================================================================
+//
+// read_mesh is checked against write_mesh on the real tile (exact round trip, CRS included),
+// against files the test writes byte by byte in the variants other tools write, and against
+// broken files whose fault the test knows.
+
+namespace {
+
+void expect_same_mesh(const Mesh& read, const Mesh& written, const std::string& what) {
+  ASSERT_EQ(read.vertices.size(), written.vertices.size()) << what;
+  ASSERT_EQ(read.triangles.size(), written.triangles.size()) << what;
+  // Bitwise: PLY holds the doubles themselves, OBJ/OFF their shortest round-trip decimals.
+  EXPECT_EQ(std::memcmp(read.vertices.data(), written.vertices.data(), written.vertices.size() * sizeof(Vertex)), 0)
+      << what;
+  EXPECT_TRUE(read.triangles == written.triangles) << what;
+  EXPECT_EQ(read.crs.name, written.crs.name) << what;
+  EXPECT_EQ(read.crs.epsg, written.crs.epsg) << what;
+  EXPECT_EQ(read.crs.wkt, written.crs.wkt) << what;
+  EXPECT_EQ(read.crs.vertical_name, written.crs.vertical_name) << what;
+  EXPECT_EQ(read.crs.vertical_unit, written.crs.vertical_unit) << what;
+  EXPECT_EQ(read.crs.geographic, written.crs.geographic) << what;
+}
+
+// The InputError for `path`: names the file, then `place` (when given), and says `problem`.
+void expect_input_error(const std::string& path, const std::string& place, const std::string& problem) {
+  try {
+    read_mesh(path);
+    ADD_FAILURE() << path << ": read without error";
+  } catch (const InputError& error) {
+    const std::string message = error.what();
+    EXPECT_EQ(message.rfind(path + ": ", 0), 0u) << message;
+    // `place` may be a whole place ("line 12") or its kind ("line").
+    if (!place.empty()) EXPECT_EQ(message.find(path + ": " + place), 0u) << message;
+    EXPECT_NE(message.find(problem), std::string::npos) << message;
+    EXPECT_EQ(message.find('\n'), std::string::npos) << message;
+  }
+}
+
+std::string little_endian_ply(const std::string& header_body, const std::string& bytes) {
+  return "ply\nformat binary_little_endian 1.0\n" + header_body + "end_header\n" + bytes;
+}
+
+template <typename T>
+void append(std::string& out, T value, bool big_endian = false) {
+  char b[sizeof(T)];
+  std::memcpy(b, &value, sizeof(T));
+  if (big_endian) std::reverse(b, b + sizeof(T));
+  out.append(b, sizeof(T));
+}
+
+}  // namespace
+
+TEST(MeshReader, RoundTripsTheRealTileInEveryFormat) {
+  const Mesh mesh = real_mesh();
+  ASSERT_GT(mesh.triangles.size(), 1000u);
+  ASSERT_EQ(mesh.crs.epsg, 25832);
+  ASSERT_FALSE(mesh.crs.wkt.empty());
+  testkit::TempDir dir;
+  for (const char* name : {"mesh.ply", "mesh.obj", "mesh.off"}) {
+    const std::string path = dir.path(name);
+    write_mesh(mesh, path, mesh_format_for(path));
+    const Mesh read = read_mesh(path);
+    expect_same_mesh(read, mesh, name);
+    EXPECT_EQ(read.crs.definition, mesh.crs.wkt) << name;
+  }
+}
+
+TEST(MeshReader, RoundTripsEveryShapeOfTheVerticalLine) {
+  Mesh mesh = real_mesh();
+  mesh.triangles.resize(50);
+  testkit::TempDir dir;
+  const std::pair<std::string, std::string> cases[] = {
+      {"DHHN2016 height", "metre"}, {"", "metre"}, {"NAVD88 height (ftUS)", "US survey foot"}, {"", ""}};
+  for (const auto& [name, unit] : cases) {
+    mesh.crs.vertical_name = name;
+    mesh.crs.vertical_unit = unit;
+    for (const char* file : {"v.ply", "v.obj", "v.off"}) {
+      write_mesh(mesh, dir.path(file), mesh_format_for(file));
+      expect_same_mesh(read_mesh(dir.path(file)), mesh, std::string(file) + " vertical '" + name + "' '" + unit + "'");
+    }
+  }
+  // A mesh without any CRS comes back without one.
+  mesh.crs = Crs{};
+  write_mesh(mesh, dir.path("none.obj"), MeshFormat::Obj);
+  const Mesh read = read_mesh(dir.path("none.obj"));
+  EXPECT_FALSE(read.crs.known());
+  EXPECT_EQ(read.crs.name, "");
+}
+
+TEST(MeshReader, ReadsAsciiPlyWithFloatsAndExtraProperties) {
+  testkit::TempDir dir;
+  const std::string path = dir.path("ascii.ply");
+  testkit::write_file(path,
+                      "ply\r\nformat ascii 1.0\r\ncomment crs_epsg 25832\r\nelement vertex 4\r\n"
+                      "property float x\r\nproperty float y\r\nproperty float z\r\nproperty uchar red\r\n"
+                      "property list uchar float normals\r\n"
+                      "element face 2\r\nproperty list uchar int vertex_indices\r\nproperty int flags\r\n"
+                      "element edge 1\r\nproperty int vertex1\r\nproperty int vertex2\r\nend_header\r\n"
+                      "0 0 1.1 255 0\r\n1 0 2 0 3 0 0 1\r\n1 1 3 7 1 0.5\r\n0.1 1 4 9 0\r\n"
+                      "3 0 1 2 17\r\n3 0 2 3 -1\r\n0 1\r\n");
+  const Mesh mesh = read_mesh(path);
+  ASSERT_EQ(mesh.vertices.size(), 4u);
+  EXPECT_EQ(mesh.vertices[0].z, static_cast<double>(1.1f)) << "a float property is the float, widened";
+  EXPECT_EQ(mesh.vertices[3].x, static_cast<double>(0.1f));
+  EXPECT_EQ(mesh.vertices[2].z, 3.0);
+  ASSERT_EQ(mesh.triangles.size(), 2u);
+  EXPECT_EQ(mesh.triangles[1], (Triangle{0, 2, 3}));
+  EXPECT_EQ(mesh.crs.epsg, 25832);
+  EXPECT_EQ(mesh.crs.definition, "EPSG:25832");
+}
+
+TEST(MeshReader, ReadsBigEndianPlyWithIntCountsAndFloats) {
+  std::string body;
+  const float xyz[3][3] = {{1, 2, 3}, {4, 5, 6}, {7, 8.5f, 9}};
+  for (const auto& v : xyz)
+    for (float c : v) append(body, c, true);
+  append(body, int32_t{3}, true);
+  for (uint32_t i : {0u, 1u, 2u}) append(body, i, true);
+  testkit::TempDir dir;
+  const std::string path = dir.path("big.ply");
+  testkit::write_file(path,
+                      "ply\nformat binary_big_endian 1.0\nelement vertex 3\nproperty float32 x\nproperty float32 y\n"
+                      "property float32 z\nelement face 1\nproperty list int uint32 vertex_index\nend_header\n" +
+                          body);
+  const Mesh mesh = read_mesh(path);
+  ASSERT_EQ(mesh.vertices.size(), 3u);
+  EXPECT_EQ(mesh.vertices[2].y, 8.5);
+  ASSERT_EQ(mesh.triangles.size(), 1u);
+  EXPECT_EQ(mesh.triangles[0], (Triangle{0, 1, 2}));
+}
+
+TEST(MeshReader, ReadsEveryObjFaceForm) {
+  testkit::TempDir dir;
+  const std::string path = dir.path("forms.obj");
+  testkit::write_file(path,
+                      "# crs_name ETRS89 / UTM zone 32N\nmtllib a.mtl\no part\n"
+                      "v 0 0 0\nv 1 0 0\nv 1 1 0 1.0\nv 0 1 0 0.5 0.5 0.5\nvt 0 0\nvt 1 0\nvt 1 1\nvn 0 0 1\n"
+                      "g roof\nusemtl red\ns off\n"
+                      "f 1 2 3\nf 1/1 3/3 4/2\nf 1/1/1 2/2/1 3/3/1\nf 1//1 3//1 4//1\nf -4 -3 -2 # relative\n"
+                      "f 1/-3/-1 2/-2/-1 3/-1/-1\n");
+  const Mesh mesh = read_mesh(path);
+  ASSERT_EQ(mesh.vertices.size(), 4u);
+  EXPECT_EQ(mesh.vertices[2].x, 1.0);
+  const std::vector<Triangle> expected{{0, 1, 2}, {0, 2, 3}, {0, 1, 2}, {0, 2, 3}, {0, 1, 2}, {0, 1, 2}};
+  EXPECT_TRUE(mesh.triangles == expected);
+  EXPECT_EQ(mesh.crs.name, "ETRS89 / UTM zone 32N");
+  EXPECT_EQ(mesh.crs.epsg, 0);
+}
+
+TEST(MeshReader, BrokenPlyFilesAreRefusedNamingFileAndPlace) {
+  const Mesh mesh = real_mesh();
+  testkit::TempDir dir;
+  write_mesh(mesh, dir.path("good.ply"), MeshFormat::Ply);
+  const std::string good = testkit::read_file(dir.path("good.ply"));
+  const size_t body = good.find("end_header\n") + 11;
+  const std::string vertices = "element vertex " + std::to_string(mesh.vertices.size()) + "\n";
+  auto variant = [&](const std::string& name, std::string bytes) {
+    testkit::write_file(dir.path(name), bytes);
+    return dir.path(name);
+  };
+  auto replaced = [&](const std::string& from, const std::string& to) {
+    std::string bytes = good;
+    bytes.replace(bytes.find(from), from.size(), to);
+    return bytes;
+  };
+
+  // A header that promises 4 billion vertices must fail before anything is reserved.
+  expect_input_error(variant("lying.ply", replaced(vertices, "element vertex 4000000000\n")), "line",
+                     "bytes follow the header");
+  expect_input_error(variant("too_many.ply", replaced(vertices, "element vertex 99999999999\n")), "line", "32-bit");
+  expect_input_error(
+      variant("fewer.ply", replaced(vertices, "element vertex " + std::to_string(mesh.vertices.size() - 1) + "\n")),
+      "byte", "face 0");  // the last vertex's bytes read as a face
+  expect_input_error(variant("truncated.ply", good.substr(0, good.size() - 7)), "", "bytes follow the header");
+  expect_input_error(variant("trailing.ply", good + "extra"), "byte", "after the last element");
+  expect_input_error(variant("no_end.ply", good.substr(0, body - 11)), "header", "end_header");
+  expect_input_error(variant("not_ply.ply", "solid cube\nfacet normal 0 0 1\n"), "header", "not a PLY file");
+  expect_input_error(variant("keyword.ply", replaced("format binary", "fromat binary")), "line 2", "unknown header");
+
+  // The first face's index points past the last vertex.
+  std::string bytes = good;
+  const size_t first_face = body + 24 * mesh.vertices.size();
+  const auto beyond = static_cast<uint32_t>(mesh.vertices.size());
+  std::memcpy(bytes.data() + first_face + 1, &beyond, 4);
+  expect_input_error(variant("index.ply", bytes), "byte " + std::to_string(first_face), "refers to vertex");
+
+  // A quad where a triangle should be.
+  bytes = good;
+  bytes[first_face] = 4;
+  expect_input_error(variant("quad.ply", bytes), "byte " + std::to_string(first_face), "only triangles");
+
+  // NaN and infinity in a coordinate: the 8th vertex's z, and the 2nd's x.
+  bytes = good;
+  const double nan = std::numeric_limits<double>::quiet_NaN(), inf = std::numeric_limits<double>::infinity();
+  std::memcpy(bytes.data() + body + 7 * 24 + 16, &nan, 8);
+  expect_input_error(variant("nan.ply", bytes), "byte " + std::to_string(body + 7 * 24), "vertex 7");
+  bytes = good;
+  std::memcpy(bytes.data() + body + 24, &inf, 8);
+  expect_input_error(variant("inf.ply", bytes), "byte " + std::to_string(body + 24), "not a finite number");
+
+  expect_input_error(variant("no_z.ply", replaced("property double z\n", "property double w\n")), "line",
+                     "no property z");
+  expect_input_error(variant("float_index.ply", replaced("list uchar uint", "list uchar float")), "line",
+                     "list of integers");
+  expect_input_error(variant("ascii_short.ply",
+                             "ply\nformat ascii 1.0\nelement vertex 3\nproperty double x\nproperty double y\n"
+                             "property double z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n"
+                             "0 0 0\n1 0 0\n1 1 zero\n3 0 1 2\n"),
+                     "line 12", "expected a number");
+}
+
+TEST(MeshReader, BrokenObjAndOffFilesAreRefusedNamingFileAndLine) {
+  testkit::TempDir dir;
+  auto file = [&](const std::string& name, const std::string& text) {
+    testkit::write_file(dir.path(name), text);
+    return dir.path(name);
+  };
+  const std::string v = "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\n";
+  expect_input_error(file("quad.obj", v + "f 1 2 3 4\n"), "line 5", "only triangles");
+  expect_input_error(file("index.obj", v + "f 1 2 3\nf 1 2 9\n"), "line 6", "vertex 9 does not exist");
+  expect_input_error(file("relative.obj", v + "f -5 -1 -2\n"), "line 5", "before the first vertex");
+  expect_input_error(file("word.obj", v + "f 1 two 3\n"), "line 5", "vertex reference");
+  expect_input_error(file("nan.obj", "v 0 0 0\nv 1 nan 0\n"), "line 2", "not a finite number");
+  expect_input_error(file("short.obj", "v 0 0\n"), "line 1", "expected 'v x y z'");
+  expect_input_error(file("twice.obj", v + "f 1 2 1\n"), "line 5", "same vertex twice");
+  expect_input_error(file("binary.obj", std::string("\x89PNG\r\n\x1a\n\0\0\0\rIHDR", 16)), "line 1",
+                     "not a Wavefront OBJ file");
+
+  const std::string off_v = "OFF\n4 2 0\n0 0 0\n1 0 0\n1 1 0\n0 1 0\n";
+  expect_input_error(file("lying.off", "OFF\n900000000 2 0\n0 0 0\n"), "line 2", "more than the");
+  expect_input_error(file("ends.off", "OFF\n4 1 0\n0.000000 0.000000 0.000000\n1.000000 0 0\n"), "line 4",
+                     "after 2 of 4 vertices");
+  expect_input_error(file("quad.off", off_v + "4 0 1 2 3\n3 0 1 2\n"), "line 7", "only triangles");
+  expect_input_error(file("index.off", off_v + "3 0 1 2\n3 0 1 4\n"), "line 8", "refers to vertex");
+  expect_input_error(file("extra.off", off_v + "3 0 1 2\n3 0 2 3\n3 1 2 3\n"), "line 9", "after the last face");
+  expect_input_error(file("inf.off", "OFF\n3 0 0\n0 0 0\n1 inf 0\n1 1 0\n"), "line 4", "not a finite number");
+  expect_input_error(file("coff.off", "COFF\n3 0 0\n"), "line 1", "only plain OFF");
+
+  expect_input_error(file("empty.obj", ""), "", "empty");
+  expect_input_error(dir.path("missing.ply"), "", "No such file");
+  std::filesystem::create_directory(dir.path("folder.obj"));
+  expect_input_error(dir.path("folder.obj"), "", "directory");
+  // The same faces with a colour after the indices are plain OFF.
+  const Mesh coloured = read_mesh(file("colour.off", off_v + "3 0 1 2 255 0 0\n3 0 2 3 0.5 0.5 0.5 1\n"));
+  EXPECT_EQ(coloured.triangles.size(), 2u);
+}
+
+// ==== pictures ==============================================================================
+
+namespace {
+
+const Grid& nrw_grid() {
+  static const Grid grid = read_raster(testkit::data_path("nrw-dom1/nrw_dom1_crop500m_1m.tif"));
+  return grid;
+}
+
+RenderOptions plain(std::optional<Window> window, double zoom = 4) {
+  RenderOptions options;
+  options.window = window;
+  options.pixels_per_cell = zoom;
+  options.scale_bar = options.north_arrow = false;
+  return options;
+}
+
+const uint8_t* pixel(const Image& image, int x, int y) {
+  return image.rgb.data() + (static_cast<size_t>(y) * image.width + x) * 3;
+}
+int brightness(const Image& image, int x, int y) {
+  const uint8_t* p = pixel(image, x, y);
+  return p[0] + p[1] + p[2];
+}
+
+// Distance from (px, py) to the segment a-b.
+double segment_distance(double px, double py, double ax, double ay, double bx, double by) {
+  const double dx = bx - ax, dy = by - ay;
+  const double t = std::clamp(((px - ax) * dx + (py - ay) * dy) / (dx * dx + dy * dy), 0.0, 1.0);
+  return std::hypot(px - (ax + t * dx), py - (ay + t * dy));
+}
+
+}  // namespace
+
+TEST(Render, PictureSizeFollowsWindowAndZoom) {
+  const Grid& grid = nrw_grid();
+  const double x = grid.x0 + 150, y = grid.y0 - 200;
+  Image image = render_view(grid, nullptr, plain(Window{x, y - 100, x + 150, y}));
+  EXPECT_EQ(image.width, 600);
+  EXPECT_EQ(image.height, 400);
+  EXPECT_EQ(image.rgb.size(), 600u * 400 * 3);
+  image = render_view(grid, nullptr, plain(Window{x, y - 100, x + 150, y}, 2.5));
+  EXPECT_EQ(image.width, 375);
+  EXPECT_EQ(image.height, 250);
+  image = render_view(grid, nullptr, plain(std::nullopt, 1));  // the whole grid, one pixel per cell
+  EXPECT_EQ(image.width, grid.width);
+  EXPECT_EQ(image.height, grid.height);
+}
+
+TEST(Render, EdgesChangeExactlyThePixelsAlongThem) {
+  const Grid& grid = nrw_grid();
+  const Window window{grid.x0 + 100, grid.y0 - 160, grid.x0 + 160, grid.y0 - 100};
+  // Five vertices on cell centres of the window, four triangles around the middle one.
+  Mesh mesh;
+  mesh.crs = grid.crs;
+  const int c0 = 105, r0 = 105, c1 = 154, r1 = 154, cm = 130, rm = 128;
+  for (auto [c, r] : {std::pair{c0, r0}, {c1, r0}, {c1, r1}, {c0, r1}, {cm, rm}}) {
+    mesh.vertices.push_back({grid.center_x(c), grid.center_y(r), grid.at(c, r)});
+  }
+  mesh.triangles = {{0, 4, 1}, {1, 4, 2}, {2, 4, 3}, {3, 4, 0}};
+  const RenderOptions options = plain(window, 4);
+  const Image without = render_view(grid, nullptr, options);
+  const Image with = render_view(grid, &mesh, options);
+  ASSERT_EQ(with.width, without.width);
+  ASSERT_EQ(with.height, without.height);
+  auto px = [&](double x) { return (x - window.xmin) * 4; };
+  auto py = [&](double y) { return (window.ymax - y) * 4; };
+  std::vector<std::array<double, 4>> segments;
+  for (const Triangle& t : mesh.triangles)
+    for (int k = 0; k < 3; ++k) {
+      const Vertex &a = mesh.vertices[t[k]], &b = mesh.vertices[t[(k + 1) % 3]];
+      segments.push_back({px(a.x), py(a.y), px(b.x), py(b.y)});
+    }
+  size_t changed = 0, near_line = 0;
+  for (int y = 0; y < with.height; ++y)
+    for (int x = 0; x < with.width; ++x) {
+      double nearest = INFINITY;
+      for (const auto& s : segments)
+        nearest = std::min(nearest, segment_distance(x + 0.5, y + 0.5, s[0], s[1], s[2], s[3]));
+      const bool differs = std::memcmp(pixel(with, x, y), pixel(without, x, y), 3) != 0;
+      changed += differs;
+      // Lines are 1 pixel wide (coverage reaches 1 pixel from the centre line) and may move by
+      // half a pixel in x and y (0.71 pixels) to sit on pixel centres.
+      if (differs) EXPECT_LT(nearest, 1.75) << "pixel " << x << "," << y << " changed away from every edge";
+      if (nearest < 0.25) {
+        ++near_line;
+        EXPECT_LT(brightness(with, x, y), brightness(without, x, y)) << "pixel " << x << "," << y << " on an edge";
+      }
+    }
+  EXPECT_GT(changed, 800u);
+  EXPECT_GT(near_line, 200u);
+  // The pixel under the midpoint of the edge from the middle vertex to the north-east corner.
+  const Vertex &m = mesh.vertices[4], &ne = mesh.vertices[1];
+  const int mx = static_cast<int>(px((m.x + ne.x) / 2)), my = static_cast<int>(py((m.y + ne.y) / 2));
+  EXPECT_LT(brightness(with, mx, my), brightness(without, mx, my) - 60);
+}
+
+TEST(Render, RealMeshAndDecorationsStayInsideThePicture) {
+  const Grid& grid = nrw_grid();
+  const Mesh mesh = triangulate_xy3(grid);
+  RenderOptions options;
+  options.window = Window{grid.x0 + 150, grid.y0 - 300, grid.x0 + 300, grid.y0 - 150};
+  options.title = "XY-3, 1 m \xc3\xa4";  // non-ASCII prints as '?', never out of the font
+  const Image image = render_view(grid, &mesh, options);
+  EXPECT_EQ(image.width, 600);
+  EXPECT_EQ(image.height, 600);
+  // Title box top-left, north arrow box top-right: near white there.
+  EXPECT_GT(brightness(image, 14, 14), 3 * 200);
+  EXPECT_GT(brightness(image, image.width - 14, 14), 3 * 200);
+}
+
+TEST(Render, NodataAndOutsideHaveTheirOwnColours) {
+  Grid grid = nrw_grid();
+  for (int r = 10; r < 20; ++r)
+    for (int c = 10; c < 20; ++c) grid.z[grid.index(c, r)] = Grid::nodata;
+  // A window reaching 10 m west of the grid.
+  const Image image = render_view(grid, nullptr, plain(Window{grid.x0 - 10, grid.y0 - 40, grid.x0 + 30, grid.y0}, 2));
+  const uint8_t* hole = pixel(image, (10 + 15) * 2, 15 * 2);
+  const uint8_t* outside = pixel(image, 5 * 2, 15 * 2);
+  EXPECT_GT(hole[2], hole[0] + 20) << "nodata is pale blue";
+  EXPECT_EQ(outside[0], outside[2]) << "outside the grid is grey";
+  EXPECT_NE(std::memcmp(hole, outside, 3), 0);
+}
+
+TEST(Render, BadWindowOrZoomIsAnArgumentError) {
+  const Grid& grid = nrw_grid();
+  // Wholly east of the grid; touching its edge only; inverted; not finite.
+  EXPECT_THROW(render_view(grid, nullptr, plain(Window{grid.x1() + 10, grid.y1(), grid.x1() + 50, grid.y0})),
+               ArgumentError);
+  EXPECT_THROW(render_view(grid, nullptr, plain(Window{grid.x1(), grid.y1(), grid.x1() + 50, grid.y0})), ArgumentError);
+  EXPECT_THROW(render_view(grid, nullptr, plain(Window{grid.x0 + 50, grid.y1(), grid.x0, grid.y0})), ArgumentError);
+  EXPECT_THROW(render_view(grid, nullptr, plain(Window{grid.x0, grid.y1(), NAN, grid.y0})), ArgumentError);
+  EXPECT_THROW(render_view(grid, nullptr, plain(std::nullopt, 0)), ArgumentError);
+  EXPECT_THROW(render_view(grid, nullptr, plain(std::nullopt, 1000)), ArgumentError);  // 500000 pixels a side
+  try {
+    render_view(grid, nullptr, plain(Window{0, 0, 10, 10}));
+    ADD_FAILURE() << "no error";
+  } catch (const ArgumentError& error) {
+    EXPECT_EQ(std::string(error.what()).rfind("--window: ", 0), 0u) << error.what();
+    EXPECT_NE(std::string(error.what()).find("outside"), std::string::npos) << error.what();
+  }
+  Mesh broken;
+  broken.vertices = {{grid.x0 + 1, grid.y0 - 1, 0}};
+  broken.triangles = {{0, 1, 2}};
+  EXPECT_THROW(render_view(grid, &broken, plain(std::nullopt, 1)), ArgumentError);
+}
+
+TEST(Render, ParseWindow) {
+  const Window w = parse_window("356450, 5699450,356600.5,5699600");
+  EXPECT_EQ(w.xmin, 356450);
+  EXPECT_EQ(w.ymin, 5699450);
+  EXPECT_EQ(w.xmax, 356600.5);
+  EXPECT_EQ(w.ymax, 5699600);
+  for (const char* bad : {"", "1,2,3", "1,2,3,4,5", "1,2,,4", "a,b,c,d", "1;2;3;4"}) {
+    EXPECT_THROW(parse_window(bad), ArgumentError) << bad;
+  }
+}
+
+TEST(Render, SideBySidePlacesPanelsWithAGap) {
+  Image a{2, 3, std::vector<uint8_t>(2 * 3 * 3, 10)}, b{4, 1, std::vector<uint8_t>(4 * 1 * 3, 20)};
+  const Image both = side_by_side({a, b}, 5);
+  EXPECT_EQ(both.width, 2 + 5 + 4);
+  EXPECT_EQ(both.height, 3);
+  EXPECT_EQ(pixel(both, 1, 2)[0], 10);
+  EXPECT_EQ(pixel(both, 3, 0)[0], 255);  // the gap
+  EXPECT_EQ(pixel(both, 7, 0)[1], 20);
+  EXPECT_EQ(pixel(both, 7, 1)[1], 255);  // below the shorter panel
+  EXPECT_THROW(side_by_side({}), ArgumentError);
+  EXPECT_THROW(side_by_side({a}, -1), ArgumentError);
+  EXPECT_THROW(side_by_side({Image{2, 2, {1, 2, 3}}}), ArgumentError);
+}
+
+TEST(Png, ReadsBackWithLibpngToTheSamePixels) {
+  const Grid& grid = nrw_grid();
+  const Mesh mesh = triangulate_xy3(resample(grid, 5, Resampling::Median));
+  RenderOptions options;
+  options.window = Window{grid.x0, grid.y0 - 100, grid.x0 + 150, grid.y0};
+  options.title = "round trip";
+  const Image image = render_view(grid, &mesh, options);
+  testkit::TempDir dir;
+  const std::string path = dir.path("view.png");
+  write_png(image, path);
+  EXPECT_EQ(dir.files().size(), 1u);
+
+  png_image png{};
+  png.version = PNG_IMAGE_VERSION;
+  ASSERT_TRUE(png_image_begin_read_from_file(&png, path.c_str())) << png.message;
+  EXPECT_EQ(png.width, static_cast<png_uint_32>(image.width));
+  EXPECT_EQ(png.height, static_cast<png_uint_32>(image.height));
+  EXPECT_EQ(png.format & PNG_FORMAT_FLAG_COLOR, static_cast<png_uint_32>(PNG_FORMAT_FLAG_COLOR));
+  png.format = PNG_FORMAT_RGB;
+  std::vector<uint8_t> pixels(PNG_IMAGE_SIZE(png));
+  ASSERT_TRUE(png_image_finish_read(&png, nullptr, pixels.data(), 0, nullptr)) << png.message;
+  EXPECT_TRUE(pixels == image.rgb);
+}
+
+TEST(Png, FailedWritesLeaveNothingAndBadImagesAreRefused) {
+  const Image image{3, 2, std::vector<uint8_t>(3 * 2 * 3, 128)};
+  testkit::TempDir dir;
+  EXPECT_THROW(write_png(image, dir.path("missing/view.png")), OutputError);
+  EXPECT_THROW(write_png(Image{}, dir.path("empty.png")), ArgumentError);
+  EXPECT_THROW(write_png(Image{3, 2, {1, 2, 3}}, dir.path("short.png")), ArgumentError);
+  EXPECT_TRUE(dir.files().empty());
 }

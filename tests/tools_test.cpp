@@ -4,8 +4,10 @@
 
 #include <gtest/gtest.h>
 
+#include <filesystem>
 #include <sstream>
 
+#include "dsmplan/export.hpp"
 #include "testkit.hpp"
 
 using namespace dsmplan;
@@ -77,4 +79,90 @@ TEST(Tools, GridSummaryIsTheWrittenGeoTiff) {
   EXPECT_GT(read.holes, 0u);  // canals stay holes
   EXPECT_EQ(read_back.crs.vertical_name, "NAP height");
   EXPECT_EQ(read_back.crs.epsg, 28992);
+}
+
+// The simplify report is the written mesh, its keys are Table 2's columns and the certified
+// error, and that error is the one the written file (read back) has against the DSM.
+TEST(Tools, SimplifyReportIsTheWrittenMeshAndKeepsItsKeys) {
+  testkit::TempDir dir;
+  const std::string dsm_path = testkit::data_path("nrw-dom1/nrw_dom1_crop500m_1m.tif");
+  for (const SimplifyMethod method : {SimplifyMethod::Variant2, SimplifyMethod::Bounded}) {
+    SimplifyJobOptions job;
+    job.input = dsm_path;
+    job.output = dir.path(std::string(to_string(method)) + ".ply");
+    job.resolution = 2;
+    job.method = method;
+    job.bounded.max_error = 0.4;
+    job.bounded.conservative = method == SimplifyMethod::Bounded;
+    const SimplifyReport report = simplify_job(job);
+    const std::string ply = testkit::read_file(job.output);
+    EXPECT_EQ(ply_count(ply, "vertex"), static_cast<long long>(report.vertices_out));
+    EXPECT_EQ(ply_count(ply, "face"), static_cast<long long>(report.faces_out));
+    EXPECT_EQ(report.vertices_in, 250u * 250u);  // 500 m at 2 m, no nodata
+    EXPECT_LT(report.vertices_out, report.vertices_in);
+
+    const Mesh written = read_mesh(job.output);
+    const VerticalError error = certify(written, resample(read_raster(dsm_path), 2, Resampling::Median));
+    EXPECT_DOUBLE_EQ(error.max_above, report.error.max_above);
+    EXPECT_DOUBLE_EQ(error.max_below, report.error.max_below);
+    EXPECT_EQ(error.cells, report.error.cells);
+
+    const Json json = to_json(report);
+    expect_keys(json, {"input",
+                       "output",
+                       "method",
+                       "dz",
+                       "dco",
+                       "max_error",
+                       "conservative",
+                       "vertices_in",
+                       "vertices_out",
+                       "removed_coplanar",
+                       "removed_colinear",
+                       "faces_out",
+                       "max_above_m",
+                       "max_below_m",
+                       "rms_m",
+                       "certified_cells",
+                       "uncovered_cells",
+                       "crs",
+                       "vertical",
+                       "seconds"});
+    expect_keys(json["seconds"], {"read", "certify", "write", "total"});
+    EXPECT_EQ(json["crs"]["epsg"], 25832);
+    if (method == SimplifyMethod::Bounded) {
+      EXPECT_TRUE(json["removed_coplanar"].is_null());
+      EXPECT_EQ(json["max_below_m"], 0.0);
+      EXPECT_LE(json["max_above_m"].get<double>(), 0.4);
+    } else {
+      EXPECT_EQ(json["removed_coplanar"].get<size_t>() + json["removed_colinear"].get<size_t>(),
+                report.vertices_in - report.vertices_out);
+      expect_keys(json["seconds"], {"search", "triangulate"});
+    }
+  }
+}
+
+// A mesh input is certified against the DSM it came from, and refused without one.
+TEST(Tools, SimplifyMeshInputNeedsItsDsm) {
+  testkit::TempDir dir;
+  MeshJobOptions mesh;
+  mesh.input = testkit::data_path("nrw-dom1/nrw_dom1_crop500m_1m.tif");
+  mesh.output = dir.path("mesh.ply");
+  mesh.resolution = 4;
+  mesh_dsm(mesh);
+  SimplifyJobOptions job;
+  job.input = mesh.output;
+  job.output = dir.path("simplified.ply");
+  EXPECT_THROW(simplify_job(job), ArgumentError);
+  EXPECT_FALSE(std::filesystem::exists(job.output));
+  job.dsm = mesh.input;
+  job.resolution = 4;
+  const SimplifyReport from_mesh = simplify_job(job);
+  // The same as simplifying the DSM directly.
+  job.input = mesh.input;
+  job.output = dir.path("direct.ply");
+  const SimplifyReport direct = simplify_job(job);
+  EXPECT_EQ(from_mesh.vertices_out, direct.vertices_out);
+  EXPECT_EQ(from_mesh.faces_out, direct.faces_out);
+  EXPECT_DOUBLE_EQ(from_mesh.error.max_below, direct.error.max_below);
 }

@@ -8,9 +8,15 @@
 //   OBJ/OFF: the same lines behind '#'.
 // Writing is atomic: a temporary file in the target folder is renamed into place when complete;
 // on any error nothing is left behind and OutputError names the file and the reason.
+//
+// read_mesh() reads those files back (and the usual variants other tools write) with the CRS;
+// render_view() and write_png() draw a DSM and its mesh as a picture (the paper's Figures 6, 7).
 #pragma once
 
+#include <cstdint>
+#include <optional>
 #include <string>
+#include <vector>
 
 #include "dsmplan/core.hpp"
 #include "dsmplan/mesh.hpp"
@@ -29,5 +35,81 @@ void write_mesh(const Mesh& mesh, const std::string& path, MeshFormat format, co
 
 /// Writes `text` to `path` atomically (temporary file + rename). OutputError on failure.
 void write_text_file(const std::string& path, const std::string& text);
+
+// ---- mesh files in ------------------------------------------------------------------------
+
+/// Reads a triangle mesh written by write_mesh() or by another tool, in the mesh's own
+/// coordinates. The format comes from the content (a PLY file starts with "ply", an OFF file
+/// with "OFF"), else from the extension (.ply, .off), else it is read as OBJ:
+///   PLY  ascii, binary_little_endian or binary_big_endian 1.0; vertex properties x, y, z as
+///        float or double (others, lists too, are skipped); a face list "vertex_indices" (or
+///        "vertex_index") with any integer count and index types (other face properties and
+///        other elements are skipped);
+///   OBJ  "v x y z [...]" and "f" with "v", "v/vt", "v/vt/vn" or "v//vn" words, 1-based or
+///        negative (relative) indices; groups, materials, "vt", "vn", lines and points are ignored;
+///   OFF  plain "OFF", a "vertices faces [edges]" line, "x y z" lines, "3 a b c [colour]" lines.
+/// Vertices and triangles come in file order, indices unchanged, coordinates exactly as stored
+/// (float properties widen to double exactly). The CRS comes from the "crs_name", "crs_epsg",
+/// "crs_wkt" and "vertical NAME (UNIT)" comments write_mesh() puts in the header ("unknown" gives
+/// an empty field); `definition` is the WKT, else "EPSG:n"; `geographic` is read from the WKT's
+/// first CRS keyword. A file without those comments gives an unknown CRS.
+/// Throws InputError(path, place, problem), place "header", "line N" or "byte N", for: a missing
+/// or unreadable file, anything that does not parse, a face that is not a triangle or names a
+/// vertex twice, an index out of range, a coordinate that is NaN or infinite, more than 2^32-1
+/// vertices, and a header that declares more records than the file can hold or fewer than it
+/// holds (checked before anything is reserved). Memory O(file size + mesh), time O(file size).
+Mesh read_mesh(const std::string& path, const Progress& progress = {});
+
+// ---- pictures -----------------------------------------------------------------------------
+
+struct Image {
+  int width = 0, height = 0;
+  std::vector<uint8_t> rgb;  ///< row-major from the top-left, 3 bytes (R, G, B) per pixel
+};
+
+struct Window {
+  double xmin = 0, ymin = 0, xmax = 0, ymax = 0;  ///< CRS units
+};
+
+/// Parses "xmin,ymin,xmax,ymax" (blanks allowed around the numbers); ArgumentError("--window")
+/// when it is not four numbers. The order of the bounds is checked by render_view().
+Window parse_window(const std::string& text);
+
+struct RenderOptions {
+  std::optional<Window> window;  ///< none: the whole grid
+  double pixels_per_cell = 4;    ///< zoom: pixels per cell along x (y keeps the same scale)
+  bool edges = true;             ///< draw the mesh's triangle edges
+  bool scale_bar = true, north_arrow = true;
+  std::string title;  ///< drawn at the top-left (built-in 8x8 bitmap font, ASCII; others print as '?')
+};
+
+/// A picture of `dsm` seen from above, north up, with `mesh` (may be null) drawn over it.
+/// The picture covers the window (default: the grid's outer cell edges) at pixels_per_cell /
+/// cell_x pixels per CRS unit on both axes: width = round((xmax - xmin) * that), the same for
+/// the height, at least 1. The ground is Horn's hillshade (sun from azimuth 315 degrees,
+/// altitude 45 degrees, no vertical exaggeration) tinted lightly by height (green low, sand,
+/// terracotta high, spread over the window's 2nd-98th height percentiles), interpolated
+/// bilinearly between cell centres; nodata cells are pale blue, the area outside the grid is
+/// light grey. Mesh edges are 1-pixel dark anti-aliased lines clipped to the picture, each edge
+/// drawn once; they may move by up to half a pixel so that cell centres fall on pixel centres
+/// (crisp lines at even zooms), and they are drawn lighter the shorter they are and the more of
+/// the picture they would cover (a full-resolution mesh seen from afar). The scale bar
+/// (bottom-left, a round 1/2/5 x 10^k length, labelled in metres; left out for geographic CRSs),
+/// the north arrow (top-right) and the title (top-left, shortened with "..." when too long) sit
+/// on light boxes that grow with the picture and are left out when it is too small. The mesh must be in
+/// the DSM's CRS. Throws ArgumentError for: a window that is empty, not finite or does not
+/// overlap the grid ("--window"); pixels_per_cell not positive and finite ("--zoom"); a picture
+/// over 30000 pixels a side or 2^26 pixels ("--zoom"); a triangle naming a missing vertex
+/// ("mesh"). Time O(pixels + triangles + e log e), e = edges over the picture.
+Image render_view(const Grid& dsm, const Mesh* mesh, const RenderOptions& options);
+
+/// The panels left to right, top-aligned, `gap` white pixels apart, shorter ones padded white.
+/// ArgumentError when there is no panel, a panel's pixel array does not match its size, or
+/// gap < 0.
+Image side_by_side(const std::vector<Image>& panels, int gap = 8);
+
+/// Writes an 8-bit RGB PNG (libpng, default compression). Atomic like the mesh writers;
+/// OutputError on failure, ArgumentError when the image is empty or its array has the wrong size.
+void write_png(const Image& image, const std::string& path);
 
 }  // namespace dsmplan

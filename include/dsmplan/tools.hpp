@@ -15,8 +15,10 @@
 #include <vector>
 
 #include "dsmplan/core.hpp"
+#include "dsmplan/export.hpp"
 #include "dsmplan/mesh.hpp"
 #include "dsmplan/raster.hpp"
+#include "dsmplan/simplify.hpp"
 
 namespace dsmplan {
 
@@ -90,5 +92,77 @@ MeshReport mesh_dsm(const MeshJobOptions& options, const Progress& progress = {}
 /// source_resolution, resolution, resampling, zstep, max_edge_length, file_bytes, crs, vertical,
 /// seconds {read, resample, triangulate, write, total}.
 Json to_json(const MeshReport& report);
+
+// ---- dsmplan simplify -----------------------------------------------------------------------
+
+enum class SimplifyMethod { Variant1, Variant2, Bounded };
+const char* to_string(SimplifyMethod);
+/// Parses "variant1", "variant2", "bounded"; ArgumentError otherwise.
+SimplifyMethod parse_simplify_method(const std::string& name);
+
+struct SimplifyJobOptions {
+  std::string input;   ///< DSM raster, or a mesh file (.ply, .obj, .off) made from `dsm`
+  std::string output;  ///< .ply, .obj or .off
+  std::string dsm;     ///< with a mesh input: the DSM to certify against (required)
+  ReadRasterOptions read;
+  std::optional<double> resolution;  ///< resample the DSM to this x/y cell size first
+  Resampling resampling = Resampling::Median;
+  MeshOptions mesh;  ///< how a DSM input is meshed before the paper's variants
+  SimplifyMethod method = SimplifyMethod::Variant2;
+  PaperSimplifyOptions paper;      ///< dz, dco (the variant comes from `method`)
+  BoundedSimplifyOptions bounded;  ///< max_error, conservative, delaunay, threads
+};
+
+struct SimplifyReport {
+  std::string input, output;
+  SimplifyMethod method = SimplifyMethod::Variant2;
+  PaperSimplifyOptions paper;
+  BoundedSimplifyOptions bounded;
+  double source_resolution = 0, resolution = 0;
+  size_t vertices_in = 0, vertices_out = 0, faces_in = 0, faces_out = 0;
+  std::optional<size_t> removed_coplanar, removed_colinear;  ///< the paper's variants only
+  VerticalError error;                                       ///< certified on the output
+  Crs crs;
+  std::vector<std::pair<std::string, double>> seconds;  ///< per stage, and total
+};
+
+/// DSM (meshed as `dsmplan mesh` does) or mesh + DSM -> simplified mesh, certified against
+/// the DSM, written atomically. The bounded mode needs the DSM as input (it works on the grid).
+SimplifyReport simplify_job(const SimplifyJobOptions& options, const Progress& progress = {});
+/// Keys (Table 2's columns and the certified error): input, output, method, dz, dco, max_error,
+/// conservative, delaunay, source_resolution, resolution, vertices_in, vertices_out, reduction,
+/// removed_coplanar, removed_colinear (null in the bounded mode), faces_in, faces_out,
+/// max_above_m, max_below_m, rms_m, certified_cells, uncovered_cells, crs, vertical,
+/// seconds {read, mesh, search, triangulate | simplify, certify, write, total}.
+Json to_json(const SimplifyReport& report);
+/// One summary line for people.
+std::string to_text(const SimplifyReport& report);
+
+// ---- dsmplan render -------------------------------------------------------------------------
+
+struct RenderJobOptions {
+  std::string dsm;                  ///< DSM raster: the ground of every panel
+  std::vector<std::string> meshes;  ///< one panel each (.ply, .obj, .off, in the DSM's CRS)
+  std::vector<std::string> titles;  ///< per panel; missing ones are the mesh (or DSM) file names
+  std::string output;               ///< .png
+  ReadRasterOptions read;
+  std::optional<double> resolution;  ///< resample the DSM (median) to this cell size first
+  RenderOptions render;              ///< window, zoom, edges, scale bar, north arrow (title: per panel)
+};
+
+struct RenderReport {
+  std::string output;
+  int width = 0, height = 0;  ///< of the whole picture, pixels
+  size_t panels = 0;
+};
+
+/// The paper's Figures 6 and 7: one hillshaded panel per mesh with its edges drawn, side by
+/// side (8 pixels apart), or one panel of the DSM alone when there is no mesh; written as a PNG
+/// atomically. Checks before reading: the output ends in .png, --res, the window and the zoom
+/// (ArgumentError), at most one title per panel ("--title"). A mesh whose header names an EPSG
+/// code other than the DSM's, or that lies wholly outside the DSM, is an InputError naming it.
+RenderReport render_job(const RenderJobOptions& options, const Progress& progress = {});
+/// Keys: output, width, height, panels.
+Json to_json(const RenderReport& report);
 
 }  // namespace dsmplan

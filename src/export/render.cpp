@@ -1,0 +1,584 @@
+// Pictures of a DSM and its mesh seen from above, as the paper's Figures 6 and 7. The ground is
+// Horn's hillshade (B. K. P. Horn, "Hill shading and the reflectance map", Proc. IEEE 69(1),
+// 1981; the 3x3 slope weights and the sun of GDAL's gdaldem hillshade: azimuth 315, altitude 45)
+// tinted by height; mesh edges are anti-aliased by the distance of each pixel centre to the line.
+// Text uses the public-domain 8x8 VGA font (font8x8_basic, Daniel Hepper, after Marcel Sondaar /
+// IBM). Pure computation: no GDAL, no files.
+#include <algorithm>
+#include <array>
+#include <charconv>
+#include <cmath>
+#include <cstdint>
+#include <cstdio>
+#include <numbers>
+#include <string>
+#include <vector>
+
+#include "dsmplan/export.hpp"
+
+namespace dsmplan {
+
+namespace {
+
+constexpr double kMaxSide = 30000;
+constexpr double kMaxPixels = double(1 << 26);
+
+struct Rgb {
+  float r, g, b;  // 0..1
+};
+
+Rgb mix(Rgb a, Rgb b, float t) { return {a.r + (b.r - a.r) * t, a.g + (b.g - a.g) * t, a.b + (b.b - a.b) * t}; }
+Rgb scaled(Rgb c, float f) { return {c.r * f, c.g * f, c.b * f}; }
+
+constexpr Rgb kNodata{0.72f, 0.83f, 0.95f};   // pale blue: holes are often water, and no ground is blue
+constexpr Rgb kOutside{0.93f, 0.93f, 0.93f};  // beyond the grid: no data was ever there
+constexpr Rgb kEdge{0.05f, 0.06f, 0.14f};
+constexpr Rgb kInk{0.08f, 0.08f, 0.08f};
+constexpr Rgb kPaper{1.0f, 1.0f, 1.0f};
+
+// Light hypsometric tint, low to high: green ground, sand, terracotta roofs. Pale, so the
+// hillshade carries the shapes and dark edges stay visible on every colour.
+Rgb height_tint(float t) {
+  static constexpr std::array<Rgb, 4> stops{
+      {{0.74f, 0.84f, 0.68f}, {0.90f, 0.88f, 0.74f}, {0.96f, 0.83f, 0.68f}, {0.97f, 0.74f, 0.66f}}};
+  const float x = std::clamp(t, 0.0f, 1.0f) * (stops.size() - 1);
+  const size_t i = std::min(static_cast<size_t>(x), stops.size() - 2);
+  return mix(stops[i], stops[i + 1], x - static_cast<float>(i));
+}
+
+// ---- the canvas ---------------------------------------------------------------------------
+
+class Canvas {
+public:
+  Canvas(int width, int height) {
+    image_.width = width;
+    image_.height = height;
+    image_.rgb.assign(static_cast<size_t>(width) * height * 3, 0);
+  }
+  int width() const { return image_.width; }
+  int height() const { return image_.height; }
+  Image take() { return std::move(image_); }
+
+  void set(int x, int y, Rgb c) {
+    uint8_t* p = pixel(x, y);
+    p[0] = byte(c.r), p[1] = byte(c.g), p[2] = byte(c.b);
+  }
+
+  void blend(int x, int y, Rgb c, float alpha) {
+    if (x < 0 || y < 0 || x >= image_.width || y >= image_.height || !(alpha > 0)) return;
+    uint8_t* p = pixel(x, y);
+    alpha = std::min(alpha, 1.0f);
+    p[0] = byte(p[0] / 255.0f * (1 - alpha) + c.r * alpha);
+    p[1] = byte(p[1] / 255.0f * (1 - alpha) + c.g * alpha);
+    p[2] = byte(p[2] / 255.0f * (1 - alpha) + c.b * alpha);
+  }
+
+  /// [x0, x1) x [y0, y1), clipped.
+  void fill(int x0, int y0, int x1, int y1, Rgb c, float alpha) {
+    for (int y = std::max(0, y0); y < std::min(image_.height, y1); ++y)
+      for (int x = std::max(0, x0); x < std::min(image_.width, x1); ++x) blend(x, y, c, alpha);
+  }
+
+private:
+  static uint8_t byte(float v) { return static_cast<uint8_t>(std::lround(std::clamp(v, 0.0f, 1.0f) * 255.0f)); }
+  uint8_t* pixel(int x, int y) { return image_.rgb.data() + (static_cast<size_t>(y) * image_.width + x) * 3; }
+  Image image_;
+};
+
+// Liang-Barsky: clips the segment to the rectangle; false when nothing is left.
+bool clip(double& x0, double& y0, double& x1, double& y1, double xmin, double ymin, double xmax, double ymax) {
+  const double dx = x1 - x0, dy = y1 - y0;
+  double t0 = 0, t1 = 1;
+  auto side = [&](double p, double q) {
+    if (p == 0) return q >= 0;
+    const double r = q / p;
+    if (p < 0) {
+      if (r > t1) return false;
+      t0 = std::max(t0, r);
+    } else {
+      if (r < t0) return false;
+      t1 = std::min(t1, r);
+    }
+    return true;
+  };
+  if (!side(-dx, x0 - xmin) || !side(dx, xmax - x0) || !side(-dy, y0 - ymin) || !side(dy, ymax - y0)) return false;
+  const double ax = x0, ay = y0;
+  x0 = ax + t0 * dx, y0 = ay + t0 * dy;
+  x1 = ax + t1 * dx, y1 = ay + t1 * dy;
+  return true;
+}
+
+// A line `width` pixels wide in continuous pixel coordinates (pixel (i, j) covers [i, i+1) x
+// [j, j+1)). Each pixel along the major axis gets the coverage of its centre's distance to the
+// line, times the part of the pixel the segment spans, so lines meeting at a vertex join.
+void draw_line(Canvas& canvas, double x0, double y0, double x1, double y1, Rgb colour, float alpha, double width) {
+  if (!clip(x0, y0, x1, y1, -2, -2, canvas.width() + 2, canvas.height() + 2)) return;
+  const bool steep = std::abs(y1 - y0) > std::abs(x1 - x0);
+  if (steep) std::swap(x0, y0), std::swap(x1, y1);
+  if (x0 > x1) std::swap(x0, x1), std::swap(y0, y1);
+  const double length = x1 - x0;
+  if (length < 1e-9) return;
+  const double slope = (y1 - y0) / length;
+  const double cosine = 1 / std::sqrt(1 + slope * slope);  // perpendicular distance per unit across
+  const double half = width / 2, reach = (half + 0.5) / cosine;
+  for (int ix = static_cast<int>(std::floor(x0)); ix <= static_cast<int>(std::floor(x1)); ++ix) {
+    const double lo = std::max(x0, double(ix)), hi = std::min(x1, ix + 1.0);
+    if (hi <= lo) continue;
+    const double yc = y0 + slope * (0.5 * (lo + hi) - x0);
+    for (int iy = static_cast<int>(std::floor(yc - reach)); iy <= static_cast<int>(std::floor(yc + reach)); ++iy) {
+      const double distance = std::abs(iy + 0.5 - yc) * cosine;
+      const double coverage = std::clamp(half + 0.5 - distance, 0.0, 1.0) * (hi - lo);
+      if (steep) {
+        canvas.blend(iy, ix, colour, static_cast<float>(alpha * coverage));
+      } else {
+        canvas.blend(ix, iy, colour, static_cast<float>(alpha * coverage));
+      }
+    }
+  }
+}
+
+// Filled triangle, 4x4 samples per pixel for smooth edges.
+void fill_triangle(Canvas& canvas, std::array<double, 6> p, Rgb colour) {
+  const double xmin = std::min({p[0], p[2], p[4]}), xmax = std::max({p[0], p[2], p[4]});
+  const double ymin = std::min({p[1], p[3], p[5]}), ymax = std::max({p[1], p[3], p[5]});
+  auto edge = [](double ax, double ay, double bx, double by, double x, double y) {
+    return (bx - ax) * (y - ay) - (by - ay) * (x - ax);
+  };
+  const double area = edge(p[0], p[1], p[2], p[3], p[4], p[5]);
+  if (area == 0) return;
+  for (int y = static_cast<int>(std::floor(ymin)); y <= static_cast<int>(ymax); ++y)
+    for (int x = static_cast<int>(std::floor(xmin)); x <= static_cast<int>(xmax); ++x) {
+      int inside = 0;
+      for (int sy = 0; sy < 4; ++sy)
+        for (int sx = 0; sx < 4; ++sx) {
+          const double px = x + (sx + 0.5) / 4, py = y + (sy + 0.5) / 4;
+          const double a = edge(p[0], p[1], p[2], p[3], px, py) / area;
+          const double b = edge(p[2], p[3], p[4], p[5], px, py) / area;
+          const double c = edge(p[4], p[5], p[0], p[1], px, py) / area;
+          inside += a >= 0 && b >= 0 && c >= 0;
+        }
+      canvas.blend(x, y, colour, inside / 16.0f);
+    }
+}
+
+// ---- text ---------------------------------------------------------------------------------
+
+// font8x8_basic, U+0020 to U+007E: 8 rows per glyph, top first; bit 0 is the leftmost pixel.
+// One change: 'm' drawn with three legs, as the original reads like a Cyrillic 'm' in "20 m".
+constexpr uint8_t kFont[95][8] = {
+    {0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00}, {0x18, 0x3C, 0x3C, 0x18, 0x18, 0x00, 0x18, 0x00},
+    {0x36, 0x36, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00}, {0x36, 0x36, 0x7F, 0x36, 0x7F, 0x36, 0x36, 0x00},
+    {0x0C, 0x3E, 0x03, 0x1E, 0x30, 0x1F, 0x0C, 0x00}, {0x00, 0x63, 0x33, 0x18, 0x0C, 0x66, 0x63, 0x00},
+    {0x1C, 0x36, 0x1C, 0x6E, 0x3B, 0x33, 0x6E, 0x00}, {0x06, 0x06, 0x03, 0x00, 0x00, 0x00, 0x00, 0x00},
+    {0x18, 0x0C, 0x06, 0x06, 0x06, 0x0C, 0x18, 0x00}, {0x06, 0x0C, 0x18, 0x18, 0x18, 0x0C, 0x06, 0x00},
+    {0x00, 0x66, 0x3C, 0xFF, 0x3C, 0x66, 0x00, 0x00}, {0x00, 0x0C, 0x0C, 0x3F, 0x0C, 0x0C, 0x00, 0x00},
+    {0x00, 0x00, 0x00, 0x00, 0x00, 0x0C, 0x0C, 0x06}, {0x00, 0x00, 0x00, 0x3F, 0x00, 0x00, 0x00, 0x00},
+    {0x00, 0x00, 0x00, 0x00, 0x00, 0x0C, 0x0C, 0x00}, {0x60, 0x30, 0x18, 0x0C, 0x06, 0x03, 0x01, 0x00},
+    {0x3E, 0x63, 0x73, 0x7B, 0x6F, 0x67, 0x3E, 0x00}, {0x0C, 0x0E, 0x0C, 0x0C, 0x0C, 0x0C, 0x3F, 0x00},
+    {0x1E, 0x33, 0x30, 0x1C, 0x06, 0x33, 0x3F, 0x00}, {0x1E, 0x33, 0x30, 0x1C, 0x30, 0x33, 0x1E, 0x00},
+    {0x38, 0x3C, 0x36, 0x33, 0x7F, 0x30, 0x78, 0x00}, {0x3F, 0x03, 0x1F, 0x30, 0x30, 0x33, 0x1E, 0x00},
+    {0x1C, 0x06, 0x03, 0x1F, 0x33, 0x33, 0x1E, 0x00}, {0x3F, 0x33, 0x30, 0x18, 0x0C, 0x0C, 0x0C, 0x00},
+    {0x1E, 0x33, 0x33, 0x1E, 0x33, 0x33, 0x1E, 0x00}, {0x1E, 0x33, 0x33, 0x3E, 0x30, 0x18, 0x0E, 0x00},
+    {0x00, 0x0C, 0x0C, 0x00, 0x00, 0x0C, 0x0C, 0x00}, {0x00, 0x0C, 0x0C, 0x00, 0x00, 0x0C, 0x0C, 0x06},
+    {0x18, 0x0C, 0x06, 0x03, 0x06, 0x0C, 0x18, 0x00}, {0x00, 0x00, 0x3F, 0x00, 0x00, 0x3F, 0x00, 0x00},
+    {0x06, 0x0C, 0x18, 0x30, 0x18, 0x0C, 0x06, 0x00}, {0x1E, 0x33, 0x30, 0x18, 0x0C, 0x00, 0x0C, 0x00},
+    {0x3E, 0x63, 0x7B, 0x7B, 0x7B, 0x03, 0x1E, 0x00}, {0x0C, 0x1E, 0x33, 0x33, 0x3F, 0x33, 0x33, 0x00},
+    {0x3F, 0x66, 0x66, 0x3E, 0x66, 0x66, 0x3F, 0x00}, {0x3C, 0x66, 0x03, 0x03, 0x03, 0x66, 0x3C, 0x00},
+    {0x1F, 0x36, 0x66, 0x66, 0x66, 0x36, 0x1F, 0x00}, {0x7F, 0x46, 0x16, 0x1E, 0x16, 0x46, 0x7F, 0x00},
+    {0x7F, 0x46, 0x16, 0x1E, 0x16, 0x06, 0x0F, 0x00}, {0x3C, 0x66, 0x03, 0x03, 0x73, 0x66, 0x7C, 0x00},
+    {0x33, 0x33, 0x33, 0x3F, 0x33, 0x33, 0x33, 0x00}, {0x1E, 0x0C, 0x0C, 0x0C, 0x0C, 0x0C, 0x1E, 0x00},
+    {0x78, 0x30, 0x30, 0x30, 0x33, 0x33, 0x1E, 0x00}, {0x67, 0x66, 0x36, 0x1E, 0x36, 0x66, 0x67, 0x00},
+    {0x0F, 0x06, 0x06, 0x06, 0x46, 0x66, 0x7F, 0x00}, {0x63, 0x77, 0x7F, 0x7F, 0x6B, 0x63, 0x63, 0x00},
+    {0x63, 0x67, 0x6F, 0x7B, 0x73, 0x63, 0x63, 0x00}, {0x1C, 0x36, 0x63, 0x63, 0x63, 0x36, 0x1C, 0x00},
+    {0x3F, 0x66, 0x66, 0x3E, 0x06, 0x06, 0x0F, 0x00}, {0x1E, 0x33, 0x33, 0x33, 0x3B, 0x1E, 0x38, 0x00},
+    {0x3F, 0x66, 0x66, 0x3E, 0x36, 0x66, 0x67, 0x00}, {0x1E, 0x33, 0x07, 0x0E, 0x38, 0x33, 0x1E, 0x00},
+    {0x3F, 0x2D, 0x0C, 0x0C, 0x0C, 0x0C, 0x1E, 0x00}, {0x33, 0x33, 0x33, 0x33, 0x33, 0x33, 0x3F, 0x00},
+    {0x33, 0x33, 0x33, 0x33, 0x33, 0x1E, 0x0C, 0x00}, {0x63, 0x63, 0x63, 0x6B, 0x7F, 0x77, 0x63, 0x00},
+    {0x63, 0x63, 0x36, 0x1C, 0x1C, 0x36, 0x63, 0x00}, {0x33, 0x33, 0x33, 0x1E, 0x0C, 0x0C, 0x1E, 0x00},
+    {0x7F, 0x63, 0x31, 0x18, 0x4C, 0x66, 0x7F, 0x00}, {0x1E, 0x06, 0x06, 0x06, 0x06, 0x06, 0x1E, 0x00},
+    {0x03, 0x06, 0x0C, 0x18, 0x30, 0x60, 0x40, 0x00}, {0x1E, 0x18, 0x18, 0x18, 0x18, 0x18, 0x1E, 0x00},
+    {0x08, 0x1C, 0x36, 0x63, 0x00, 0x00, 0x00, 0x00}, {0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0xFF},
+    {0x0C, 0x0C, 0x18, 0x00, 0x00, 0x00, 0x00, 0x00}, {0x00, 0x00, 0x1E, 0x30, 0x3E, 0x33, 0x6E, 0x00},
+    {0x07, 0x06, 0x06, 0x3E, 0x66, 0x66, 0x3B, 0x00}, {0x00, 0x00, 0x1E, 0x33, 0x03, 0x33, 0x1E, 0x00},
+    {0x38, 0x30, 0x30, 0x3E, 0x33, 0x33, 0x6E, 0x00}, {0x00, 0x00, 0x1E, 0x33, 0x3F, 0x03, 0x1E, 0x00},
+    {0x1C, 0x36, 0x06, 0x0F, 0x06, 0x06, 0x0F, 0x00}, {0x00, 0x00, 0x6E, 0x33, 0x33, 0x3E, 0x30, 0x1F},
+    {0x07, 0x06, 0x36, 0x6E, 0x66, 0x66, 0x67, 0x00}, {0x0C, 0x00, 0x0E, 0x0C, 0x0C, 0x0C, 0x1E, 0x00},
+    {0x30, 0x00, 0x30, 0x30, 0x30, 0x33, 0x33, 0x1E}, {0x07, 0x06, 0x66, 0x36, 0x1E, 0x36, 0x67, 0x00},
+    {0x0E, 0x0C, 0x0C, 0x0C, 0x0C, 0x0C, 0x1E, 0x00}, {0x00, 0x00, 0x3F, 0x6B, 0x6B, 0x6B, 0x6B, 0x00},
+    {0x00, 0x00, 0x1F, 0x33, 0x33, 0x33, 0x33, 0x00}, {0x00, 0x00, 0x1E, 0x33, 0x33, 0x33, 0x1E, 0x00},
+    {0x00, 0x00, 0x3B, 0x66, 0x66, 0x3E, 0x06, 0x0F}, {0x00, 0x00, 0x6E, 0x33, 0x33, 0x3E, 0x30, 0x78},
+    {0x00, 0x00, 0x3B, 0x6E, 0x66, 0x06, 0x0F, 0x00}, {0x00, 0x00, 0x3E, 0x03, 0x1E, 0x30, 0x1F, 0x00},
+    {0x08, 0x0C, 0x3E, 0x0C, 0x0C, 0x2C, 0x18, 0x00}, {0x00, 0x00, 0x33, 0x33, 0x33, 0x33, 0x6E, 0x00},
+    {0x00, 0x00, 0x33, 0x33, 0x33, 0x1E, 0x0C, 0x00}, {0x00, 0x00, 0x63, 0x6B, 0x7F, 0x7F, 0x36, 0x00},
+    {0x00, 0x00, 0x63, 0x36, 0x1C, 0x36, 0x63, 0x00}, {0x00, 0x00, 0x33, 0x33, 0x33, 0x3E, 0x30, 0x1F},
+    {0x00, 0x00, 0x3F, 0x19, 0x0C, 0x26, 0x3F, 0x00}, {0x38, 0x0C, 0x0C, 0x07, 0x0C, 0x0C, 0x38, 0x00},
+    {0x18, 0x18, 0x18, 0x00, 0x18, 0x18, 0x18, 0x00}, {0x07, 0x0C, 0x0C, 0x38, 0x0C, 0x0C, 0x07, 0x00},
+    {0x6E, 0x3B, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00}};
+
+constexpr int kGlyph = 8;
+
+int text_width(const std::string& text, int scale) { return static_cast<int>(text.size()) * kGlyph * scale; }
+
+void draw_text(Canvas& canvas, int x, int y, const std::string& text, Rgb colour, int scale) {
+  for (size_t i = 0; i < text.size(); ++i) {
+    const auto c = static_cast<unsigned char>(text[i]);
+    const uint8_t* glyph = kFont[(c >= 32 && c < 127 ? c : '?') - 32];
+    const int left = x + static_cast<int>(i) * kGlyph * scale;
+    for (int row = 0; row < kGlyph; ++row)
+      for (int bit = 0; bit < kGlyph; ++bit)
+        if (glyph[row] >> bit & 1) {
+          canvas.fill(left + bit * scale, y + row * scale, left + (bit + 1) * scale, y + (row + 1) * scale, colour, 1);
+        }
+  }
+}
+
+// ---- the view -----------------------------------------------------------------------------
+
+// Where the picture lies: CRS window and the scale, pixels per CRS unit on both axes.
+struct View {
+  Window window;
+  double scale = 1;
+  int width = 0, height = 0;
+  double px(double x) const { return (x - window.xmin) * scale; }
+  double py(double y) const { return (window.ymax - y) * scale; }
+};
+
+View make_view(const Grid& dsm, const RenderOptions& options) {
+  if (!(options.pixels_per_cell > 0 && std::isfinite(options.pixels_per_cell))) {
+    throw ArgumentError("--zoom", "pixels per cell must be a positive number");
+  }
+  if (dsm.width <= 0 || dsm.height <= 0 || dsm.z.size() != dsm.cells() || !(dsm.cell_x > 0) || !(dsm.cell_y > 0)) {
+    throw ArgumentError("DSM", "is not a grid with cells");
+  }
+  View view;
+  view.window = options.window.value_or(Window{dsm.x0, dsm.y1(), dsm.x1(), dsm.y0});
+  const Window& w = view.window;
+  auto text = [](double v) {
+    char buffer[32];
+    std::snprintf(buffer, sizeof buffer, "%.10g", v);
+    return std::string(buffer);
+  };
+  if (!(std::isfinite(w.xmin) && std::isfinite(w.ymin) && std::isfinite(w.xmax) && std::isfinite(w.ymax)) ||
+      !(w.xmin < w.xmax && w.ymin < w.ymax)) {
+    throw ArgumentError("--window", "must be xmin,ymin,xmax,ymax with xmin < xmax and ymin < ymax");
+  }
+  if (!(w.xmin < dsm.x1() && w.xmax > dsm.x0 && w.ymin < dsm.y0 && w.ymax > dsm.y1())) {
+    throw ArgumentError("--window", text(w.xmin) + "," + text(w.ymin) + "," + text(w.xmax) + "," + text(w.ymax) +
+                                        " lies outside the DSM (" + text(dsm.x0) + "," + text(dsm.y1()) + "," +
+                                        text(dsm.x1()) + "," + text(dsm.y0) + ")");
+  }
+  view.scale = options.pixels_per_cell / dsm.cell_x;
+  const double width = (w.xmax - w.xmin) * view.scale, height = (w.ymax - w.ymin) * view.scale;
+  if (!(width <= kMaxSide && height <= kMaxSide && width * height <= kMaxPixels)) {
+    throw ArgumentError("--zoom", "the picture would be " + text(std::round(width)) + " x " + text(std::round(height)) +
+                                      " pixels; use a smaller zoom or window");
+  }
+  view.width = std::max(1, static_cast<int>(std::lround(width)));
+  view.height = std::max(1, static_cast<int>(std::lround(height)));
+  return view;
+}
+
+// Cells [c0, c1] x [r0, r1] of the grid: the window's, one more on each side, clipped.
+struct CellRange {
+  int c0, r0, c1, r1;
+  int columns() const { return c1 - c0 + 1; }
+};
+
+CellRange cells_under(const Grid& dsm, const Window& w) {
+  auto clamp_col = [&](double v) { return static_cast<int>(std::clamp(v, 0.0, dsm.width - 1.0)); };
+  auto clamp_row = [&](double v) { return static_cast<int>(std::clamp(v, 0.0, dsm.height - 1.0)); };
+  return {clamp_col(std::floor((w.xmin - dsm.x0) / dsm.cell_x) - 1),
+          clamp_row(std::floor((dsm.y0 - w.ymax) / dsm.cell_y) - 1),
+          clamp_col(std::floor((w.xmax - dsm.x0) / dsm.cell_x) + 1),
+          clamp_row(std::floor((dsm.y0 - w.ymin) / dsm.cell_y) + 1)};
+}
+
+// The tint spreads over the 2nd-98th percentiles: a chimney or a crane does not wash out the town.
+std::pair<float, float> height_range(const Grid& dsm, const CellRange& range) {
+  std::vector<float> heights;
+  const size_t cells = static_cast<size_t>(range.columns()) * (range.r1 - range.r0 + 1);
+  const size_t stride = std::max<size_t>(1, cells / 200000);  // a sample is enough for percentiles
+  size_t k = 0;
+  for (int r = range.r0; r <= range.r1; ++r)
+    for (int c = range.c0; c <= range.c1; ++c, ++k)
+      if (k % stride == 0 && dsm.valid(c, r)) heights.push_back(dsm.at(c, r));
+  if (heights.empty()) return {0.0f, 1.0f};
+  auto percentile = [&](double p) {
+    auto it = heights.begin() + static_cast<ptrdiff_t>(p * (heights.size() - 1));
+    std::nth_element(heights.begin(), it, heights.end());
+    return *it;
+  };
+  const float lo = percentile(0.02), hi = percentile(0.98);
+  return {lo, hi > lo + 1e-3f ? hi : lo + 1.0f};
+}
+
+// Colour of every cell in `range`: tint by height times Horn's hillshade. NaN red = nodata.
+std::vector<Rgb> shade_cells(const Grid& dsm, const CellRange& range) {
+  const auto [lo, hi] = height_range(dsm, range);
+  constexpr double kAzimuth = 315 * std::numbers::pi / 180, kAltitude = 45 * std::numbers::pi / 180;
+  // Towards the sun: east, north, up.
+  const double sx = std::sin(kAzimuth) * std::cos(kAltitude), sy = std::cos(kAzimuth) * std::cos(kAltitude);
+  const double sz = std::sin(kAltitude);
+  std::vector<Rgb> colours(static_cast<size_t>(range.columns()) * (range.r1 - range.r0 + 1));
+  for (int r = range.r0; r <= range.r1; ++r)
+    for (int c = range.c0; c <= range.c1; ++c) {
+      Rgb& out = colours[static_cast<size_t>(r - range.r0) * range.columns() + (c - range.c0)];
+      const float e = dsm.at(c, r);
+      if (std::isnan(e)) {
+        out = {NAN, 0, 0};
+        continue;
+      }
+      // A neighbour beyond the grid or in a hole stands in as the centre: flat towards it.
+      auto z = [&](int dc, int dr) -> double {
+        const int cc = c + dc, rr = r + dr;
+        if (cc < 0 || rr < 0 || cc >= dsm.width || rr >= dsm.height || !dsm.valid(cc, rr)) return e;
+        return dsm.at(cc, rr);
+      };
+      const double dzdx =
+          ((z(1, -1) + 2 * z(1, 0) + z(1, 1)) - (z(-1, -1) + 2 * z(-1, 0) + z(-1, 1))) / (8 * dsm.cell_x);
+      const double dzdy =
+          ((z(-1, -1) + 2 * z(0, -1) + z(1, -1)) - (z(-1, 1) + 2 * z(0, 1) + z(1, 1))) / (8 * dsm.cell_y);
+      const double shade = std::max(0.0, (-dzdx * sx - dzdy * sy + sz) / std::sqrt(dzdx * dzdx + dzdy * dzdy + 1));
+      // Flat ground (shade sin 45 = 0.71) comes out at 0.85 of its tint; slopes to the sun brighter.
+      const auto light = static_cast<float>(0.25 + 0.85 * shade);
+      out = scaled(height_tint((e - lo) / (hi - lo)), light);
+    }
+  return colours;
+}
+
+void draw_ground(Canvas& canvas, const Grid& dsm, const View& view) {
+  const CellRange range = cells_under(dsm, view.window);
+  const std::vector<Rgb> colours = shade_cells(dsm, range);
+  auto colour = [&](int c, int r) -> const Rgb& {
+    return colours[static_cast<size_t>(r - range.r0) * range.columns() + (c - range.c0)];
+  };
+  // Per column: the cell under the pixel centre and the fractional position between centres.
+  std::vector<int> under_col(view.width), left_col(view.width);
+  std::vector<float> across(view.width);
+  for (int i = 0; i < view.width; ++i) {
+    const double u = (view.window.xmin + (i + 0.5) / view.scale - dsm.x0) / dsm.cell_x;
+    under_col[i] = static_cast<int>(std::floor(u));
+    left_col[i] = static_cast<int>(std::floor(u - 0.5));
+    across[i] = static_cast<float>(u - 0.5 - left_col[i]);
+  }
+  for (int j = 0; j < view.height; ++j) {
+    const double v = (dsm.y0 - (view.window.ymax - (j + 0.5) / view.scale)) / dsm.cell_y;
+    const int under_row = static_cast<int>(std::floor(v));
+    const int top_row = static_cast<int>(std::floor(v - 0.5));
+    const auto down = static_cast<float>(v - 0.5 - top_row);
+    for (int i = 0; i < view.width; ++i) {
+      const int c = under_col[i];
+      if (c < 0 || c >= dsm.width || under_row < 0 || under_row >= dsm.height) {
+        canvas.set(i, j, kOutside);
+        continue;
+      }
+      if (!dsm.valid(c, under_row)) {
+        canvas.set(i, j, kNodata);
+        continue;
+      }
+      // Bilinear between the four nearest centres, over those that have data.
+      Rgb sum{0, 0, 0};
+      float weight = 0;
+      for (int dr = 0; dr < 2; ++dr)
+        for (int dc = 0; dc < 2; ++dc) {
+          const int cc = left_col[i] + dc, rr = top_row + dr;
+          if (cc < range.c0 || cc > range.c1 || rr < range.r0 || rr > range.r1) continue;
+          const Rgb& k = colour(cc, rr);
+          if (std::isnan(k.r)) continue;
+          const float w = (dc ? across[i] : 1 - across[i]) * (dr ? down : 1 - down);
+          sum = {sum.r + k.r * w, sum.g + k.g * w, sum.b + k.b * w};
+          weight += w;
+        }
+      canvas.set(i, j, weight > 0 ? scaled(sum, 1 / weight) : colour(c, under_row));
+    }
+  }
+}
+
+void draw_edges(Canvas& canvas, const Grid& dsm, const Mesh& mesh, const View& view) {
+  const size_t n = mesh.vertices.size();
+  for (size_t t = 0; t < mesh.triangles.size(); ++t)
+    for (uint32_t index : mesh.triangles[t])
+      if (index >= n) {
+        throw ArgumentError("mesh", "triangle " + std::to_string(t) + " names vertex " + std::to_string(index) +
+                                        " of " + std::to_string(n));
+      }
+  // Each edge once: a shared edge drawn twice would come out darker than a border edge.
+  std::vector<uint64_t> edges;
+  for (const Triangle& t : mesh.triangles) {
+    double xmin = INFINITY, xmax = -INFINITY, ymin = INFINITY, ymax = -INFINITY;
+    for (uint32_t index : t) {
+      const Vertex& v = mesh.vertices[index];
+      xmin = std::min(xmin, v.x), xmax = std::max(xmax, v.x), ymin = std::min(ymin, v.y), ymax = std::max(ymax, v.y);
+    }
+    if (!(view.px(xmax) >= -2 && view.px(xmin) <= view.width + 2 && view.py(ymin) >= -2 &&
+          view.py(ymax) <= view.height + 2)) {
+      continue;  // off the picture, or not finite
+    }
+    for (int k = 0; k < 3; ++k) {
+      const uint64_t a = t[k], b = t[(k + 1) % 3];
+      edges.push_back(std::min(a, b) << 32 | std::max(a, b));
+    }
+  }
+  std::sort(edges.begin(), edges.end());
+  edges.erase(std::unique(edges.begin(), edges.end()), edges.end());
+  // Lines darken in proportion to the ink they lay down. Long edges (a coarse mesh, or a close
+  // zoom) are drawn dark; short ones lighter, and where the lines would cover most of the picture
+  // (a full-resolution mesh seen from afar) lighter still, so the ground stays readable.
+  std::vector<float> lengths;
+  double ink = 0;  // pixels covered by 1-pixel lines, inside the picture
+  for (size_t i = 0; i < edges.size(); ++i) {
+    const Vertex &a = mesh.vertices[edges[i] >> 32], &b = mesh.vertices[edges[i] & 0xffffffffu];
+    double x0 = view.px(a.x), y0 = view.py(a.y), x1 = view.px(b.x), y1 = view.py(b.y);
+    if (i % std::max<size_t>(1, edges.size() / 1000) == 0)
+      lengths.push_back(static_cast<float>(std::hypot(x1 - x0, y1 - y0)));
+    if (clip(x0, y0, x1, y1, 0, 0, view.width, view.height)) ink += std::hypot(x1 - x0, y1 - y0);
+  }
+  float alpha = 0.85f;
+  if (!lengths.empty()) {
+    std::nth_element(lengths.begin(), lengths.begin() + lengths.size() / 2, lengths.end());
+    alpha = std::clamp(0.1f * lengths[lengths.size() / 2], 0.35f, 0.85f);
+    const double coverage = ink / (static_cast<double>(view.width) * view.height);
+    alpha = std::min(alpha, static_cast<float>(std::max(0.12, 0.45 / coverage)));
+  }
+  // Vertices of a grid mesh sit on cell centres, which at an even zoom fall on pixel corners: a
+  // one-pixel line there smears over two half-dark pixels. Moving the lines by less than half a
+  // pixel puts cell centres on pixel centres, and the lines come out crisp.
+  auto snap = [](double cell_centre_px) {
+    const double off = cell_centre_px - std::floor(cell_centre_px);
+    return 0.5 - off;
+  };
+  const double shift_x = snap(view.px(dsm.center_x(0))), shift_y = snap(view.py(dsm.center_y(0)));
+  for (uint64_t edge : edges) {
+    const Vertex &a = mesh.vertices[edge >> 32], &b = mesh.vertices[edge & 0xffffffffu];
+    draw_line(canvas, view.px(a.x) + shift_x, view.py(a.y) + shift_y, view.px(b.x) + shift_x, view.py(b.y) + shift_y,
+              kEdge, alpha, 1.0);
+  }
+}
+
+// ---- decorations ----------------------------------------------------------------------------
+
+std::string metres(double length) {
+  char buffer[32];
+  std::snprintf(buffer, sizeof buffer, "%g m", length);
+  return buffer;
+}
+
+void draw_scale_bar(Canvas& canvas, const View& view, int s) {
+  // The longest 1, 2 or 5 x 10^k that takes at most a quarter of the width.
+  const double target = 0.25 * view.width / view.scale;
+  const double power = std::pow(10.0, std::floor(std::log10(target)));
+  const double step = target / power >= 5 ? 5 : target / power >= 2 ? 2 : 1;
+  const double length = step * power;
+  const int bar = static_cast<int>(std::lround(length * view.scale));
+  const std::string label = metres(length);
+  const int pad = 4 * s, bar_height = 4 * s;
+  const int box_w = std::max(bar, text_width(label, s)) + 2 * pad;
+  const int box_h = pad + kGlyph * s + 2 * s + bar_height + pad;
+  const int x0 = 6 * s, y0 = canvas.height() - 6 * s - box_h;
+  if (bar < 8 || x0 + box_w > canvas.width() || y0 < 0) return;  // no room on a tiny picture
+  canvas.fill(x0, y0, x0 + box_w, y0 + box_h, kPaper, 0.85f);
+  draw_text(canvas, x0 + pad, y0 + pad, label, kInk, s);
+  const int by = y0 + pad + kGlyph * s + 2 * s, bx = x0 + pad;
+  // Four alternating quarters in a dark frame, like a map's.
+  canvas.fill(bx, by, bx + bar, by + bar_height, kInk, 1);
+  for (int q = 1; q < 4; q += 2) {
+    const int a = bx + bar * q / 4, b = bx + bar * (q + 1) / 4;
+    canvas.fill(a, by + 1, b - (q == 3 ? 1 : 0), by + bar_height - 1, kPaper, 1);
+  }
+}
+
+void draw_north_arrow(Canvas& canvas, int s) {
+  const int pad = 4 * s, arrow_w = 10 * s, arrow_h = 16 * s;
+  const int box_w = arrow_w + 2 * pad, box_h = pad + kGlyph * s + 2 * s + arrow_h + pad;
+  const int x0 = canvas.width() - 6 * s - box_w, y0 = 6 * s;
+  if (x0 < 0 || y0 + box_h > canvas.height()) return;
+  canvas.fill(x0, y0, x0 + box_w, y0 + box_h, kPaper, 0.85f);
+  const double cx = x0 + box_w / 2.0;
+  draw_text(canvas, static_cast<int>(std::lround(cx - kGlyph * s / 2.0 + s / 2.0)), y0 + pad, "N", kInk, s);
+  const double top = y0 + pad + kGlyph * s + 2 * s, bottom = top + arrow_h, notch = bottom - arrow_h * 0.3;
+  // The classic half-dark arrow: sun from the north-west lights its right half.
+  fill_triangle(canvas, {cx, top, cx - arrow_w / 2.0, bottom, cx, notch}, kInk);
+  fill_triangle(canvas, {cx, top, cx, notch, cx + arrow_w / 2.0, bottom}, Rgb{0.55f, 0.55f, 0.55f});
+}
+
+void draw_title(Canvas& canvas, std::string title, int s, int room) {
+  const int pad = 4 * s;
+  if (text_width(title, s) + 2 * pad > room && s > 1) s = 1;
+  const int fits = (room - 2 * pad) / (kGlyph * s);
+  if (fits < 4) return;
+  if (static_cast<int>(title.size()) > fits) title = title.substr(0, fits - 3) + "...";
+  const int x0 = 6 * s, y0 = 6 * s;
+  canvas.fill(x0, y0, x0 + text_width(title, s) + 2 * pad, y0 + kGlyph * s + 2 * pad, kPaper, 0.85f);
+  draw_text(canvas, x0 + pad, y0 + pad, title, kInk, s);
+}
+
+}  // namespace
+
+Window parse_window(const std::string& text) {
+  double v[4];
+  size_t start = 0;
+  for (int k = 0; k < 4; ++k) {
+    const size_t comma = text.find(',', start);
+    if ((k < 3) != (comma != std::string::npos)) break;
+    std::string part = text.substr(start, comma == std::string::npos ? std::string::npos : comma - start);
+    part.erase(0, part.find_first_not_of(" \t"));
+    part.erase(part.find_last_not_of(" \t") + 1);
+    const char* end = part.data() + part.size();
+    auto [stop, ec] = std::from_chars(part.data(), end, v[k]);
+    if (part.empty() || ec != std::errc() || stop != end) break;
+    if (k == 3) return {v[0], v[1], v[2], v[3]};
+    start = comma + 1;
+  }
+  throw ArgumentError("--window", "expected four numbers xmin,ymin,xmax,ymax, got '" + text.substr(0, 80) + "'");
+}
+
+Image render_view(const Grid& dsm, const Mesh* mesh, const RenderOptions& options) {
+  const View view = make_view(dsm, options);
+  Canvas canvas(view.width, view.height);
+  draw_ground(canvas, dsm, view);
+  if (mesh && options.edges) draw_edges(canvas, dsm, *mesh, view);
+  // Decorations grow with the picture so they stay readable, and disappear when it is tiny.
+  const int s = std::clamp(std::min(view.width, view.height) / 280, 1, 4);
+  int title_room = view.width - 6 * s;
+  if (options.north_arrow) {
+    draw_north_arrow(canvas, s);
+    title_room -= 10 * s + 8 * s + 6 * s;
+  }
+  if (options.scale_bar && !dsm.crs.geographic) draw_scale_bar(canvas, view, s);
+  if (!options.title.empty()) draw_title(canvas, options.title, s, title_room);
+  return canvas.take();
+}
+
+Image side_by_side(const std::vector<Image>& panels, int gap) {
+  if (panels.empty()) throw ArgumentError("panels", "no picture to put side by side");
+  if (gap < 0) throw ArgumentError("gap", "must be >= 0");
+  int64_t width = static_cast<int64_t>(gap) * (static_cast<int64_t>(panels.size()) - 1);
+  int height = 0;
+  for (const Image& panel : panels) {
+    if (panel.width <= 0 || panel.height <= 0 ||
+        panel.rgb.size() != static_cast<size_t>(panel.width) * panel.height * 3) {
+      throw ArgumentError("panels", "a panel's pixel array does not match its size");
+    }
+    width += panel.width;
+    height = std::max(height, panel.height);
+  }
+  if (width > kMaxSide * 4 || static_cast<double>(width) * height > kMaxPixels * 4) {
+    throw ArgumentError("panels", "together they are too large for one picture");
+  }
+  Image out;
+  out.width = static_cast<int>(width);
+  out.height = height;
+  out.rgb.assign(static_cast<size_t>(out.width) * height * 3, 255);
+  int left = 0;
+  for (const Image& panel : panels) {
+    const size_t row_bytes = static_cast<size_t>(panel.width) * 3;
+    for (int r = 0; r < panel.height; ++r) {
+      std::copy_n(panel.rgb.begin() + static_cast<ptrdiff_t>(r * row_bytes), row_bytes,
+                  out.rgb.begin() + static_cast<ptrdiff_t>((static_cast<size_t>(r) * out.width + left) * 3));
+    }
+    left += panel.width + gap;
+  }
+  return out;
+}
+
+}  // namespace dsmplan

@@ -1,0 +1,97 @@
+// dsmplan render: pictures like the paper's Figures 6 and 7 (a crop from above, hillshaded, the
+// mesh's edges drawn; several meshes side by side), as one PNG.
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <limits>
+
+#include "dsmplan/export.hpp"
+#include "dsmplan/tools.hpp"
+
+namespace dsmplan {
+
+namespace {
+
+std::string file_name(const std::string& path) { return std::filesystem::path(path).filename().string(); }
+
+// A mesh drawn over the wrong DSM would look plausible and mean nothing: refuse what surely is.
+void check_mesh_fits(const Mesh& mesh, const std::string& path, const Grid& dsm) {
+  if (mesh.crs.epsg && dsm.crs.epsg && mesh.crs.epsg != dsm.crs.epsg) {
+    throw InputError(
+        path, "",
+        "its CRS is EPSG:" + std::to_string(mesh.crs.epsg) + ", the DSM's is EPSG:" + std::to_string(dsm.crs.epsg));
+  }
+  if (mesh.vertices.empty()) return;
+  double xmin = INFINITY, xmax = -INFINITY, ymin = INFINITY, ymax = -INFINITY;
+  for (const Vertex& v : mesh.vertices) {
+    xmin = std::min(xmin, v.x), xmax = std::max(xmax, v.x), ymin = std::min(ymin, v.y), ymax = std::max(ymax, v.y);
+  }
+  if (xmax < dsm.x0 || xmin > dsm.x1() || ymax < dsm.y1() || ymin > dsm.y0) {
+    throw InputError(path, "", "the mesh lies wholly outside the DSM; is it in the DSM's CRS?");
+  }
+}
+
+}  // namespace
+
+RenderReport render_job(const RenderJobOptions& options, const Progress& progress) {
+  // Everything that can be checked is checked before the long work starts.
+  std::string extension = std::filesystem::path(options.output).extension().string();
+  std::transform(extension.begin(), extension.end(), extension.begin(),
+                 [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  if (extension != ".png") throw ArgumentError(options.output, "the picture is written as PNG: name it .png");
+  if (options.resolution && !(*options.resolution > 0 && std::isfinite(*options.resolution))) {
+    throw ArgumentError("--res", "must be a positive number of CRS units");
+  }
+  if (!(options.render.pixels_per_cell > 0 && std::isfinite(options.render.pixels_per_cell))) {
+    throw ArgumentError("--zoom", "pixels per cell must be a positive number");
+  }
+  if (const auto& w = options.render.window) {
+    if (!(std::isfinite(w->xmin) && std::isfinite(w->ymin) && std::isfinite(w->xmax) && std::isfinite(w->ymax)) ||
+        !(w->xmin < w->xmax && w->ymin < w->ymax)) {
+      throw ArgumentError("--window", "must be xmin,ymin,xmax,ymax with xmin < xmax and ymin < ymax");
+    }
+  }
+  const size_t panels = std::max<size_t>(1, options.meshes.size());
+  if (options.titles.size() > panels) {
+    throw ArgumentError("--title", std::to_string(options.titles.size()) + " titles for " + std::to_string(panels) +
+                                       (panels == 1 ? " panel" : " panels"));
+  }
+
+  Grid dsm = read_raster(options.dsm, options.read, sub_progress(progress, 0, 0.25));
+  if (options.resolution && (*options.resolution != dsm.cell_x || *options.resolution != dsm.cell_y)) {
+    dsm = resample(dsm, *options.resolution, Resampling::Median, sub_progress(progress, 0.25, 0.3));
+  }
+
+  std::vector<Image> images;
+  for (size_t i = 0; i < panels; ++i) {
+    const double begin = 0.3 + 0.6 * i / panels, end = 0.3 + 0.6 * (i + 1) / panels;
+    RenderOptions render = options.render;
+    if (options.meshes.empty()) {
+      render.title = i < options.titles.size() ? options.titles[i] : file_name(options.dsm);
+      images.push_back(render_view(dsm, nullptr, render));
+    } else {
+      const std::string& path = options.meshes[i];
+      const Mesh mesh = read_mesh(path, sub_progress(progress, begin, (begin + end) / 2));
+      check_mesh_fits(mesh, path, dsm);
+      render.title = i < options.titles.size() ? options.titles[i] : file_name(path);
+      images.push_back(render_view(dsm, &mesh, render));
+    }
+    report(progress, end);
+  }
+  const Image picture = images.size() == 1 ? std::move(images.front()) : side_by_side(images);
+  write_png(picture, options.output);
+  report(progress, 1);
+
+  RenderReport result;
+  result.output = options.output;
+  result.width = picture.width;
+  result.height = picture.height;
+  result.panels = panels;
+  return result;
+}
+
+Json to_json(const RenderReport& report) {
+  return {{"output", report.output}, {"width", report.width}, {"height", report.height}, {"panels", report.panels}};
+}
+
+}  // namespace dsmplan

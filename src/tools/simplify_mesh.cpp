@@ -1,0 +1,219 @@
+// dsmplan simplify: a DSM (meshed first, as `dsmplan mesh` does) or a mesh file, simplified by
+// the paper's variant one or two (Adolf & Hirschmueller, Section 4 and Table 2) or by the
+// bounded mode, and certified against the DSM at every valid cell centre.
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+
+#include "dsmplan/export.hpp"
+#include "dsmplan/simplify.hpp"
+#include "dsmplan/tools.hpp"
+#include "tools/report_json.hpp"
+
+namespace dsmplan {
+
+namespace {
+
+class Stopwatch {
+public:
+  double lap() {
+    const auto now = std::chrono::steady_clock::now();
+    const double seconds = std::chrono::duration<double>(now - last_).count();
+    last_ = now;
+    return seconds;
+  }
+
+private:
+  std::chrono::steady_clock::time_point last_ = std::chrono::steady_clock::now();
+};
+
+bool is_mesh_file(const std::string& path) {
+  try {
+    mesh_format_for(path);
+    return true;
+  } catch (const ArgumentError&) {
+    return false;
+  }
+}
+
+Grid read_dsm(const std::string& path, const SimplifyJobOptions& options, SimplifyReport& report,
+              const Progress& progress) {
+  Grid dsm = read_raster(path, options.read, progress);
+  if (dsm.crs.geographic) {
+    throw InputError(path, "",
+                     "CRS '" + dsm.crs.name +
+                         "' is geographic (degrees); reproject to a projected CRS in metres first, "
+                         "e.g. gdalwarp -t_srs EPSG:25832");
+  }
+  report.source_resolution = dsm.cell_x;
+  if (options.resolution && (*options.resolution != dsm.cell_x || *options.resolution != dsm.cell_y)) {
+    dsm = resample(dsm, *options.resolution, options.resampling);
+  }
+  report.resolution = dsm.cell_x;
+  return dsm;
+}
+
+}  // namespace
+
+const char* to_string(SimplifyMethod method) {
+  switch (method) {
+    case SimplifyMethod::Variant1:
+      return "variant1";
+    case SimplifyMethod::Variant2:
+      return "variant2";
+    case SimplifyMethod::Bounded:
+      return "bounded";
+  }
+  return "?";
+}
+
+SimplifyMethod parse_simplify_method(const std::string& name) {
+  for (SimplifyMethod method : {SimplifyMethod::Variant1, SimplifyMethod::Variant2, SimplifyMethod::Bounded})
+    if (name == to_string(method)) return method;
+  throw ArgumentError("--method", "must be variant1, variant2 or bounded, got '" + name + "'");
+}
+
+SimplifyReport simplify_job(const SimplifyJobOptions& options, const Progress& progress) {
+  // Everything that can be checked is checked before the long work starts.
+  const MeshFormat format = mesh_format_for(options.output);
+  if (options.resolution && !(*options.resolution > 0 && std::isfinite(*options.resolution))) {
+    throw ArgumentError("--res", "must be a positive number of CRS units");
+  }
+  const bool bounded = options.method == SimplifyMethod::Bounded;
+  if (bounded) {
+    if (!(options.bounded.max_error > 0) || !std::isfinite(options.bounded.max_error))
+      throw ArgumentError("--max-error", "must be a positive number, got " + std::to_string(options.bounded.max_error));
+  } else {
+    if (!(options.paper.dz >= 0)) throw ArgumentError("--dz", "must be >= 0, got " + std::to_string(options.paper.dz));
+    if (!(options.paper.dco >= 0))
+      throw ArgumentError("--dco", "must be >= 0, got " + std::to_string(options.paper.dco));
+    if (options.bounded.conservative) throw ArgumentError("--conservative", "needs the bounded mode (--max-error E)");
+  }
+  const bool mesh_input = is_mesh_file(options.input);
+  if (mesh_input && options.dsm.empty()) {
+    throw ArgumentError("--dsm", options.input +
+                                     " is a mesh: the certified error needs the DSM it was made from; "
+                                     "pass --dsm DSM (with the same --res)");
+  }
+  if (mesh_input && bounded) {
+    throw ArgumentError("--max-error", "the bounded mode works on the DSM grid: give the DSM (" + options.dsm +
+                                           ") as the input instead of the mesh " + options.input);
+  }
+
+  SimplifyReport report;
+  report.input = options.input;
+  report.output = options.output;
+  report.method = options.method;
+  report.paper = options.paper;
+  report.bounded = options.bounded;
+  Stopwatch clock;
+  Grid dsm;
+  Mesh input;
+  if (mesh_input) {
+    input = read_mesh(options.input, sub_progress(progress, 0, 0.1));
+    check_2_5d(input, options.input);
+    dsm = read_dsm(options.dsm, options, report, sub_progress(progress, 0.1, 0.2));
+    if (input.crs.epsg && dsm.crs.epsg && input.crs.epsg != dsm.crs.epsg) {
+      throw InputError(options.input, "",
+                       "CRS EPSG:" + std::to_string(input.crs.epsg) +
+                           " differs from the DSM's EPSG:" + std::to_string(dsm.crs.epsg) + " (" + options.dsm + ")");
+    }
+    if (input.crs.wkt.empty()) input.crs = dsm.crs;
+    report.seconds.emplace_back("read", clock.lap());
+  } else {
+    dsm = read_dsm(options.input, options, report, sub_progress(progress, 0, 0.15));
+    report.seconds.emplace_back("read", clock.lap());
+    if (!bounded) input = triangulate_xy3(dsm, options.mesh, sub_progress(progress, 0.15, 0.2));
+    report.seconds.emplace_back("mesh", clock.lap());
+  }
+  report.vertices_in = bounded ? summarize(dsm).valid : input.vertices.size();
+  report.faces_in = bounded ? 0 : input.triangles.size();
+
+  Mesh output;
+  const Progress simplify_progress = sub_progress(progress, 0.2, 0.8);
+  if (bounded) {
+    output = simplify_bounded(dsm, options.bounded, simplify_progress);
+    report.seconds.emplace_back("simplify", clock.lap());
+  } else {
+    PaperSimplifyOptions paper = options.paper;
+    paper.variant = options.method == SimplifyMethod::Variant1 ? PaperVariant::One : PaperVariant::Two;
+    report.paper = paper;
+    PaperSimplifyResult result = simplify_paper(input, paper, simplify_progress);
+    report.removed_coplanar = result.removed_coplanar;
+    report.removed_colinear = result.removed_colinear;
+    output = std::move(result.mesh);
+    clock.lap();
+    report.seconds.emplace_back("search", result.seconds_search);
+    report.seconds.emplace_back("triangulate", result.seconds_triangulate);
+  }
+  input = Mesh();
+  report.error = certify(output, dsm, sub_progress(progress, 0.8, 0.9));
+  report.seconds.emplace_back("certify", clock.lap());
+  write_mesh(output, options.output, format, sub_progress(progress, 0.9, 1.0));
+  report.seconds.emplace_back("write", clock.lap());
+  double total = 0;
+  for (const auto& [stage, seconds] : report.seconds) total += seconds;
+  report.seconds.emplace_back("total", total);
+  report.vertices_out = output.vertices.size();
+  report.faces_out = output.triangles.size();
+  report.crs = output.crs;
+  return report;
+}
+
+Json to_json(const SimplifyReport& report) {
+  auto count_or_null = [](const std::optional<size_t>& n) { return n ? Json(*n) : Json(nullptr); };
+  Json seconds = Json::object();
+  for (const auto& [stage, value] : report.seconds) seconds[stage] = value;
+  const bool bounded = report.method == SimplifyMethod::Bounded;
+  const double kept = report.vertices_in ? double(report.vertices_out) / double(report.vertices_in) : 0;
+  return {{"input", report.input},
+          {"output", report.output},
+          {"method", to_string(report.method)},
+          {"dz", bounded ? Json(nullptr) : Json(report.paper.dz)},
+          {"dco", bounded ? Json(nullptr) : Json(report.paper.dco)},
+          {"max_error", bounded ? Json(report.bounded.max_error) : Json(nullptr)},
+          {"conservative", bounded && report.bounded.conservative},
+          {"delaunay", !bounded || report.bounded.delaunay},
+          {"source_resolution", report.source_resolution},
+          {"resolution", report.resolution},
+          {"vertices_in", report.vertices_in},
+          {"vertices_out", report.vertices_out},
+          {"reduction", 1 - kept},
+          {"removed_coplanar", count_or_null(report.removed_coplanar)},
+          {"removed_colinear", count_or_null(report.removed_colinear)},
+          {"faces_in", report.faces_in ? Json(report.faces_in) : Json(nullptr)},
+          {"faces_out", report.faces_out},
+          {"max_above_m", report.error.max_above},
+          {"max_below_m", report.error.max_below},
+          {"rms_m", report.error.rms},
+          {"certified_cells", report.error.cells},
+          {"uncovered_cells", report.error.uncovered},
+          {"crs", crs_json(report.crs)},
+          {"vertical", vertical_json(report.crs)},
+          {"seconds", seconds}};
+}
+
+std::string to_text(const SimplifyReport& report) {
+  char line[512];
+  const double reduction =
+      report.vertices_in ? 100.0 * (1 - double(report.vertices_out) / double(report.vertices_in)) : 0;
+  double total = 0;
+  for (const auto& [stage, seconds] : report.seconds)
+    if (stage == "total") total = seconds;
+  std::string removed;
+  if (report.removed_coplanar) {
+    removed = ", co-planar " + std::to_string(*report.removed_coplanar) + ", co-linear " +
+              std::to_string(report.removed_colinear.value_or(0));
+  }
+  std::snprintf(line, sizeof line,
+                "%s: %zu -> %zu vertices (-%.1f%%)%s, %zu faces; certified error: mesh up to %.3f m above and "
+                "%.3f m below the DSM (rms %.3f m) at %zu cells%s; %.2f s\n",
+                to_string(report.method), report.vertices_in, report.vertices_out, reduction, removed.c_str(),
+                report.faces_out, report.error.max_above, report.error.max_below, report.error.rms, report.error.cells,
+                report.error.uncovered ? (", " + std::to_string(report.error.uncovered) + " uncovered").c_str() : "",
+                total);
+  return line;
+}
+
+}  // namespace dsmplan
