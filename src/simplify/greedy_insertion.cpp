@@ -17,6 +17,8 @@
 #include <array>
 #include <atomic>
 #include <cmath>
+#include <limits>
+#include <memory>
 #include <mutex>
 #include <queue>
 #include <string>
@@ -442,12 +444,14 @@ Mesh simplify_bounded(const Grid& dsm, const BoundedSimplifyOptions& options, co
       simplify_polyline(target, {xs[i], ys[j]}, {xs[i], ys[j + 1]}, vertical[j][i]);
   report(progress, 0.05);
 
-  struct TileResult {
-    std::vector<Point> points;
-    std::vector<double> heights;
-    std::vector<uint32_t> corners;
-  };
-  std::vector<TileResult> results(tiles_x * tiles_y);
+  // Per cell: 1 once a kept triangle uses it, later its vertex index; and that vertex's height.
+  // Tiles sharing a border write the same values there (relaxed atomics: no torn or racy writes).
+  if (dsm.cells() >= std::numeric_limits<uint32_t>::max())
+    throw ArgumentError("DSM", "too many cells for 32-bit vertex indices; split it into tiles");
+  const bool has_nodata = std::any_of(dsm.z.begin(), dsm.z.end(), [](float z) { return std::isnan(z); });
+  std::vector<uint32_t> id(dsm.cells(), 0);
+  std::unique_ptr<double[]> height(new double[dsm.cells()]);
+  std::vector<std::vector<Triangle>> tile_triangles(tiles_x * tiles_y);  // cell indices
   std::mutex progress_mutex;
   std::atomic<size_t> done{0};
   std::atomic<bool> cancelled{false};
@@ -460,61 +464,75 @@ Mesh simplify_bounded(const Grid& dsm, const BoundedSimplifyOptions& options, co
     TileTriangulation triangulation(target, xs[i], ys[j], xs[i + 1], ys[j + 1]);
     triangulation.start(border);
     triangulation.fill();
-    results[index] = {std::move(triangulation.points()), std::move(triangulation.heights()),
-                      std::move(triangulation.corners())};
-    const size_t finished = ++done;
-    std::lock_guard lock(progress_mutex);
-    try {
-      report(progress, 0.05 + 0.85 * finished / results.size());
-    } catch (const Cancelled&) {
-      cancelled = true;
-    }
-  };
-  if (options.delaunay || options.threads == 1) {
-    for (size_t index = 0; index < results.size(); ++index) run_tile(index);
-  } else {
-    tbb::task_arena arena(options.threads > 0 ? options.threads : tbb::task_arena::automatic);
-    arena.execute([&] {
-      tbb::parallel_for(
-          size_t(0), results.size(), [&](size_t index) { run_tile(index); }, tbb::simple_partitioner());
-    });
-  }
-  if (cancelled) throw Cancelled();
-
-  // One vertex per used cell, in row-major order; triangles counter-clockwise in the CRS
-  // (they are counter-clockwise in (col, row), whose rows run south).
-  const bool has_nodata = std::any_of(dsm.z.begin(), dsm.z.end(), [](float z) { return std::isnan(z); });
-  Mesh mesh;
-  mesh.crs = dsm.crs;
-  size_t triangle_count = 0;
-  for (const TileResult& result : results) triangle_count += result.corners.size() / 3;
-  mesh.triangles.reserve(triangle_count);
-  std::vector<uint32_t> id(dsm.cells(), 0);  // first 1 for a used cell, then its vertex index
-  std::vector<double> height(dsm.cells());   // of the vertex at a used cell (tiles agree on borders)
-  for (const TileResult& result : results) {
-    for (size_t k = 0; k < result.corners.size(); k += 3) {
-      std::array<Point, 3> p;
-      for (int m = 0; m < 3; ++m) p[m] = result.points[result.corners[k + m]];
+    const auto& points = triangulation.points();
+    const auto& corners = triangulation.corners();
+    auto& kept = tile_triangles[index];
+    kept.reserve(corners.size() / 3);
+    for (size_t k = 0; k < corners.size(); k += 3) {
+      const std::array<Point, 3> p{points[corners[k]], points[corners[k + 1]], points[corners[k + 2]]};
       if (has_nodata && over_nodata_only(target, p)) continue;
       Triangle cells;
       for (int m = 0; m < 3; ++m) {
         cells[m] = static_cast<uint32_t>(dsm.index(p[m].x, p[m].y));
-        id[cells[m]] = 1;
-        height[cells[m]] = result.heights[result.corners[k + m]];
+        std::atomic_ref<uint32_t>(id[cells[m]]).store(1, std::memory_order_relaxed);
+        std::atomic_ref<double>(height[cells[m]])
+            .store(triangulation.heights()[corners[k + m]], std::memory_order_relaxed);
       }
-      mesh.triangles.push_back({cells[0], cells[2], cells[1]});
+      // Counter-clockwise in (col, row), whose rows run south: reversed for the CRS.
+      kept.push_back({cells[0], cells[2], cells[1]});
     }
-  }
-  for (int row = 0; row < dsm.height; ++row) {
-    for (int col = 0; col < dsm.width; ++col) {
-      const size_t cell = dsm.index(col, row);
-      if (!id[cell]) continue;
-      id[cell] = static_cast<uint32_t>(mesh.vertices.size());
-      mesh.vertices.push_back({dsm.center_x(col), dsm.center_y(row), height[cell]});
+    const size_t finished = ++done;
+    std::lock_guard lock(progress_mutex);
+    try {
+      report(progress, 0.05 + 0.85 * finished / tile_triangles.size());
+    } catch (const Cancelled&) {
+      cancelled = true;
     }
-  }
-  for (Triangle& t : mesh.triangles)
-    for (uint32_t& v : t) v = id[v];
+  };
+  const bool serial = options.delaunay || options.threads == 1;
+  tbb::task_arena arena(serial ? 1 : options.threads > 0 ? options.threads : tbb::task_arena::automatic);
+  arena.execute([&] {
+    tbb::parallel_for(
+        size_t(0), tile_triangles.size(), [&](size_t index) { run_tile(index); }, tbb::simple_partitioner());
+  });
+  if (cancelled) throw Cancelled();
+
+  // One vertex per used cell, in row-major order (numbered by blocks of rows in parallel).
+  Mesh mesh;
+  mesh.crs = dsm.crs;
+  const int block_rows = 16;
+  const size_t blocks = (dsm.height + block_rows - 1) / block_rows;
+  std::vector<uint32_t> block_first(blocks + 1, 0);
+  arena.execute([&] {
+    tbb::parallel_for(size_t(0), blocks, [&](size_t b) {
+      const size_t begin = dsm.index(0, int(b) * block_rows);
+      const size_t end = dsm.index(0, std::min(dsm.height, int(b + 1) * block_rows));
+      block_first[b + 1] = static_cast<uint32_t>(std::count(id.begin() + begin, id.begin() + end, 1u));
+    });
+  });
+  for (size_t b = 0; b < blocks; ++b) block_first[b + 1] += block_first[b];
+  mesh.vertices.resize(block_first[blocks]);
+  std::vector<size_t> triangle_first(tile_triangles.size() + 1, 0);
+  for (size_t t = 0; t < tile_triangles.size(); ++t)
+    triangle_first[t + 1] = triangle_first[t] + tile_triangles[t].size();
+  mesh.triangles.resize(triangle_first.back());
+  arena.execute([&] {
+    tbb::parallel_for(size_t(0), blocks, [&](size_t b) {
+      uint32_t next = block_first[b];
+      for (int row = int(b) * block_rows; row < std::min(dsm.height, int(b + 1) * block_rows); ++row) {
+        for (int col = 0; col < dsm.width; ++col) {
+          const size_t cell = dsm.index(col, row);
+          if (!id[cell]) continue;
+          id[cell] = next;
+          mesh.vertices[next++] = {dsm.center_x(col), dsm.center_y(row), height[cell]};
+        }
+      }
+    });
+    tbb::parallel_for(size_t(0), tile_triangles.size(), [&](size_t t) {
+      Triangle* out = mesh.triangles.data() + triangle_first[t];
+      for (const Triangle& cells : tile_triangles[t]) *out++ = {id[cells[0]], id[cells[1]], id[cells[2]]};
+    });
+  });
   report(progress, 1);
   return mesh;
 }
