@@ -28,6 +28,16 @@
 //        two border neighbours: otherwise the mesh's footprint would shrink and cells near the
 //        outline would be left uncovered, with no surface for the planner to avoid.
 //      - A vertex without triangles (a lone valid cell in a hole) has no neighbours and stays.
+//      - Tolerances are compared with 1 nm of slack: heights in 0.1 m steps are decimals held in
+//        binary (112.7 - 112.3 = 0.4000000000000057), and "within 0.4 m" must not depend on
+//        the height.
+//      - A co-linear vertex is removed because it lies "on an edge between two neighbour
+//        vertices" (the paper's Fig. 5). The Delaunay re-triangulation need not contain that
+//        edge; where it does not, the surface over the removed vertex can drop to the street
+//        beside a thin wall whose top rises (measured on the NRW tile: wall tops cut down).
+//        So after re-triangulation every removed co-linear vertex is located in the new mesh,
+//        and those the surface misses by more than dz are put back (inserted again, Delaunay
+//        kept), until none is; they count as kept (restored_colinear), not as removed.
 //      - Re-triangulation keeps the outline and holes: the survivors get a constrained Delaunay
 //        triangulation whose constraints are the input's border edges (between surviving border
 //        vertices), and only the faces inside the input's footprint are kept. Where the input
@@ -95,6 +105,7 @@ std::vector<VertexMark> mark_paper(const Mesh& mesh, const PaperSimplifyOptions&
 struct PaperSimplifyResult {
   Mesh mesh;  ///< survivors in their input order, re-triangulated
   size_t removed_coplanar = 0, removed_colinear = 0;
+  size_t restored_colinear = 0;  ///< marked co-linear, put back because Delaunay lost their line
   double seconds_search = 0, seconds_triangulate = 0;
 };
 

@@ -121,6 +121,7 @@ struct SimplifyReport {
   double source_resolution = 0, resolution = 0;
   size_t vertices_in = 0, vertices_out = 0, faces_in = 0, faces_out = 0;
   std::optional<size_t> removed_coplanar, removed_colinear;  ///< the paper's variants only
+  std::optional<size_t> restored_colinear;                   ///< marked co-linear, put back
   VerticalError error;                                       ///< certified on the output
   Crs crs;
   std::vector<std::pair<std::string, double>> seconds;  ///< per stage, and total
@@ -131,7 +132,7 @@ struct SimplifyReport {
 SimplifyReport simplify_job(const SimplifyJobOptions& options, const Progress& progress = {});
 /// Keys (Table 2's columns and the certified error): input, output, method, dz, dco, max_error,
 /// conservative, delaunay, source_resolution, resolution, vertices_in, vertices_out, reduction,
-/// removed_coplanar, removed_colinear (null in the bounded mode), faces_in, faces_out,
+/// removed_coplanar, removed_colinear, restored_colinear (null in the bounded mode), faces_in, faces_out,
 /// max_above_m, max_below_m, rms_m, certified_cells, uncovered_cells, crs, vertical,
 /// seconds {read, mesh, search, triangulate | simplify, certify, write, total}.
 Json to_json(const SimplifyReport& report);

@@ -25,6 +25,10 @@ namespace {
 
 constexpr uint32_t none = std::numeric_limits<uint32_t>::max();
 
+// Heights in 0.1 m steps are decimals held in binary: 112.7 - 112.3 is 0.4000000000000057. The
+// tolerances are compared with this much slack, so "within 0.4 m" means it at every height.
+constexpr double height_slack = 1e-9;
+
 // Per vertex, the corners of its triangles as (next, previous) vertex, counter-clockwise.
 struct Corners {
   std::vector<uint32_t> begin;                      // CSR offsets, vertices + 1
@@ -77,7 +81,7 @@ public:
     if (ring.on_border()) return false;
     const double z = mesh_.vertices[a].z;
     return std::all_of(ring.neighbours.begin(), ring.neighbours.end(),
-                       [&](uint32_t n) { return std::abs(mesh_.vertices[n].z - z) <= options_.dz; });
+                       [&](uint32_t n) { return std::abs(mesh_.vertices[n].z - z) <= options_.dz + height_slack; });
   }
 
   bool colinear(uint32_t a, const Ring& ring) const {
@@ -182,20 +186,6 @@ PaperSimplifyResult simplify_paper(const Mesh& mesh, const PaperSimplifyOptions&
   report(progress, 0.2);
   start = Clock::now();
 
-  // Survivors keep their input order.
-  std::vector<uint32_t> new_index(mesh.vertices.size(), none);
-  result.mesh.crs = mesh.crs;
-  for (uint32_t v = 0; v < mesh.vertices.size(); ++v) {
-    if (marks[v] == VertexMark::Coplanar) {
-      ++result.removed_coplanar;
-    } else if (marks[v] == VertexMark::Colinear) {
-      ++result.removed_colinear;
-    } else {
-      new_index[v] = static_cast<uint32_t>(result.mesh.vertices.size());
-      result.mesh.vertices.push_back(mesh.vertices[v]);
-    }
-  }
-
   // Border edges of the input, chained past removed (co-linear) border vertices.
   const Corners corners(mesh);
   std::vector<uint32_t> border_next(mesh.vertices.size(), none);
@@ -205,7 +195,7 @@ PaperSimplifyResult simplify_paper(const Mesh& mesh, const PaperSimplifyOptions&
     if (corners.begin[a] == corners.begin[a + 1]) continue;
     ring.gather(corners, a);
     for (uint32_t n : ring.border_next) {
-      if (new_index[a] != none)
+      if (marks[a] == VertexMark::Kept)
         border_edges.emplace_back(a, n);
       else
         border_next[a] = n;  // removed border vertices have exactly one border successor
@@ -213,25 +203,84 @@ PaperSimplifyResult simplify_paper(const Mesh& mesh, const PaperSimplifyOptions&
   }
   report(progress, 0.3);
 
+  // The CDT's vertices carry their input index.
   std::vector<std::pair<Kernel::Point_2, uint32_t>> points;
-  points.reserve(result.mesh.vertices.size());
-  for (uint32_t v = 0; v < result.mesh.vertices.size(); ++v)
-    points.emplace_back(Kernel::Point_2(result.mesh.vertices[v].x, result.mesh.vertices[v].y), v);
+  for (uint32_t v = 0; v < mesh.vertices.size(); ++v)
+    if (marks[v] == VertexMark::Kept) points.emplace_back(Kernel::Point_2(mesh.vertices[v].x, mesh.vertices[v].y), v);
   Cdt cdt;
   cdt.insert(points.begin(), points.end());
-  report(progress, 0.7);
-  std::vector<Cdt::Vertex_handle> handle(result.mesh.vertices.size());
+  report(progress, 0.6);
+  std::vector<Cdt::Vertex_handle> handle(mesh.vertices.size());
   for (auto v = cdt.finite_vertices_begin(); v != cdt.finite_vertices_end(); ++v) handle[v->info()] = v;
   for (auto [a, n] : border_edges) {
     size_t steps = 0;
-    while (new_index[n] == none && steps++ < mesh.vertices.size()) n = border_next[n];
-    if (new_index[n] == none) continue;  // a border loop without a survivor (cannot happen: corners stay)
-    cdt.insert_constraint(handle[new_index[a]], handle[new_index[n]]);
+    while (marks[n] != VertexMark::Kept && steps++ < mesh.vertices.size()) n = border_next[n];
+    if (marks[n] != VertexMark::Kept) continue;  // a border loop without a survivor (corners stay)
+    cdt.insert_constraint(handle[a], handle[n]);
+  }
+
+  // A co-linear vertex goes because it lies "on an edge between two neighbour vertices" (the
+  // paper's Fig. 5); Delaunay need not keep that edge, and where it does not, the surface over
+  // the vertex drops off its line (a wall top cut down to the street). Such vertices are put
+  // back, until the surface over every removed co-linear vertex is within dz of it.
+  // Each is looked up from a kept vertex near it (vertex handles outlive insertions; faces do not).
+  std::vector<std::pair<uint32_t, Cdt::Vertex_handle>> colinear;
+  Cdt::Vertex_handle near = handle[points.front().second];
+  for (uint32_t v = 0; v < mesh.vertices.size(); ++v) {
+    if (marks[v] != VertexMark::Colinear) continue;
+    ring.gather(corners, v);
+    for (uint32_t n : ring.neighbours)
+      if (marks[n] == VertexMark::Kept) near = handle[n];
+    colinear.emplace_back(v, near);
+  }
+  std::vector<bool> restored(mesh.vertices.size(), false);
+  for (bool changed = true; changed;) {
+    changed = false;
+    std::vector<uint32_t> off_line;
+    for (const auto& [v, hint] : colinear) {
+      if (restored[v]) continue;
+      const Vertex& p = mesh.vertices[v];
+      Cdt::Locate_type type;
+      int li;
+      Cdt::Face_handle f = cdt.locate(Kernel::Point_2(p.x, p.y), type, li, hint->face());
+      if (cdt.is_infinite(f) && type == Cdt::EDGE) f = f->neighbor(li);
+      if (cdt.is_infinite(f)) continue;
+      const Vertex &a = mesh.vertices[f->vertex(0)->info()], &b = mesh.vertices[f->vertex(1)->info()],
+                   &c = mesh.vertices[f->vertex(2)->info()];
+      const double area = (b.x - a.x) * (c.y - a.y) - (c.x - a.x) * (b.y - a.y);
+      const double wb = ((p.x - a.x) * (c.y - a.y) - (c.x - a.x) * (p.y - a.y)) / area;
+      const double wc = ((b.x - a.x) * (p.y - a.y) - (p.x - a.x) * (b.y - a.y)) / area;
+      const double z = a.z + wb * (b.z - a.z) + wc * (c.z - a.z);
+      if (std::abs(z - p.z) > options.dz + height_slack) off_line.push_back(v);
+    }
+    for (uint32_t v : off_line) {
+      restored[v] = true;
+      cdt.insert(Kernel::Point_2(mesh.vertices[v].x, mesh.vertices[v].y))->info() = v;
+      changed = true;
+    }
+  }
+  report(progress, 0.9);
+
+  // Survivors (and restored vertices) keep their input order.
+  std::vector<uint32_t> new_index(mesh.vertices.size(), none);
+  result.mesh.crs = mesh.crs;
+  for (uint32_t v = 0; v < mesh.vertices.size(); ++v) {
+    if (marks[v] == VertexMark::Coplanar) {
+      ++result.removed_coplanar;
+    } else if (marks[v] == VertexMark::Colinear && !restored[v]) {
+      ++result.removed_colinear;
+    } else {
+      result.restored_colinear += restored[v];
+      new_index[v] = static_cast<uint32_t>(result.mesh.vertices.size());
+      result.mesh.vertices.push_back(mesh.vertices[v]);
+    }
   }
   mark_nesting(cdt);
   for (auto f = cdt.finite_faces_begin(); f != cdt.finite_faces_end(); ++f) {
-    if (f->info() % 2 == 1)
-      result.mesh.triangles.push_back({f->vertex(0)->info(), f->vertex(1)->info(), f->vertex(2)->info()});
+    if (f->info() % 2 == 1) {
+      result.mesh.triangles.push_back(
+          {new_index[f->vertex(0)->info()], new_index[f->vertex(1)->info()], new_index[f->vertex(2)->info()]});
+    }
   }
   result.seconds_triangulate = std::chrono::duration<double>(Clock::now() - start).count();
   report(progress, 1);

@@ -142,6 +142,7 @@ SimplifyReport simplify_job(const SimplifyJobOptions& options, const Progress& p
     PaperSimplifyResult result = simplify_paper(input, paper, simplify_progress);
     report.removed_coplanar = result.removed_coplanar;
     report.removed_colinear = result.removed_colinear;
+    report.restored_colinear = result.restored_colinear;
     output = std::move(result.mesh);
     clock.lap();
     report.seconds.emplace_back("search", result.seconds_search);
@@ -182,6 +183,7 @@ Json to_json(const SimplifyReport& report) {
           {"reduction", 1 - kept},
           {"removed_coplanar", count_or_null(report.removed_coplanar)},
           {"removed_colinear", count_or_null(report.removed_colinear)},
+          {"restored_colinear", count_or_null(report.restored_colinear)},
           {"faces_in", report.faces_in ? Json(report.faces_in) : Json(nullptr)},
           {"faces_out", report.faces_out},
           {"max_above_m", report.error.max_above},

@@ -1,0 +1,386 @@
+// The validity checker's index: a uniform x,y bucket grid over a 2.5D mesh (the uniform grid of
+// Ericson, Real-Time Collision Detection, 2005, 7.1) with the highest surface point per bucket,
+// the one-level form of the maximum mipmaps of height-field ray casting (Tevs, Ihrke & Seidel,
+// I3D 2008), deciding most queries before any triangle is read. Buckets are found by scanning
+// the rows the segment's d-neighbourhood crosses, each clipped to its x range (Liang-Barsky,
+// Ericson 5.3.3). A bucket lists the triangles whose footprints overlap it (Sutherland-Hodgman
+// clipping, Ericson 8.3.4) with the height of the clipped part, highest first, so a query
+// reads only the triangles that reach up near the segment.
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <string>
+
+#include "dsmplan/plan.hpp"
+
+namespace dsmplan {
+
+namespace {
+
+constexpr double lowest = -std::numeric_limits<double>::infinity();
+
+struct ClipPoint {
+  double x, y, z;
+};
+
+// Highest z of the triangle clipped to the rectangle [x0,x1] x [y0,y1] (closed); -inf when
+// they do not overlap. z is linear on the triangle, so its maximum is at a corner of the clip.
+double clipped_top(const ClipPoint tri[3], double x0, double x1, double y0, double y1) {
+  ClipPoint buf_a[9], buf_b[9];
+  ClipPoint* in = buf_a;
+  ClipPoint* out = buf_b;
+  int n = 3;
+  std::copy(tri, tri + 3, in);
+  for (int side = 0; side < 4 && n > 0; ++side) {
+    // Signed inside-distance of a point from this side of the rectangle.
+    auto inside = [&](const ClipPoint& p) {
+      switch (side) {
+        case 0:
+          return p.x - x0;
+        case 1:
+          return x1 - p.x;
+        case 2:
+          return p.y - y0;
+        default:
+          return y1 - p.y;
+      }
+    };
+    int m = 0;
+    for (int i = 0; i < n; ++i) {
+      const ClipPoint& s = in[i];
+      const ClipPoint& e = in[(i + 1) % n];
+      const double ds = inside(s), de = inside(e);
+      if (ds >= 0) out[m++] = s;
+      if ((ds >= 0) != (de >= 0)) {
+        const double t = ds / (ds - de);
+        out[m++] = {s.x + t * (e.x - s.x), s.y + t * (e.y - s.y), s.z + t * (e.z - s.z)};
+      }
+    }
+    std::swap(in, out);
+    n = m;
+  }
+  double top = lowest;
+  for (int i = 0; i < n; ++i) top = std::max(top, in[i].z);
+  return top;
+}
+
+// Parameter interval of the segment P + t*D, t in [t0, t1], inside the box [lo, hi] (x and y
+// only); false when it misses. Liang-Barsky, with the reciprocals of D (0 for an axis the
+// segment does not move along) computed once a query.
+inline bool clip_xy(double px, double py, double ix, double iy, double xlo, double xhi, double ylo, double yhi,
+                    double& t0, double& t1) {
+  auto axis = [&](double p, double inv, double lo, double hi) {
+    if (inv == 0) return p >= lo && p <= hi;
+    double a = (lo - p) * inv, b = (hi - p) * inv;
+    if (a > b) std::swap(a, b);
+    t0 = std::max(t0, a);
+    t1 = std::min(t1, b);
+    return t0 <= t1;
+  };
+  return axis(px, ix, xlo, xhi) && axis(py, iy, ylo, yhi);
+}
+
+// A segment moving less than this along an axis is taken as still along it: the slack of the
+// quick rejects is many orders larger.
+constexpr double still = 1e-30;
+
+inline float round_up(double v) {
+  const float f = static_cast<float>(v);
+  return f < v ? std::nextafter(f, INFINITY) : f;
+}
+inline float round_down(double v) {
+  const float f = static_cast<float>(v);
+  return f > v ? std::nextafter(f, -INFINITY) : f;
+}
+
+inline int clamp_index(double v, int n) {
+  if (!(v > 0)) return 0;
+  if (v >= n - 1) return n - 1;
+  return static_cast<int>(v);
+}
+
+}  // namespace
+
+ClearanceIndex::ClearanceIndex(const Mesh& mesh, const ClearanceOptions& options) {
+  if (!(options.bucket_size >= 0) || !std::isfinite(options.bucket_size))
+    throw ArgumentError("bucket_size", "must be a finite number >= 0, not " + std::to_string(options.bucket_size));
+  const size_t nv = mesh.vertices.size();
+  for (size_t t = 0; t < mesh.triangles.size(); ++t)
+    for (uint32_t i : mesh.triangles[t])
+      if (i >= nv)
+        throw ArgumentError("mesh", "triangle " + std::to_string(t) + " names vertex " + std::to_string(i) + " of " +
+                                        std::to_string(nv));
+  double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+  for (size_t i = 0; i < nv; ++i) {
+    const Vertex& v = mesh.vertices[i];
+    if (!std::isfinite(v.x) || !std::isfinite(v.y) || !std::isfinite(v.z))
+      throw ArgumentError("mesh", "vertex " + std::to_string(i) + " is not finite");
+    const double c[3] = {v.x, v.y, v.z};
+    for (int k = 0; k < 3; ++k) lo[k] = std::min(lo[k], c[k]), hi[k] = std::max(hi[k], c[k]);
+  }
+  tris_.assign(mesh.triangles.begin(), mesh.triangles.end());
+  if (tris_.empty()) return;
+  // Whole units: v - origin is then exact for any coordinate on the CRS's grid.
+  for (int k = 0; k < 3; ++k) origin_[k] = std::round(0.5 * (lo[k] + hi[k]));
+  verts_.resize(nv);
+  for (size_t i = 0; i < nv; ++i) {
+    const Vertex& v = mesh.vertices[i];
+    verts_[i] = {v.x - origin_[0], v.y - origin_[1], v.z - origin_[2]};
+  }
+  zmax_ = hi[2] - origin_[2];
+  zmin_ = lo[2] - origin_[2];
+  const double wx = hi[0] - lo[0], wy = hi[1] - lo[1];
+  const double extent = std::max({1.0, wx, wy, hi[2] - lo[2]});
+  // Rounding in the clipping and bounds is ~1e-16 of the coordinates; this is far above it and
+  // far below anything a drone cares about.
+  margin_ = 1e-9 * (extent + std::abs(origin_[2]));
+  cell_ = options.bucket_size > 0 ? options.bucket_size
+                                  : std::sqrt(32.0 * std::max(wx * wy, 1e-12) / static_cast<double>(tris_.size()));
+  if (!(cell_ > 0)) cell_ = 1;
+  // Never more buckets than a few per triangle (a long thin mesh), never beyond int range.
+  const double max_buckets = std::min(4.0 * static_cast<double>(tris_.size()) + 16, 5e8);
+  // Bucket borders on the vertex lattice (a grid's cell centres, at a bucket size that is a
+  // multiple of the cell) would list every triangle in up to nine buckets once the borders are
+  // widened by the margin; shifted by an irrational-looking fraction they fall between.
+  constexpr double shift = 0.30901699437494745;
+  while ((std::floor(wx / cell_ + shift) + 1) * (std::floor(wy / cell_ + shift) + 1) > max_buckets) cell_ *= 1.5;
+  cols_ = static_cast<int>(std::floor(wx / cell_ + shift)) + 1;
+  rows_ = static_cast<int>(std::floor(wy / cell_ + shift)) + 1;
+  gx0_ = lo[0] - origin_[0] - shift * cell_;
+  gy0_ = lo[1] - origin_[1] - shift * cell_;
+  const size_t buckets = static_cast<size_t>(cols_) * static_cast<size_t>(rows_);
+
+  // Pass 1 counts the listings per triangle; pass 2 writes them. Both clip the same way, so
+  // they agree; both are parallel over triangles.
+  const size_t nt = tris_.size();
+  if (nt >= UINT32_MAX) throw ArgumentError("mesh", "has 2^32 or more triangles");
+  std::vector<size_t> per_tri(nt + 1, 0);
+  const double eps = margin_;
+  auto each_bucket = [&](size_t t, auto&& fn) {
+    ClipPoint tri[3];
+    double bx0 = INFINITY, bx1 = -INFINITY, by0 = INFINITY, by1 = -INFINITY, top = lowest;
+    for (int k = 0; k < 3; ++k) {
+      const LocalVertex& v = verts_[tris_[t][k]];
+      tri[k] = {v.x, v.y, v.z};
+      bx0 = std::min(bx0, v.x), bx1 = std::max(bx1, v.x), by0 = std::min(by0, v.y), by1 = std::max(by1, v.y);
+      top = std::max(top, v.z);
+    }
+    const int c0 = clamp_index((bx0 - eps - gx0_) / cell_, cols_), c1 = clamp_index((bx1 + eps - gx0_) / cell_, cols_);
+    const int r0 = clamp_index((by0 - eps - gy0_) / cell_, rows_), r1 = clamp_index((by1 + eps - gy0_) / cell_, rows_);
+    if (c0 == c1 && r0 == r1) {
+      fn(static_cast<size_t>(r0) * cols_ + c0, top);
+      return;
+    }
+    for (int r = r0; r <= r1; ++r)
+      for (int c = c0; c <= c1; ++c) {
+        const double x0 = gx0_ + c * cell_, y0 = gy0_ + r * cell_;
+        const double z = clipped_top(tri, x0 - eps, x0 + cell_ + eps, y0 - eps, y0 + cell_ + eps);
+        if (z > lowest) fn(static_cast<size_t>(r) * cols_ + c, z);
+      }
+  };
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, nt), [&](const tbb::blocked_range<size_t>& range) {
+    for (size_t t = range.begin(); t != range.end(); ++t) each_bucket(t, [&](size_t, double) { ++per_tri[t + 1]; });
+  });
+  for (size_t t = 0; t < nt; ++t) per_tri[t + 1] += per_tri[t];
+  if (per_tri[nt] >= UINT32_MAX) throw ArgumentError("bucket_size", "too small: 2^32 or more bucket listings");
+  std::vector<uint32_t> pair_bucket(per_tri[nt]);
+  std::vector<double> pair_top(per_tri[nt]);
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, nt), [&](const tbb::blocked_range<size_t>& range) {
+    for (size_t t = range.begin(); t != range.end(); ++t) {
+      size_t k = per_tri[t];
+      each_bucket(t, [&](size_t b, double z) {
+        pair_bucket[k] = static_cast<uint32_t>(b);
+        pair_top[k++] = z;
+      });
+    }
+  });
+  // Counting sort by bucket; within a bucket triangles stay in mesh order (row-major for
+  // triangulate_xy3, so neighbours in memory are neighbours in space).
+  start_.assign(buckets + 1, 0);
+  top_.assign(buckets, lowest);
+  for (uint32_t b : pair_bucket) ++start_[b + 1];
+  for (size_t b = 0; b < buckets; ++b) start_[b + 1] += start_[b];
+  items_.resize(pair_bucket.size());
+  std::vector<uint32_t> fill(start_.begin(), start_.end() - 1);
+  for (size_t t = 0; t < nt; ++t)
+    for (size_t k = per_tri[t]; k < per_tri[t + 1]; ++k) {
+      const uint32_t b = pair_bucket[k];
+      const float top = round_up(pair_top[k]);
+      const LocalVertex& A = verts_[tris_[t][0]];
+      const LocalVertex& B = verts_[tris_[t][1]];
+      const LocalVertex& C = verts_[tris_[t][2]];
+      items_[fill[b]++] = {static_cast<uint32_t>(t),
+                           top,
+                           round_down(std::min({A.x, B.x, C.x})),
+                           round_up(std::max({A.x, B.x, C.x})),
+                           round_down(std::min({A.y, B.y, C.y})),
+                           round_up(std::max({A.y, B.y, C.y}))};
+      top_[b] = std::max(top_[b], pair_top[k]);
+    }
+  // Highest first: a query stops reading a bucket at the first triangle that is low enough,
+  // so the street under a segment passing beside a roof is never read.
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, buckets), [&](const tbb::blocked_range<size_t>& range) {
+    for (size_t b = range.begin(); b != range.end(); ++b)
+      std::sort(items_.begin() + start_[b], items_.begin() + start_[b + 1],
+                [](const Listing& x, const Listing& y) { return x.top != y.top ? x.top > y.top : x.tri < y.tri; });
+  });
+}
+
+template <bool Measure>
+double ClearanceIndex::visit(const Point3& p, const Point3& q, double d) const {
+  const double px = p[0] - origin_[0], py = p[1] - origin_[1], pz = p[2] - origin_[2];
+  const Point3 P{px, py, pz}, Q{q[0] - origin_[0], q[1] - origin_[1], q[2] - origin_[2]};
+  const double dx = Q[0] - px, dy = Q[1] - py, dz = Q[2] - pz;
+  // The query's own magnitude adds rounding of its own.
+  const double slack = margin_ + 1e-12 * std::max({std::abs(px), std::abs(py), std::abs(pz), std::abs(Q[0]),
+                                                   std::abs(Q[1]), std::abs(Q[2])});
+  // No triangle is farther from p than the farthest corner of the mesh's box; a larger d (or
+  // infinity) says no more, and would make the bucket range meaningless.
+  const double ex = std::max(std::abs(px - gx0_), std::abs(px - (gx0_ + cols_ * cell_)));
+  const double ey = std::max(std::abs(py - gy0_), std::abs(py - (gy0_ + rows_ * cell_)));
+  const double ez = std::max(std::abs(pz - zmin_), std::abs(pz - zmax_));
+  const double reach_cap = std::sqrt(ex * ex + ey * ey + ez * ez) + 1;
+  double best = d;  // Measure: the least distance so far; otherwise the fixed threshold
+  const double dmin_z = std::min(pz, Q[2]);
+  if (dmin_z - zmax_ >= best + slack) return best;
+  const double reach0 = std::min(best, reach_cap) + slack;
+  const double ylo = std::min(py, Q[1]) - reach0, yhi = std::max(py, Q[1]) + reach0;
+  if (yhi < gy0_ || ylo > gy0_ + rows_ * cell_) return best;
+  const int r0 = clamp_index((ylo - gy0_) / cell_, rows_), r1 = clamp_index((yhi - gy0_) / cell_, rows_);
+  const double d2_fixed = d * d;
+  const double ix = std::abs(dx) < still ? 0 : 1 / dx, iy = std::abs(dy) < still ? 0 : 1 / dy;
+  // Triangles already measured: one listed in several buckets near the segment is read once.
+  // Direct-mapped, so a collision only costs a second measurement.
+  uint32_t seen[64];
+  std::fill(std::begin(seen), std::end(seen), UINT32_MAX);
+  for (int r = r0; r <= r1; ++r) {
+    const double reach = std::min(best, reach_cap) + slack;
+    const double band_lo = gy0_ + r * cell_ - reach, band_hi = gy0_ + (r + 1) * cell_ + reach;
+    double ta = 0, tb = 1;
+    if (iy == 0) {
+      if (py < band_lo || py > band_hi) continue;
+    } else {
+      double a = (band_lo - py) * iy, b = (band_hi - py) * iy;
+      if (a > b) std::swap(a, b);
+      ta = std::max(ta, a), tb = std::min(tb, b);
+      if (ta > tb) continue;
+    }
+    const double xa = px + ta * dx, xb = px + tb * dx;
+    const double xlo = std::min(xa, xb) - reach, xhi = std::max(xa, xb) + reach;
+    if (xhi < gx0_ || xlo > gx0_ + cols_ * cell_) continue;
+    const int c0 = clamp_index((xlo - gx0_) / cell_, cols_), c1 = clamp_index((xhi - gx0_) / cell_, cols_);
+    for (int c = c0; c <= c1; ++c) {
+      const size_t bucket = static_cast<size_t>(r) * cols_ + c;
+      const uint32_t begin = start_[bucket], end = start_[bucket + 1];
+      if (begin == end) continue;
+      const double reach_b = std::min(best, reach_cap) + slack;
+      const double x0 = gx0_ + c * cell_, y0 = gy0_ + r * cell_;
+      double t0 = 0, t1 = 1;
+      if (!clip_xy(px, py, ix, iy, x0 - reach_b, x0 + cell_ + reach_b, y0 - reach_b, y0 + cell_ + reach_b, t0, t1))
+        continue;
+      // z is linear along the segment: its least value on the clipped part is at an end.
+      if (std::min(pz + t0 * dz, pz + t1 * dz) - top_[bucket] >= reach_b) continue;
+      const double zlow = std::min(pz + t0 * dz, pz + t1 * dz);
+      for (uint32_t k = begin; k < end; ++k) {
+        // The triangle's part in this bucket is what the bucket answers for (a point of it
+        // nearest the segment lies in some bucket it is listed in); the rest are lower still.
+        if (zlow - items_[k].top >= std::min(best, reach_cap) + slack) break;
+        const Listing& item = items_[k];
+        const uint32_t id = item.tri;
+        if (seen[id & 63] == id) continue;
+        seen[id & 63] = id;
+        const double reach_t = std::min(best, reach_cap) + slack;
+        double u0 = 0, u1 = 1;
+        if (!clip_xy(px, py, ix, iy, item.x0 - reach_t, item.x1 + reach_t, item.y0 - reach_t, item.y1 + reach_t, u0,
+                     u1))
+          continue;
+        const auto& tri = tris_[id];
+        const LocalVertex& A = verts_[tri[0]];
+        const LocalVertex& B = verts_[tri[1]];
+        const LocalVertex& C = verts_[tri[2]];
+        const double za = pz + u0 * dz, zb = pz + u1 * dz;
+        if (std::min(za, zb) - std::max({A.z, B.z, C.z}) >= reach_t) continue;
+        // Both ends of the nearby part on one side of the plane, at least d from it.
+        const double abx = B.x - A.x, aby = B.y - A.y, abz = B.z - A.z;
+        const double acx = C.x - A.x, acy = C.y - A.y, acz = C.z - A.z;
+        const double nx = aby * acz - abz * acy, ny = abz * acx - abx * acz, nz = abx * acy - aby * acx;
+        const double nn = nx * nx + ny * ny + nz * nz;
+        if (nn > 0) {
+          const double s0 = nx * (px + u0 * dx - A.x) + ny * (py + u0 * dy - A.y) + nz * (za - A.z);
+          const double s1 = nx * (px + u1 * dx - A.x) + ny * (py + u1 * dy - A.y) + nz * (zb - A.z);
+          if ((s0 > 0) == (s1 > 0) && s0 != 0 && s1 != 0) {
+            const double s = std::min(std::abs(s0), std::abs(s1));
+            if (s * s >= reach_t * reach_t * nn) continue;
+          }
+        }
+        const double d2 = segment_triangle_squared_distance(P, Q, {A.x, A.y, A.z}, {B.x, B.y, B.z}, {C.x, C.y, C.z});
+        if constexpr (Measure) {
+          if (d2 < best * best) {
+            best = std::sqrt(d2);
+            if (best == 0) return 0;
+          }
+        } else {
+          // The distance itself, not its square, is compared: then segment_clear(p, q, d) is
+          // exactly clearance(p, q, cap) >= d, touching included.
+          if (d2 < d2_fixed * 1.0000000000000004 && std::sqrt(d2) < d) return 0;
+        }
+      }
+    }
+  }
+  return Measure ? best : 1.0;
+}
+
+namespace {
+void check_query(const Point3& p, const Point3& q, double d, const char* name) {
+  if (!(d >= 0)) throw ArgumentError(name, "must be >= 0, not " + std::to_string(d));
+  for (int k = 0; k < 3; ++k)
+    if (!std::isfinite(p[k]) || !std::isfinite(q[k])) throw ArgumentError("point", "coordinates must be finite");
+}
+}  // namespace
+
+bool ClearanceIndex::segment_clear(const Point3& p, const Point3& q, double d) const {
+  check_query(p, q, d, "distance");
+  if (tris_.empty() || d == 0) return true;
+  return visit<false>(p, q, d) > 0;
+}
+
+double ClearanceIndex::clearance(const Point3& p, const Point3& q, double max_d) const {
+  check_query(p, q, max_d, "max_d");
+  if (tris_.empty() || max_d == 0) return max_d;
+  return visit<true>(p, q, max_d);
+}
+
+double ClearanceIndex::ground(double x, double y) const {
+  if (tris_.empty() || !std::isfinite(x) || !std::isfinite(y)) return NAN;
+  const double X = x - origin_[0], Y = y - origin_[1];
+  const double u = (X - gx0_) / cell_, v = (Y - gy0_) / cell_;
+  // A point on the grid's far edge (or a rounding hair beyond) belongs to the last bucket.
+  const double tol = margin_ / cell_;
+  if (!(u >= -tol && u <= cols_ + tol && v >= -tol && v <= rows_ + tol)) return NAN;
+  const size_t bucket =
+      static_cast<size_t>(clamp_index(std::floor(v), rows_)) * cols_ + clamp_index(std::floor(u), cols_);
+  double top = NAN;
+  for (uint32_t k = start_[bucket]; k < start_[bucket + 1]; ++k) {
+    const auto& tri = tris_[items_[k].tri];
+    const LocalVertex& A = verts_[tri[0]];
+    const LocalVertex& B = verts_[tri[1]];
+    const LocalVertex& C = verts_[tri[2]];
+    // Barycentric weights from edge functions relative to A, as certify() does.
+    const double du1 = B.x - A.x, dv1 = B.y - A.y, du2 = C.x - A.x, dv2 = C.y - A.y;
+    const double area2 = du1 * dv2 - du2 * dv1;
+    if (!(std::abs(area2) > 0)) continue;
+    const double pu = X - A.x, pv = Y - A.y;
+    const double w1 = pu * dv2 - du2 * pv, w2 = du1 * pv - pu * dv1, w0 = area2 - w1 - w2;
+    const double tolerance = 1e-9 * std::max(1.0, std::abs(area2));
+    const bool inside = area2 > 0 ? (w0 >= -tolerance && w1 >= -tolerance && w2 >= -tolerance)
+                                  : (w0 <= tolerance && w1 <= tolerance && w2 <= tolerance);
+    if (!inside) continue;
+    const double z = (w0 * A.z + w1 * B.z + w2 * C.z) / area2 + origin_[2];
+    if (!(z <= top)) top = z;
+  }
+  return top;
+}
+
+}  // namespace dsmplan

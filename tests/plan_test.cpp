@@ -1,0 +1,444 @@
+// Plan stage, the validity checker: segment_triangle_distance() against cases solved by hand and
+// two independent oracles (dense sampling, an upper bound; a convex 1D minimization of an
+// independently written point-triangle distance), and ClearanceIndex against brute force over
+// every triangle of real meshes (the NRW crop at 2 m, as meshed and as simplified).
+#include "dsmplan/plan.hpp"
+
+#include <gtest/gtest.h>
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <random>
+
+#include "dsmplan/mesh.hpp"
+#include "dsmplan/raster.hpp"
+#include "dsmplan/simplify.hpp"
+#include "testkit.hpp"
+
+using namespace dsmplan;
+
+namespace {
+
+double dist(const Point3& a, const Point3& b) { return std::hypot(a[0] - b[0], a[1] - b[1], a[2] - b[2]); }
+Point3 lerp(const Point3& a, const Point3& b, double t) {
+  return {a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1]), a[2] + t * (b[2] - a[2])};
+}
+
+// ---- oracles, written without the library's formulas ------------------------------------
+
+// Upper bound: the closest pair among n samples of the segment and a barycentric lattice of
+// m steps on the triangle.
+double sampled_distance(const Point3& p, const Point3& q, const Point3& a, const Point3& b, const Point3& c, int n,
+                        int m) {
+  double best = INFINITY;
+  for (int i = 0; i <= n; ++i) {
+    const Point3 s = lerp(p, q, n ? double(i) / n : 0);
+    for (int j = 0; j <= m; ++j)
+      for (int k = 0; j + k <= m; ++k) {
+        const double u = double(j) / m, v = double(k) / m;
+        const Point3 t{a[0] + u * (b[0] - a[0]) + v * (c[0] - a[0]), a[1] + u * (b[1] - a[1]) + v * (c[1] - a[1]),
+                       a[2] + u * (b[2] - a[2]) + v * (c[2] - a[2])};
+        best = std::min(best, dist(s, t));
+      }
+  }
+  return best;
+}
+
+// Point to segment by golden-section search on the (convex) distance along it.
+template <class F>
+double golden_min(F&& f, int iterations = 80) {
+  double lo = 0, hi = 1;
+  const double g = (std::sqrt(5.0) - 1) / 2;
+  double x1 = hi - g * (hi - lo), x2 = lo + g * (hi - lo), f1 = f(x1), f2 = f(x2);
+  for (int i = 0; i < iterations; ++i) {
+    if (f1 < f2) {
+      hi = x2, x2 = x1, f2 = f1, x1 = hi - g * (hi - lo), f1 = f(x1);
+    } else {
+      lo = x1, x1 = x2, f1 = f2, x2 = lo + g * (hi - lo), f2 = f(x2);
+    }
+  }
+  return std::min({f1, f2, f(0), f(1)});
+}
+
+// Point to triangle: projection onto the plane when it falls inside (tested by sub-areas),
+// else the nearest edge (each by golden section).
+double oracle_point_triangle(const Point3& s, const Point3& a, const Point3& b, const Point3& c) {
+  auto edge = [&](const Point3& u, const Point3& w) {
+    return golden_min([&](double t) { return dist(s, lerp(u, w, t)); });
+  };
+  double best = std::min({edge(a, b), edge(b, c), edge(c, a)});
+  const Point3 ab{b[0] - a[0], b[1] - a[1], b[2] - a[2]}, ac{c[0] - a[0], c[1] - a[1], c[2] - a[2]};
+  const Point3 n{ab[1] * ac[2] - ab[2] * ac[1], ab[2] * ac[0] - ab[0] * ac[2], ab[0] * ac[1] - ab[1] * ac[0]};
+  const double nn = n[0] * n[0] + n[1] * n[1] + n[2] * n[2];
+  if (nn > 1e-20) {
+    const double h = ((s[0] - a[0]) * n[0] + (s[1] - a[1]) * n[1] + (s[2] - a[2]) * n[2]) / nn;
+    const Point3 r{s[0] - h * n[0], s[1] - h * n[1], s[2] - h * n[2]};
+    auto side = [&](const Point3& u, const Point3& w) {
+      const Point3 e{w[0] - u[0], w[1] - u[1], w[2] - u[2]}, f{r[0] - u[0], r[1] - u[1], r[2] - u[2]};
+      return (e[1] * f[2] - e[2] * f[1]) * n[0] + (e[2] * f[0] - e[0] * f[2]) * n[1] +
+             (e[0] * f[1] - e[1] * f[0]) * n[2];
+    };
+    if (side(a, b) >= 0 && side(b, c) >= 0 && side(c, a) >= 0) best = std::min(best, std::abs(h) * std::sqrt(nn));
+  }
+  return best;
+}
+
+// The distance from a point moving along the segment to a convex set is convex in the parameter.
+double oracle_distance(const Point3& p, const Point3& q, const Point3& a, const Point3& b, const Point3& c) {
+  return golden_min([&](double t) { return oracle_point_triangle(lerp(p, q, t), a, b, c); });
+}
+
+// ---- hand-solved cases ------------------------------------------------------------------
+
+const Point3 A{0, 0, 0}, B{10, 0, 0}, C{0, 10, 0};
+
+TEST(SegmentTriangleDistance, ClosedFormCases) {
+  // Parallel above the face, and parallel above it reaching far beyond both sides.
+  EXPECT_DOUBLE_EQ(segment_triangle_distance({1, 1, 3}, {3, 2, 3}, A, B, C), 3);
+  EXPECT_DOUBLE_EQ(segment_triangle_distance({-5, 1, 3}, {20, 1, 3}, A, B, C), 3);
+  // Piercing: vertical, oblique, through a corner.
+  EXPECT_EQ(segment_triangle_distance({1, 1, -1}, {1, 1, 1}, A, B, C), 0);
+  EXPECT_EQ(segment_triangle_distance({-1, 2, -3}, {4, 3, 5}, A, B, C), 0);
+  EXPECT_EQ(segment_triangle_distance({0, 0, -1}, {0, 0, 1}, A, B, C), 0);
+  // Beside an edge: parallel to it 2 away in the plane; vertical 3 away; crossing the line of
+  // the hypotenuse x + y = 10 at (6, 6), a horizontal distance of 2 / sqrt(2).
+  EXPECT_DOUBLE_EQ(segment_triangle_distance({2, -2, 0}, {8, -2, 0}, A, B, C), 2);
+  EXPECT_DOUBLE_EQ(segment_triangle_distance({5, -3, -4}, {5, -3, 4}, A, B, C), 3);
+  EXPECT_NEAR(segment_triangle_distance({6, 6, -1}, {6, 6, 1}, A, B, C), std::sqrt(2.0), 1e-14);
+  // Skew over an edge: the segment (5,-4,2)-(5,4,2) passes above the face: 2.
+  EXPECT_DOUBLE_EQ(segment_triangle_distance({5, -4, 2}, {5, 4, 2}, A, B, C), 2);
+  // Vertical beyond corner B, in its Voronoi region: x = 12, y = -1, z in [-1, 1]: sqrt(4 + 1).
+  EXPECT_NEAR(segment_triangle_distance({12, -1, -1}, {12, -1, 1}, A, B, C), std::sqrt(5.0), 1e-14);
+  // An endpoint nearest a corner: (-3,-4,0) is 5 from A and the segment points away.
+  EXPECT_DOUBLE_EQ(segment_triangle_distance({-3, -4, 0}, {-6, -8, 0}, A, B, C), 5);
+  EXPECT_DOUBLE_EQ(segment_triangle_distance({-6, -8, 12}, {-3, -4, 0}, A, B, C), 5);
+  // In the plane: inside (0), outside beside the hypotenuse.
+  EXPECT_EQ(segment_triangle_distance({1, 1, 0}, {2, 3, 0}, A, B, C), 0);
+  EXPECT_EQ(segment_triangle_distance({-1, 1, 0}, {20, 1, 0}, A, B, C), 0);
+  EXPECT_NEAR(segment_triangle_distance({6, 6, 0}, {8, 4, 0}, A, B, C), std::sqrt(2.0), 1e-14);
+}
+
+TEST(SegmentTriangleDistance, DegenerateInput) {
+  // A point: above the face, beyond a corner.
+  EXPECT_DOUBLE_EQ(segment_triangle_distance({1, 1, 2}, {1, 1, 2}, A, B, C), 2);
+  EXPECT_DOUBLE_EQ(segment_triangle_distance({13, -4, 0}, {13, -4, 0}, A, B, C), 5);
+  // A triangle with collinear corners is a segment; with coincident ones, a point.
+  const Point3 a{0, 0, 0}, b{5, 0, 0}, c{10, 0, 0};
+  EXPECT_DOUBLE_EQ(segment_triangle_distance({5, 3, 4}, {5, 3, 4}, a, b, c), 5);
+  EXPECT_DOUBLE_EQ(segment_triangle_distance({13, 0, 4}, {13, 0, -4}, a, b, c), 3);
+  EXPECT_DOUBLE_EQ(segment_triangle_distance({2, 3, -4}, {8, 3, 4}, a, c, b), 3);
+  EXPECT_EQ(segment_triangle_distance({2, -1, 0}, {2, 1, 0}, a, b, c), 0);
+  EXPECT_DOUBLE_EQ(segment_triangle_distance({3, 4, 0}, {3, 4, 12}, a, a, a), 5);
+  EXPECT_DOUBLE_EQ(segment_triangle_distance({3, 4, 0}, {3, 4, 0}, b, b, b), std::hypot(2.0, 4.0));
+  // Both degenerate, and a near-sliver (a corner 1e-13 off the line) agrees with its edges.
+  EXPECT_NEAR(segment_triangle_distance({5, 3, 4}, {5, 3, 4}, a, {5, 1e-13, 0}, c), 5, 1e-12);
+}
+
+TEST(SegmentTriangleDistance, AgreesWithOraclesOnRandomInput) {
+  std::mt19937_64 rng(7);
+  std::uniform_real_distribution<double> u(-5, 5);
+  auto point = [&] { return Point3{u(rng), u(rng), u(rng)}; };
+  double worst_oracle = 0;
+  for (int i = 0; i < 3000; ++i) {
+    Point3 p = point(), q = point(), a = point(), b = point(), c = point();
+    // Mix in the hard shapes: flat triangles, parallel segments, short segments, points.
+    if (i % 7 == 1) a[2] = b[2] = c[2] = 0, p[2] = q[2];
+    if (i % 7 == 2) q = lerp(p, {p[0] + b[0] - a[0], p[1] + b[1] - a[1], p[2] + b[2] - a[2]}, 0.7);
+    if (i % 7 == 3) q = p;
+    if (i % 7 == 4) q = lerp(p, q, 1e-6);
+    const double d = segment_triangle_distance(p, q, a, b, c);
+    const double oracle = oracle_distance(p, q, a, b, c);
+    worst_oracle = std::max(worst_oracle, std::abs(d - oracle));
+    ASSERT_NEAR(d, oracle, 1e-7) << "case " << i;
+    EXPECT_NEAR(d, segment_triangle_distance(q, p, b, c, a), 1e-12) << "case " << i;
+    if (i % 50 == 0) {
+      // Sampling only gives an upper bound; its resolution bounds how much above it may be.
+      const int n = 200, m = 200;
+      const double sampled = sampled_distance(p, q, a, b, c, n, m);
+      const double step = dist(p, q) / n + std::max({dist(a, b), dist(b, c), dist(c, a)}) / m;
+      EXPECT_LE(d, sampled + 1e-12) << "case " << i;
+      EXPECT_GE(d, sampled - step) << "case " << i;
+    }
+  }
+  RecordProperty("worst_oracle_difference", std::to_string(worst_oracle));
+}
+
+// ---- the index on real meshes ----------------------------------------------------------
+
+const Grid& nrw_2m() {
+  static const Grid grid =
+      resample(read_raster(testkit::data_path("nrw-dom1/nrw_dom1_crop500m_1m.tif")), 2.0, Resampling::Median);
+  return grid;
+}
+const Mesh& mesh_2m() {
+  static const Mesh mesh = triangulate_xy3(nrw_2m());
+  return mesh;
+}
+const Mesh& mesh_bounded() {
+  static const Mesh mesh = [] {
+    BoundedSimplifyOptions options;
+    options.max_error = 0.4;
+    options.conservative = true;
+    return simplify_bounded(nrw_2m(), options);
+  }();
+  return mesh;
+}
+
+// Every triangle, in the index's local coordinates (the same subtraction the index does).
+struct BruteForce {
+  std::vector<std::array<Point3, 3>> tris;
+  Point3 origin;
+  BruteForce(const Mesh& mesh, const Point3& o) : origin(o) {
+    for (const Triangle& t : mesh.triangles) {
+      std::array<Point3, 3> tri;
+      for (int k = 0; k < 3; ++k) {
+        const Vertex& v = mesh.vertices[t[k]];
+        tri[k] = {v.x - o[0], v.y - o[1], v.z - o[2]};
+      }
+      tris.push_back(tri);
+    }
+  }
+  Point3 local(const Point3& p) const { return {p[0] - origin[0], p[1] - origin[1], p[2] - origin[2]}; }
+  // Least squared distance over all triangles, or cap^2 when none is nearer than cap; a box
+  // test (obviously conservative) only saves time.
+  double min_squared(const Point3& p_, const Point3& q_, double cap) const {
+    const Point3 p = local(p_), q = local(q_);
+    double best = cap * cap;
+    for (const auto& t : tris) {
+      bool far = false;
+      for (int k = 0; k < 3 && !far; ++k) {
+        const double lo = std::min({t[0][k], t[1][k], t[2][k]}), hi = std::max({t[0][k], t[1][k], t[2][k]});
+        far = std::min(p[k], q[k]) > hi + cap + 1e-6 || std::max(p[k], q[k]) < lo - cap - 1e-6;
+      }
+      if (!far) best = std::min(best, segment_triangle_squared_distance(p, q, t[0], t[1], t[2]));
+    }
+    return best;
+  }
+};
+
+struct Query {
+  Point3 p, q;
+  double d;
+};
+
+// Segments near the surface, where answers are close calls: starts 0.5-8 m above ground (and
+// some below it, and some beyond the mesh's edge), 0-30 m long in any direction, axis-aligned
+// and vertical ones included.
+std::vector<Query> random_queries(const ClearanceIndex& index, const Mesh& mesh, int count, uint64_t seed) {
+  double x0 = INFINITY, x1 = -INFINITY, y0 = INFINITY, y1 = -INFINITY;
+  for (const Vertex& v : mesh.vertices)
+    x0 = std::min(x0, v.x), x1 = std::max(x1, v.x), y0 = std::min(y0, v.y), y1 = std::max(y1, v.y);
+  std::mt19937_64 rng(seed);
+  std::uniform_real_distribution<double> ux(x0 - 10, x1 + 10), uy(y0 - 10, y1 + 10), unit(0, 1), ang(0, 2 * M_PI);
+  const double ds[] = {0.5, 2, 2, 5};
+  std::vector<Query> out;
+  while (static_cast<int>(out.size()) < count) {
+    const size_t i = out.size();
+    Point3 p{ux(rng), uy(rng), 0};
+    double g = index.ground(p[0], p[1]);
+    if (std::isnan(g)) g = index.ground(std::clamp(p[0], x0, x1), std::clamp(p[1], y0, y1));
+    if (std::isnan(g)) continue;
+    p[2] = g + (i % 10 == 0 ? -1.0 : 0.5 + 7.5 * unit(rng));
+    const double len = 30 * unit(rng), heading = ang(rng), climb = (unit(rng) - 0.5) * M_PI * 0.6;
+    Point3 q{p[0] + len * std::cos(heading) * std::cos(climb), p[1] + len * std::sin(heading) * std::cos(climb),
+             p[2] + len * std::sin(climb)};
+    if (i % 13 == 1) q = {p[0] + len, p[1], p[2]};
+    if (i % 13 == 2) q = {p[0], p[1] - len, p[2]};
+    if (i % 13 == 3) q = {p[0], p[1], p[2] + len};
+    if (i % 13 == 4) q = p;
+    out.push_back({p, q, ds[i % 4]});
+  }
+  return out;
+}
+
+void check_against_brute_force(const Mesh& mesh, int count, uint64_t seed) {
+  const ClearanceIndex index(mesh);
+  const BruteForce brute(mesh, index.origin());
+  const std::vector<Query> queries = random_queries(index, mesh, count, seed);
+  std::atomic<int> disagree_clear{0}, disagree_clearance{0}, blocked{0}, touching_wrong{0};
+  tbb::parallel_for(size_t(0), queries.size(), [&](size_t i) {
+    const Query& s = queries[i];
+    const bool clear = !(std::sqrt(brute.min_squared(s.p, s.q, s.d)) < s.d);
+    if (!clear) ++blocked;
+    if (index.segment_clear(s.p, s.q, s.d) != clear) ++disagree_clear;
+    const double cap = 6;
+    const double expected = std::min(cap, std::sqrt(brute.min_squared(s.p, s.q, cap)));
+    const double got = index.clearance(s.p, s.q, cap);
+    if (got != expected) ++disagree_clearance;
+    // Touching exactly at the measured distance is clear; anything more is not.
+    if (got > 0 && got < cap &&
+        (!index.segment_clear(s.p, s.q, got) || index.segment_clear(s.p, s.q, std::nextafter(got, INFINITY))))
+      ++touching_wrong;
+  });
+  EXPECT_EQ(disagree_clear.load(), 0);
+  EXPECT_EQ(disagree_clearance.load(), 0);
+  EXPECT_EQ(touching_wrong.load(), 0);
+  // The sample must contain both answers in numbers, or it proves little.
+  EXPECT_GT(blocked.load(), count / 10);
+  EXPECT_LT(blocked.load(), count * 9 / 10);
+}
+
+TEST(ClearanceIndex, AgreesWithBruteForceOnRealMesh) { check_against_brute_force(mesh_2m(), 4000, 11); }
+
+TEST(ClearanceIndex, AgreesWithBruteForceOnSimplifiedMesh) { check_against_brute_force(mesh_bounded(), 4000, 12); }
+
+TEST(ClearanceIndex, AgreesWithBruteForceForEveryBucketSize) {
+  const Mesh& mesh = mesh_bounded();
+  for (double size : {0.7, 5.0, 40.0, 1000.0}) {
+    ClearanceOptions options;
+    options.bucket_size = size;
+    const ClearanceIndex index(mesh, options);
+    const BruteForce brute(mesh, index.origin());
+    int disagree = 0;
+    for (const Query& s : random_queries(index, mesh, 400, 13))
+      disagree += index.segment_clear(s.p, s.q, s.d) != !(std::sqrt(brute.min_squared(s.p, s.q, s.d)) < s.d);
+    EXPECT_EQ(disagree, 0) << "bucket " << size;
+  }
+}
+
+TEST(ClearanceIndex, AgreesWithBruteForceOnTriangleSoup) {
+  // Nothing 2.5D about it: vertical walls, overhangs, slivers and points, at UTM coordinates.
+  std::mt19937_64 rng(21);
+  std::uniform_real_distribution<double> ux(356000, 356200), uy(5699000, 5699200), uz(40, 90), small(-6, 6);
+  Mesh soup;
+  for (uint32_t t = 0; t < 3000; ++t) {
+    const Vertex a{ux(rng), uy(rng), uz(rng)};
+    Vertex b{a.x + small(rng), a.y + small(rng), a.z + small(rng)},
+        c{a.x + small(rng), a.y + small(rng), a.z + small(rng)};
+    if (t % 10 == 1) b.x = a.x, c.x = a.x;                                     // a wall
+    if (t % 20 == 2) c = {(a.x + b.x) / 2, (a.y + b.y) / 2, (a.z + b.z) / 2};  // collinear
+    if (t % 50 == 3) b = a, c = a;                                             // a point
+    soup.vertices.insert(soup.vertices.end(), {a, b, c});
+    soup.triangles.push_back({3 * t, 3 * t + 1, 3 * t + 2});
+  }
+  const ClearanceIndex index(soup);
+  const BruteForce brute(soup, index.origin());
+  std::uniform_real_distribution<double> len(0, 40), ang(0, 2 * M_PI), unit(0, 1);
+  int disagree_clear = 0, disagree_clearance = 0, blocked = 0;
+  for (int i = 0; i < 3000; ++i) {
+    const Point3 p{ux(rng), uy(rng), uz(rng)};
+    const double l = len(rng), h = ang(rng), c = (unit(rng) - 0.5) * M_PI;
+    const Point3 q{p[0] + l * std::cos(h) * std::cos(c), p[1] + l * std::sin(h) * std::cos(c), p[2] + l * std::sin(c)};
+    const double d = 0.5 + 4 * unit(rng);
+    const bool clear = !(std::sqrt(brute.min_squared(p, q, d)) < d);
+    blocked += !clear;
+    disagree_clear += index.segment_clear(p, q, d) != clear;
+    disagree_clearance += index.clearance(p, q, 8) != std::min(8.0, std::sqrt(brute.min_squared(p, q, 8)));
+  }
+  EXPECT_EQ(disagree_clear, 0);
+  EXPECT_EQ(disagree_clearance, 0);
+  EXPECT_GT(blocked, 300);
+  EXPECT_LT(blocked, 2700);
+}
+
+TEST(ClearanceIndex, TouchingExactlyAtTheDistanceIsClear) {
+  // A flat 10 m square at z = 60 in UTM-sized coordinates; every distance below is exact.
+  Mesh mesh;
+  const double x = 356000, y = 5699000;
+  mesh.vertices = {{x, y, 60}, {x + 10, y, 60}, {x + 10, y + 10, 60}, {x, y + 10, 60}};
+  mesh.triangles = {{0, 1, 2}, {0, 2, 3}};
+  const ClearanceIndex index(mesh);
+  const Point3 p{x + 1, y + 5, 62}, q{x + 9, y + 5, 62};
+  EXPECT_TRUE(index.segment_clear(p, q, 2));
+  EXPECT_FALSE(index.segment_clear(p, q, std::nextafter(2.0, 3.0)));
+  EXPECT_EQ(index.clearance(p, q, 10), 2);
+  // Beside a corner, level with it: 3 m away along x.
+  EXPECT_TRUE(index.point_clear({x - 3, y, 60}, 3));
+  EXPECT_FALSE(index.point_clear({x - 3, y, 60}, std::nextafter(3.0, 4.0)));
+  // Past the edge, diagonally: 3-4-5 from the edge x = x + 10.
+  EXPECT_TRUE(index.segment_clear({x + 13, y + 2, 64}, {x + 13, y + 8, 64}, 5));
+  EXPECT_FALSE(index.segment_clear({x + 13, y + 2, 64}, {x + 13, y + 8, 64}, 5.000001));
+  // Through the square, and the degenerate cases of the arguments.
+  EXPECT_FALSE(index.segment_clear({x + 5, y + 5, 50}, {x + 5, y + 5, 70}, 0.1));
+  EXPECT_TRUE(index.segment_clear({x + 5, y + 5, 50}, {x + 5, y + 5, 70}, 0));
+  EXPECT_EQ(index.clearance({x + 5, y + 5, 50}, {x + 5, y + 5, 70}, 3), 0);
+  EXPECT_FALSE(index.segment_clear(p, q, INFINITY));
+  EXPECT_EQ(index.clearance(p, q, INFINITY), 2);
+  EXPECT_EQ(index.clearance({x + 5, y + 5, 1e6}, {x + 5, y + 5, 1e6}, INFINITY), 1e6 - 60);
+  EXPECT_EQ(index.ground(x + 2.5, y + 7.5), 60);
+  EXPECT_TRUE(std::isnan(index.ground(x - 0.1, y + 5)));
+}
+
+TEST(ClearanceIndex, GroundIsTheMeshHeight) {
+  // At every cell centre of the 2 m mesh the ground is the vertex's height.
+  const Grid& grid = nrw_2m();
+  const Mesh& mesh = mesh_2m();
+  const ClearanceIndex index(mesh);
+  size_t v = 0, wrong = 0;
+  for (int r = 0; r < grid.height; ++r)
+    for (int c = 0; c < grid.width; ++c)
+      if (grid.valid(c, r))
+        wrong += std::abs(index.ground(grid.center_x(c), grid.center_y(r)) - mesh.vertices[v++].z) > 1e-9;
+  EXPECT_EQ(wrong, 0u);
+  // Anywhere on the simplified mesh: as certify() interpolates, by brute force over triangles.
+  const Mesh& simple = mesh_bounded();
+  const ClearanceIndex sindex(simple);
+  std::mt19937_64 rng(5);
+  std::uniform_real_distribution<double> ux(grid.x0 - 5, grid.x1() + 5), uy(grid.y1() - 5, grid.y0 + 5);
+  size_t mismatches = 0, covered = 0;
+  for (int i = 0; i < 3000; ++i) {
+    const double x = ux(rng), y = uy(rng);
+    double expected = NAN;
+    for (const Triangle& t : simple.triangles) {
+      const Vertex &a = simple.vertices[t[0]], &b = simple.vertices[t[1]], &c = simple.vertices[t[2]];
+      const double area2 = (b.x - a.x) * (c.y - a.y) - (c.x - a.x) * (b.y - a.y);
+      const double w1 = ((x - a.x) * (c.y - a.y) - (c.x - a.x) * (y - a.y)) / area2;
+      const double w2 = ((b.x - a.x) * (y - a.y) - (x - a.x) * (b.y - a.y)) / area2;
+      if (w1 >= -1e-12 && w2 >= -1e-12 && w1 + w2 <= 1 + 1e-12) {
+        expected = a.z + w1 * (b.z - a.z) + w2 * (c.z - a.z);
+        break;
+      }
+    }
+    const double got = sindex.ground(x, y);
+    covered += !std::isnan(expected);
+    if (std::isnan(expected) != std::isnan(got) || std::abs(got - expected) > 1e-6) ++mismatches;
+    // The surface itself is at distance 0: never clear just above it.
+    if (!std::isnan(got)) EXPECT_FALSE(sindex.point_clear({x, y, got + 0.5}, 0.5 + 1e-6));
+  }
+  EXPECT_EQ(mismatches, 0u);
+  EXPECT_GT(covered, 2000u);
+}
+
+TEST(ClearanceIndex, ConcurrentQueriesAgreeWithSerial) {
+  const Mesh& mesh = mesh_2m();
+  const ClearanceIndex index(mesh);
+  const std::vector<Query> queries = random_queries(index, mesh, 20000, 3);
+  std::vector<char> serial(queries.size()), parallel(queries.size());
+  for (size_t i = 0; i < queries.size(); ++i) serial[i] = index.segment_clear(queries[i].p, queries[i].q, queries[i].d);
+  tbb::parallel_for(size_t(0), queries.size(),
+                    [&](size_t i) { parallel[i] = index.segment_clear(queries[i].p, queries[i].q, queries[i].d); });
+  EXPECT_EQ(serial, parallel);
+}
+
+TEST(ClearanceIndex, BadInput) {
+  Mesh mesh;
+  mesh.vertices = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}};
+  mesh.triangles = {{0, 1, 3}};
+  EXPECT_THROW(ClearanceIndex{mesh}, ArgumentError);
+  mesh.triangles = {{0, 1, 2}};
+  mesh.vertices[1].z = NAN;
+  EXPECT_THROW(ClearanceIndex{mesh}, ArgumentError);
+  mesh.vertices[1].z = 0;
+  ClearanceOptions options;
+  options.bucket_size = -1;
+  EXPECT_THROW(ClearanceIndex(mesh, options), ArgumentError);
+  const ClearanceIndex index(mesh);
+  EXPECT_THROW(index.segment_clear({0, 0, 1}, {1, 1, 1}, -1), ArgumentError);
+  EXPECT_THROW(index.segment_clear({0, 0, 1}, {1, 1, 1}, NAN), ArgumentError);
+  EXPECT_THROW(index.segment_clear({0, 0, NAN}, {1, 1, 1}, 1), ArgumentError);
+  EXPECT_THROW(index.clearance({0, 0, 1}, {1, 1, 1}, -2), ArgumentError);
+  try {
+    index.segment_clear({0, 0, 1}, {1, 1, 1}, -1);
+  } catch (const ArgumentError& e) {
+    EXPECT_EQ(std::string(e.what()).find('\n'), std::string::npos);
+  }
+  // An empty mesh: everything is clear, nothing has ground.
+  const ClearanceIndex empty(Mesh{});
+  EXPECT_TRUE(empty.segment_clear({0, 0, 0}, {1, 1, 1}, 5));
+  EXPECT_EQ(empty.clearance({0, 0, 0}, {1, 1, 1}, 5), 5);
+  EXPECT_TRUE(std::isnan(empty.ground(0, 0)));
+}
+
+}  // namespace
