@@ -119,7 +119,7 @@ struct BoundedSimplifyOptions {
   double max_error = 0.4;     ///< E: certified bound on |mesh - dsm|, vertical units, > 0
   bool conservative = false;  ///< 0 <= mesh - dsm <= E instead of |mesh - dsm| <= E
   bool delaunay = false;      ///< one global Delaunay triangulation (single-threaded)
-  int tile_size = 0;          ///< cells per tile side; 0 = automatic, 256 (ignored with delaunay)
+  int tile_size = 0;          ///< cells per tile side; 0 = automatic, 64 (ignored with delaunay)
   int threads = 0;            ///< 0 = every core
 };
 

@@ -37,6 +37,12 @@ constexpr double rounding_margin = 1e-6;
 // Measured on the NRW tile (conservative, E = 0.4 m): 0 -> 435,769 vertices, 0.3 -> 432,053,
 // 0.4 -> 431,853, 0.6 -> 433,884, 0.9 -> 454,795.
 constexpr double keep_fraction = 0.4;
+// Small tiles are faster (small heaps stay in cache) and, measured, even keep fewer vertices:
+// the pre-simplified seams give greedy insertion straight lines it would not find itself.
+// NRW tile, conservative E = 0.4 m, 2 cores: tile 16 -> 427,629 vertices in 0.29 s, 64 ->
+// 430,674 in 0.31 s, 256 -> 431,853 in 0.38 s, 512 -> 432,077 in 0.52 s, one tile 432,302.
+// 64 keeps the seams few enough not to show in the mesh.
+constexpr int default_tile_size = 64;
 
 struct Point {
   int32_t x, y;  // col, row
@@ -427,7 +433,8 @@ Mesh simplify_bounded(const Grid& dsm, const BoundedSimplifyOptions& options, co
   const Target target{dsm, options.conservative ? half : 0.0,
                       (options.conservative ? half : options.max_error) - rounding_margin};
 
-  const int tile = options.delaunay ? std::max(dsm.width, dsm.height) : (options.tile_size ? options.tile_size : 256);
+  const int tile =
+      options.delaunay ? std::max(dsm.width, dsm.height) : (options.tile_size ? options.tile_size : default_tile_size);
   const std::vector<int> xs = split_points(dsm.width - 1, std::max(tile, 2));
   const std::vector<int> ys = split_points(dsm.height - 1, std::max(tile, 2));
   const size_t tiles_x = xs.size() - 1, tiles_y = ys.size() - 1;
