@@ -22,23 +22,6 @@ using Point = K::Point_2;
 
 namespace {
 
-const Grid& nrw_crop() {
-  static const Grid grid = read_raster(testkit::data_path("nrw-dom1/nrw_dom1_crop500m_1m.tif"));
-  return grid;
-}
-
-// Real Delft LiDAR gridded at 0.5 m: canals and courtyards without returns are real holes.
-const Grid& delft_grid() {
-  static const Grid grid = [] {
-    std::vector<PointCloud> clouds{read_las(testkit::data_path("delft-ahn3/ahn3_cropped_1.las")),
-                                   read_las(testkit::data_path("delft-ahn3/ahn3_cropped_2.las"))};
-    GridPointsOptions options;
-    options.resolution = 0.5;
-    return grid_points(clouds, options);
-  }();
-  return grid;
-}
-
 Grid window(const Grid& grid, int col0, int row0, int width, int height) {
   Grid out(width, height, grid.x0 + col0 * grid.cell_x, grid.y0 - row0 * grid.cell_y, grid.cell_x, grid.cell_y);
   out.crs = grid.crs;
@@ -179,7 +162,7 @@ void expect_delaunay_equivalent(const Grid& grid, const Mesh& mesh) {
 }  // namespace
 
 TEST(Xy3Delaunay, FullRealTileIsTheGridTriangulationOfTable1) {
-  const Grid& grid = nrw_crop();
+  const Grid& grid = testkit::nrw_crop();
   const Mesh mesh = triangulate_xy3(grid);
   // Table 1's counts for a hole-free W x H grid: W*H vertices, 2(W-1)(H-1) faces.
   EXPECT_EQ(mesh.vertices.size(), 500u * 500u);
@@ -188,7 +171,7 @@ TEST(Xy3Delaunay, FullRealTileIsTheGridTriangulationOfTable1) {
 }
 
 TEST(Xy3Delaunay, VerticesSitAtCellCentresWithQuantizedHeights) {
-  const Grid grid = with_holes_below(nrw_crop(), 112.0f);
+  const Grid grid = with_holes_below(testkit::nrw_crop(), 112.0f);
   const Mesh mesh = triangulate_xy3(grid);
   Cells cells(grid);
   ASSERT_EQ(mesh.vertices.size(), cells.of_vertex.size());
@@ -205,7 +188,7 @@ TEST(Xy3Delaunay, VerticesSitAtCellCentresWithQuantizedHeights) {
 }
 
 TEST(Xy3Delaunay, TrianglesAreCounterClockwiseAndNotDegenerate) {
-  for (const Grid& grid : {with_holes_below(nrw_crop(), 115.0f), delft_grid()}) {
+  for (const Grid& grid : {with_holes_below(testkit::nrw_crop(), 115.0f), testkit::delft_grid()}) {
     const Mesh mesh = triangulate_xy3(grid, unlimited());
     Cells cells(grid);
     size_t bad = 0;
@@ -222,7 +205,7 @@ TEST(Xy3Delaunay, TrianglesAreCounterClockwiseAndNotDegenerate) {
 
 TEST(Xy3Delaunay, EmptyCircumcirclesOnRealHoles) {
   // The whole Delft grid (canals) and the NRW crop with its low parts cut away.
-  for (const Grid& grid : {delft_grid(), with_holes_below(nrw_crop(), 113.0f)}) {
+  for (const Grid& grid : {testkit::delft_grid(), with_holes_below(testkit::nrw_crop(), 113.0f)}) {
     const Mesh mesh = triangulate_xy3(grid, unlimited());
     ASSERT_GE(summarize(grid).holes, 5u);  // real canals/yards, not a toy
     EXPECT_EQ(count_nonempty_circles(grid, mesh), 0u);
@@ -236,7 +219,7 @@ TEST(Xy3Delaunay, EmptyCircumcirclesOnRealHoles) {
 
 TEST(Xy3Delaunay, EqualsCgalOnRealWindows) {
   // Windows across Delft canals and the NRW crop with real-shaped holes, plus random holes.
-  const Grid& delft = delft_grid();
+  const Grid& delft = testkit::delft_grid();
   for (int k = 0; k < 6; ++k) {
     const Grid part = window(delft, 40 + 70 * k, 30 + 60 * k, 48, 40);
     SCOPED_TRACE("delft window " + std::to_string(k));
@@ -244,7 +227,7 @@ TEST(Xy3Delaunay, EqualsCgalOnRealWindows) {
   }
   std::mt19937 random(7);
   for (int k = 0; k < 6; ++k) {
-    Grid part = window(with_holes_below(nrw_crop(), 112.0f + k), 60 * k, 50 * k, 40, 40);
+    Grid part = window(with_holes_below(testkit::nrw_crop(), 112.0f + k), 60 * k, 50 * k, 40, 40);
     for (float& z : part.z)
       if (random() % 7 == 0) z = Grid::nodata;
     SCOPED_TRACE("nrw window " + std::to_string(k));
@@ -254,7 +237,7 @@ TEST(Xy3Delaunay, EqualsCgalOnRealWindows) {
 
 TEST(Xy3Delaunay, EqualsCgalForOddAndRectangularCells) {
   // Real heights and holes on cells of 0.3 m (not a binary fraction) and of 1 x 2 m.
-  const Grid part = window(delft_grid(), 240, 0, 44, 40);  // across the canal in the north
+  const Grid part = window(testkit::delft_grid(), 240, 0, 44, 40);  // across the canal in the north
   for (auto [cell_x, cell_y] : {std::pair{0.3, 0.3}, {1.0, 2.0}, {2.0, 1.0}}) {
     Grid grid = part;
     grid.cell_x = cell_x, grid.cell_y = cell_y;
@@ -265,7 +248,7 @@ TEST(Xy3Delaunay, EqualsCgalForOddAndRectangularCells) {
 }
 
 TEST(Xy3Delaunay, LongEdgesDropExactlyTheBridgingTriangles) {
-  const Grid& grid = delft_grid();
+  const Grid& grid = testkit::delft_grid();
   const Mesh all = triangulate_xy3(grid, unlimited());
   MeshOptions options;  // default limit: 2.5 cells
   const double limit = max_edge_length(grid, options);
@@ -310,7 +293,7 @@ TEST(Xy3Delaunay, LongEdgesDropExactlyTheBridgingTriangles) {
 }
 
 TEST(Xy3Delaunay, ConservativeDiagonalIsTheUpperSurface) {
-  const Grid& grid = nrw_crop();
+  const Grid& grid = testkit::nrw_crop();
   const Mesh mesh = triangulate_xy3(grid);
   // Brute force: for each square, the centre height of our split is the max of both splits'.
   std::map<Edge, int> diagonal_count;
@@ -333,5 +316,5 @@ TEST(Xy3Delaunay, EmptyGridGivesEmptyMeshAndBadOptionsThrow) {
   EXPECT_TRUE(triangulate_xy3(empty).triangles.empty());
   MeshOptions negative;
   negative.max_edge_length = -1;
-  EXPECT_THROW(triangulate_xy3(nrw_crop(), negative), ArgumentError);
+  EXPECT_THROW(triangulate_xy3(testkit::nrw_crop(), negative), ArgumentError);
 }

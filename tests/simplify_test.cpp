@@ -46,28 +46,6 @@ namespace {
 
 // ---- data ------------------------------------------------------------------------------------
 
-const Grid& nrw_crop() {
-  static const Grid grid = read_raster(testkit::data_path("nrw-dom1/nrw_dom1_crop500m_1m.tif"));
-  return grid;
-}
-
-const Grid& nrw_full() {
-  static const Grid grid = read_raster(testkit::data_path("nrw-dom1/dom1_32_356_5699_1_nw_2020.tif"));
-  return grid;
-}
-
-// Real Delft LiDAR gridded at 0.5 m: canals and courtyards without returns are real holes.
-const Grid& delft_grid() {
-  static const Grid grid = [] {
-    std::vector<PointCloud> clouds{read_las(testkit::data_path("delft-ahn3/ahn3_cropped_1.las")),
-                                   read_las(testkit::data_path("delft-ahn3/ahn3_cropped_2.las"))};
-    GridPointsOptions options;
-    options.resolution = 0.5;
-    return grid_points(clouds, options);
-  }();
-  return grid;
-}
-
 // A hand-made 1 m grid away from the origin, so CRS coordinates are not lattice indices.
 template <class Height>
 Grid make_grid(int width, int height, Height z) {
@@ -862,7 +840,7 @@ Courtyards find_courtyards(const Grid& grid, const std::vector<double>& spill) {
 }  // namespace
 
 TEST(MarkPaper, RealMeshesAgreeWithBruteForce) {
-  for (const Grid* grid : {&nrw_crop(), &delft_grid()}) {
+  for (const Grid* grid : {&testkit::nrw_crop(), &testkit::delft_grid()}) {
     const Mesh mesh = triangulate_xy3(*grid);  // 0.1 m heights, holes in Delft
     std::vector<int> largest_step(mesh.vertices.size(), 0);
     for (const Triangle& t : mesh.triangles) {
@@ -874,7 +852,7 @@ TEST(MarkPaper, RealMeshesAgreeWithBruteForce) {
       }
     }
     for (PaperVariant variant : {PaperVariant::One, PaperVariant::Two}) {
-      SCOPED_TRACE(std::string(grid == &nrw_crop() ? "nrw " : "delft ") + to_string(variant));
+      SCOPED_TRACE(std::string(grid == &testkit::nrw_crop() ? "nrw " : "delft ") + to_string(variant));
       const std::vector<VertexMark> marks = mark_paper(mesh, paper(variant));
       const std::vector<VertexMark> truth = brute_marks(mesh, variant, 4, 1e-5);
       ASSERT_EQ(marks.size(), truth.size());
@@ -897,7 +875,7 @@ TEST(MarkPaper, RealMeshesAgreeWithBruteForce) {
 // =================================================================================================
 
 TEST(SimplifyPaper, KeepsTheUnmarkedAndRestoredVerticesInTheirOrder) {
-  for (const Grid* grid : {&nrw_crop(), &delft_grid()}) {
+  for (const Grid* grid : {&testkit::nrw_crop(), &testkit::delft_grid()}) {
     const Mesh mesh = triangulate_xy3(*grid);
     // Input vertex of each cell (vertices are cell centres, one per valid cell).
     std::vector<int64_t> input_at(grid->cells(), -1);
@@ -906,7 +884,7 @@ TEST(SimplifyPaper, KeepsTheUnmarkedAndRestoredVerticesInTheirOrder) {
       input_at[grid->index(cell.col, cell.row)] = static_cast<int64_t>(v);
     }
     for (PaperVariant variant : {PaperVariant::One, PaperVariant::Two}) {
-      SCOPED_TRACE(std::string(grid == &nrw_crop() ? "nrw " : "delft ") + to_string(variant));
+      SCOPED_TRACE(std::string(grid == &testkit::nrw_crop() ? "nrw " : "delft ") + to_string(variant));
       const std::vector<VertexMark> marks = mark_paper(mesh, paper(variant));
       const PaperSimplifyResult result = simplify_paper(mesh, paper(variant));
       // The output is a subsequence of the input, unchanged: every kept vertex, no co-planar
@@ -945,10 +923,10 @@ TEST(SimplifyPaper, SurfaceStaysWithinDzOfEveryRemovedColinearVertex) {
   // The header's promise for co-linear removals (they lie on a line of the input), checked by
   // point location in the output: removed co-linear vertices the surface misses by more than dz
   // must have been put back.
-  for (const Grid* grid : {&nrw_crop(), &delft_grid()}) {
+  for (const Grid* grid : {&testkit::nrw_crop(), &testkit::delft_grid()}) {
     const Mesh mesh = triangulate_xy3(*grid);
     for (PaperVariant variant : {PaperVariant::One, PaperVariant::Two}) {
-      SCOPED_TRACE(std::string(grid == &nrw_crop() ? "nrw " : "delft ") + to_string(variant));
+      SCOPED_TRACE(std::string(grid == &testkit::nrw_crop() ? "nrw " : "delft ") + to_string(variant));
       const std::vector<VertexMark> marks = mark_paper(mesh, paper(variant));
       const PaperSimplifyResult result = simplify_paper(mesh, paper(variant));
       std::vector<char> kept(grid->cells(), 0);
@@ -978,7 +956,7 @@ TEST(SimplifyPaper, SurfaceStaysWithinDzOfEveryRemovedColinearVertex) {
 }
 
 TEST(SimplifyPaper, IsDelaunayWhereTheInputHasNoHoles) {
-  const Grid& grid = nrw_crop();
+  const Grid& grid = testkit::nrw_crop();
   const Mesh mesh = triangulate_xy3(grid);
   for (PaperVariant variant : {PaperVariant::One, PaperVariant::Two}) {
     SCOPED_TRACE(to_string(variant));
@@ -1003,12 +981,12 @@ TEST(SimplifyPaper, IsDelaunayWhereTheInputHasNoHoles) {
 TEST(SimplifyPaper, KeepsTheFootprint) {
   for (PaperVariant variant : {PaperVariant::One, PaperVariant::Two}) {
     SCOPED_TRACE(to_string(variant));
-    const Grid& crop = nrw_crop();
+    const Grid& crop = testkit::nrw_crop();
     EXPECT_EQ(certify(simplify_paper(triangulate_xy3(crop), paper(variant)).mesh, crop).uncovered, 0u);
 
     // Delft has canals: every cell centre (valid or nodata) is covered by the simplified mesh
     // exactly when it is covered by the input mesh.
-    const Grid& delft = delft_grid();
+    const Grid& delft = testkit::delft_grid();
     const Mesh mesh = triangulate_xy3(delft);
     const Mesh simplified = simplify_paper(mesh, paper(variant)).mesh;
     const MeshHeight before(mesh, delft), after(simplified, delft);
@@ -1054,8 +1032,8 @@ TEST(Certify, OneTriangleByHand) {
 }
 
 TEST(Certify, MatchesPointLocationOnRealSimplifiedMeshes) {
-  const Grid& crop = nrw_crop();
-  const Grid& delft = delft_grid();
+  const Grid& crop = testkit::nrw_crop();
+  const Grid& delft = testkit::delft_grid();
   struct Case {
     const char* name;
     const Grid& grid;
@@ -1177,7 +1155,7 @@ TEST(Oracles, SeeBrokenMeshes) {
 }
 
 TEST(SimplifyBounded, BoundHoldsOnTheNrwCrop) {
-  const Grid& grid = nrw_crop();
+  const Grid& grid = testkit::nrw_crop();
   for (double max_error : {0.1, 0.4, 1.0}) {
     for (bool conservative : {false, true}) {
       for (bool delaunay : {false, true}) {
@@ -1193,14 +1171,14 @@ TEST(SimplifyBounded, BoundHoldsOnTheNrwCrop) {
 }
 
 TEST(SimplifyBounded, DelaunayModeIsCgalsDelaunayTriangulation) {
-  const Grid& grid = nrw_crop();
+  const Grid& grid = testkit::nrw_crop();
   const Mesh mesh = simplify_bounded(grid, bounded(0.4, false, true));
   expect_cgal_delaunay(mesh, grid);
   expect_rectangle(mesh, grid);
 }
 
 TEST(SimplifyBounded, BoundHoldsOnTheFullNrwTile) {
-  const Grid& grid = nrw_full();
+  const Grid& grid = testkit::nrw_full();
   ASSERT_EQ(grid.cells(), 1000u * 1000u);
   {
     SCOPED_TRACE("E 0.4 two-sided tiled");
@@ -1226,7 +1204,7 @@ TEST(SimplifyBounded, BoundHoldsOnTheFullNrwTile) {
 }
 
 TEST(SimplifyBounded, BoundHoldsOnDelftWithHoles) {
-  const Grid& grid = delft_grid();
+  const Grid& grid = testkit::delft_grid();
   ASSERT_GE(summarize(grid).holes, 100u);
   for (double max_error : {0.1, 0.4, 1.0}) {
     for (bool conservative : {false, true}) {
@@ -1240,7 +1218,7 @@ TEST(SimplifyBounded, BoundHoldsOnDelftWithHoles) {
 }
 
 TEST(SimplifyBounded, TiledMeshIsWatertight) {
-  const Grid& crop = nrw_crop();
+  const Grid& crop = testkit::nrw_crop();
   for (int tile : {0, 64, 37}) {
     for (bool conservative : {false, true}) {
       SCOPED_TRACE("tile " + std::to_string(tile) + (conservative ? " conservative" : " two-sided"));
@@ -1252,7 +1230,7 @@ TEST(SimplifyBounded, TiledMeshIsWatertight) {
       expect_within_bound(mesh, crop, 0.4, conservative);
     }
   }
-  const Grid& delft = delft_grid();
+  const Grid& delft = testkit::delft_grid();
   for (int tile : {0, 50}) {
     SCOPED_TRACE("delft tile " + std::to_string(tile));
     BoundedSimplifyOptions options = bounded(0.4);
@@ -1264,8 +1242,8 @@ TEST(SimplifyBounded, TiledMeshIsWatertight) {
 }
 
 TEST(SimplifyBounded, ResultDoesNotDependOnThreads) {
-  for (const Grid* grid : {&nrw_crop(), &delft_grid()}) {
-    BoundedSimplifyOptions options = bounded(0.4, grid == &delft_grid());
+  for (const Grid* grid : {&testkit::nrw_crop(), &testkit::delft_grid()}) {
+    BoundedSimplifyOptions options = bounded(0.4, grid == &testkit::delft_grid());
     options.tile_size = 64;
     options.threads = 1;
     const Mesh one = simplify_bounded(*grid, options);
@@ -1279,7 +1257,7 @@ TEST(SimplifyBounded, ResultDoesNotDependOnThreads) {
 }
 
 TEST(SimplifyBounded, VerticesAreCellCentresInRowMajorOrder) {
-  const Grid& grid = delft_grid();
+  const Grid& grid = testkit::delft_grid();
   const Mesh mesh = simplify_bounded(grid, bounded(0.4));
   size_t last = 0, out_of_order = 0;
   for (size_t v = 0; v < mesh.vertices.size(); ++v) {
@@ -1306,9 +1284,9 @@ struct Features {
 const Features& nrw_features() {
   static const Features features = [] {
     Features f;
-    f.walls = find_walls(nrw_full(), 5.0);
-    f.spill = spill_heights(nrw_full());
-    f.courtyards = find_courtyards(nrw_full(), f.spill);
+    f.walls = find_walls(testkit::nrw_full(), 5.0);
+    f.spill = spill_heights(testkit::nrw_full());
+    f.courtyards = find_courtyards(testkit::nrw_full(), f.spill);
     return f;
   }();
   return features;
@@ -1323,7 +1301,7 @@ TEST(Features, RealTileHasThinWallsAndCourtyards) {
 }
 
 TEST(Features, BoundedModeKeepsWallsAndCourtyards) {
-  const Grid& grid = nrw_full();
+  const Grid& grid = testkit::nrw_full();
   const Features& features = nrw_features();
   for (bool conservative : {false, true}) {
     SCOPED_TRACE(conservative ? "conservative" : "two-sided");
@@ -1361,7 +1339,7 @@ TEST(Features, BoundedModeKeepsWallsAndCourtyards) {
 // put-back, 36 of these wall cells were cut. The paper's Fig. 7 (b, c) claims variant two keeps
 // both.
 TEST(Features, VariantTwoKeepsWallsAndCourtyards) {
-  const Grid& grid = nrw_full();
+  const Grid& grid = testkit::nrw_full();
   const Features& features = nrw_features();
   const Mesh input = triangulate_xy3(grid);
   ASSERT_EQ(input.vertices.size(), grid.cells());  // no nodata: vertex i is cell i
@@ -1442,7 +1420,7 @@ TEST(BadInput, Check2_5dRejectsFoldsAndNamesTheFile) {
   square.vertices = {{0, 0, 1}, {1, 0, 2}, {1, 1, 3}, {0, 1, 4}};
   square.triangles = {{0, 1, 2}, {0, 2, 3}};
   EXPECT_NO_THROW(check_2_5d(square, "square.ply"));
-  EXPECT_NO_THROW(check_2_5d(triangulate_xy3(delft_grid()), "delft.ply"));
+  EXPECT_NO_THROW(check_2_5d(triangulate_xy3(testkit::delft_grid()), "delft.ply"));
 
   auto expect_rejected = [](const Mesh& mesh, const std::string& why) {
     SCOPED_TRACE(why);

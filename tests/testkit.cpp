@@ -12,6 +12,8 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "dsmplan/raster.hpp"
+
 extern char** environ;
 
 namespace testkit {
@@ -27,6 +29,27 @@ namespace {
 }  // namespace
 
 std::string data_path(const std::string& relative) { return std::string(DSMPLAN_DATA_DIR) + "/" + relative; }
+
+const dsmplan::Grid& nrw_crop() {
+  static const dsmplan::Grid grid = dsmplan::read_raster(data_path("nrw-dom1/nrw_dom1_crop500m_1m.tif"));
+  return grid;
+}
+
+const dsmplan::Grid& nrw_full() {
+  static const dsmplan::Grid grid = dsmplan::read_raster(data_path("nrw-dom1/dom1_32_356_5699_1_nw_2020.tif"));
+  return grid;
+}
+
+const dsmplan::Grid& delft_grid() {
+  static const dsmplan::Grid grid = [] {
+    std::vector<dsmplan::PointCloud> clouds{dsmplan::read_las(data_path("delft-ahn3/ahn3_cropped_1.las")),
+                                            dsmplan::read_las(data_path("delft-ahn3/ahn3_cropped_2.las"))};
+    dsmplan::GridPointsOptions options;
+    options.resolution = 0.5;
+    return dsmplan::grid_points(clouds, options);
+  }();
+  return grid;
+}
 
 TempDir::TempDir() {
   std::string pattern = (std::filesystem::temp_directory_path() / "dsmplan-test-XXXXXX").string();

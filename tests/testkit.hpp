@@ -6,10 +6,20 @@
 #include <string>
 #include <vector>
 
+namespace dsmplan {
+struct Grid;
+}
+
 namespace testkit {
 
 /// A file of the bundled real data (data/ in the repository), e.g. "nrw-dom1/nrw_dom1_crop500m_1m.tif".
 std::string data_path(const std::string& relative);
+
+/// The real DSMs the tests share, read once per test binary.
+const dsmplan::Grid& nrw_crop();  ///< NRW DOM1, 500 m x 500 m at 1 m, no nodata
+const dsmplan::Grid& nrw_full();  ///< NRW DOM1 tile, 1000 x 1000 at 1 m
+/// Delft AHN3 LiDAR gridded at 0.5 m (median): canals and yards without returns are real holes.
+const dsmplan::Grid& delft_grid();
 
 /// A fresh folder, removed with everything in it when the object goes.
 class TempDir {

@@ -1,31 +1,14 @@
 // dsmplan mesh: DSM raster to the XY-3 Delaunay mesh of Adolf & Hirschmueller, Section 3 and
 // Table 1 (resampled to the x/y resolution, heights in 0.1 m steps), written to a mesh file.
-#include <chrono>
 #include <cmath>
 #include <filesystem>
 
 #include "dsmplan/export.hpp"
 #include "dsmplan/tools.hpp"
+#include "tools/job_parts.hpp"
 #include "tools/report_json.hpp"
 
 namespace dsmplan {
-
-namespace {
-
-class Stopwatch {
-public:
-  double lap() {
-    const auto now = std::chrono::steady_clock::now();
-    const double seconds = std::chrono::duration<double>(now - last_).count();
-    last_ = now;
-    return seconds;
-  }
-
-private:
-  std::chrono::steady_clock::time_point last_ = std::chrono::steady_clock::now();
-};
-
-}  // namespace
 
 MeshReport mesh_dsm(const MeshJobOptions& options, const Progress& progress) {
   // Everything that can be checked is checked before the long work starts.
@@ -39,13 +22,7 @@ MeshReport mesh_dsm(const MeshJobOptions& options, const Progress& progress) {
   report.output = options.output;
   Stopwatch clock;
   Grid dsm = read_raster(options.input, options.read, sub_progress(progress, 0, 0.3));
-  if (dsm.crs.geographic) {
-    // Delaunay on degrees, heights in metres: neither the mesh nor a safety distance means anything.
-    throw InputError(options.input, "",
-                     "CRS '" + dsm.crs.name +
-                         "' is geographic (degrees); reproject to a projected CRS in metres first, "
-                         "e.g. gdalwarp -t_srs EPSG:25832");
-  }
+  require_projected(dsm, options.input);
   report.seconds.emplace_back("read", clock.lap());
   report.source_resolution = dsm.cell_x;
   if (options.resolution && (*options.resolution != dsm.cell_x || *options.resolution != dsm.cell_y)) {
@@ -57,9 +34,7 @@ MeshReport mesh_dsm(const MeshJobOptions& options, const Progress& progress) {
   report.seconds.emplace_back("triangulate", clock.lap());
   write_mesh(mesh, options.output, format, sub_progress(progress, 0.7, 1.0));
   report.seconds.emplace_back("write", clock.lap());
-  double total = 0;
-  for (const auto& [stage, seconds] : report.seconds) total += seconds;
-  report.seconds.emplace_back("total", total);
+  add_total(report.seconds);
 
   report.vertices = mesh.vertices.size();
   report.faces = mesh.triangles.size();

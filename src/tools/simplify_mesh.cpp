@@ -2,31 +2,18 @@
 // the paper's variant one or two (Adolf & Hirschmueller, Section 4 and Table 2) or by the
 // bounded mode, and certified against the DSM at every valid cell centre.
 #include <algorithm>
-#include <chrono>
 #include <cmath>
 #include <cstdio>
 
 #include "dsmplan/export.hpp"
 #include "dsmplan/simplify.hpp"
 #include "dsmplan/tools.hpp"
+#include "tools/job_parts.hpp"
 #include "tools/report_json.hpp"
 
 namespace dsmplan {
 
 namespace {
-
-class Stopwatch {
-public:
-  double lap() {
-    const auto now = std::chrono::steady_clock::now();
-    const double seconds = std::chrono::duration<double>(now - last_).count();
-    last_ = now;
-    return seconds;
-  }
-
-private:
-  std::chrono::steady_clock::time_point last_ = std::chrono::steady_clock::now();
-};
 
 bool is_mesh_file(const std::string& path) {
   try {
@@ -40,12 +27,7 @@ bool is_mesh_file(const std::string& path) {
 Grid read_dsm(const std::string& path, const SimplifyJobOptions& options, SimplifyReport& report,
               const Progress& progress) {
   Grid dsm = read_raster(path, options.read, progress);
-  if (dsm.crs.geographic) {
-    throw InputError(path, "",
-                     "CRS '" + dsm.crs.name +
-                         "' is geographic (degrees); reproject to a projected CRS in metres first, "
-                         "e.g. gdalwarp -t_srs EPSG:25832");
-  }
+  require_projected(dsm, path);
   report.source_resolution = dsm.cell_x;
   if (options.resolution && (*options.resolution != dsm.cell_x || *options.resolution != dsm.cell_y)) {
     dsm = resample(dsm, *options.resolution, options.resampling);
@@ -153,9 +135,7 @@ SimplifyReport simplify_job(const SimplifyJobOptions& options, const Progress& p
   report.seconds.emplace_back("certify", clock.lap());
   write_mesh(output, options.output, format, sub_progress(progress, 0.9, 1.0));
   report.seconds.emplace_back("write", clock.lap());
-  double total = 0;
-  for (const auto& [stage, seconds] : report.seconds) total += seconds;
-  report.seconds.emplace_back("total", total);
+  add_total(report.seconds);
   report.vertices_out = output.vertices.size();
   report.faces_out = output.triangles.size();
   report.crs = output.crs;
