@@ -144,6 +144,23 @@ int main(int argc, char** argv) {
   render_cmd->add_option("--crs", render.read.assign_crs, "CRS to assume when the raster has none");
   render_cmd->add_flag("-q,--quiet", quiet, "No progress output");
 
+  PlanJobOptions plan;
+  std::string plan_stats;
+  CLI::App* plan_cmd = app.add_subcommand(
+      "plan", "Plan a collision-free path through waypoints over an obstacle mesh (Halton PRM, A*, shortcuts)");
+  plan_cmd->add_option("MESH", plan.mesh, "Obstacle mesh (.ply, .obj, .off) in a projected CRS")->required();
+  plan_cmd->add_option("--waypoints", plan.waypoints, "CSV of x,y,z waypoints in the mesh's CRS")->required();
+  plan_cmd->add_option("-o,--output", plan.output, "Path: .csv (x,y,z)")->required();
+  plan_cmd->add_option("--safety", plan.plan.safety, "Least distance to the mesh")->capture_default_str();
+  plan_cmd->add_option("--spacing", plan.plan.spacing, "Relative sample distance: samples = volume / spacing^3")
+      ->capture_default_str();
+  plan_cmd->add_option("--max-edge", plan.plan.max_edge, "Longest roadmap edge")->capture_default_str();
+  plan_cmd->add_option("--max-agl", plan.plan.max_agl, "Top of the flight volume above the surface")
+      ->capture_default_str();
+  plan_cmd->add_option("--threads", plan.plan.threads, "Threads (0: every core)")->capture_default_str();
+  plan_cmd->add_option("--stats", plan_stats, "Write statistics as JSON to this file");
+  plan_cmd->add_flag("-q,--quiet", quiet, "No progress output");
+
   try {
     app.parse(argc, argv);
     if (*info_cmd) {
@@ -186,6 +203,11 @@ int main(int argc, char** argv) {
       if (!window.empty()) render.render.window = parse_window(window);
       render.render.edges = !no_edges;
       render_job(render, terminal_progress(quiet));
+    }
+    if (*plan_cmd) {
+      const PlanReport report = plan_job(plan, terminal_progress(quiet));
+      if (!plan_stats.empty()) write_text_file(plan_stats, to_json(report).dump(2) + "\n");
+      if (!quiet) std::fputs(to_text(report).c_str(), stdout);
     }
   } catch (const CLI::ParseError& error) {
     return app.exit(error);

@@ -2,7 +2,8 @@
 # The main job on the bundled real sample (500 m x 500 m of the NRW DOM1, 1 m cells), into
 # out/sample/: describe the DSM, build the paper's XY-3 Delaunay mesh at 1 m and 2 m, simplify
 # it by the paper's variants one and two and by the conservative bounded mode (each certified
-# against the DSM), and draw the three side by side as the paper's Figures 6 and 7.
+# against the DSM), draw the three side by side as the paper's Figures 6 and 7, and plan a
+# collision-free path through the bundled waypoints on the conservative mesh.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 scripts/build.sh
@@ -29,6 +30,10 @@ build/dsmplan render "$dsm" --window 356500,5699450,356650,5699600 --zoom 4 \
   --mesh "$out/variant2_1m.ply" --title "variant two" \
   --mesh "$out/bounded_1m.ply" --title "bounded, conservative 0.4 m" \
   -o "$out/simplify_1m.png" -q
+echo
+echo "Planning a path through the bundled waypoints on the conservative mesh (2 m safety distance):"
+build/dsmplan plan "$out/bounded_1m.ply" --waypoints data/nrw-dom1/sample_waypoints.csv \
+  -o "$out/path.csv" --stats "$out/path.json" -q
 echo
 echo "Outputs in $out/:"
 ls -l "$out"

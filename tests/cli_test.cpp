@@ -800,3 +800,155 @@ TEST(CliBadInput, RenderBrokenMeshNamesIt) {
   expect_clean_failure(run_cli({"render", testkit::data_path(kSample), "--mesh", mesh, "-o", out.path("p.png")}), out,
                        mesh, {"does not exist"});
 }
+
+// ---- dsmplan plan ----------------------------------------------------------------------------
+//
+// Waypoints are put 35 m above the highest DSM cell within 15 m (read through GDAL here), so
+// the test knows they are clear of any mesh of that DSM; the path's points are read back from
+// the CSV and compared with the waypoints written.
+
+namespace {
+
+struct PlanFixture {
+  TempDir in;
+  std::string mesh = in.path("mesh.ply"), waypoints = in.path("wp.csv");
+  Raster dsm = read_with_gdal(testkit::data_path(kSample));
+
+  PlanFixture() {
+    const auto made = run_cli({"mesh", testkit::data_path(kSample), "-o", mesh, "--res", "2", "-q"});
+    if (made.exit_code != 0) throw std::runtime_error("mesh failed: " + made.err);
+  }
+  // Highest DSM cell within `r` of (x, y).
+  double highest(double x, double y, double r) const {
+    double top = -INFINITY;
+    for (int row = 0; row < dsm.height; ++row)
+      for (int col = 0; col < dsm.width; ++col) {
+        const double cx = dsm.gt[0] + (col + 0.5) * dsm.gt[1], cy = dsm.gt[3] + (row + 0.5) * dsm.gt[5];
+        if (std::abs(cx - x) <= r && std::abs(cy - y) <= r)
+          top = std::max(top, double(dsm.z[size_t(row) * dsm.width + col]));
+      }
+    return top;
+  }
+  // Three waypoints: two opposite corners and one in between, 35 m above their surroundings.
+  std::vector<std::array<double, 3>> corners() const {
+    const double x0 = dsm.gt[0], y1 = dsm.gt[3], x1 = x0 + dsm.width * dsm.gt[1], y0 = y1 + dsm.height * dsm.gt[5];
+    std::vector<std::array<double, 3>> points{
+        {x0 + 20, y0 + 20, 0}, {0.5 * (x0 + x1) + 10, 0.5 * (y0 + y1) - 30, 0}, {x1 - 20, y1 - 20, 0}};
+    for (auto& p : points) p[2] = std::round(highest(p[0], p[1], 15) + 35);
+    return points;
+  }
+  void write_waypoints(const std::vector<std::array<double, 3>>& points, const std::string& header = "x,y,z\n") const {
+    std::ostringstream text;
+    text.precision(17);
+    text << header;
+    for (const auto& p : points) text << p[0] << "," << p[1] << "," << p[2] << "\n";
+    testkit::write_file(waypoints, text.str());
+  }
+};
+
+std::vector<std::array<double, 3>> read_path_csv(const std::string& path) {
+  std::istringstream in(testkit::read_file(path));
+  std::string line;
+  std::getline(in, line);
+  EXPECT_EQ(line, "x,y,z");
+  std::vector<std::array<double, 3>> points;
+  while (std::getline(in, line)) {
+    std::array<double, 3> p{};
+    char c1 = 0, c2 = 0;
+    std::istringstream fields(line);
+    fields >> p[0] >> c1 >> p[1] >> c2 >> p[2];
+    EXPECT_TRUE(fields && c1 == ',' && c2 == ',') << line;
+    points.push_back(p);
+  }
+  return points;
+}
+
+}  // namespace
+
+TEST(CliPlan, ThreeWaypointsGiveAPathCsvAndStats) {
+  PlanFixture f;
+  const auto waypoints = f.corners();
+  f.write_waypoints(waypoints, "# three waypoints\nx,y,z\n");
+  TempDir out;
+  const std::string path = out.path("path.csv"), stats = out.path("stats.json");
+  const auto result = run_cli({"plan", f.mesh, "--waypoints", f.waypoints, "-o", path, "--stats", stats, "-q"});
+  ASSERT_EQ(result.exit_code, 0) << result.err;
+  EXPECT_EQ(result.err, "");
+  const auto points = read_path_csv(path);
+  ASSERT_GE(points.size(), 3u);
+  EXPECT_EQ(points.front(), waypoints.front());
+  EXPECT_EQ(points.back(), waypoints.back());
+  EXPECT_NE(std::find(points.begin(), points.end(), waypoints[1]), points.end());
+  double length = 0, straight = 0;
+  for (size_t k = 1; k < points.size(); ++k)
+    length +=
+        std::hypot(points[k][0] - points[k - 1][0], points[k][1] - points[k - 1][1], points[k][2] - points[k - 1][2]);
+  for (size_t k = 1; k < waypoints.size(); ++k)
+    straight += std::hypot(waypoints[k][0] - waypoints[k - 1][0], waypoints[k][1] - waypoints[k - 1][1],
+                           waypoints[k][2] - waypoints[k - 1][2]);
+
+  const json s = json::parse(testkit::read_file(stats));
+  std::vector<std::string> keys;
+  for (auto it = s.begin(); it != s.end(); ++it) keys.push_back(it.key());
+  std::sort(keys.begin(), keys.end());
+  std::vector<std::string> expected{"path_length_m", "min_clearance_m", "roadmap_nodes", "roadmap_edges",
+                                    "seconds_load",  "seconds_roadmap", "seconds_query", "seconds_smooth"};
+  std::sort(expected.begin(), expected.end());
+  EXPECT_EQ(keys, expected);
+  EXPECT_NEAR(s["path_length_m"].get<double>(), length, 1e-6);
+  EXPECT_GE(length, straight - 1e-6);
+  EXPECT_GE(s["min_clearance_m"].get<double>(), 2.0);
+  EXPECT_GT(s["roadmap_nodes"].get<long long>(), 0);
+  EXPECT_GT(s["roadmap_edges"].get<long long>(), 0);
+  for (const char* key : {"seconds_load", "seconds_roadmap", "seconds_query", "seconds_smooth"})
+    EXPECT_GE(s[key].get<double>(), 0) << key;
+}
+
+TEST(CliBadInput, PlanWaypointsOutsideUnderOrTooClose) {
+  PlanFixture f;
+  auto w = f.corners();
+  TempDir out;
+  const std::vector<std::string> outputs{"-o", out.path("path.csv"), "--stats", out.path("s.json"), "-q"};
+  auto plan = [&](std::vector<std::string> extra) {
+    std::vector<std::string> args{"plan", f.mesh, "--waypoints", f.waypoints};
+    args.insert(args.end(), outputs.begin(), outputs.end());
+    args.insert(args.end(), extra.begin(), extra.end());
+    return run_cli(args);
+  };
+  auto outside = w;
+  outside[0][0] -= 500;
+  f.write_waypoints(outside);
+  expect_clean_failure(plan({}), out, "waypoint 1", {"outside"});
+
+  auto under = w;
+  under[1][2] = 50;  // the sample's lowest cell is about 109 m
+  f.write_waypoints(under);
+  expect_clean_failure(plan({}), out, "waypoint 2", {"under the surface"});
+
+  f.write_waypoints(w);
+  expect_clean_failure(plan({"--safety", "50"}), out, "waypoint 1", {"safety distance"});
+
+  f.write_waypoints({w[0]});
+  expect_clean_failure(plan({}), out, f.waypoints, {"at least two"});
+
+  // A roadmap too sparse to join anything: the leg is named.
+  f.write_waypoints(w);
+  expect_clean_failure(plan({"--spacing", "200", "--max-edge", "10"}), out, "waypoints 1 to 2", {"no "});
+}
+
+TEST(CliBadInput, PlanMalformedWaypointFileNamesTheLine) {
+  PlanFixture f;
+  testkit::write_file(f.waypoints, "x,y,z\n356320,5699270,200\n356400,abc,200\n356700,5699700,200\n");
+  TempDir out;
+  expect_clean_failure(run_cli({"plan", f.mesh, "--waypoints", f.waypoints, "-o", out.path("p.csv"), "-q"}), out,
+                       f.waypoints + ": line 3", {"expected"});
+  testkit::write_file(f.waypoints, "356320,5699270\n356700,5699700,200\n");
+  expect_clean_failure(run_cli({"plan", f.mesh, "--waypoints", f.waypoints, "-o", out.path("p.csv"), "-q"}), out,
+                       "line 1", {"expected"});
+  expect_clean_failure(
+      run_cli({"plan", f.mesh, "--waypoints", f.in.path("missing.csv"), "-o", out.path("p.csv"), "-q"}), out,
+      "missing.csv", {"cannot open"});
+  f.write_waypoints(f.corners());
+  expect_clean_failure(run_cli({"plan", f.mesh, "--waypoints", f.waypoints, "-o", out.path("p.geojson"), "-q"}), out,
+                       "-o", {".csv"});
+}

@@ -442,3 +442,245 @@ TEST(ClearanceIndex, BadInput) {
 }
 
 }  // namespace
+
+// ---- the planner (PRM, A*, shortcuts) on the real mesh ------------------------------------
+//
+// Oracles: the distance of every returned segment to every triangle of the mesh, by
+// segment_triangle_distance() in a plain loop (no ClearanceIndex); the exact waypoint
+// coordinates; the triangle inequality for smoothing; a second run (and one thread against
+// two) for determinism.
+
+namespace {
+
+// Least distance from [p, q] to any triangle, brute force (capped at `cap`; a box test that
+// is obviously conservative only saves time).
+double brute_clearance(const Mesh& mesh, const Point3& origin, const Point3& p_, const Point3& q_, double cap) {
+  const Point3 p{p_[0] - origin[0], p_[1] - origin[1], p_[2] - origin[2]};
+  const Point3 q{q_[0] - origin[0], q_[1] - origin[1], q_[2] - origin[2]};
+  double best = cap;
+  for (const Triangle& t : mesh.triangles) {
+    std::array<Point3, 3> c;
+    for (int k = 0; k < 3; ++k) {
+      const Vertex& v = mesh.vertices[t[k]];
+      c[k] = {v.x - origin[0], v.y - origin[1], v.z - origin[2]};
+    }
+    bool far = false;
+    for (int k = 0; k < 3 && !far; ++k) {
+      const double lo = std::min({c[0][k], c[1][k], c[2][k]}), hi = std::max({c[0][k], c[1][k], c[2][k]});
+      far = std::min(p[k], q[k]) > hi + cap + 1e-6 || std::max(p[k], q[k]) < lo - cap - 1e-6;
+    }
+    if (!far) best = std::min(best, segment_triangle_distance(p, q, c[0], c[1], c[2]));
+  }
+  return best;
+}
+
+struct MeshBox {
+  double x0 = INFINITY, x1 = -INFINITY, y0 = INFINITY, y1 = -INFINITY;
+  explicit MeshBox(const Mesh& mesh) {
+    for (const Vertex& v : mesh.vertices)
+      x0 = std::min(x0, v.x), x1 = std::max(x1, v.x), y0 = std::min(y0, v.y), y1 = std::max(y1, v.y);
+  }
+};
+
+// A point `agl` above the surface near (x, y), moved in 3 m steps until it is `safety` clear of
+// the mesh by brute force (a wall may stand right beside the spot).
+Point3 waypoint_near(const Mesh& mesh, const ClearanceIndex& index, double x, double y, double agl, double safety) {
+  for (int ring = 0; ring < 6; ++ring)
+    for (int dx = -ring; dx <= ring; ++dx)
+      for (int dy = -ring; dy <= ring; ++dy) {
+        if (std::max(std::abs(dx), std::abs(dy)) != ring) continue;
+        const double px = x + 3 * dx, py = y + 3 * dy, g = index.ground(px, py);
+        if (std::isnan(g)) continue;
+        const Point3 p{px, py, g + agl};
+        if (brute_clearance(mesh, index.origin(), p, p, safety + 1) >= safety + 0.5) return p;
+      }
+  ADD_FAILURE() << "no clear waypoint near " << x << ", " << y;
+  return {x, y, 1e4};
+}
+
+// Opposite corners and the middle, 35 m above the surface.
+std::vector<Point3> three_waypoints(const Mesh& mesh, const ClearanceIndex& index, double agl = 35, double safety = 2) {
+  const MeshBox b(mesh);
+  return {waypoint_near(mesh, index, b.x0 + 20, b.y0 + 20, agl, safety),
+          waypoint_near(mesh, index, 0.5 * (b.x0 + b.x1) + 10, 0.5 * (b.y0 + b.y1) - 30, agl, safety),
+          waypoint_near(mesh, index, b.x1 - 20, b.y1 - 20, agl, safety)};
+}
+
+void expect_path_verified(const Mesh& mesh, const ClearanceIndex& index, const std::vector<Point3>& waypoints,
+                          const PlanResult& result, double safety) {
+  ASSERT_EQ(result.status, PlanStatus::Solved) << result.place() << ": " << result.reason;
+  ASSERT_GE(result.path.size(), 2u);
+  EXPECT_EQ(result.path.front(), waypoints.front());
+  EXPECT_EQ(result.path.back(), waypoints.back());
+  // Every waypoint, in order, exactly.
+  size_t at = 0;
+  for (const Point3& w : waypoints) {
+    while (at < result.path.size() && result.path[at] != w) ++at;
+    EXPECT_LT(at, result.path.size()) << "waypoint missing or out of order";
+  }
+  for (const auto* path : {&result.path, &result.raw_path})
+    for (size_t k = 1; k < path->size(); ++k) {
+      const double d = brute_clearance(mesh, index.origin(), (*path)[k - 1], (*path)[k], safety + 1);
+      EXPECT_GE(d, safety) << "segment " << k << (path == &result.path ? " of the path" : " of the raw path");
+    }
+  // Shortcuts replace pieces of the raw path by straight segments: never longer.
+  EXPECT_LE(path_length(result.path), path_length(result.raw_path) + 1e-9);
+  EXPECT_LE(result.path.size(), result.raw_path.size());
+}
+
+TEST(PlanPath, ThreeWaypointsLowOverTheRealMeshAreVerifiedByBruteForce) {
+  const Mesh& mesh = mesh_2m();
+  const ClearanceIndex index(mesh);
+  const auto waypoints = three_waypoints(mesh, index);
+  PlanOptions options;
+  options.max_agl = 45;  // low: the roadmap stays among the roofs
+  options.spacing = 15;
+  const PlanResult result = plan_path(index, mesh, waypoints, options);
+  expect_path_verified(mesh, index, waypoints, result, options.safety);
+  EXPECT_GT(result.roadmap_nodes, 0u);
+  EXPECT_GT(result.roadmap_edges, 0u);
+  EXPECT_LT(path_length(result.path), path_length(result.raw_path));  // the shortcuts did something
+  RecordProperty("path_length_m", std::to_string(path_length(result.path)));
+  RecordProperty("raw_length_m", std::to_string(path_length(result.raw_path)));
+}
+
+TEST(PlanPath, SimplifiedConservativeMeshWithLargerSafety) {
+  const Mesh& mesh = mesh_bounded();
+  const ClearanceIndex index(mesh);
+  const auto waypoints = three_waypoints(mesh, index, 30, 5);
+  PlanOptions options;
+  options.safety = 5;
+  options.max_agl = 50;
+  options.spacing = 15;
+  const PlanResult result = plan_path(index, mesh, waypoints, options);
+  expect_path_verified(mesh, index, waypoints, result, options.safety);
+}
+
+TEST(PlanPath, WithoutSmoothingThePathIsTheRawPath) {
+  const Mesh& mesh = mesh_2m();
+  const ClearanceIndex index(mesh);
+  const auto waypoints = three_waypoints(mesh, index);
+  PlanOptions options;
+  options.max_agl = 60;
+  options.smooth = false;
+  const PlanResult result = plan_path(index, mesh, waypoints, options);
+  ASSERT_EQ(result.status, PlanStatus::Solved) << result.reason;
+  EXPECT_EQ(result.path, result.raw_path);
+}
+
+TEST(PlanPath, RoadmapHoldsExactlyTheClearPairsWithinMaxEdge) {
+  const Mesh& mesh = mesh_2m();
+  const ClearanceIndex index(mesh);
+  PlanOptions options;
+  options.max_agl = 60;
+  options.spacing = 25;
+  const Roadmap map = build_roadmap(index, mesh, options);
+  ASSERT_GT(map.nodes.size(), 100u);
+  ASSERT_EQ(map.start.size(), map.nodes.size() + 1);
+  const MeshBox b(mesh);
+  for (size_t i = 0; i < map.nodes.size(); ++i) {
+    const Point3& p = map.nodes[i];
+    EXPECT_TRUE(p[0] >= b.x0 && p[0] <= b.x1 && p[1] >= b.y0 && p[1] <= b.y1);
+    const double g = index.ground(p[0], p[1]);
+    EXPECT_TRUE(p[2] >= g && p[2] <= g + options.max_agl) << i;
+    EXPECT_TRUE(std::is_sorted(map.neighbour.begin() + map.start[i], map.neighbour.begin() + map.start[i + 1]));
+  }
+  // For the 40 nodes nearest the surface (where the close calls are): every other node within
+  // max_edge is a neighbour iff brute force finds the segment clear; every node is clear.
+  std::vector<std::pair<double, size_t>> low;
+  for (size_t i = 0; i < map.nodes.size(); ++i)
+    low.emplace_back(map.nodes[i][2] - index.ground(map.nodes[i][0], map.nodes[i][1]), i);
+  std::sort(low.begin(), low.end());
+  int clear_pairs = 0, blocked_pairs = 0;
+  for (size_t n = 0; n < 40; ++n) {
+    const size_t i = low[n].second;
+    EXPECT_GE(brute_clearance(mesh, index.origin(), map.nodes[i], map.nodes[i], 3), options.safety);
+    const auto begin = map.neighbour.begin() + map.start[i], end = map.neighbour.begin() + map.start[i + 1];
+    for (size_t j = 0; j < map.nodes.size(); ++j) {
+      if (j == i || dist(map.nodes[i], map.nodes[j]) >= options.max_edge) {
+        EXPECT_FALSE(std::binary_search(begin, end, static_cast<uint32_t>(j)));
+        continue;
+      }
+      const bool clear = brute_clearance(mesh, index.origin(), map.nodes[i], map.nodes[j], 3) >= options.safety;
+      EXPECT_EQ(std::binary_search(begin, end, static_cast<uint32_t>(j)), clear) << i << "-" << j;
+      ++(clear ? clear_pairs : blocked_pairs);
+    }
+  }
+  // Not vacuous: both answers occur.
+  EXPECT_GT(clear_pairs, 100);
+  EXPECT_GT(blocked_pairs, 10);
+  RecordProperty("clear_pairs", clear_pairs);
+  RecordProperty("blocked_pairs", blocked_pairs);
+}
+
+TEST(PlanPath, SameInputSamePathOnOneAndTwoThreads) {
+  const Mesh& mesh = mesh_2m();
+  const ClearanceIndex index(mesh);
+  const auto waypoints = three_waypoints(mesh, index);
+  PlanOptions options;
+  options.max_agl = 60;
+  options.threads = 1;
+  const PlanResult one = plan_path(index, mesh, waypoints, options);
+  const Roadmap map1 = build_roadmap(index, mesh, options);
+  options.threads = 2;
+  const PlanResult two = plan_path(index, mesh, waypoints, options);
+  const PlanResult again = plan_path(index, mesh, waypoints, options);
+  const Roadmap map2 = build_roadmap(index, mesh, options);
+  ASSERT_EQ(one.status, PlanStatus::Solved);
+  EXPECT_EQ(one.path, two.path);
+  EXPECT_EQ(one.raw_path, two.raw_path);
+  EXPECT_EQ(two.path, again.path);
+  EXPECT_EQ(map1.nodes, map2.nodes);
+  EXPECT_EQ(map1.start, map2.start);
+  EXPECT_EQ(map1.neighbour, map2.neighbour);
+  // Multi-query: the same roadmap answers the query as plan_path() did.
+  const PlanResult reused = query_roadmap(map2, index, mesh, waypoints, options);
+  EXPECT_EQ(reused.path, two.path);
+}
+
+TEST(PlanPath, BadWaypointsNameWhichAndWhy) {
+  const Mesh& mesh = mesh_2m();
+  const ClearanceIndex index(mesh);
+  const auto good = three_waypoints(mesh, index);
+  const MeshBox b(mesh);
+  auto expect_invalid = [&](std::vector<Point3> waypoints, size_t which, const std::string& why) {
+    const PlanResult r = plan_path(index, mesh, waypoints);
+    EXPECT_EQ(r.status, PlanStatus::InvalidWaypoint);
+    EXPECT_EQ(r.waypoint, which);
+    EXPECT_EQ(r.place(), "waypoint " + std::to_string(which + 1));
+    EXPECT_NE(r.reason.find(why), std::string::npos) << r.reason;
+    EXPECT_EQ(r.reason.find('\n'), std::string::npos);
+    EXPECT_EQ(r.roadmap_nodes, 0u);  // refused before any roadmap was built
+  };
+  auto w = good;
+  w[1] = {b.x1 + 50, w[1][1], w[1][2]};
+  expect_invalid(w, 1, "outside");
+  w = good;
+  w[2][2] = index.ground(w[2][0], w[2][1]) - 3;
+  expect_invalid(w, 2, "under the surface");
+  w = good;
+  w[0][2] = index.ground(w[0][0], w[0][1]) + 1;
+  expect_invalid(w, 0, "safety distance");
+  EXPECT_THROW(plan_path(index, mesh, {good[0]}), ArgumentError);
+  EXPECT_THROW(plan_path(index, mesh, {}), ArgumentError);
+  PlanOptions bad;
+  bad.spacing = 0;
+  EXPECT_THROW(plan_path(index, mesh, good, bad), ArgumentError);
+}
+
+TEST(PlanPath, NoPathNamesTheLeg) {
+  const Mesh& mesh = mesh_2m();
+  const ClearanceIndex index(mesh);
+  const auto waypoints = three_waypoints(mesh, index);
+  PlanOptions sparse;
+  sparse.spacing = 200;  // a handful of samples
+  sparse.max_edge = 10;  // that cannot reach each other
+  const PlanResult r = plan_path(index, mesh, waypoints, sparse);
+  EXPECT_EQ(r.status, PlanStatus::NoPath);
+  EXPECT_EQ(r.waypoint, 0u);
+  EXPECT_EQ(r.place(), "waypoints 1 to 2");
+  EXPECT_FALSE(r.reason.empty());
+  EXPECT_TRUE(r.path.empty());
+}
+
+}  // namespace

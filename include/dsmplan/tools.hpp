@@ -17,6 +17,7 @@
 #include "dsmplan/core.hpp"
 #include "dsmplan/export.hpp"
 #include "dsmplan/mesh.hpp"
+#include "dsmplan/plan.hpp"
 #include "dsmplan/raster.hpp"
 #include "dsmplan/simplify.hpp"
 
@@ -165,5 +166,44 @@ struct RenderReport {
 RenderReport render_job(const RenderJobOptions& options, const Progress& progress = {});
 /// Keys: output, width, height, panels.
 Json to_json(const RenderReport& report);
+
+// ---- dsmplan plan ---------------------------------------------------------------------------
+
+/// Waypoints from a CSV file: one "x,y,z" line each, in the mesh's CRS (blanks around the
+/// numbers allowed). Empty lines and lines starting with '#' are skipped; a first line that is
+/// not numbers (e.g. "x,y,z") is a header. Throws InputError(path, "line N", ...) for any other
+/// line that is not three finite numbers, and InputError(path) for a missing file.
+std::vector<Point3> read_waypoints_csv(const std::string& path);
+
+struct PlanJobOptions {
+  std::string mesh;       ///< mesh file (read_mesh: .ply, .obj, .off), a 2.5D obstacle surface
+  std::string waypoints;  ///< CSV, see read_waypoints_csv()
+  std::string output;     ///< path, .csv: "x,y,z" header, then one point a line (shortest exact decimals)
+  PlanOptions plan;       ///< safety, spacing, max_edge, max_agl, threads
+};
+
+struct PlanReport {
+  std::string mesh, waypoints, output;
+  size_t waypoint_count = 0, path_points = 0;
+  double path_length_m = 0;
+  /// Least distance of the written path to the mesh, measured on its own with
+  /// ClearanceIndex::clearance() (capped at safety + max_agl).
+  double min_clearance_m = 0;
+  size_t roadmap_nodes = 0, roadmap_edges = 0;
+  double seconds_load = 0, seconds_roadmap = 0, seconds_query = 0, seconds_smooth = 0;
+};
+
+/// Mesh file + waypoints -> roadmap -> path (plan_path(), see plan.hpp) -> CSV, written
+/// atomically. Options and the output's extension are checked before anything is read. A bad
+/// waypoint is an InputError(waypoints file, "waypoint N", why: outside the extent, under the
+/// surface, closer than the safety distance); a leg without a path InputError(waypoints file,
+/// "waypoints N to M", why); fewer than two waypoints InputError(waypoints file). Nothing is
+/// written then.
+PlanReport plan_job(const PlanJobOptions& options, const Progress& progress = {});
+/// Keys exactly: path_length_m, min_clearance_m, roadmap_nodes, roadmap_edges, seconds_load,
+/// seconds_roadmap, seconds_query, seconds_smooth.
+Json to_json(const PlanReport& report);
+/// One summary line for people.
+std::string to_text(const PlanReport& report);
 
 }  // namespace dsmplan

@@ -1,0 +1,255 @@
+// Queries on the roadmap: waypoints joined by a bounded local search, A* between consecutive
+// ones (Hart, Nilsson, Raphael, "A Formal Basis for the Heuristic Determination of Minimum
+// Cost Paths", IEEE Trans. SSC 4(2), 1968), then greedy shortcut smoothing as OMPL's
+// PathSimplifier::shortcutPath does it deterministically (Geraerts & Overmars, "Creating
+// High-quality Paths for Motion Planning", IJRR 26(8), 2007). The multi-query structure is
+// Kavraki et al. 1996's: the roadmap is built once, each query only adds its waypoints.
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdint>
+#include <cstdio>
+#include <functional>
+#include <queue>
+#include <stdexcept>
+#include <string>
+
+#include "dsmplan/plan.hpp"
+
+namespace dsmplan {
+
+namespace {
+
+double distance(const Point3& a, const Point3& b) { return std::hypot(a[0] - b[0], a[1] - b[1], a[2] - b[2]); }
+
+std::string number(double v) {
+  char buffer[32];
+  std::snprintf(buffer, sizeof buffer, "%.2f", v);
+  return buffer;
+}
+
+double seconds_since(std::chrono::steady_clock::time_point t) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
+}
+
+void check_waypoint_list(const std::vector<Point3>& waypoints) {
+  if (waypoints.size() < 2)
+    throw ArgumentError("waypoints", "need at least two, got " + std::to_string(waypoints.size()));
+  for (size_t i = 0; i < waypoints.size(); ++i)
+    for (double v : waypoints[i])
+      if (!std::isfinite(v)) throw ArgumentError("waypoints", "waypoint " + std::to_string(i + 1) + " is not finite");
+}
+
+struct Extent {
+  double xmin = INFINITY, ymin = INFINITY, xmax = -INFINITY, ymax = -INFINITY;
+};
+
+Extent extent_of(const Mesh& mesh) {
+  Extent e;
+  for (const Triangle& t : mesh.triangles)
+    for (uint32_t v : t) {
+      e.xmin = std::min(e.xmin, mesh.vertices[v].x), e.xmax = std::max(e.xmax, mesh.vertices[v].x);
+      e.ymin = std::min(e.ymin, mesh.vertices[v].y), e.ymax = std::max(e.ymax, mesh.vertices[v].y);
+    }
+  return e;
+}
+
+// Why waypoint `w` cannot be flown to, or empty when it can.
+std::string waypoint_problem(const Point3& w, const ClearanceIndex& index, const Extent& e, double safety) {
+  const double xmin = e.xmin, xmax = e.xmax, ymin = e.ymin, ymax = e.ymax;
+  if (!(w[0] >= xmin && w[0] <= xmax && w[1] >= ymin && w[1] <= ymax))
+    return "outside the mesh's extent (x " + number(xmin) + " to " + number(xmax) + ", y " + number(ymin) + " to " +
+           number(ymax) + ")";
+  const double g = index.ground(w[0], w[1]);
+  if (std::isnan(g)) return "outside the mesh's extent (over a hole: no surface below it)";
+  if (w[2] < g) return "under the surface (z " + number(w[2]) + ", surface " + number(g) + ")";
+  if (!index.point_clear(w, safety))
+    return "closer than the safety distance " + number(safety) + " to the mesh (clearance " +
+           number(index.clearance(w, w, safety)) + ")";
+  return {};
+}
+
+// Roadmap nodes within max_edge of `w`, nearest first, that a clear straight segment joins to
+// it; at most `limit`. Ties in distance break by node number.
+std::vector<std::pair<double, uint32_t>> connect(const Point3& w, const Roadmap& map, const ClearanceIndex& index,
+                                                 const PlanOptions& options) {
+  std::vector<std::pair<double, uint32_t>> near;
+  for (size_t i = 0; i < map.nodes.size(); ++i) {
+    const double d = distance(w, map.nodes[i]);
+    if (d < options.max_edge) near.emplace_back(d, static_cast<uint32_t>(i));
+  }
+  std::sort(near.begin(), near.end());
+  std::vector<std::pair<double, uint32_t>> links;
+  for (const auto& candidate : near) {
+    if (links.size() >= static_cast<size_t>(options.connections)) break;
+    if (index.segment_clear(w, map.nodes[candidate.second], options.safety)) links.push_back(candidate);
+  }
+  return links;
+}
+
+// A* from waypoint a to waypoint b through the roadmap; the points of the path (a and b
+// included), or empty when none exists.
+std::vector<Point3> astar(const Roadmap& map, const Point3& a, const Point3& b,
+                          const std::vector<std::pair<double, uint32_t>>& from_a,
+                          const std::vector<std::pair<double, uint32_t>>& to_b) {
+  const uint32_t n = static_cast<uint32_t>(map.nodes.size()), S = n, G = n + 1;
+  auto point = [&](uint32_t v) -> const Point3& { return v == S ? a : v == G ? b : map.nodes[v]; };
+  std::vector<double> goal_cost(n, -1);
+  for (const auto& [d, v] : to_b) goal_cost[v] = d;
+  std::vector<double> g(n + 2, INFINITY);
+  std::vector<uint32_t> parent(n + 2, UINT32_MAX);
+  std::vector<char> closed(n + 2, 0);
+  using Entry = std::pair<double, uint32_t>;  // f, node: ties break by node number
+  std::priority_queue<Entry, std::vector<Entry>, std::greater<>> open;
+  g[S] = 0;
+  open.emplace(distance(a, b), S);
+  auto relax = [&](uint32_t u, uint32_t v, double w) {
+    const double cost = g[u] + w;
+    if (cost < g[v]) {
+      g[v] = cost;
+      parent[v] = u;
+      open.emplace(cost + distance(point(v), b), v);
+    }
+  };
+  while (!open.empty()) {
+    const uint32_t u = open.top().second;
+    open.pop();
+    if (closed[u]) continue;
+    closed[u] = 1;
+    if (u == G) break;
+    if (u == S) {
+      for (const auto& [d, v] : from_a) relax(u, v, d);
+      continue;
+    }
+    if (goal_cost[u] >= 0) relax(u, G, goal_cost[u]);
+    for (uint32_t k = map.start[u]; k < map.start[u + 1]; ++k) {
+      const uint32_t v = map.neighbour[k];
+      if (!closed[v]) relax(u, v, distance(map.nodes[u], map.nodes[v]));
+    }
+  }
+  if (!closed[G]) return {};
+  std::vector<Point3> path;
+  for (uint32_t v = G; v != UINT32_MAX; v = parent[v]) path.push_back(point(v));
+  std::reverse(path.begin(), path.end());
+  return path;
+}
+
+// From each point, straight on to the farthest later point the segment to which is clear
+// (the next point always is: it is a checked roadmap or connection edge).
+std::vector<Point3> shortcut(const std::vector<Point3>& leg, const ClearanceIndex& index, double safety) {
+  std::vector<Point3> out{leg.front()};
+  for (size_t i = 0; i + 1 < leg.size();) {
+    size_t j = leg.size() - 1;
+    while (j > i + 1 && !index.segment_clear(leg[i], leg[j], safety)) --j;
+    out.push_back(leg[j]);
+    i = j;
+  }
+  return out;
+}
+
+}  // namespace
+
+std::string PlanResult::place() const {
+  switch (status) {
+    case PlanStatus::Solved:
+      return {};
+    case PlanStatus::InvalidWaypoint:
+      return "waypoint " + std::to_string(waypoint + 1);
+    case PlanStatus::NoPath:
+      return "waypoints " + std::to_string(waypoint + 1) + " to " + std::to_string(waypoint + 2);
+  }
+  return {};
+}
+
+double path_length(const std::vector<Point3>& path) {
+  double length = 0;
+  for (size_t i = 1; i < path.size(); ++i) length += distance(path[i - 1], path[i]);
+  return length;
+}
+
+PlanResult query_roadmap(const Roadmap& map, const ClearanceIndex& index, const Mesh& mesh,
+                         const std::vector<Point3>& waypoints, const PlanOptions& options) {
+  check_plan_options(options);
+  check_waypoint_list(waypoints);
+  PlanResult result;
+  result.roadmap_nodes = map.nodes.size();
+  result.roadmap_edges = map.edges();
+  auto t = std::chrono::steady_clock::now();
+  const Extent extent = extent_of(mesh);
+  for (size_t i = 0; i < waypoints.size(); ++i) {
+    std::string problem = waypoint_problem(waypoints[i], index, extent, options.safety);
+    if (!problem.empty()) {
+      result.status = PlanStatus::InvalidWaypoint;
+      result.waypoint = i;
+      result.reason = std::move(problem);
+      return result;
+    }
+  }
+  std::vector<std::vector<std::pair<double, uint32_t>>> links(waypoints.size());
+  std::vector<std::vector<Point3>> legs;
+  for (size_t i = 0; i < waypoints.size(); ++i) links[i] = connect(waypoints[i], map, index, options);
+  for (size_t i = 0; i + 1 < waypoints.size(); ++i) {
+    const Point3 &a = waypoints[i], &b = waypoints[i + 1];
+    std::vector<Point3> leg;
+    if (distance(a, b) < options.max_edge && index.segment_clear(a, b, options.safety)) {
+      leg = {a, b};
+    } else {
+      leg = astar(map, a, b, links[i], links[i + 1]);
+    }
+    if (leg.empty()) {
+      result.status = PlanStatus::NoPath;
+      result.waypoint = i;
+      const size_t lonely = links[i].empty() ? i : links[i + 1].empty() ? i + 1 : SIZE_MAX;
+      result.reason = lonely != SIZE_MAX ? "no roadmap sample within --max-edge " + number(options.max_edge) +
+                                               " has a clear straight segment to waypoint " +
+                                               std::to_string(lonely + 1) + "; a smaller --spacing may give one"
+                                         : "no path within the roadmap (" + std::to_string(map.nodes.size()) +
+                                               " samples); a smaller --spacing or a larger --max-edge may find one";
+      result.seconds_query = seconds_since(t);
+      return result;
+    }
+    legs.push_back(std::move(leg));
+  }
+  result.seconds_query = seconds_since(t);
+
+  t = std::chrono::steady_clock::now();
+  for (size_t i = 0; i < legs.size(); ++i) {
+    std::vector<Point3> smooth = options.smooth ? shortcut(legs[i], index, options.safety) : legs[i];
+    for (size_t k = i ? 1 : 0; k < legs[i].size(); ++k) result.raw_path.push_back(legs[i][k]);
+    for (size_t k = i ? 1 : 0; k < smooth.size(); ++k) result.path.push_back(smooth[k]);
+  }
+  // Every segment was checked on its way in; this says so once more, cheaply, because a path
+  // that is not clear must never leave the library.
+  for (size_t k = 1; k < result.path.size(); ++k)
+    if (!index.segment_clear(result.path[k - 1], result.path[k], options.safety))
+      throw std::logic_error("planner produced a segment closer than the safety distance");
+  result.seconds_smooth = seconds_since(t);
+  result.status = PlanStatus::Solved;
+  return result;
+}
+
+PlanResult plan_path(const ClearanceIndex& index, const Mesh& mesh, const std::vector<Point3>& waypoints,
+                     const PlanOptions& options, const Progress& progress) {
+  check_plan_options(options);
+  check_waypoint_list(waypoints);
+  const Extent extent = extent_of(mesh);
+  for (size_t i = 0; i < waypoints.size(); ++i) {
+    std::string problem = waypoint_problem(waypoints[i], index, extent, options.safety);
+    if (!problem.empty()) {
+      PlanResult result;
+      result.status = PlanStatus::InvalidWaypoint;
+      result.waypoint = i;
+      result.reason = std::move(problem);
+      return result;
+    }
+  }
+  const auto t = std::chrono::steady_clock::now();
+  const Roadmap map = build_roadmap(index, mesh, options, sub_progress(progress, 0, 0.95));
+  const double seconds_roadmap = seconds_since(t);
+  PlanResult result = query_roadmap(map, index, mesh, waypoints, options);
+  result.seconds_roadmap = seconds_roadmap;
+  report(progress, 1);
+  return result;
+}
+
+}  // namespace dsmplan

@@ -1,0 +1,163 @@
+// The roadmap of the probabilistic roadmap planner: Kavraki, Svestka, Latombe, Overmars,
+// "Probabilistic roadmaps for path planning in high-dimensional configuration spaces", IEEE
+// Trans. Robotics and Automation 12(4), 1996, with the Halton quasi-random samples of
+// Adolf & Hirschmueller, Section 5 (Halton, Numerische Mathematik 2, 1960).
+#include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <string>
+
+#include "dsmplan/plan.hpp"
+
+namespace dsmplan {
+
+namespace {
+
+double halton(uint64_t index, uint32_t base) {
+  double result = 0, f = 1;
+  while (index > 0) {
+    f /= base;
+    result += f * static_cast<double>(index % base);
+    index /= base;
+  }
+  return result;
+}
+
+struct Extent {
+  double xmin = INFINITY, ymin = INFINITY, xmax = -INFINITY, ymax = -INFINITY;
+};
+
+Extent extent_of(const Mesh& mesh) {
+  Extent e;
+  for (const Triangle& t : mesh.triangles)
+    for (uint32_t v : t) {
+      const Vertex& p = mesh.vertices[v];
+      e.xmin = std::min(e.xmin, p.x), e.xmax = std::max(e.xmax, p.x);
+      e.ymin = std::min(e.ymin, p.y), e.ymax = std::max(e.ymax, p.y);
+    }
+  return e;
+}
+
+double squared_distance(const Point3& a, const Point3& b) {
+  const double dx = a[0] - b[0], dy = a[1] - b[1], dz = a[2] - b[2];
+  return dx * dx + dy * dy + dz * dz;
+}
+
+}  // namespace
+
+void check_plan_options(const PlanOptions& o) {
+  auto positive = [](double v, const char* name) {
+    if (!(v > 0) || !std::isfinite(v)) throw ArgumentError(name, "must be a positive number, got " + std::to_string(v));
+  };
+  if (!(o.safety >= 0) || !std::isfinite(o.safety))
+    throw ArgumentError("--safety", "must be a number >= 0, got " + std::to_string(o.safety));
+  positive(o.spacing, "--spacing");
+  positive(o.max_edge, "--max-edge");
+  positive(o.max_agl, "--max-agl");
+  if (o.connections < 1) throw ArgumentError("connections", "must be at least 1");
+  if (o.threads < 0) throw ArgumentError("--threads", "must be >= 0");
+}
+
+Roadmap build_roadmap(const ClearanceIndex& index, const Mesh& mesh, const PlanOptions& options,
+                      const Progress& progress) {
+  check_plan_options(options);
+  Roadmap map;
+  map.start.assign(1, 0);
+  if (mesh.triangles.empty()) return map;
+  const Extent e = extent_of(mesh);
+  const double wx = e.xmax - e.xmin, wy = e.ymax - e.ymin;
+  const double count = std::round(wx * wy * options.max_agl / std::pow(options.spacing, 3));
+  if (!(count < 2147483648.0))
+    throw ArgumentError("--spacing", "asks for " + std::to_string(count) + " samples; at most 2^31");
+  const auto n = static_cast<size_t>(count);
+
+  tbb::task_arena arena(options.threads > 0 ? options.threads : tbb::task_arena::automatic);
+  arena.execute([&] {
+    // Samples, each kept or dropped on its own, then compacted in Halton order: the same
+    // roadmap for every thread count.
+    std::vector<Point3> candidates(n);
+    std::vector<char> keep(n, 0);
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, n), [&](const tbb::blocked_range<size_t>& r) {
+      for (size_t i = r.begin(); i < r.end(); ++i) {
+        const double x = e.xmin + halton(i + 1, 2) * wx, y = e.ymin + halton(i + 1, 3) * wy;
+        const double g = index.ground(x, y);
+        if (std::isnan(g)) continue;
+        candidates[i] = {x, y, g + halton(i + 1, 5) * options.max_agl};
+        keep[i] = index.point_clear(candidates[i], options.safety);
+      }
+    });
+    for (size_t i = 0; i < n; ++i)
+      if (keep[i]) map.nodes.push_back(candidates[i]);
+    report(progress, 0.2);
+
+    // A uniform grid of max_edge cells: the neighbours within max_edge of a node lie in the 27
+    // cells around its own. Cells are found by binary search in the nodes sorted by cell.
+    const size_t m = map.nodes.size();
+    const double cell = options.max_edge;
+    double zmin = INFINITY;
+    for (const Point3& p : map.nodes) zmin = std::min(zmin, p[2]);
+    const int64_t nx = static_cast<int64_t>(wx / cell) + 1, ny = static_cast<int64_t>(wy / cell) + 1;
+    auto coord = [&](const Point3& p, int k) {
+      const double lo = k == 0 ? e.xmin : k == 1 ? e.ymin : zmin;
+      return static_cast<int64_t>(std::floor((p[k] - lo) / cell));
+    };
+    auto key = [&](int64_t ix, int64_t iy, int64_t iz) { return (iz * ny + iy) * nx + ix; };
+    std::vector<std::pair<int64_t, uint32_t>> sorted(m);
+    for (size_t i = 0; i < m; ++i)
+      sorted[i] = {key(coord(map.nodes[i], 0), coord(map.nodes[i], 1), coord(map.nodes[i], 2)),
+                   static_cast<uint32_t>(i)};
+    std::sort(sorted.begin(), sorted.end());
+
+    const double reach2 = cell * cell;
+    std::vector<std::vector<uint32_t>> up(m);  // neighbours j > i of node i, ascending
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, m, 64), [&](const tbb::blocked_range<size_t>& r) {
+      std::vector<uint32_t> candidates_j;
+      for (size_t i = r.begin(); i < r.end(); ++i) {
+        const Point3& p = map.nodes[i];
+        const int64_t cx = coord(p, 0), cy = coord(p, 1), cz = coord(p, 2);
+        candidates_j.clear();
+        for (int64_t z = cz - 1; z <= cz + 1; ++z)
+          for (int64_t y = cy - 1; y <= cy + 1; ++y)
+            for (int64_t x = cx - 1; x <= cx + 1; ++x) {
+              if (x < 0 || y < 0 || z < 0 || x >= nx || y >= ny) continue;
+              const int64_t k = key(x, y, z);
+              auto it = std::lower_bound(sorted.begin(), sorted.end(), std::make_pair(k, uint32_t{0}));
+              for (; it != sorted.end() && it->first == k; ++it)
+                if (it->second > i && squared_distance(p, map.nodes[it->second]) < reach2)
+                  candidates_j.push_back(it->second);
+            }
+        std::sort(candidates_j.begin(), candidates_j.end());
+        for (uint32_t j : candidates_j)
+          if (index.segment_clear(p, map.nodes[j], options.safety)) up[i].push_back(j);
+      }
+    });
+    report(progress, 0.9);
+
+    // Both directions, ascending per node.
+    std::vector<uint32_t> degree(m, 0);
+    for (size_t i = 0; i < m; ++i) {
+      degree[i] += static_cast<uint32_t>(up[i].size());
+      for (uint32_t j : up[i]) ++degree[j];
+    }
+    size_t listings = 0;
+    for (size_t i = 0; i < m; ++i) listings += degree[i];
+    if (listings > UINT32_MAX) throw ArgumentError("--max-edge", "gives 2^32 or more edge listings; use a smaller one");
+    map.start.assign(m + 1, 0);
+    for (size_t i = 0; i < m; ++i) map.start[i + 1] = map.start[i] + degree[i];
+    map.neighbour.resize(map.start[m]);
+    std::vector<uint32_t> fill(map.start.begin(), map.start.end() - 1);
+    // Visiting i in ascending order writes the lower neighbours (from their up lists) before
+    // the upper ones, so each list comes out ascending.
+    for (size_t i = 0; i < m; ++i)
+      for (uint32_t j : up[i]) map.neighbour[fill[j]++] = static_cast<uint32_t>(i);
+    for (size_t i = 0; i < m; ++i)
+      for (uint32_t j : up[i]) map.neighbour[fill[i]++] = j;
+  });
+  report(progress, 1);
+  return map;
+}
+
+}  // namespace dsmplan
