@@ -33,7 +33,7 @@ build/dsmplan render "$dsm" --window 356500,5699450,356650,5699600 --zoom 4 \
 echo
 echo "Planning a path through the bundled waypoints on the conservative mesh (2 m safety distance):"
 build/dsmplan plan "$out/bounded_1m.ply" --waypoints data/nrw-dom1/sample_waypoints.csv \
-  -o "$out/path.csv" --stats "$out/path.json" -q
+  -o "$out/path.csv" --stats "$out/path.json"
 echo
 echo "Outputs in $out/:"
 ls -l "$out"
