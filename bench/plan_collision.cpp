@@ -28,20 +28,17 @@
 #include <thread>
 #include <vector>
 
+#include "bench_kit.hpp"
 #include "dsmplan/mesh.hpp"
 #include "dsmplan/plan.hpp"
 #include "dsmplan/raster.hpp"
 
 using namespace dsmplan;
+using namespace bench;
 
 namespace {
 
-const std::string tile = DSMPLAN_DATA_DIR "/nrw-dom1/dom1_32_356_5699_1_nw_2020.tif";
 constexpr double safety = 2.0;
-
-double seconds_since(std::chrono::steady_clock::time_point start) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-}
 
 struct Query {
   Point3 p, q;

@@ -31,6 +31,7 @@
 #include <string>
 #include <vector>
 
+#include "bench_kit.hpp"
 #include "dsmplan/raster.hpp"
 #include "dsmplan/tools.hpp"
 
@@ -38,19 +39,14 @@ extern char** environ;
 
 namespace fs = std::filesystem;
 using namespace dsmplan;
+using namespace bench;
 
 namespace {
 
-const std::string tile = DSMPLAN_DATA_DIR "/nrw-dom1/dom1_32_356_5699_1_nw_2020.tif";
 constexpr int runs = 3;               // per stage in process, and for CGAL
 constexpr int cli_runs = 5;           // a CLI run is cheap and its wall time the noisiest (process start, page cache)
 constexpr double speed_bar = 5.0;     // CGAL seconds / our end-to-end seconds, at least
 constexpr double memory_bar = 150.0;  // peak RSS bytes per DSM cell, at most
-constexpr double never = std::numeric_limits<double>::infinity();  // start value of a best-of
-
-double seconds_since(std::chrono::steady_clock::time_point start) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-}
 
 // Wall seconds of fn().
 template <class F>
@@ -122,16 +118,6 @@ constexpr PaperRow paper[] = {
     {"Potsdamer", 3, 30728, 60756, 9},   {"Potsdamer", 4, 17250, 33976, 5},    {"Reichstag", 1, 113176, 225000, 33},
     {"Reichstag", 2, 28388, 56100, 8},   {"Reichstag", 3, 12600, 24750, 4},    {"Reichstag", 4, 7144, 13950, 2},
 };
-
-// 1234567 -> "1,234,567"
-std::string grouped(size_t n) {
-  std::string digits = std::to_string(n), out;
-  for (size_t i = 0; i < digits.size(); ++i) {
-    if (i && (digits.size() - i) % 3 == 0) out += ',';
-    out += digits[i];
-  }
-  return out;
-}
 
 void print_table1(const std::vector<Row>& rows) {
   std::printf("Table 1: XY-3 Delaunay mesh without simplification, z step 0.1 m, binary PLY (MB = 10^6 bytes)\n");
@@ -239,14 +225,6 @@ Bars measure_bars(const fs::path& out) {
     ++bars.cgal_runs;
   }
   return bars;
-}
-
-std::string cpu_model() {
-  std::ifstream cpuinfo("/proc/cpuinfo");
-  for (std::string line; std::getline(cpuinfo, line);) {
-    if (line.rfind("model name", 0) == 0) return line.substr(line.find(':') + 2);
-  }
-  return "unknown";
 }
 
 int run() {

@@ -29,6 +29,7 @@
 #include <string>
 #include <vector>
 
+#include "bench_kit.hpp"
 #include "dsmplan/export.hpp"
 #include "dsmplan/mesh.hpp"
 #include "dsmplan/raster.hpp"
@@ -36,11 +37,9 @@
 #include "greedy_baseline.hpp"
 
 using namespace dsmplan;
+using namespace bench;
 
 namespace {
-
-const std::string tile = DSMPLAN_DATA_DIR "/nrw-dom1/dom1_32_356_5699_1_nw_2020.tif";
-constexpr double never = std::numeric_limits<double>::infinity();  // start value of a best-of
 
 constexpr int fast_runs = 3;         // best of this many for a run that is fast...
 constexpr double slow_run = 3.0;     // ...and a single run for one that takes longer (seconds)
@@ -50,10 +49,6 @@ constexpr double bar_seconds = 0.5;  // at most, wall, for simplify_bounded alon
 // Greedy insertion by an external Garland-Heckbert tool on this tile, two-sided at E/2 = 0.2 m:
 // the size figure the bounded mode was specified against.
 constexpr size_t external_gh_vertices = 435856;
-
-double seconds_since(std::chrono::steady_clock::time_point start) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-}
 
 // Result of fn() with its best wall time: up to `max_runs` runs, only one when it is slow.
 template <class F>
@@ -67,31 +62,6 @@ auto best_of(F&& fn, int max_runs, double& seconds, int& runs, double slow = slo
     seconds = std::min(seconds, took);
     if (++runs >= max_runs || took > slow) return result;
   }
-}
-
-// 1234567 -> "1,234,567"
-std::string grouped(size_t n) {
-  std::string digits = std::to_string(n), out;
-  for (size_t i = 0; i < digits.size(); ++i) {
-    if (i && (digits.size() - i) % 3 == 0) out += ',';
-    out += digits[i];
-  }
-  return out;
-}
-
-// The 1-minute load average: timings on a shared machine mean little without it.
-std::string load_average() {
-  std::ifstream loadavg("/proc/loadavg");
-  std::string one_minute;
-  return loadavg >> one_minute ? one_minute : "unknown";
-}
-
-std::string cpu_model() {
-  std::ifstream cpuinfo("/proc/cpuinfo");
-  for (std::string line; std::getline(cpuinfo, line);) {
-    if (line.rfind("model name", 0) == 0) return line.substr(line.find(':') + 2);
-  }
-  return "unknown";
 }
 
 double max_abs(const VerticalError& error) { return std::max(error.max_above, error.max_below); }

@@ -535,7 +535,7 @@ TEST(PlanPath, ThreeWaypointsLowOverTheRealMeshAreVerifiedByBruteForce) {
   PlanOptions options;
   options.max_agl = 45;  // low: the roadmap stays among the roofs
   options.spacing = 15;
-  const PlanResult result = plan_path(index, mesh, waypoints, options);
+  const PlanResult result = plan_path(index, waypoints, options);
   expect_path_verified(mesh, index, waypoints, result, options.safety);
   EXPECT_GT(result.roadmap_nodes, 0u);
   EXPECT_GT(result.roadmap_edges, 0u);
@@ -552,7 +552,7 @@ TEST(PlanPath, SimplifiedConservativeMeshWithLargerSafety) {
   options.safety = 5;
   options.max_agl = 50;
   options.spacing = 15;
-  const PlanResult result = plan_path(index, mesh, waypoints, options);
+  const PlanResult result = plan_path(index, waypoints, options);
   expect_path_verified(mesh, index, waypoints, result, options.safety);
 }
 
@@ -563,7 +563,7 @@ TEST(PlanPath, WithoutSmoothingThePathIsTheRawPath) {
   PlanOptions options;
   options.max_agl = 60;
   options.smooth = false;
-  const PlanResult result = plan_path(index, mesh, waypoints, options);
+  const PlanResult result = plan_path(index, waypoints, options);
   ASSERT_EQ(result.status, PlanStatus::Solved) << result.reason;
   EXPECT_EQ(result.path, result.raw_path);
 }
@@ -574,7 +574,7 @@ TEST(PlanPath, RoadmapHoldsExactlyTheClearPairsWithinMaxEdge) {
   PlanOptions options;
   options.max_agl = 60;
   options.spacing = 25;
-  const Roadmap map = build_roadmap(index, mesh, options);
+  const Roadmap map = build_roadmap(index, options);
   ASSERT_GT(map.nodes.size(), 100u);
   ASSERT_EQ(map.start.size(), map.nodes.size() + 1);
   const MeshBox b(mesh);
@@ -620,12 +620,12 @@ TEST(PlanPath, SameInputSamePathOnOneAndTwoThreads) {
   PlanOptions options;
   options.max_agl = 60;
   options.threads = 1;
-  const PlanResult one = plan_path(index, mesh, waypoints, options);
-  const Roadmap map1 = build_roadmap(index, mesh, options);
+  const PlanResult one = plan_path(index, waypoints, options);
+  const Roadmap map1 = build_roadmap(index, options);
   options.threads = 2;
-  const PlanResult two = plan_path(index, mesh, waypoints, options);
-  const PlanResult again = plan_path(index, mesh, waypoints, options);
-  const Roadmap map2 = build_roadmap(index, mesh, options);
+  const PlanResult two = plan_path(index, waypoints, options);
+  const PlanResult again = plan_path(index, waypoints, options);
+  const Roadmap map2 = build_roadmap(index, options);
   ASSERT_EQ(one.status, PlanStatus::Solved);
   EXPECT_EQ(one.path, two.path);
   EXPECT_EQ(one.raw_path, two.raw_path);
@@ -634,7 +634,7 @@ TEST(PlanPath, SameInputSamePathOnOneAndTwoThreads) {
   EXPECT_EQ(map1.start, map2.start);
   EXPECT_EQ(map1.neighbour, map2.neighbour);
   // Multi-query: the same roadmap answers the query as plan_path() did.
-  const PlanResult reused = query_roadmap(map2, index, mesh, waypoints, options);
+  const PlanResult reused = query_roadmap(map2, index, waypoints, options);
   EXPECT_EQ(reused.path, two.path);
 }
 
@@ -644,7 +644,7 @@ TEST(PlanPath, BadWaypointsNameWhichAndWhy) {
   const auto good = three_waypoints(mesh, index);
   const MeshBox b(mesh);
   auto expect_invalid = [&](std::vector<Point3> waypoints, size_t which, const std::string& why) {
-    const PlanResult r = plan_path(index, mesh, waypoints);
+    const PlanResult r = plan_path(index, waypoints);
     EXPECT_EQ(r.status, PlanStatus::InvalidWaypoint);
     EXPECT_EQ(r.waypoint, which);
     EXPECT_EQ(r.place(), "waypoint " + std::to_string(which + 1));
@@ -661,11 +661,11 @@ TEST(PlanPath, BadWaypointsNameWhichAndWhy) {
   w = good;
   w[0][2] = index.ground(w[0][0], w[0][1]) + 1;
   expect_invalid(w, 0, "safety distance");
-  EXPECT_THROW(plan_path(index, mesh, {good[0]}), ArgumentError);
-  EXPECT_THROW(plan_path(index, mesh, {}), ArgumentError);
+  EXPECT_THROW(plan_path(index, {good[0]}), ArgumentError);
+  EXPECT_THROW(plan_path(index, {}), ArgumentError);
   PlanOptions bad;
   bad.spacing = 0;
-  EXPECT_THROW(plan_path(index, mesh, good, bad), ArgumentError);
+  EXPECT_THROW(plan_path(index, good, bad), ArgumentError);
 }
 
 TEST(PlanPath, NoPathNamesTheLeg) {
@@ -675,7 +675,7 @@ TEST(PlanPath, NoPathNamesTheLeg) {
   PlanOptions sparse;
   sparse.spacing = 200;  // a handful of samples
   sparse.max_edge = 10;  // that cannot reach each other
-  const PlanResult r = plan_path(index, mesh, waypoints, sparse);
+  const PlanResult r = plan_path(index, waypoints, sparse);
   EXPECT_EQ(r.status, PlanStatus::NoPath);
   EXPECT_EQ(r.waypoint, 0u);
   EXPECT_EQ(r.place(), "waypoints 1 to 2");

@@ -69,6 +69,7 @@
 #pragma once
 
 #include <array>
+#include <cmath>
 #include <cstddef>
 #include <cstdint>
 #include <string>
@@ -120,6 +121,12 @@ public:
   /// covers it. O(triangles in one bucket).
   double ground(double x, double y) const;
 
+  /// The x,y bounding box of the triangles' vertices, in CRS coordinates (lone vertices left
+  /// out); empty (min > max) for a mesh without triangles.
+  struct Footprint {
+    double xmin = INFINITY, ymin = INFINITY, xmax = -INFINITY, ymax = -INFINITY;
+  };
+  const Footprint& footprint() const { return footprint_; }
   const Point3& origin() const { return origin_; }  ///< CRS point subtracted from all coordinates
   double bucket_size() const { return cell_; }
   int bucket_columns() const { return cols_; }
@@ -135,6 +142,7 @@ private:
   double visit(const Point3& p, const Point3& q, double d) const;
 
   Point3 origin_{0, 0, 0};
+  Footprint footprint_;
   std::vector<LocalVertex> verts_;
   std::vector<std::array<uint32_t, 3>> tris_;
   double cell_ = 1, gx0_ = 0, gy0_ = 0;  ///< bucket (0,0) starts at local (gx0_, gy0_)
@@ -205,13 +213,12 @@ struct Roadmap {
   size_t edges() const { return neighbour.size() / 2; }
 };
 
-/// Samples and connects the roadmap of `mesh` (indexed by `index`, built from the same mesh).
+/// Samples and connects the roadmap of the mesh `index` was built from.
 /// Throws ArgumentError ("--safety", "--spacing", "--max-edge", "--max-agl") for a value that
 /// is not positive and finite (safety may be 0), 2^31 samples or more ("--spacing"), or 2^32
 /// edge listings or more ("--max-edge"); an empty mesh gives an empty roadmap.
 /// Time O(samples * neighbours within max_edge * segment_clear), parallel.
-Roadmap build_roadmap(const ClearanceIndex& index, const Mesh& mesh, const PlanOptions& options,
-                      const Progress& progress = {});
+Roadmap build_roadmap(const ClearanceIndex& index, const PlanOptions& options, const Progress& progress = {});
 
 /// OMPL-style outcome of a query.
 enum class PlanStatus { Solved, NoPath, InvalidWaypoint };
@@ -229,20 +236,20 @@ struct PlanResult {
 };
 
 /// A path through `waypoints` (CRS coordinates, in order) over an existing roadmap built by
-/// build_roadmap() from the same mesh and options: validation, connection, A* per leg, smoothing
+/// build_roadmap() from the same index and options: validation, connection, A* per leg, smoothing
 /// (see above). Never throws for a bad waypoint or a missing path: the status says which and
 /// why ("outside the mesh's extent", "under the surface", "closer than the safety distance";
 /// for a leg, no roadmap sample reachable from a waypoint, or no path in the roadmap).
 /// Throws ArgumentError("waypoints") for fewer than two or a non-finite one, and for bad
-/// options as build_roadmap(). Time O(triangles) for the extent, O(nodes) a waypoint for the
+/// options as build_roadmap(). Time O(nodes) a waypoint for the
 /// connection (a linear scan), A* O(E log V) a leg.
-PlanResult query_roadmap(const Roadmap& roadmap, const ClearanceIndex& index, const Mesh& mesh,
-                         const std::vector<Point3>& waypoints, const PlanOptions& options);
+PlanResult query_roadmap(const Roadmap& roadmap, const ClearanceIndex& index, const std::vector<Point3>& waypoints,
+                         const PlanOptions& options);
 
 /// build_roadmap() then query_roadmap(): the whole single-query planner. Waypoints are checked
 /// first, so a bad one costs no roadmap (roadmap_nodes is 0 then).
-PlanResult plan_path(const ClearanceIndex& index, const Mesh& mesh, const std::vector<Point3>& waypoints,
-                     const PlanOptions& options = {}, const Progress& progress = {});
+PlanResult plan_path(const ClearanceIndex& index, const std::vector<Point3>& waypoints, const PlanOptions& options = {},
+                     const Progress& progress = {});
 
 /// Length of a polyline, CRS units.
 double path_length(const std::vector<Point3>& path);

@@ -95,6 +95,9 @@ struct PaperSimplifyOptions {
   double dco = 1e-5;  ///< co-linear tolerance, CRS units (the paper: 1e-5 m), >= 0
 };
 
+/// Throws ArgumentError for dz or dco < 0 or NaN (what mark_paper() and simplify_paper() check).
+void check_paper_options(const PaperSimplifyOptions& options);
+
 /// What the search pass decided for one vertex.
 enum class VertexMark : uint8_t { Kept, Coplanar, Colinear };
 
@@ -122,6 +125,10 @@ struct BoundedSimplifyOptions {
   int tile_size = 0;          ///< cells per tile side; 0 = automatic, 64 (ignored with delaunay)
   int threads = 0;            ///< 0 = every core
 };
+
+/// Throws ArgumentError for max_error <= 0 or not finite, or tile_size < 0 (what
+/// simplify_bounded() checks of its options).
+void check_bounded_options(const BoundedSimplifyOptions& options);
 
 /// Greedy-insertion mesh of `dsm` within the bound (see the top of this header). Vertices are
 /// cell centres (CRS coordinates); triangles counter-clockwise from above. Throws

@@ -107,11 +107,16 @@ ClearanceIndex::ClearanceIndex(const Mesh& mesh, const ClearanceOptions& options
   if (!(options.bucket_size >= 0) || !std::isfinite(options.bucket_size))
     throw ArgumentError("bucket_size", "must be a finite number >= 0, not " + std::to_string(options.bucket_size));
   const size_t nv = mesh.vertices.size();
-  for (size_t t = 0; t < mesh.triangles.size(); ++t)
-    for (uint32_t i : mesh.triangles[t])
+  for (size_t t = 0; t < mesh.triangles.size(); ++t) {
+    for (uint32_t i : mesh.triangles[t]) {
       if (i >= nv)
         throw ArgumentError("mesh", "triangle " + std::to_string(t) + " names vertex " + std::to_string(i) + " of " +
                                         std::to_string(nv));
+      const Vertex& v = mesh.vertices[i];
+      footprint_.xmin = std::min(footprint_.xmin, v.x), footprint_.xmax = std::max(footprint_.xmax, v.x);
+      footprint_.ymin = std::min(footprint_.ymin, v.y), footprint_.ymax = std::max(footprint_.ymax, v.y);
+    }
+  }
   double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
   for (size_t i = 0; i < nv; ++i) {
     const Vertex& v = mesh.vertices[i];

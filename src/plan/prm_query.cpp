@@ -5,7 +5,6 @@
 // High-quality Paths for Motion Planning", IJRR 26(8), 2007). The multi-query structure is
 // Kavraki et al. 1996's: the roadmap is built once, each query only adds its waypoints.
 #include <algorithm>
-#include <chrono>
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
@@ -14,6 +13,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "core/stopwatch.hpp"
 #include "dsmplan/plan.hpp"
 
 namespace dsmplan {
@@ -28,10 +28,6 @@ std::string number(double v) {
   return buffer;
 }
 
-double seconds_since(std::chrono::steady_clock::time_point t) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
-}
-
 void check_waypoint_list(const std::vector<Point3>& waypoints) {
   if (waypoints.size() < 2)
     throw ArgumentError("waypoints", "need at least two, got " + std::to_string(waypoints.size()));
@@ -40,22 +36,9 @@ void check_waypoint_list(const std::vector<Point3>& waypoints) {
       if (!std::isfinite(v)) throw ArgumentError("waypoints", "waypoint " + std::to_string(i + 1) + " is not finite");
 }
 
-struct Extent {
-  double xmin = INFINITY, ymin = INFINITY, xmax = -INFINITY, ymax = -INFINITY;
-};
-
-Extent extent_of(const Mesh& mesh) {
-  Extent e;
-  for (const Triangle& t : mesh.triangles)
-    for (uint32_t v : t) {
-      e.xmin = std::min(e.xmin, mesh.vertices[v].x), e.xmax = std::max(e.xmax, mesh.vertices[v].x);
-      e.ymin = std::min(e.ymin, mesh.vertices[v].y), e.ymax = std::max(e.ymax, mesh.vertices[v].y);
-    }
-  return e;
-}
-
 // Why waypoint `w` cannot be flown to, or empty when it can.
-std::string waypoint_problem(const Point3& w, const ClearanceIndex& index, const Extent& e, double safety) {
+std::string waypoint_problem(const Point3& w, const ClearanceIndex& index, double safety) {
+  const ClearanceIndex::Footprint& e = index.footprint();
   const double xmin = e.xmin, xmax = e.xmax, ymin = e.ymin, ymax = e.ymax;
   if (!(w[0] >= xmin && w[0] <= xmax && w[1] >= ymin && w[1] <= ymax))
     return "outside the mesh's extent (x " + number(xmin) + " to " + number(xmax) + ", y " + number(ymin) + " to " +
@@ -67,6 +50,20 @@ std::string waypoint_problem(const Point3& w, const ClearanceIndex& index, const
     return "closer than the safety distance " + number(safety) + " to the mesh (clearance " +
            number(index.clearance(w, w, safety)) + ")";
   return {};
+}
+
+// Marks `result` InvalidWaypoint for the first waypoint that cannot be flown to; false if none.
+bool first_invalid_waypoint(const std::vector<Point3>& waypoints, const ClearanceIndex& index, double safety,
+                            PlanResult& result) {
+  for (size_t i = 0; i < waypoints.size(); ++i) {
+    std::string problem = waypoint_problem(waypoints[i], index, safety);
+    if (problem.empty()) continue;
+    result.status = PlanStatus::InvalidWaypoint;
+    result.waypoint = i;
+    result.reason = std::move(problem);
+    return true;
+  }
+  return false;
 }
 
 // Roadmap nodes within max_edge of `w`, nearest first, that a clear straight segment joins to
@@ -167,24 +164,15 @@ double path_length(const std::vector<Point3>& path) {
   return length;
 }
 
-PlanResult query_roadmap(const Roadmap& map, const ClearanceIndex& index, const Mesh& mesh,
-                         const std::vector<Point3>& waypoints, const PlanOptions& options) {
+PlanResult query_roadmap(const Roadmap& map, const ClearanceIndex& index, const std::vector<Point3>& waypoints,
+                         const PlanOptions& options) {
   check_plan_options(options);
   check_waypoint_list(waypoints);
   PlanResult result;
   result.roadmap_nodes = map.nodes.size();
   result.roadmap_edges = map.edges();
-  auto t = std::chrono::steady_clock::now();
-  const Extent extent = extent_of(mesh);
-  for (size_t i = 0; i < waypoints.size(); ++i) {
-    std::string problem = waypoint_problem(waypoints[i], index, extent, options.safety);
-    if (!problem.empty()) {
-      result.status = PlanStatus::InvalidWaypoint;
-      result.waypoint = i;
-      result.reason = std::move(problem);
-      return result;
-    }
-  }
+  Stopwatch clock;
+  if (first_invalid_waypoint(waypoints, index, options.safety, result)) return result;
   std::vector<std::vector<std::pair<double, uint32_t>>> links(waypoints.size());
   std::vector<std::vector<Point3>> legs;
   for (size_t i = 0; i < waypoints.size(); ++i) links[i] = connect(waypoints[i], map, index, options);
@@ -205,14 +193,13 @@ PlanResult query_roadmap(const Roadmap& map, const ClearanceIndex& index, const 
                                                std::to_string(lonely + 1) + "; a smaller --spacing may give one"
                                          : "no path within the roadmap (" + std::to_string(map.nodes.size()) +
                                                " samples); a smaller --spacing or a larger --max-edge may find one";
-      result.seconds_query = seconds_since(t);
+      result.seconds_query = clock.lap();
       return result;
     }
     legs.push_back(std::move(leg));
   }
-  result.seconds_query = seconds_since(t);
+  result.seconds_query = clock.lap();
 
-  t = std::chrono::steady_clock::now();
   for (size_t i = 0; i < legs.size(); ++i) {
     std::vector<Point3> smooth = options.smooth ? shortcut(legs[i], index, options.safety) : legs[i];
     for (size_t k = i ? 1 : 0; k < legs[i].size(); ++k) result.raw_path.push_back(legs[i][k]);
@@ -223,30 +210,20 @@ PlanResult query_roadmap(const Roadmap& map, const ClearanceIndex& index, const 
   for (size_t k = 1; k < result.path.size(); ++k)
     if (!index.segment_clear(result.path[k - 1], result.path[k], options.safety))
       throw std::logic_error("planner produced a segment closer than the safety distance");
-  result.seconds_smooth = seconds_since(t);
+  result.seconds_smooth = clock.lap();
   result.status = PlanStatus::Solved;
   return result;
 }
 
-PlanResult plan_path(const ClearanceIndex& index, const Mesh& mesh, const std::vector<Point3>& waypoints,
-                     const PlanOptions& options, const Progress& progress) {
+PlanResult plan_path(const ClearanceIndex& index, const std::vector<Point3>& waypoints, const PlanOptions& options,
+                     const Progress& progress) {
   check_plan_options(options);
   check_waypoint_list(waypoints);
-  const Extent extent = extent_of(mesh);
-  for (size_t i = 0; i < waypoints.size(); ++i) {
-    std::string problem = waypoint_problem(waypoints[i], index, extent, options.safety);
-    if (!problem.empty()) {
-      PlanResult result;
-      result.status = PlanStatus::InvalidWaypoint;
-      result.waypoint = i;
-      result.reason = std::move(problem);
-      return result;
-    }
-  }
-  const auto t = std::chrono::steady_clock::now();
-  const Roadmap map = build_roadmap(index, mesh, options, sub_progress(progress, 0, 0.95));
-  const double seconds_roadmap = seconds_since(t);
-  PlanResult result = query_roadmap(map, index, mesh, waypoints, options);
+  if (PlanResult invalid; first_invalid_waypoint(waypoints, index, options.safety, invalid)) return invalid;
+  Stopwatch clock;
+  const Roadmap map = build_roadmap(index, options, sub_progress(progress, 0, 0.95));
+  const double seconds_roadmap = clock.lap();
+  PlanResult result = query_roadmap(map, index, waypoints, options);
   result.seconds_roadmap = seconds_roadmap;
   report(progress, 1);
   return result;

@@ -26,21 +26,6 @@ double halton(uint64_t index, uint32_t base) {
   return result;
 }
 
-struct Extent {
-  double xmin = INFINITY, ymin = INFINITY, xmax = -INFINITY, ymax = -INFINITY;
-};
-
-Extent extent_of(const Mesh& mesh) {
-  Extent e;
-  for (const Triangle& t : mesh.triangles)
-    for (uint32_t v : t) {
-      const Vertex& p = mesh.vertices[v];
-      e.xmin = std::min(e.xmin, p.x), e.xmax = std::max(e.xmax, p.x);
-      e.ymin = std::min(e.ymin, p.y), e.ymax = std::max(e.ymax, p.y);
-    }
-  return e;
-}
-
 double squared_distance(const Point3& a, const Point3& b) {
   const double dx = a[0] - b[0], dy = a[1] - b[1], dz = a[2] - b[2];
   return dx * dx + dy * dy + dz * dz;
@@ -61,13 +46,12 @@ void check_plan_options(const PlanOptions& o) {
   if (o.threads < 0) throw ArgumentError("--threads", "must be >= 0");
 }
 
-Roadmap build_roadmap(const ClearanceIndex& index, const Mesh& mesh, const PlanOptions& options,
-                      const Progress& progress) {
+Roadmap build_roadmap(const ClearanceIndex& index, const PlanOptions& options, const Progress& progress) {
   check_plan_options(options);
   Roadmap map;
   map.start.assign(1, 0);
-  if (mesh.triangles.empty()) return map;
-  const Extent e = extent_of(mesh);
+  if (index.triangles() == 0) return map;
+  const ClearanceIndex::Footprint& e = index.footprint();
   const double wx = e.xmax - e.xmin, wy = e.ymax - e.ymin;
   const double count = std::round(wx * wy * options.max_agl / std::pow(options.spacing, 3));
   if (!(count < 2147483648.0))

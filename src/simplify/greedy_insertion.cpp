@@ -421,11 +421,15 @@ std::vector<int> split_points(int last, int tile) {
 
 }  // namespace
 
-Mesh simplify_bounded(const Grid& dsm, const BoundedSimplifyOptions& options, const Progress& progress) {
+void check_bounded_options(const BoundedSimplifyOptions& options) {
   if (!(options.max_error > 0) || !std::isfinite(options.max_error)) {
     throw ArgumentError("--max-error", "must be a positive number, got " + std::to_string(options.max_error));
   }
   if (options.tile_size < 0) throw ArgumentError("--tile-size", "must be >= 0 (0: automatic)");
+}
+
+Mesh simplify_bounded(const Grid& dsm, const BoundedSimplifyOptions& options, const Progress& progress) {
+  check_bounded_options(options);
   if (dsm.width < 2 || dsm.height < 2) throw ArgumentError("DSM", "needs at least 2 x 2 cells to triangulate");
   if (std::all_of(dsm.z.begin(), dsm.z.end(), [](float z) { return std::isnan(z); }))
     throw ArgumentError("DSM", "has no valid cell");

@@ -108,11 +108,6 @@ private:
   const PaperSimplifyOptions& options_;
 };
 
-void check_options(const PaperSimplifyOptions& options) {
-  if (!(options.dz >= 0)) throw ArgumentError("--dz", "must be >= 0, got " + std::to_string(options.dz));
-  if (!(options.dco >= 0)) throw ArgumentError("--dco", "must be >= 0, got " + std::to_string(options.dco));
-}
-
 using Kernel = CGAL::Exact_predicates_inexact_constructions_kernel;
 using VertexBase = CGAL::Triangulation_vertex_base_with_info_2<uint32_t, Kernel>;
 using FaceBase =
@@ -155,10 +150,15 @@ void mark_nesting(Cdt& cdt) {
 
 }  // namespace
 
+void check_paper_options(const PaperSimplifyOptions& options) {
+  if (!(options.dz >= 0)) throw ArgumentError("--dz", "must be >= 0, got " + std::to_string(options.dz));
+  if (!(options.dco >= 0)) throw ArgumentError("--dco", "must be >= 0, got " + std::to_string(options.dco));
+}
+
 const char* to_string(PaperVariant variant) { return variant == PaperVariant::One ? "variant1" : "variant2"; }
 
 std::vector<VertexMark> mark_paper(const Mesh& mesh, const PaperSimplifyOptions& options) {
-  check_options(options);
+  check_paper_options(options);
   const Corners corners(mesh);
   const Marker marker(mesh, options);
   std::vector<VertexMark> marks(mesh.vertices.size(), VertexMark::Kept);

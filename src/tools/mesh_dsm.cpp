@@ -22,7 +22,7 @@ MeshReport mesh_dsm(const MeshJobOptions& options, const Progress& progress) {
   report.output = options.output;
   Stopwatch clock;
   Grid dsm = read_raster(options.input, options.read, sub_progress(progress, 0, 0.3));
-  require_projected(dsm, options.input);
+  require_projected(dsm.crs, options.input);
   report.seconds.emplace_back("read", clock.lap());
   report.source_resolution = dsm.cell_x;
   if (options.resolution && (*options.resolution != dsm.cell_x || *options.resolution != dsm.cell_y)) {
@@ -50,8 +50,6 @@ MeshReport mesh_dsm(const MeshJobOptions& options, const Progress& progress) {
 }
 
 Json to_json(const MeshReport& report) {
-  Json seconds = Json::object();
-  for (const auto& [stage, value] : report.seconds) seconds[stage] = value;
   return {{"input", report.input},
           {"output", report.output},
           {"vertices", report.vertices},
@@ -70,7 +68,7 @@ Json to_json(const MeshReport& report) {
           {"file_bytes", report.file_bytes},
           {"crs", crs_json(report.crs)},
           {"vertical", vertical_json(report.crs)},
-          {"seconds", seconds}};
+          {"seconds", seconds_json(report.seconds)}};
 }
 
 }  // namespace dsmplan

@@ -4,7 +4,6 @@
 #include <algorithm>
 #include <cctype>
 #include <charconv>
-#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <fstream>
@@ -13,14 +12,11 @@
 #include "dsmplan/export.hpp"
 #include "dsmplan/plan.hpp"
 #include "dsmplan/tools.hpp"
+#include "tools/job_parts.hpp"
 
 namespace dsmplan {
 
 namespace {
-
-double seconds_since(std::chrono::steady_clock::time_point t) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
-}
 
 std::string trim(const std::string& s) {
   size_t b = 0, e = s.size();
@@ -94,16 +90,14 @@ PlanReport plan_job(const PlanJobOptions& options, const Progress& progress) {
     throw InputError(options.waypoints, "",
                      "a path needs at least two waypoints, the file has " + std::to_string(waypoints.size()));
 
-  auto t = std::chrono::steady_clock::now();
+  Stopwatch clock;
   const Mesh mesh = read_mesh(options.mesh, sub_progress(progress, 0, 0.2));
-  if (mesh.crs.geographic)
-    throw InputError(options.mesh, "",
-                     "CRS '" + mesh.crs.name + "' is geographic (degrees); reproject to metres first");
+  require_projected(mesh.crs, options.mesh);
   if (mesh.triangles.empty()) throw InputError(options.mesh, "", "the mesh has no triangles");
   const ClearanceIndex index(mesh);
-  report.seconds_load = seconds_since(t);
+  report.seconds_load = clock.lap();
 
-  const PlanResult result = plan_path(index, mesh, waypoints, options.plan, sub_progress(progress, 0.2, 0.95));
+  const PlanResult result = plan_path(index, waypoints, options.plan, sub_progress(progress, 0.2, 0.95));
   report.roadmap_nodes = result.roadmap_nodes;
   report.roadmap_edges = result.roadmap_edges;
   report.seconds_roadmap = result.seconds_roadmap;

@@ -20,6 +20,12 @@ Json vertical_json(const Crs& crs) {
   return {{"name", text_or_null(crs.vertical_name)}, {"unit", text_or_null(crs.vertical_unit)}};
 }
 
+Json seconds_json(const std::vector<std::pair<std::string, double>>& seconds) {
+  Json json = Json::object();
+  for (const auto& [stage, value] : seconds) json[stage] = value;
+  return json;
+}
+
 double as_stored(double height) {
   char text[32];
   auto [end, ec] = std::to_chars(text, text + sizeof text - 1, static_cast<float>(height));

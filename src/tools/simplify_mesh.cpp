@@ -27,7 +27,7 @@ bool is_mesh_file(const std::string& path) {
 Grid read_dsm(const std::string& path, const SimplifyJobOptions& options, SimplifyReport& report,
               const Progress& progress) {
   Grid dsm = read_raster(path, options.read, progress);
-  require_projected(dsm, path);
+  require_projected(dsm.crs, path);
   report.source_resolution = dsm.cell_x;
   if (options.resolution && (*options.resolution != dsm.cell_x || *options.resolution != dsm.cell_y)) {
     dsm = resample(dsm, *options.resolution, options.resampling);
@@ -64,12 +64,9 @@ SimplifyReport simplify_job(const SimplifyJobOptions& options, const Progress& p
   }
   const bool bounded = options.method == SimplifyMethod::Bounded;
   if (bounded) {
-    if (!(options.bounded.max_error > 0) || !std::isfinite(options.bounded.max_error))
-      throw ArgumentError("--max-error", "must be a positive number, got " + std::to_string(options.bounded.max_error));
+    check_bounded_options(options.bounded);
   } else {
-    if (!(options.paper.dz >= 0)) throw ArgumentError("--dz", "must be >= 0, got " + std::to_string(options.paper.dz));
-    if (!(options.paper.dco >= 0))
-      throw ArgumentError("--dco", "must be >= 0, got " + std::to_string(options.paper.dco));
+    check_paper_options(options.paper);
     if (options.bounded.conservative) throw ArgumentError("--conservative", "needs the bounded mode (--max-error E)");
   }
   const bool mesh_input = is_mesh_file(options.input);
@@ -144,8 +141,6 @@ SimplifyReport simplify_job(const SimplifyJobOptions& options, const Progress& p
 
 Json to_json(const SimplifyReport& report) {
   auto count_or_null = [](const std::optional<size_t>& n) { return n ? Json(*n) : Json(nullptr); };
-  Json seconds = Json::object();
-  for (const auto& [stage, value] : report.seconds) seconds[stage] = value;
   const bool bounded = report.method == SimplifyMethod::Bounded;
   const double kept = report.vertices_in ? double(report.vertices_out) / double(report.vertices_in) : 0;
   return {{"input", report.input},
@@ -173,7 +168,7 @@ Json to_json(const SimplifyReport& report) {
           {"uncovered_cells", report.error.uncovered},
           {"crs", crs_json(report.crs)},
           {"vertical", vertical_json(report.crs)},
-          {"seconds", seconds}};
+          {"seconds", seconds_json(report.seconds)}};
 }
 
 std::string to_text(const SimplifyReport& report) {

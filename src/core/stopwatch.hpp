@@ -1,0 +1,22 @@
+// Wall-clock stage timing, for the seconds every report gives per stage.
+#pragma once
+
+#include <chrono>
+
+namespace dsmplan {
+
+/// Wall seconds since the previous lap (or construction).
+class Stopwatch {
+public:
+  double lap() {
+    const auto now = std::chrono::steady_clock::now();
+    const double seconds = std::chrono::duration<double>(now - last_).count();
+    last_ = now;
+    return seconds;
+  }
+
+private:
+  std::chrono::steady_clock::time_point last_ = std::chrono::steady_clock::now();
+};
+
+}  // namespace dsmplan
