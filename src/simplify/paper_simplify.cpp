@@ -12,11 +12,11 @@
 #include <CGAL/Triangulation_vertex_base_with_info_2.h>
 
 #include <algorithm>
-#include <chrono>
 #include <cmath>
 #include <list>
 #include <string>
 
+#include "core/stopwatch.hpp"
 #include "dsmplan/simplify.hpp"
 
 namespace dsmplan {
@@ -148,6 +148,29 @@ void mark_nesting(Cdt& cdt) {
   }
 }
 
+// The paper's search pass: one mark per vertex. The paper's "set of unique search hits" is the
+// loop itself: each vertex is decided once, against the unmodified mesh, so the order of the
+// visit does not matter. With `border_out`, also every border edge a->n, read off the same rings.
+std::vector<VertexMark> search(const Mesh& mesh, const Corners& corners, const PaperSimplifyOptions& options,
+                               std::vector<std::pair<uint32_t, uint32_t>>* border_out) {
+  check_paper_options(options);
+  const Marker marker(mesh, options);
+  std::vector<VertexMark> marks(mesh.vertices.size(), VertexMark::Kept);
+  Ring ring;
+  for (uint32_t a = 0; a < mesh.vertices.size(); ++a) {
+    if (corners.begin[a] == corners.begin[a + 1]) continue;  // no triangle, no neighbour
+    ring.gather(corners, a);
+    if (marker.coplanar(a, ring)) {
+      marks[a] = VertexMark::Coplanar;
+    } else if (marker.colinear(a, ring)) {
+      marks[a] = VertexMark::Colinear;
+    }
+    if (border_out)
+      for (uint32_t n : ring.border_next) border_out->emplace_back(a, n);
+  }
+  return marks;
+}
+
 }  // namespace
 
 void check_paper_options(const PaperSimplifyOptions& options) {
@@ -158,48 +181,26 @@ void check_paper_options(const PaperSimplifyOptions& options) {
 const char* to_string(PaperVariant variant) { return variant == PaperVariant::One ? "variant1" : "variant2"; }
 
 std::vector<VertexMark> mark_paper(const Mesh& mesh, const PaperSimplifyOptions& options) {
-  check_paper_options(options);
-  const Corners corners(mesh);
-  const Marker marker(mesh, options);
-  std::vector<VertexMark> marks(mesh.vertices.size(), VertexMark::Kept);
-  Ring ring;
-  // The paper's "set of unique search hits" is the loop itself: each vertex is decided once,
-  // against the unmodified mesh, so the order of the visit does not matter.
-  for (uint32_t a = 0; a < mesh.vertices.size(); ++a) {
-    if (corners.begin[a] == corners.begin[a + 1]) continue;  // no triangle, no neighbour
-    ring.gather(corners, a);
-    if (marker.coplanar(a, ring)) {
-      marks[a] = VertexMark::Coplanar;
-    } else if (marker.colinear(a, ring)) {
-      marks[a] = VertexMark::Colinear;
-    }
-  }
-  return marks;
+  return search(mesh, Corners(mesh), options, nullptr);
 }
 
 PaperSimplifyResult simplify_paper(const Mesh& mesh, const PaperSimplifyOptions& options, const Progress& progress) {
-  using Clock = std::chrono::steady_clock;
   PaperSimplifyResult result;
-  auto start = Clock::now();
-  const std::vector<VertexMark> marks = mark_paper(mesh, options);
-  result.seconds_search = std::chrono::duration<double>(Clock::now() - start).count();
+  Stopwatch clock;
+  const Corners corners(mesh);
+  std::vector<std::pair<uint32_t, uint32_t>> border_out;
+  const std::vector<VertexMark> marks = search(mesh, corners, options, &border_out);
+  result.seconds_search = clock.lap();
   report(progress, 0.2);
-  start = Clock::now();
 
   // Border edges of the input, chained past removed (co-linear) border vertices.
-  const Corners corners(mesh);
   std::vector<uint32_t> border_next(mesh.vertices.size(), none);
   std::vector<std::pair<uint32_t, uint32_t>> border_edges;
-  Ring ring;
-  for (uint32_t a = 0; a < mesh.vertices.size(); ++a) {
-    if (corners.begin[a] == corners.begin[a + 1]) continue;
-    ring.gather(corners, a);
-    for (uint32_t n : ring.border_next) {
-      if (marks[a] == VertexMark::Kept)
-        border_edges.emplace_back(a, n);
-      else
-        border_next[a] = n;  // removed border vertices have exactly one border successor
-    }
+  for (const auto& [a, n] : border_out) {
+    if (marks[a] == VertexMark::Kept)
+      border_edges.emplace_back(a, n);
+    else
+      border_next[a] = n;  // removed border vertices have exactly one border successor
   }
   report(progress, 0.3);
 
@@ -225,7 +226,8 @@ PaperSimplifyResult simplify_paper(const Mesh& mesh, const PaperSimplifyOptions&
   // back, until the surface over every removed co-linear vertex is within dz of it.
   // Each is looked up from a kept vertex near it (vertex handles outlive insertions; faces do not).
   std::vector<std::pair<uint32_t, Cdt::Vertex_handle>> colinear;
-  Cdt::Vertex_handle near = handle[points.front().second];
+  Cdt::Vertex_handle near = points.empty() ? Cdt::Vertex_handle() : handle[points.front().second];
+  Ring ring;
   for (uint32_t v = 0; v < mesh.vertices.size(); ++v) {
     if (marks[v] != VertexMark::Colinear) continue;
     ring.gather(corners, v);
@@ -282,7 +284,7 @@ PaperSimplifyResult simplify_paper(const Mesh& mesh, const PaperSimplifyOptions&
           {new_index[f->vertex(0)->info()], new_index[f->vertex(1)->info()], new_index[f->vertex(2)->info()]});
     }
   }
-  result.seconds_triangulate = std::chrono::duration<double>(Clock::now() - start).count();
+  result.seconds_triangulate = clock.lap();
   report(progress, 1);
   return result;
 }
