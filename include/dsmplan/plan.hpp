@@ -198,6 +198,7 @@ struct PlanOptions {
   double max_agl = 120;    ///< top of the flight volume above the surface
   int connections = 10;    ///< roadmap samples each waypoint is joined to, at most
   bool smooth = true;      ///< shortcut smoothing
+  bool spline = true;      ///< then corner rounding by a quadratic B-spline, each chord re-checked
   int threads = 0;         ///< 0: every core
 };
 

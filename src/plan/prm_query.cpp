@@ -7,64 +7,20 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
-#include <cstdio>
 #include <functional>
 #include <queue>
-#include <stdexcept>
 #include <string>
 
 #include "core/stopwatch.hpp"
 #include "dsmplan/plan.hpp"
+#include "plan/path_parts.hpp"
 
 namespace dsmplan {
 
 namespace {
 
-double distance(const Point3& a, const Point3& b) { return std::hypot(a[0] - b[0], a[1] - b[1], a[2] - b[2]); }
-
-std::string number(double v) {
-  char buffer[32];
-  std::snprintf(buffer, sizeof buffer, "%.2f", v);
-  return buffer;
-}
-
-void check_waypoint_list(const std::vector<Point3>& waypoints) {
-  if (waypoints.size() < 2)
-    throw ArgumentError("waypoints", "need at least two, got " + std::to_string(waypoints.size()));
-  for (size_t i = 0; i < waypoints.size(); ++i)
-    for (double v : waypoints[i])
-      if (!std::isfinite(v)) throw ArgumentError("waypoints", "waypoint " + std::to_string(i + 1) + " is not finite");
-}
-
-// Why waypoint `w` cannot be flown to, or empty when it can.
-std::string waypoint_problem(const Point3& w, const ClearanceIndex& index, double safety) {
-  const ClearanceIndex::Footprint& e = index.footprint();
-  const double xmin = e.xmin, xmax = e.xmax, ymin = e.ymin, ymax = e.ymax;
-  if (!(w[0] >= xmin && w[0] <= xmax && w[1] >= ymin && w[1] <= ymax))
-    return "outside the mesh's extent (x " + number(xmin) + " to " + number(xmax) + ", y " + number(ymin) + " to " +
-           number(ymax) + ")";
-  const double g = index.ground(w[0], w[1]);
-  if (std::isnan(g)) return "outside the mesh's extent (over a hole: no surface below it)";
-  if (w[2] < g) return "under the surface (z " + number(w[2]) + ", surface " + number(g) + ")";
-  if (!index.point_clear(w, safety))
-    return "closer than the safety distance " + number(safety) + " to the mesh (clearance " +
-           number(index.clearance(w, w, safety)) + ")";
-  return {};
-}
-
-// Marks `result` InvalidWaypoint for the first waypoint that cannot be flown to; false if none.
-bool first_invalid_waypoint(const std::vector<Point3>& waypoints, const ClearanceIndex& index, double safety,
-                            PlanResult& result) {
-  for (size_t i = 0; i < waypoints.size(); ++i) {
-    std::string problem = waypoint_problem(waypoints[i], index, safety);
-    if (problem.empty()) continue;
-    result.status = PlanStatus::InvalidWaypoint;
-    result.waypoint = i;
-    result.reason = std::move(problem);
-    return true;
-  }
-  return false;
-}
+using detail::distance;
+using detail::format_number;
 
 // Roadmap nodes within max_edge of `w`, nearest first, that a clear straight segment joins to
 // it; at most `limit`. Ties in distance break by node number.
@@ -131,48 +87,17 @@ std::vector<Point3> astar(const Roadmap& map, const Point3& a, const Point3& b,
   return path;
 }
 
-// From each point, straight on to the farthest later point the segment to which is clear
-// (the next point always is: it is a checked roadmap or connection edge).
-std::vector<Point3> shortcut(const std::vector<Point3>& leg, const ClearanceIndex& index, double safety) {
-  std::vector<Point3> out{leg.front()};
-  for (size_t i = 0; i + 1 < leg.size();) {
-    size_t j = leg.size() - 1;
-    while (j > i + 1 && !index.segment_clear(leg[i], leg[j], safety)) --j;
-    out.push_back(leg[j]);
-    i = j;
-  }
-  return out;
-}
-
 }  // namespace
-
-std::string PlanResult::place() const {
-  switch (status) {
-    case PlanStatus::Solved:
-      return {};
-    case PlanStatus::InvalidWaypoint:
-      return "waypoint " + std::to_string(waypoint + 1);
-    case PlanStatus::NoPath:
-      return "waypoints " + std::to_string(waypoint + 1) + " to " + std::to_string(waypoint + 2);
-  }
-  return {};
-}
-
-double path_length(const std::vector<Point3>& path) {
-  double length = 0;
-  for (size_t i = 1; i < path.size(); ++i) length += distance(path[i - 1], path[i]);
-  return length;
-}
 
 PlanResult query_roadmap(const Roadmap& map, const ClearanceIndex& index, const std::vector<Point3>& waypoints,
                          const PlanOptions& options) {
   check_plan_options(options);
-  check_waypoint_list(waypoints);
+  detail::check_waypoint_list(waypoints);
   PlanResult result;
   result.roadmap_nodes = map.nodes.size();
   result.roadmap_edges = map.edges();
   Stopwatch clock;
-  if (first_invalid_waypoint(waypoints, index, options.safety, result)) return result;
+  if (detail::first_invalid_waypoint(waypoints, index, options.safety, result)) return result;
   std::vector<std::vector<std::pair<double, uint32_t>>> links(waypoints.size());
   std::vector<std::vector<Point3>> legs;
   for (size_t i = 0; i < waypoints.size(); ++i) links[i] = connect(waypoints[i], map, index, options);
@@ -188,7 +113,7 @@ PlanResult query_roadmap(const Roadmap& map, const ClearanceIndex& index, const 
       result.status = PlanStatus::NoPath;
       result.waypoint = i;
       const size_t lonely = links[i].empty() ? i : links[i + 1].empty() ? i + 1 : SIZE_MAX;
-      result.reason = lonely != SIZE_MAX ? "no roadmap sample within --max-edge " + number(options.max_edge) +
+      result.reason = lonely != SIZE_MAX ? "no roadmap sample within --max-edge " + format_number(options.max_edge) +
                                                " has a clear straight segment to waypoint " +
                                                std::to_string(lonely + 1) + "; a smaller --spacing may give one"
                                          : "no path within the roadmap (" + std::to_string(map.nodes.size()) +
@@ -199,27 +124,16 @@ PlanResult query_roadmap(const Roadmap& map, const ClearanceIndex& index, const 
     legs.push_back(std::move(leg));
   }
   result.seconds_query = clock.lap();
-
-  for (size_t i = 0; i < legs.size(); ++i) {
-    std::vector<Point3> smooth = options.smooth ? shortcut(legs[i], index, options.safety) : legs[i];
-    for (size_t k = i ? 1 : 0; k < legs[i].size(); ++k) result.raw_path.push_back(legs[i][k]);
-    for (size_t k = i ? 1 : 0; k < smooth.size(); ++k) result.path.push_back(smooth[k]);
-  }
-  // Every segment was checked on its way in; this says so once more, cheaply, because a path
-  // that is not clear must never leave the library.
-  for (size_t k = 1; k < result.path.size(); ++k)
-    if (!index.segment_clear(result.path[k - 1], result.path[k], options.safety))
-      throw std::logic_error("planner produced a segment closer than the safety distance");
+  detail::finish_path(legs, index, options, result);
   result.seconds_smooth = clock.lap();
-  result.status = PlanStatus::Solved;
   return result;
 }
 
 PlanResult plan_path(const ClearanceIndex& index, const std::vector<Point3>& waypoints, const PlanOptions& options,
                      const Progress& progress) {
   check_plan_options(options);
-  check_waypoint_list(waypoints);
-  if (PlanResult invalid; first_invalid_waypoint(waypoints, index, options.safety, invalid)) return invalid;
+  detail::check_waypoint_list(waypoints);
+  if (PlanResult invalid; detail::first_invalid_waypoint(waypoints, index, options.safety, invalid)) return invalid;
   Stopwatch clock;
   const Roadmap map = build_roadmap(index, options, sub_progress(progress, 0, 0.95));
   const double seconds_roadmap = clock.lap();

@@ -1,0 +1,170 @@
+// Finishing a planned path: greedy shortcuts as OMPL's PathSimplifier::shortcutPath does them
+// deterministically (Geraerts & Overmars, "Creating High-quality Paths for Motion Planning",
+// IJRR 26(8), 2007), then corner rounding by the clamped uniform quadratic B-spline of the
+// shortcut polygon (de Boor, "A Practical Guide to Splines", 1978; each span is the quadratic
+// Bezier from the middle of one segment over the corner to the middle of the next, as in
+// Chaikin's corner cutting, Chaikin 1974), drawn as chords and every chord re-checked.
+// Also the waypoint checks every planner runs first.
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <stdexcept>
+#include <string>
+
+#include "dsmplan/plan.hpp"
+#include "plan/path_parts.hpp"
+
+namespace dsmplan {
+
+namespace detail {
+
+std::string format_number(double v) {
+  char buffer[32];
+  std::snprintf(buffer, sizeof buffer, "%.2f", v);
+  return buffer;
+}
+
+void check_waypoint_list(const std::vector<Point3>& waypoints) {
+  if (waypoints.size() < 2)
+    throw ArgumentError("waypoints", "need at least two, got " + std::to_string(waypoints.size()));
+  for (size_t i = 0; i < waypoints.size(); ++i)
+    for (double v : waypoints[i])
+      if (!std::isfinite(v)) throw ArgumentError("waypoints", "waypoint " + std::to_string(i + 1) + " is not finite");
+}
+
+namespace {
+
+// Why waypoint `w` cannot be flown to, or empty when it can.
+std::string waypoint_problem(const Point3& w, const ClearanceIndex& index, double safety) {
+  const ClearanceIndex::Footprint& e = index.footprint();
+  if (!(w[0] >= e.xmin && w[0] <= e.xmax && w[1] >= e.ymin && w[1] <= e.ymax))
+    return "outside the mesh's extent (x " + format_number(e.xmin) + " to " + format_number(e.xmax) + ", y " +
+           format_number(e.ymin) + " to " + format_number(e.ymax) + ")";
+  const double g = index.ground(w[0], w[1]);
+  if (std::isnan(g)) return "outside the mesh's extent (over a hole: no surface below it)";
+  if (w[2] < g) return "under the surface (z " + format_number(w[2]) + ", surface " + format_number(g) + ")";
+  if (!index.point_clear(w, safety))
+    return "closer than the safety distance " + format_number(safety) + " to the mesh (clearance " +
+           format_number(index.clearance(w, w, safety)) + ")";
+  return {};
+}
+
+// From each point, straight on to the farthest later point the segment to which is clear
+// (the next point always is: it is a checked edge).
+std::vector<Point3> shortcut(const std::vector<Point3>& leg, const ClearanceIndex& index, double safety) {
+  std::vector<Point3> out{leg.front()};
+  for (size_t i = 0; i + 1 < leg.size();) {
+    size_t j = leg.size() - 1;
+    while (j > i + 1 && !index.segment_clear(leg[i], leg[j], safety)) --j;
+    out.push_back(leg[j]);
+    i = j;
+  }
+  return out;
+}
+
+Point3 lerp(const Point3& a, const Point3& b, double t) {
+  return {a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1]), a[2] + t * (b[2] - a[2])};
+}
+
+// The polygon with each interior corner replaced by chords of the quadratic Bezier from a
+// point on the incoming segment over the corner to a point on the outgoing one (at half of
+// each segment: the clamped quadratic B-spline of the polygon). A corner whose chords are not
+// all clear at `safety` is tried again cutting a quarter, an eighth, ... of the segments, and
+// kept sharp after that. The curve lies in the triangle of its ends and the corner and is
+// convex, so it is no longer than the two straight pieces it replaces, and its chords are
+// shorter still: rounding never makes the path longer.
+std::vector<Point3> round_corners(const std::vector<Point3>& polygon, const ClearanceIndex& index, double safety) {
+  if (polygon.size() < 3) return polygon;
+  constexpr double kChord = 2.0;  // CRS units: chords of about 2 m follow the curve within cm
+  constexpr int kTries = 4;       // cuts of 1/2, 1/4, 1/8, 1/16 of the shorter segment share
+  std::vector<Point3> out{polygon.front()};
+  // `entry` is where the previous corner's curve ended on the current segment.
+  Point3 entry = polygon.front();
+  for (size_t k = 1; k + 1 < polygon.size(); ++k) {
+    const Point3 &a = polygon[k - 1], &c = polygon[k], &b = polygon[k + 1];
+    std::vector<Point3> curve;
+    for (int attempt = 0; attempt < kTries && curve.empty(); ++attempt) {
+      const double t = 0.5 / static_cast<double>(1 << attempt);
+      // On the incoming segment never cut back past where the previous curve ended.
+      const double back = std::min(t, 1 - std::min(1.0, distance(a, entry) / std::max(distance(a, c), 1e-300)));
+      const Point3 p0 = lerp(c, a, back), p2 = lerp(c, b, t);
+      const double length = distance(p0, c) + distance(c, p2);
+      const int pieces = std::clamp(static_cast<int>(std::ceil(length / kChord)), 2, 64);
+      std::vector<Point3> points{p0};
+      for (int i = 1; i <= pieces; ++i) {
+        const double s = static_cast<double>(i) / pieces;
+        points.push_back(lerp(lerp(p0, c, s), lerp(c, p2, s), s));
+      }
+      // The straight piece up to the curve lies on a checked segment; the chords are new.
+      bool clear = true;
+      for (size_t i = 1; i < points.size() && clear; ++i) clear = index.segment_clear(points[i - 1], points[i], safety);
+      if (clear && index.segment_clear(entry, p0, safety)) curve = std::move(points);
+    }
+    if (curve.empty()) {
+      out.push_back(c);
+      entry = c;
+    } else {
+      if (distance(curve.front(), out.back()) > 0) out.push_back(curve.front());
+      out.insert(out.end(), curve.begin() + 1, curve.end());
+      entry = curve.back();
+    }
+  }
+  out.push_back(polygon.back());
+  return out;
+}
+
+}  // namespace
+
+bool first_invalid_waypoint(const std::vector<Point3>& waypoints, const ClearanceIndex& index, double safety,
+                            PlanResult& result) {
+  for (size_t i = 0; i < waypoints.size(); ++i) {
+    std::string problem = waypoint_problem(waypoints[i], index, safety);
+    if (problem.empty()) continue;
+    result.status = PlanStatus::InvalidWaypoint;
+    result.waypoint = i;
+    result.reason = std::move(problem);
+    return true;
+  }
+  return false;
+}
+
+void finish_path(const std::vector<std::vector<Point3>>& legs, const ClearanceIndex& index,
+                 const PlanOptions& options, PlanResult& result) {
+  result.path.clear();
+  result.raw_path.clear();
+  for (size_t i = 0; i < legs.size(); ++i) {
+    std::vector<Point3> smooth = legs[i];
+    if (options.smooth) smooth = shortcut(smooth, index, options.safety);
+    if (options.spline) smooth = round_corners(smooth, index, options.safety);
+    for (size_t k = i ? 1 : 0; k < legs[i].size(); ++k) result.raw_path.push_back(legs[i][k]);
+    for (size_t k = i ? 1 : 0; k < smooth.size(); ++k) result.path.push_back(smooth[k]);
+  }
+  // Every segment was checked on its way in; this says so once more, cheaply, because a path
+  // that is not clear must never leave the library.
+  for (size_t k = 1; k < result.path.size(); ++k)
+    if (!index.segment_clear(result.path[k - 1], result.path[k], options.safety))
+      throw std::logic_error("planner produced a segment closer than the safety distance");
+  result.status = PlanStatus::Solved;
+}
+
+}  // namespace detail
+
+std::string PlanResult::place() const {
+  switch (status) {
+    case PlanStatus::Solved:
+      return {};
+    case PlanStatus::InvalidWaypoint:
+      return "waypoint " + std::to_string(waypoint + 1);
+    case PlanStatus::NoPath:
+      return "waypoints " + std::to_string(waypoint + 1) + " to " + std::to_string(waypoint + 2);
+  }
+  return {};
+}
+
+double path_length(const std::vector<Point3>& path) {
+  double length = 0;
+  for (size_t i = 1; i < path.size(); ++i) length += detail::distance(path[i - 1], path[i]);
+  return length;
+}
+
+}  // namespace dsmplan
