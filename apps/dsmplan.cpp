@@ -149,8 +149,12 @@ int main(int argc, char** argv) {
   CLI::App* plan_cmd = app.add_subcommand(
       "plan", "Plan a collision-free path through waypoints over an obstacle mesh (Halton PRM, A*, shortcuts)");
   plan_cmd->add_option("MESH", plan.mesh, "Obstacle mesh (.ply, .obj, .off) in a projected CRS")->required();
-  plan_cmd->add_option("--waypoints", plan.waypoints, "CSV of x,y,z waypoints in the mesh's CRS")->required();
-  plan_cmd->add_option("-o,--output", plan.output, "Path: .csv (x,y,z)")->required();
+  plan_cmd
+      ->add_option("--waypoints", plan.waypoints,
+                   "Waypoints: .csv (x,y,z in the mesh's CRS) or .geojson (WGS 84 lon, lat, ellipsoidal height)")
+      ->required();
+  plan_cmd->add_option("-o,--output", plan.output, "Path: .csv (x,y,z in the mesh's CRS) or .geojson (WGS 84)")
+      ->required();
   plan_cmd->add_option("--safety", plan.plan.safety, "Least distance to the mesh")->capture_default_str();
   plan_cmd->add_option("--spacing", plan.plan.spacing, "Relative sample distance: samples = volume / spacing^3")
       ->capture_default_str();
@@ -158,6 +162,13 @@ int main(int argc, char** argv) {
   plan_cmd->add_option("--max-agl", plan.plan.max_agl, "Top of the flight volume above the surface")
       ->capture_default_str();
   plan_cmd->add_option("--threads", plan.plan.threads, "Threads (0: every core)")->capture_default_str();
+  plan_cmd->add_option("--roadmap", plan.roadmap,
+                       "Roadmap file: reused when it exists (same mesh and options), else built and saved");
+  plan_cmd->add_option("--dsm", plan.dsm, "Raw DSM: report the path's clearance to its cells as solid columns");
+  plan_cmd->add_option("--vertical-crs", plan.vertical.vertical_crs,
+                       "Vertical CRS of the mesh's heights when the file does not say (e.g. EPSG:7837)");
+  plan_cmd->add_flag("--allow-approximate-vertical", plan.vertical.allow_approximate_vertical,
+                     "Accept a ballpark height transformation (or an unknown vertical reference) for GeoJSON");
   plan_cmd->add_option("--stats", plan_stats, "Write statistics as JSON to this file");
   plan_cmd->add_flag("-q,--quiet", quiet, "No progress output");
 

@@ -32,8 +32,15 @@ build/dsmplan render "$dsm" --window 356500,5699450,356650,5699600 --zoom 4 \
   -o "$out/simplify_1m.png" -q
 echo
 echo "Planning a path through the bundled waypoints on the conservative mesh (2 m safety distance):"
+# The roadmap is built by the first query and reused by the second (a new mesh needs a new one).
+rm -f "$out/bounded_1m.roadmap"
 build/dsmplan plan "$out/bounded_1m.ply" --waypoints data/nrw-dom1/sample_waypoints.csv \
-  -o "$out/path.csv" --stats "$out/path.json"
+  -o "$out/path.csv" --roadmap "$out/bounded_1m.roadmap" --dsm "$dsm" --stats "$out/path.json"
+# The sample's heights are DHHN2016; without the GCG2016 geoid grid PROJ can only copy them to
+# the ellipsoid (about 47 m off), so the GeoJSON says so and the run must allow it explicitly.
+build/dsmplan plan "$out/bounded_1m.ply" --waypoints data/nrw-dom1/sample_waypoints.csv \
+  -o "$out/path.geojson" --roadmap "$out/bounded_1m.roadmap" \
+  --vertical-crs EPSG:7837 --allow-approximate-vertical -q
 echo
 echo "Outputs in $out/:"
 ls -l "$out"

@@ -891,8 +891,9 @@ TEST(CliPlan, ThreeWaypointsGiveAPathCsvAndStats) {
   std::vector<std::string> keys;
   for (auto it = s.begin(); it != s.end(); ++it) keys.push_back(it.key());
   std::sort(keys.begin(), keys.end());
-  std::vector<std::string> expected{"path_length_m", "min_clearance_m", "roadmap_nodes", "roadmap_edges",
-                                    "seconds_load",  "seconds_roadmap", "seconds_query", "seconds_smooth"};
+  std::vector<std::string> expected{"path_length_m", "min_clearance_m", "roadmap_nodes",  "roadmap_edges",
+                                    "seconds_load",  "seconds_roadmap", "seconds_query",  "seconds_smooth",
+                                    "planner",       "roadmap_reused"};
   std::sort(expected.begin(), expected.end());
   EXPECT_EQ(keys, expected);
   EXPECT_NEAR(s["path_length_m"].get<double>(), length, 1e-6);
@@ -949,6 +950,145 @@ TEST(CliBadInput, PlanMalformedWaypointFileNamesTheLine) {
       run_cli({"plan", f.mesh, "--waypoints", f.in.path("missing.csv"), "-o", out.path("p.csv"), "-q"}), out,
       "missing.csv", {"cannot open"});
   f.write_waypoints(f.corners());
-  expect_clean_failure(run_cli({"plan", f.mesh, "--waypoints", f.waypoints, "-o", out.path("p.geojson"), "-q"}), out,
+  expect_clean_failure(run_cli({"plan", f.mesh, "--waypoints", f.waypoints, "-o", out.path("p.txt"), "-q"}), out,
                        "-o", {".csv"});
+}
+
+TEST(CliPlan, RoadmapFileIsReusedAndRefusedForAnotherMeshOrOptions) {
+  PlanFixture f;
+  f.write_waypoints(f.corners());
+  TempDir out;
+  const std::string roadmap = f.in.path("map.roadmap");
+  auto plan = [&](const std::string& mesh, const std::string& path, std::vector<std::string> extra = {}) {
+    std::vector<std::string> args{"plan", mesh, "--waypoints", f.waypoints, "-o", path, "--roadmap", roadmap, "-q"};
+    args.insert(args.end(), extra.begin(), extra.end());
+    return run_cli(args);
+  };
+  const auto first = plan(f.mesh, out.path("a.csv"), {"--stats", out.path("a.json")});
+  ASSERT_EQ(first.exit_code, 0) << first.err;
+  ASSERT_TRUE(std::filesystem::exists(roadmap));
+  const auto second = plan(f.mesh, out.path("b.csv"), {"--stats", out.path("b.json")});
+  ASSERT_EQ(second.exit_code, 0) << second.err;
+  const json a = json::parse(testkit::read_file(out.path("a.json"))), b = json::parse(testkit::read_file(out.path("b.json")));
+  EXPECT_FALSE(a["roadmap_reused"].get<bool>());
+  EXPECT_TRUE(b["roadmap_reused"].get<bool>());
+  EXPECT_EQ(b["seconds_roadmap"].get<double>(), 0);
+  EXPECT_EQ(a["roadmap_nodes"], b["roadmap_nodes"]);
+  EXPECT_EQ(a["roadmap_edges"], b["roadmap_edges"]);
+  EXPECT_EQ(testkit::read_file(out.path("a.csv")), testkit::read_file(out.path("b.csv")));  // same roadmap, same path
+
+  TempDir none;
+  expect_clean_failure(plan(f.mesh, none.path("c.csv"), {"--spacing", "15"}), none, roadmap, {"--spacing"});
+  expect_clean_failure(plan(f.mesh, none.path("c.csv"), {"--safety", "3"}), none, roadmap, {"--safety"});
+  const std::string other = f.in.path("other.ply");
+  ASSERT_EQ(run_cli({"mesh", testkit::data_path(kSample), "-o", other, "--res", "3", "-q"}).exit_code, 0);
+  expect_clean_failure(plan(other, none.path("c.csv")), none, roadmap, {"another mesh"});
+  std::string bytes = testkit::read_file(roadmap);
+  bytes[bytes.size() / 3] ^= 1;
+  testkit::write_file(roadmap, bytes);
+  expect_clean_failure(plan(f.mesh, none.path("c.csv")), none, roadmap, {"damaged"});
+}
+
+TEST(CliPlan, GeoJsonWaypointsAndPathAgreeWithTheCsvRun) {
+  PlanFixture f;
+  const auto waypoints = f.corners();
+  f.write_waypoints(waypoints);
+  TempDir out;
+  ASSERT_EQ(run_cli({"plan", f.mesh, "--waypoints", f.waypoints, "-o", out.path("p.csv"), "-q"}).exit_code, 0);
+  const auto csv_path = read_path_csv(out.path("p.csv"));
+
+  // The same waypoints in lon/lat by GDAL's transformation (an independent route through PROJ);
+  // DHHN2016 heights go to the ellipsoid only by PROJ's ballpark here, which copies them.
+  OGRSpatialReferenceH utm = OSRNewSpatialReference(nullptr), wgs = OSRNewSpatialReference(nullptr);
+  OSRImportFromEPSG(utm, 25832);
+  OSRImportFromEPSG(wgs, 4326);
+  OSRSetAxisMappingStrategy(utm, OAMS_TRADITIONAL_GIS_ORDER);
+  OSRSetAxisMappingStrategy(wgs, OAMS_TRADITIONAL_GIS_ORDER);
+  OGRCoordinateTransformationH to_wgs = OCTNewCoordinateTransformation(utm, wgs);
+  json features = json::array();
+  std::vector<std::array<double, 2>> lonlat;
+  for (const auto& w : waypoints) {
+    double x = w[0], y = w[1];
+    ASSERT_TRUE(OCTTransform(to_wgs, 1, &x, &y, nullptr));
+    lonlat.push_back({x, y});
+    features.push_back({{"type", "Feature"}, {"properties", json::object()},
+                        {"geometry", {{"type", "Point"}, {"coordinates", {x, y, w[2]}}}}});
+  }
+  OCTDestroyCoordinateTransformation(to_wgs);
+  OSRDestroySpatialReference(utm);
+  OSRDestroySpatialReference(wgs);
+  const std::string geo_waypoints = f.in.path("wp.geojson");
+  testkit::write_file(geo_waypoints, json{{"type", "FeatureCollection"}, {"features", features}}.dump());
+  const std::vector<std::string> vertical{"--vertical-crs", "EPSG:7837", "--allow-approximate-vertical"};
+
+  auto run = [&](const std::string& wp, const std::string& path, std::vector<std::string> extra) {
+    std::vector<std::string> args{"plan", f.mesh, "--waypoints", wp, "-o", path};
+    args.insert(args.end(), extra.begin(), extra.end());
+    return run_cli(args);
+  };
+  auto from_geo = vertical;
+  from_geo.push_back("-q");
+  ASSERT_EQ(run(geo_waypoints, out.path("g.csv"), from_geo).exit_code, 0);
+  const auto geo_path = read_path_csv(out.path("g.csv"));
+  for (size_t i : {size_t{0}, geo_path.size() - 1}) {
+    const auto& w = i == 0 ? waypoints.front() : waypoints.back();
+    EXPECT_LT(std::hypot(geo_path[i][0] - w[0], geo_path[i][1] - w[1], geo_path[i][2] - w[2]), 1e-3);
+  }
+
+  const auto written = run(f.waypoints, out.path("p.geojson"), vertical);  // not quiet: names the transformation
+  ASSERT_EQ(written.exit_code, 0) << written.err;
+  EXPECT_NE(written.out.find("DHHN2016"), std::string::npos) << written.out;
+  const json line = json::parse(testkit::read_file(out.path("p.geojson")));
+  EXPECT_EQ(line["type"], "Feature");
+  EXPECT_EQ(line["geometry"]["type"], "LineString");
+  const json& c = line["geometry"]["coordinates"];
+  ASSERT_EQ(c.size(), csv_path.size());
+  for (size_t i : {size_t{0}, c.size() - 1}) {
+    const auto& ll = i == 0 ? lonlat.front() : lonlat.back();
+    EXPECT_NEAR(c[i][0].get<double>(), ll[0], 2e-9);
+    EXPECT_NEAR(c[i][1].get<double>(), ll[1], 2e-9);
+    EXPECT_NEAR(c[i][2].get<double>(), csv_path[i][2], 1e-3);  // ballpark: heights copied
+  }
+  EXPECT_NE(line["properties"]["transformation"].get<std::string>().find("ballpark"), std::string::npos);
+
+  TempDir none;
+  expect_clean_failure(run(f.waypoints, none.path("p.geojson"), {"-q"}), none, "--vertical-crs", {"unknown"});
+  expect_clean_failure(run(f.waypoints, none.path("p.geojson"), {"--vertical-crs", "EPSG:7837", "-q"}), none,
+                       "--vertical-crs", {"approximate"});
+}
+
+TEST(CliPlan, DsmClearanceIsReportedWithTheDsm) {
+  PlanFixture f;
+  f.write_waypoints(f.corners());
+  TempDir out;
+  const auto result = run_cli({"plan", f.mesh, "--waypoints", f.waypoints, "-o", out.path("p.csv"), "--dsm",
+                               testkit::data_path(kSample), "--stats", out.path("s.json"), "-q"});
+  ASSERT_EQ(result.exit_code, 0) << result.err;
+  const json s = json::parse(testkit::read_file(out.path("s.json")));
+  ASSERT_TRUE(s.contains("min_clearance_dsm_m"));
+  // Columns reach half a cell (1 m at 2 m cells... here the DSM's own 1 m) past the mesh's vertices.
+  EXPECT_GT(s["min_clearance_dsm_m"].get<double>(), 0);
+  EXPECT_LE(s["min_clearance_dsm_m"].get<double>(), s["min_clearance_m"].get<double>() + 1.5);
+}
+
+TEST(CliBadInput, PlanMalformedGeoJsonWaypointsNameThePlace) {
+  PlanFixture f;
+  TempDir out;
+  const std::string wp = f.in.path("wp.geojson");
+  auto expect = [&](const std::string& text, const std::string& place, const std::string& why) {
+    testkit::write_file(wp, text);
+    expect_clean_failure(run_cli({"plan", f.mesh, "--waypoints", wp, "-o", out.path("p.csv"), "--vertical-crs",
+                                  "EPSG:7837", "--allow-approximate-vertical", "-q"}),
+                         out, wp + ": " + place, {why});
+  };
+  const std::string point = R"({"type":"Feature","geometry":{"type":"Point","coordinates":[6.93,51.43,150]}})";
+  expect(R"({"type":"FeatureCollection","features":[)" + point + R"(,{"type":"Feature","geometry":{"type":"Point","coordinates":[6.93,51.43]}}]})",
+         "feature 2", "height");
+  expect(R"({"type":"FeatureCollection","features":[)" + point + R"(,{"type":"Feature","geometry":{"type":"Point","coordinates":[356320,5699270,150]}}]})",
+         "feature 2", "longitude");
+  expect(R"({"type":"FeatureCollection","features":[)" + point + R"(,{"type":"Feature","geometry":{"type":"Polygon","coordinates":[]}}]})",
+         "feature 2", "Polygon");
+  expect(R"({"type":"LineString","coordinates":[[6.93,51.43,150],[6.94,"x",150]]})", "geometry, position 2", "numbers");
+  expect(R"({"type":"FeatureCollection","features":[)" + point + ",", "byte", "not JSON");
+  expect(R"({"type":"FeatureCollection"})", "", "features");
 }

@@ -7,7 +7,10 @@
 #include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
 #include <CGAL/IO/polygon_soup_io.h>
 #include <gtest/gtest.h>
+#include <ogr_spatialref.h>
 #include <png.h>
+
+#include <nlohmann/json.hpp>
 
 #include <algorithm>
 #include <array>
@@ -17,6 +20,7 @@
 #include <fstream>
 #include <limits>
 #include <optional>
+#include <sstream>
 #include <vector>
 
 #include "dsmplan/mesh.hpp"
@@ -563,4 +567,101 @@ TEST(Png, FailedWritesLeaveNothingAndBadImagesAreRefused) {
   EXPECT_THROW(write_png(Image{}, dir.path("empty.png")), ArgumentError);
   EXPECT_THROW(write_png(Image{3, 2, {1, 2, 3}}, dir.path("short.png")), ArgumentError);
   EXPECT_TRUE(dir.files().empty());
+}
+
+// ---- WGS 84 through PROJ, and paths as text -----------------------------------------------
+//
+// Oracles: GDAL's own coordinate transformation (OGRCoordinateTransformation, traditional GIS
+// axis order) for the horizontal part; the round trip for the inverse; the EGM96 grid's height
+// difference is checked to be the geoid's size at Muelheim (tens of metres), not zero.
+
+namespace {
+
+dsmplan::Crs utm32() {
+  dsmplan::Crs crs;
+  crs.definition = "EPSG:25832";
+  dsmplan::resolve_crs(crs);
+  return crs;
+}
+
+}  // namespace
+
+TEST(Wgs84Transform, HorizontalAgreesWithGdalAndRoundTripsWithinAMillimetre) {
+  VerticalOptions egm96;
+  egm96.vertical_crs = "EPSG:5773";  // EGM96 height: PROJ has its grid (egm96_15.gtx), an exact operation
+  const Wgs84Transform t(utm32(), HeightReference::Ellipsoid, egm96);
+  EXPECT_FALSE(t.approximate_heights()) << t.description();
+  OGRSpatialReference utm, wgs;
+  utm.importFromEPSG(25832);
+  wgs.importFromEPSG(4326);
+  wgs.SetAxisMappingStrategy(OAMS_TRADITIONAL_GIS_ORDER);
+  utm.SetAxisMappingStrategy(OAMS_TRADITIONAL_GIS_ORDER);
+  std::unique_ptr<OGRCoordinateTransformation> gdal(OGRCreateCoordinateTransformation(&utm, &wgs));
+  ASSERT_TRUE(gdal);
+  for (const Point3& p : {Point3{356320, 5699270, 130}, Point3{357000, 5700000, 90}, Point3{356800.25, 5699745.5, 160}}) {
+    const Point3 g = t.to_wgs84(p);
+    double x = p[0], y = p[1];
+    ASSERT_TRUE(gdal->Transform(1, &x, &y));
+    EXPECT_NEAR(g[0], x, 1e-8);  // longitude first, whatever EPSG:4326's axis order
+    EXPECT_NEAR(g[1], y, 1e-8);
+    EXPECT_GT(g[0], 6.9);
+    EXPECT_LT(g[0], 7.0);
+    // The geoid stands about 47 m above the ellipsoid here: heights must move by that much.
+    EXPECT_GT(g[2] - p[2], 40);
+    EXPECT_LT(g[2] - p[2], 55);
+    const Point3 back = t.from_wgs84(g);
+    EXPECT_LT(std::hypot(back[0] - p[0], back[1] - p[1], back[2] - p[2]), 1e-3);
+  }
+}
+
+TEST(Wgs84Transform, UnknownOrApproximateHeightsAreRefusedUnlessAllowed) {
+  try {
+    Wgs84Transform(utm32(), HeightReference::Ellipsoid, {});
+    ADD_FAILURE() << "unknown vertical reference accepted";
+  } catch (const ArgumentError& e) {
+    EXPECT_NE(std::string(e.what()).find("unknown"), std::string::npos) << e.what();
+  }
+  VerticalOptions dhhn;
+  dhhn.vertical_crs = "EPSG:7837";  // DHHN2016: PROJ has no GCG2016 grid here, only a ballpark
+  try {
+    Wgs84Transform(utm32(), HeightReference::Ellipsoid, dhhn);
+    ADD_FAILURE() << "ballpark vertical accepted";
+  } catch (const ArgumentError& e) {
+    EXPECT_NE(std::string(e.what()).find("approximate"), std::string::npos) << e.what();
+  }
+  dhhn.allow_approximate_vertical = true;
+  const Wgs84Transform ballpark(utm32(), HeightReference::Ellipsoid, dhhn);
+  EXPECT_TRUE(ballpark.approximate_heights());
+  EXPECT_NE(ballpark.description().find("approximate"), std::string::npos);
+  VerticalOptions unknown;
+  unknown.allow_approximate_vertical = true;
+  const Wgs84Transform copied(utm32(), HeightReference::Ellipsoid, unknown);
+  EXPECT_EQ(copied.to_wgs84({356320, 5699270, 130})[2], 130);
+  EXPECT_NE(copied.description().find("unchanged"), std::string::npos);
+  VerticalOptions not_vertical;
+  not_vertical.vertical_crs = "EPSG:4326";
+  EXPECT_THROW(Wgs84Transform(utm32(), HeightReference::Ellipsoid, not_vertical), ArgumentError);
+}
+
+TEST(PathText, CsvReadsBackExactlyAndGeoJsonIsALineString) {
+  const std::vector<Point3> path{{356320.125, 5699270.1, 130.3}, {356400, 5699300, 131}, {1.0 / 3, 2.0 / 3, 0.1}};
+  std::istringstream csv(path_to_csv(path));
+  std::string line;
+  std::getline(csv, line);
+  EXPECT_EQ(line, "x,y,z");
+  for (const Point3& p : path) {
+    ASSERT_TRUE(std::getline(csv, line));
+    Point3 q;
+    char c1, c2;
+    std::istringstream(line) >> q[0] >> c1 >> q[1] >> c2 >> q[2];
+    EXPECT_EQ(q, p) << line;  // shortest round-trip decimals
+  }
+  const auto j = nlohmann::json::parse(path_to_geojson({{6.93329, 51.4264, 177.5}, {6.9, 51.5, 180}}, "{\"a\":1}"));
+  EXPECT_EQ(j["type"], "Feature");
+  EXPECT_EQ(j["properties"]["a"], 1);
+  EXPECT_EQ(j["geometry"]["type"], "LineString");
+  ASSERT_EQ(j["geometry"]["coordinates"].size(), 2u);
+  EXPECT_NEAR(j["geometry"]["coordinates"][0][0].get<double>(), 6.93329, 1e-12);
+  EXPECT_NEAR(j["geometry"]["coordinates"][0][1].get<double>(), 51.4264, 1e-12);
+  EXPECT_NEAR(j["geometry"]["coordinates"][0][2].get<double>(), 177.5, 1e-12);
 }

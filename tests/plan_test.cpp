@@ -9,6 +9,7 @@
 
 #include <algorithm>
 #include <atomic>
+#include <cstring>
 #include <cmath>
 #include <random>
 
@@ -567,6 +568,191 @@ TEST(PlanPath, WithoutSmoothingThePathIsTheRawPath) {
   const PlanResult result = plan_path(index, waypoints, options);
   ASSERT_EQ(result.status, PlanStatus::Solved) << result.reason;
   EXPECT_EQ(result.path, result.raw_path);
+}
+
+// ---- spline smoothing, the roadmap file, clearance to the DSM's columns --------------------
+
+TEST(PlanPath, SplineRoundsCornersNeverLongerAndStaysClear) {
+  const Mesh& mesh = mesh_2m();
+  const ClearanceIndex index(mesh);
+  const auto waypoints = three_waypoints(mesh, index, 8);
+  PlanOptions options;
+  options.max_agl = 25;  // low: the path weaves between roofs, so it has corners to round
+  options.spacing = 12;
+  options.spline = false;
+  const PlanResult straight = plan_path(index, waypoints, options);
+  options.spline = true;
+  const PlanResult rounded = plan_path(index, waypoints, options);
+  expect_path_verified(mesh, index, waypoints, straight, options.safety);
+  expect_path_verified(mesh, index, waypoints, rounded, options.safety);
+  EXPECT_EQ(straight.raw_path, rounded.raw_path);
+  EXPECT_GT(rounded.path.size(), straight.path.size());  // some corner was rounded
+  EXPECT_LT(path_length(rounded.path), path_length(straight.path));
+  // No turn sharper than the shortcut path's sharpest: rounding only opens corners up.
+  auto sharpest = [](const std::vector<Point3>& path) {
+    double worst = 1;
+    for (size_t k = 1; k + 1 < path.size(); ++k) {
+      const Point3 a{path[k][0] - path[k - 1][0], path[k][1] - path[k - 1][1], path[k][2] - path[k - 1][2]};
+      const Point3 b{path[k + 1][0] - path[k][0], path[k + 1][1] - path[k][1], path[k + 1][2] - path[k][2]};
+      const double na = std::hypot(a[0], a[1], a[2]), nb = std::hypot(b[0], b[1], b[2]);
+      if (na > 0 && nb > 0) worst = std::min(worst, (a[0] * b[0] + a[1] * b[1] + a[2] * b[2]) / (na * nb));
+    }
+    return worst;
+  };
+  EXPECT_GE(sharpest(rounded.path), sharpest(straight.path) - 1e-9);
+}
+
+namespace {
+
+std::string read_bytes(const std::string& path) { return testkit::read_file(path); }
+
+// The file's checksum recomputed after an edit (FNV-1a 64 of everything before it), so a test
+// can reach the checks behind it.
+void reseal(std::string& bytes) {
+  uint64_t h = 14695981039346656037ull;
+  for (size_t i = 0; i + 8 < bytes.size(); ++i) h = (h ^ static_cast<unsigned char>(bytes[i])) * 1099511628211ull;
+  std::memcpy(&bytes[bytes.size() - 8], &h, 8);
+}
+
+void expect_refused(const std::string& path, uint64_t fingerprint, const PlanOptions& options, const std::string& why) {
+  try {
+    read_roadmap(path, fingerprint, options);
+    ADD_FAILURE() << "accepted; expected: " << why;
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find(path), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find(why), std::string::npos) << e.what();
+  }
+}
+
+}  // namespace
+
+TEST(RoadmapFile, RoundTripGivesTheSameRoadmapAndPath) {
+  const Mesh& mesh = mesh_2m();
+  const ClearanceIndex index(mesh);
+  PlanOptions options;
+  options.max_agl = 45;
+  options.spacing = 15;
+  const Roadmap built = build_roadmap(index, options);
+  ASSERT_GT(built.edges(), 0u);
+  testkit::TempDir dir;
+  const std::string path = dir.path("map.bin");
+  write_roadmap(path, built, mesh_fingerprint(mesh), options);
+  EXPECT_EQ(read_bytes(path).size(), 16 + 4 + 8 + 32 + 16 + built.nodes.size() * 28 + 4 + built.neighbour.size() * 4 + 8);
+  const Roadmap read = read_roadmap(path, mesh_fingerprint(mesh), options);
+  EXPECT_EQ(read.nodes, built.nodes);
+  EXPECT_EQ(read.start, built.start);
+  EXPECT_EQ(read.neighbour, built.neighbour);
+  const auto waypoints = three_waypoints(mesh, index, 30);
+  EXPECT_EQ(query_roadmap(read, index, waypoints, options).path, query_roadmap(built, index, waypoints, options).path);
+}
+
+TEST(RoadmapFile, AnotherMeshOtherOptionsOrDamageAreRefused) {
+  const Mesh& mesh = mesh_2m();
+  const ClearanceIndex index(mesh);
+  PlanOptions options;
+  options.max_agl = 40;
+  options.spacing = 25;
+  const Roadmap built = build_roadmap(index, options);
+  const uint64_t fingerprint = mesh_fingerprint(mesh);
+  testkit::TempDir dir;
+  const std::string path = dir.path("map.bin");
+  write_roadmap(path, built, fingerprint, options);
+  const std::string good = read_bytes(path);
+
+  // Another mesh: the simplified one, and the same mesh with one vertex 1 mm higher.
+  EXPECT_NE(mesh_fingerprint(mesh_bounded()), fingerprint);
+  Mesh nudged = mesh;
+  nudged.vertices[nudged.vertices.size() / 2].z += 0.001;
+  EXPECT_NE(mesh_fingerprint(nudged), fingerprint);
+  expect_refused(path, mesh_fingerprint(nudged), options, "another mesh");
+  for (auto [field, value] : {std::pair{&PlanOptions::safety, 3.0}, {&PlanOptions::spacing, 20.0},
+                              {&PlanOptions::max_edge, 30.0}, {&PlanOptions::max_agl, 41.0}}) {
+    PlanOptions other = options;
+    other.*field = value;
+    expect_refused(path, fingerprint, other, "was built with --");
+  }
+  auto with = [&](const std::string& bytes) {
+    testkit::write_file(path, bytes);
+    return path;
+  };
+  std::string flipped = good;
+  flipped[good.size() / 2] ^= 0x10;
+  expect_refused(with(flipped), fingerprint, options, "checksum");
+  expect_refused(with(good.substr(0, good.size() - 100)), fingerprint, options, "checksum");
+  expect_refused(with(good.substr(0, 40)), fingerprint, options, "truncated");
+  expect_refused(with("x,y,z\n1,2,3\n"), fingerprint, options, "not a dsmplan roadmap");
+  // Counts that lie, and an edge to a node that does not exist, behind a valid checksum.
+  std::string lying = good;
+  const uint64_t huge = uint64_t{1} << 40;
+  std::memcpy(&lying[16 + 4 + 8 + 32], &huge, 8);
+  reseal(lying);
+  expect_refused(with(lying), fingerprint, options, "do not fill");
+  std::string dangling = good;
+  const size_t neighbours = 16 + 4 + 8 + 32 + 16 + built.nodes.size() * 28 + 4;
+  const uint32_t missing = static_cast<uint32_t>(built.nodes.size()) + 7;
+  std::memcpy(&dangling[neighbours], &missing, 4);
+  reseal(dangling);
+  expect_refused(with(dangling), fingerprint, options, "does not exist");
+  expect_refused(dir.path("none.bin"), fingerprint, options, "cannot open");
+}
+
+namespace {
+
+// Distance from a point to the DSM's columns near it, by the definition: per cell, the
+// distance to the box clamped coordinate by coordinate.
+double point_column_distance(const Grid& g, const Point3& p, double reach) {
+  double best = INFINITY;
+  const int c0 = std::max(0, int((p[0] - reach - g.x0) / g.cell_x)), c1 = std::min(g.width - 1, int((p[0] + reach - g.x0) / g.cell_x));
+  const int r0 = std::max(0, int((g.y0 - p[1] - reach) / g.cell_y)), r1 = std::min(g.height - 1, int((g.y0 - p[1] + reach) / g.cell_y));
+  for (int row = r0; row <= r1; ++row)
+    for (int col = c0; col <= c1; ++col) {
+      if (!g.valid(col, row)) continue;
+      const double x0 = g.x0 + col * g.cell_x, x1 = x0 + g.cell_x, y1 = g.y0 - row * g.cell_y, y0 = y1 - g.cell_y;
+      const double dx = std::max({x0 - p[0], 0.0, p[0] - x1}), dy = std::max({y0 - p[1], 0.0, p[1] - y1});
+      const double dz = std::max(0.0, p[2] - g.at(col, row));
+      best = std::min(best, std::hypot(dx, dy, dz));
+    }
+  return best;
+}
+
+}  // namespace
+
+TEST(ColumnClearance, HandCases) {
+  Grid g(3, 3, 0, 3, 1, 1);
+  for (float& z : g.z) z = 0;
+  g.z[g.index(1, 1)] = 10;  // a 10 m column over [1,2] x [1,2]
+  EXPECT_DOUBLE_EQ(column_clearance(g, {1.5, 1.5, 14}, {1.5, 1.5, 14}, 100), 4);             // above it
+  EXPECT_DOUBLE_EQ(column_clearance(g, {-5, 1.5, 15}, {5, 1.5, 15}, 100), 5);                // across it
+  EXPECT_NEAR(column_clearance(g, {3, 3, 11}, {3, 3, 11}, 100), std::sqrt(3.0), 1e-12);       // off a corner
+  EXPECT_DOUBLE_EQ(column_clearance(g, {1.5, 1.5, 5}, {1.5, 1.5, 20}, 100), 0);              // through it
+  EXPECT_NEAR(column_clearance(g, {0.5, 0.5, 2}, {0.5, 0.5, 2}, 100), std::sqrt(0.5), 1e-12);  // beside it
+  EXPECT_DOUBLE_EQ(column_clearance(g, {0.5, 0.5, 2}, {0.5, 0.5, 2}, 0.25), 0.25);           // capped
+  g.z[g.index(1, 1)] = Grid::nodata;                                                          // a hole is air
+  EXPECT_NEAR(column_clearance(g, {1.5, 1.5, 4}, {1.5, 1.5, 4}, 100), std::hypot(4, 0.5), 1e-12);  // to the rim
+  EXPECT_THROW(column_clearance(g, {0, 0, NAN}, {1, 1, 1}, 1), ArgumentError);
+}
+
+TEST(ColumnClearance, AgreesWithDenseSamplingOnTheRealDsm) {
+  const Grid& g = testkit::nrw_crop();
+  std::mt19937_64 rng(31);
+  std::uniform_real_distribution<double> u(0, 1);
+  int near = 0;
+  for (int trial = 0; trial < 80; ++trial) {
+    const double x = g.x0 + 30 + u(rng) * (g.width * g.cell_x - 60), y = g.y0 - 30 - u(rng) * (g.height * g.cell_y - 60);
+    const int col = int((x - g.x0) / g.cell_x), row = int((g.y0 - y) / g.cell_y);
+    const Point3 p{x, y, g.at(col, row) + 1 + 8 * u(rng)};
+    const double a = 2 * M_PI * u(rng), len = 3 + 12 * u(rng);
+    const Point3 q{x + len * std::cos(a), y + len * std::sin(a), p[2] + (u(rng) - 0.5) * 6};
+    const double cap = 6, exact = column_clearance(g, p, q, cap);
+    // Samples 1 cm apart: an upper bound within 5 mm (half a step) of the true distance.
+    double sampled = cap;
+    const int n = int(std::ceil(dist(p, q) / 0.01));
+    for (int i = 0; i <= n; ++i) sampled = std::min(sampled, point_column_distance(g, lerp(p, q, double(i) / n), cap + 1));
+    EXPECT_LE(exact, sampled + 1e-9) << trial;
+    EXPECT_GE(exact, sampled - 0.005 - 1e-9) << trial;
+    near += exact < cap;
+  }
+  EXPECT_GT(near, 40);  // most segments pass within the cap: the search is exercised
 }
 
 TEST(PlanPath, RoadmapHoldsExactlyTheClearPairsWithinMaxEdge) {

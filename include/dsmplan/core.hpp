@@ -14,6 +14,7 @@
 // throws Cancelled. An empty callback costs nothing.
 #pragma once
 
+#include <array>
 #include <functional>
 #include <stdexcept>
 #include <string>
@@ -60,6 +61,8 @@ Progress sub_progress(const Progress& parent, double begin, double end);
 
 /// A coordinate reference system as the data declared it. The core only carries it along;
 /// the I/O layer (GDAL/PROJ) resolves `definition` into the descriptive fields.
+using Point3 = std::array<double, 3>;  ///< x, y, z
+
 struct Crs {
   std::string definition;     ///< WKT, PROJJSON or "EPSG:n" as found or given; empty = unknown
   std::string name;           ///< e.g. "ETRS89 / UTM zone 32N" (filled by the I/O layer)

@@ -13,7 +13,9 @@
 // render_view() and write_png() draw a DSM and its mesh as a picture (the paper's Figures 6, 7).
 #pragma once
 
+#include <cmath>
 #include <cstdint>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
@@ -111,5 +113,64 @@ Image side_by_side(const std::vector<Image>& panels, int gap = 8);
 /// Writes an 8-bit RGB PNG (libpng, default compression). Atomic like the mesh writers;
 /// OutputError on failure, ArgumentError when the image is empty or its array has the wrong size.
 void write_png(const Image& image, const std::string& path);
+
+// ---- WGS 84: longitude, latitude, height (PROJ; in the library dsmplan_gdal) --------------
+//
+// Coordinates leave dsmplan in WGS 84 for GeoJSON (RFC 7946: longitude, latitude, height above
+// the ellipsoid) and drone missions (height above mean sea level, EGM96). The horizontal part
+// is exact; the vertical part needs the data's vertical reference (from a compound CRS, or
+// VerticalOptions::vertical_crs) and a geoid grid PROJ has. Where PROJ has only a "ballpark"
+// operation (heights copied across datums: for Germany's DHHN2016 without the GCG2016 grid,
+// about 47 m wrong), construction fails unless allow_approximate_vertical; description() names
+// the operation used, and the tools print it.
+
+enum class HeightReference {
+  Ellipsoid,    ///< WGS 84 ellipsoidal height (EPSG:4979), GeoJSON's
+  MeanSeaLevel  ///< EGM96 height (EPSG:5773), what ground stations call AMSL
+};
+
+struct VerticalOptions {
+  std::string vertical_crs;  ///< the heights' vertical CRS when the data does not say (e.g. "EPSG:7837")
+  bool allow_approximate_vertical = false;  ///< accept a ballpark height transformation, or an unknown reference
+};
+
+class Wgs84Transform {
+public:
+  /// From `crs` (+ the vertical reference) to WGS 84 longitude, latitude (degrees) and the
+  /// height `target`. `area` (west, south, east, north in degrees, NaN = anywhere) picks the
+  /// operation valid there. Throws ArgumentError("--vertical-crs") when the vertical reference
+  /// is unknown or only approximately transformable and that is not allowed;
+  /// ArgumentError("crs") when PROJ cannot read the CRS or has no transformation.
+  Wgs84Transform(const Crs& crs, HeightReference target, const VerticalOptions& options = {},
+                 const std::array<double, 4>& area = {NAN, NAN, NAN, NAN});
+  ~Wgs84Transform();
+  Wgs84Transform(Wgs84Transform&&) noexcept;
+
+  /// x, y, z in the CRS to longitude, latitude, height. ArgumentError("crs") when PROJ fails.
+  Point3 to_wgs84(const Point3& p) const { return apply(p, true); }
+  /// The inverse: longitude, latitude, height to x, y, z in the CRS.
+  Point3 from_wgs84(const Point3& p) const { return apply(p, false); }
+  /// PROJ's name of the operation, e.g. "UTM zone 32N to ETRS89 + ..."; says when heights are
+  /// approximate or copied.
+  const std::string& description() const { return description_; }
+  bool approximate_heights() const { return approximate_; }
+
+private:
+  Point3 apply(const Point3& p, bool forward) const;
+  struct State;
+  std::unique_ptr<State> state_;
+  std::string description_;
+  bool approximate_ = false;
+};
+
+// ---- paths as files -----------------------------------------------------------------------
+
+/// The CSV of a path: "x,y,z" then one point a line, shortest decimals that read back exactly.
+std::string path_to_csv(const std::vector<Point3>& path);
+
+/// A GeoJSON (RFC 7946) Feature with a LineString of [longitude, latitude, height] positions
+/// (degrees to 1e-9, about 0.1 mm; heights to 1 mm), and `properties` (a JSON object's text,
+/// "{}" for none). Plain text, no PROJ: the caller transforms (Wgs84Transform).
+std::string path_to_geojson(const std::vector<Point3>& lonlath, const std::string& properties = "{}");
 
 }  // namespace dsmplan

@@ -77,10 +77,9 @@
 
 #include "dsmplan/core.hpp"
 #include "dsmplan/mesh.hpp"
+#include "dsmplan/raster.hpp"
 
 namespace dsmplan {
-
-using Point3 = std::array<double, 3>;  ///< x, y, z
 
 /// Exact distance between the segment [p, q] and the triangle (a, b, c); 0 when they touch or
 /// intersect. See the top of this header. O(1).
@@ -183,6 +182,13 @@ private:
 //     segment to which is clear is joined directly (greedy shortcuts). A shortcut replaces a
 //     polygonal piece by a straight segment between its ends, so it is never longer, and it is
 //     kept only when segment_clear() holds with the same safety distance, so never unsafe.
+//     Then corner rounding (PlanOptions::spline): each interior corner is replaced by the
+//     quadratic Bezier from the middle of the incoming segment over the corner to the middle
+//     of the outgoing one (the clamped uniform quadratic B-spline of the shortcut polygon),
+//     drawn as chords of about 2 m, every chord checked with segment_clear(); a corner whose
+//     chords are not all clear is tried cutting 1/4, 1/8, 1/16 of the segments, then kept
+//     sharp. The curve is convex and lies in the triangle of its ends and the corner, so the
+//     rounded path is never longer than the shortcut one.
 //     Legs are smoothed apart, so the path passes through every waypoint, in order, exactly
 //     (the waypoints' own coordinates, not copies rounded through the roadmap).
 // Every segment of a returned path satisfies segment_clear(p, q, safety) (checked once more
@@ -191,7 +197,14 @@ private:
 // the ground at opposite corners and the middle: 14,510 samples kept, 124,018 edges, roadmap
 // 0.08 s, query 0.008 s, smoothing < 0.1 ms (reading the PLY and indexing it: 1.1 s).
 
+/// Which planner plan_path() runs.
+enum class PlannerKind {
+  prm,         ///< the paper's multi-query Halton PRM (build_roadmap + query_roadmap)
+  rrt_connect  ///< single-query RRT-Connect per leg
+};
+
 struct PlanOptions {
+  PlannerKind planner = PlannerKind::prm;
   double safety = 2;       ///< least distance to the mesh, CRS units (the paper's 2 m)
   double spacing = 20;     ///< relative sample distance: samples = volume / spacing^3
   double max_edge = 34.5;  ///< longest roadmap edge, CRS units
@@ -251,6 +264,41 @@ PlanResult query_roadmap(const Roadmap& roadmap, const ClearanceIndex& index, co
 /// first, so a bad one costs no roadmap (roadmap_nodes is 0 then).
 PlanResult plan_path(const ClearanceIndex& index, const std::vector<Point3>& waypoints, const PlanOptions& options = {},
                      const Progress& progress = {});
+
+// ---- clearance to the raw DSM ------------------------------------------------------------
+
+/// min(max_d, the distance from the segment [p, q] to the DSM taken as solid columns): every
+/// valid cell is a box over its square from -infinity up to its height; nodata cells are empty
+/// air. Exact (the segment-box distance is minimised in closed form on each piece where the
+/// segment enters or leaves a slab). An independent check of a path planned on a mesh: the
+/// columns stand up to half a cell beyond the mesh's vertices at the cell centres, so over a
+/// wall this distance can be below the mesh clearance by up to half a cell diagonal.
+/// Throws ArgumentError for a non-finite point or max_d < 0.
+/// Time O(cells within the distance found of the segment's box; doubling search from 2 cells).
+double column_clearance(const Grid& dsm, const Point3& p, const Point3& q, double max_d);
+
+// ---- multi-query: the roadmap file ---------------------------------------------------------
+//
+// A roadmap is built once and queried many times (Kavraki et al. 1996). write_roadmap() keeps
+// it with what it depends on: the mesh's fingerprint and the four options that shape it
+// (safety, spacing, max_edge, max_agl); read_roadmap() gives it back only when all of them are
+// what this run uses, so a roadmap is never used on a mesh or with a safety distance it was not
+// checked against. The format is dsmplan's own (src/plan/roadmap_file.cpp), 28 bytes a node
+// and 8 an edge, with a checksum; a file from a machine of the other byte order is refused.
+
+/// A 64-bit hash of the mesh's vertices (their exact bits) and triangles. O(mesh).
+uint64_t mesh_fingerprint(const Mesh& mesh);
+
+/// Writes `map` atomically (the whole file or nothing). OutputError when it cannot.
+void write_roadmap(const std::string& path, const Roadmap& map, uint64_t mesh_fingerprint,
+                   const PlanOptions& options);
+
+/// Reads a roadmap written by write_roadmap(). InputError(path, place, why) when the file
+/// cannot be read, is not a roadmap file, is truncated or damaged (checksum), declares counts
+/// that do not fit its size, has an edge to a node that does not exist, was built for another
+/// mesh ("built for another mesh") or with other options ("was built with --spacing 20, this
+/// run asks for 15"). O(file size).
+Roadmap read_roadmap(const std::string& path, uint64_t mesh_fingerprint, const PlanOptions& options);
 
 /// Length of a polyline, CRS units.
 double path_length(const std::vector<Point3>& path);

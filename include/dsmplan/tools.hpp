@@ -175,11 +175,26 @@ Json to_json(const RenderReport& report);
 /// line that is not three finite numbers, and InputError(path) for a missing file.
 std::vector<Point3> read_waypoints_csv(const std::string& path);
 
+/// Waypoints from GeoJSON (RFC 7946): a FeatureCollection of Point features (one waypoint each,
+/// in order; MultiPoint and LineString features give theirs in order), a Feature, or a bare
+/// geometry. Positions are [longitude, latitude, height] in WGS 84 degrees and metres; the height
+/// is required. InputError(path, "feature N[, position K]" or "byte N", why) otherwise.
+std::vector<Point3> read_waypoints_geojson(const std::string& path);
+
 struct PlanJobOptions {
   std::string mesh;       ///< mesh file (read_mesh: .ply, .obj, .off), a 2.5D obstacle surface
-  std::string waypoints;  ///< CSV, see read_waypoints_csv()
-  std::string output;     ///< path, .csv: "x,y,z" header, then one point a line (shortest exact decimals)
-  PlanOptions plan;       ///< safety, spacing, max_edge, max_agl, threads
+  /// .csv: x,y,z in the mesh's CRS (read_waypoints_csv); .geojson/.json: WGS 84 longitude,
+  /// latitude, ellipsoidal height (read_waypoints_geojson), transformed by Wgs84Transform.
+  std::string waypoints;
+  /// The path, by extension: .csv "x,y,z" in the mesh's CRS (shortest exact decimals);
+  /// .geojson/.json an RFC 7946 LineString Feature (WGS 84, ellipsoidal heights).
+  std::string output;
+  PlanOptions plan;       ///< safety, spacing, max_edge, max_agl, planner, threads
+  /// Roadmap file (PRM): read when it exists (read_roadmap(): refused when made for another mesh
+  /// or other options), else built and written there for the next query.
+  std::string roadmap;
+  std::string dsm;          ///< raw DSM: when given, the path's clearance to its columns is reported
+  VerticalOptions vertical;  ///< heights for GeoJSON: --vertical-crs, --allow-approximate-vertical
 };
 
 struct PlanReport {
@@ -189,19 +204,26 @@ struct PlanReport {
   /// Least distance of the written path to the mesh, measured on its own with
   /// ClearanceIndex::clearance() (capped at safety + max_agl).
   double min_clearance_m = 0;
+  /// With a DSM: least distance of the path to the DSM's columns (column_clearance(), same cap); NaN without.
+  double min_clearance_dsm_m = NAN;
   size_t roadmap_nodes = 0, roadmap_edges = 0;
+  bool roadmap_reused = false;  ///< the roadmap came from the --roadmap file
+  std::string planner = "prm";
+  std::string transformation;  ///< the PROJ operation used for GeoJSON, empty when none
   double seconds_load = 0, seconds_roadmap = 0, seconds_query = 0, seconds_smooth = 0;
 };
 
-/// Mesh file + waypoints -> roadmap -> path (plan_path(), see plan.hpp) -> CSV, written
-/// atomically. Options and the output's extension are checked before anything is read. A bad
-/// waypoint is an InputError(waypoints file, "waypoint N", why: outside the extent, under the
-/// surface, closer than the safety distance); a leg without a path InputError(waypoints file,
-/// "waypoints N to M", why); fewer than two waypoints InputError(waypoints file). Nothing is
-/// written then.
+/// Mesh file + waypoints -> roadmap -> path (plan_path(), see plan.hpp) -> CSV or GeoJSON,
+/// written atomically. Options and the output's extension are checked before anything is read.
+/// A bad waypoint is an InputError(waypoints file, "waypoint N", why: outside the extent, under
+/// the surface, closer than the safety distance); a leg without a path InputError(waypoints
+/// file, "waypoints N to M", why); fewer than two waypoints InputError(waypoints file); a
+/// roadmap file of another mesh or other options InputError(roadmap file). Nothing is written
+/// then. seconds_load includes reading a reused roadmap.
 PlanReport plan_job(const PlanJobOptions& options, const Progress& progress = {});
-/// Keys exactly: path_length_m, min_clearance_m, roadmap_nodes, roadmap_edges, seconds_load,
-/// seconds_roadmap, seconds_query, seconds_smooth.
+/// Keys: path_length_m, min_clearance_m, roadmap_nodes, roadmap_edges, seconds_load,
+/// seconds_roadmap, seconds_query, seconds_smooth; min_clearance_dsm_m with a DSM;
+/// roadmap_reused, planner; transformation when GeoJSON was involved.
 Json to_json(const PlanReport& report);
 /// One summary line for people.
 std::string to_text(const PlanReport& report);

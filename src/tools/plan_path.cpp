@@ -7,11 +7,13 @@
 #include <cmath>
 #include <cstdio>
 #include <fstream>
+#include <optional>
 #include <string>
 
 #include "dsmplan/export.hpp"
 #include "dsmplan/plan.hpp"
 #include "dsmplan/tools.hpp"
+#include "tools/report_json.hpp"
 #include "tools/job_parts.hpp"
 
 namespace dsmplan {
@@ -40,15 +42,32 @@ bool parse_point(const std::string& line, Point3& p) {
   return true;
 }
 
-std::string shortest(double v) {
-  char buffer[32];
-  const auto [ptr, ec] = std::to_chars(buffer, buffer + sizeof buffer, v);
-  return std::string(buffer, ec == std::errc() ? ptr : buffer);
+std::string lower_extension(const std::string& path) {
+  const size_t dot = path.find_last_of('.');
+  const size_t slash = path.find_last_of('/');
+  if (dot == std::string::npos || (slash != std::string::npos && dot < slash)) return "";
+  std::string ext = path.substr(dot + 1);
+  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
+  return ext;
 }
 
-bool ends_with_csv(std::string path) {
-  std::transform(path.begin(), path.end(), path.begin(), [](unsigned char c) { return std::tolower(c); });
-  return path.size() >= 4 && path.compare(path.size() - 4, 4, ".csv") == 0;
+bool is_geojson(const std::string& path) {
+  const std::string ext = lower_extension(path);
+  return ext == "geojson" || ext == "json";
+}
+
+// One position of a GeoJSON geometry as longitude, latitude, height, or a reason it is not.
+std::string position(const Json& p, Point3& out) {
+  if (!p.is_array()) return "a position must be an array [longitude, latitude, height]";
+  if (p.size() < 3) return "a waypoint needs a height: [longitude, latitude, height], got " + p.dump();
+  for (int k = 0; k < 3; ++k) {
+    if (!p[k].is_number()) return "coordinates must be numbers, got " + p.dump();
+    out[k] = p[k].get<double>();
+    if (!std::isfinite(out[k])) return "coordinates must be finite";
+  }
+  if (std::abs(out[0]) > 180 || std::abs(out[1]) > 90)
+    return "not longitude, latitude in degrees (RFC 7946 GeoJSON is WGS 84): " + p.dump();
+  return {};
 }
 
 }  // namespace
@@ -75,29 +94,118 @@ std::vector<Point3> read_waypoints_csv(const std::string& path) {
   return points;
 }
 
+std::vector<Point3> read_waypoints_geojson(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw InputError(path, "", "cannot open the waypoint file");
+  Json doc;
+  try {
+    doc = Json::parse(in);
+  } catch (const Json::parse_error& e) {
+    throw InputError(path, "byte " + std::to_string(e.byte), "not JSON");
+  }
+  std::vector<Point3> points;
+  // The positions of one geometry: a Point gives one waypoint, MultiPoint and LineString theirs in order.
+  auto take = [&](const Json& geometry, const std::string& place) {
+    if (!geometry.is_object() || !geometry.contains("type") || !geometry.contains("coordinates"))
+      throw InputError(path, place, "expected a geometry with 'type' and 'coordinates'");
+    const std::string type = geometry["type"].is_string() ? geometry["type"].get<std::string>() : "";
+    const Json& c = geometry["coordinates"];
+    std::vector<const Json*> positions;
+    if (type == "Point") {
+      positions.push_back(&c);
+    } else if ((type == "MultiPoint" || type == "LineString") && c.is_array()) {
+      for (const Json& p : c) positions.push_back(&p);
+    } else {
+      throw InputError(path, place, "waypoints are Point, MultiPoint or LineString geometries, got '" + type + "'");
+    }
+    for (size_t k = 0; k < positions.size(); ++k) {
+      Point3 p;
+      const std::string problem = position(*positions[k], p);
+      if (!problem.empty())
+        throw InputError(path, place + (positions.size() > 1 ? ", position " + std::to_string(k + 1) : ""), problem);
+      points.push_back(p);
+    }
+  };
+  const std::string type = doc.is_object() && doc.contains("type") && doc["type"].is_string() ? doc["type"].get<std::string>() : "";
+  if (type == "FeatureCollection") {
+    if (!doc.contains("features") || !doc["features"].is_array())
+      throw InputError(path, "", "a FeatureCollection needs a 'features' array");
+    for (size_t i = 0; i < doc["features"].size(); ++i) {
+      const Json& f = doc["features"][i];
+      if (!f.is_object() || !f.contains("geometry")) throw InputError(path, "feature " + std::to_string(i + 1), "has no geometry");
+      take(f["geometry"], "feature " + std::to_string(i + 1));
+    }
+  } else if (type == "Feature") {
+    if (!doc.contains("geometry")) throw InputError(path, "", "the Feature has no geometry");
+    take(doc["geometry"], "geometry");
+  } else if (!type.empty()) {
+    take(doc, "geometry");
+  } else {
+    throw InputError(path, "", "not GeoJSON (no 'type' member)");
+  }
+  return points;
+}
+
 PlanReport plan_job(const PlanJobOptions& options, const Progress& progress) {
-  if (!ends_with_csv(options.output))
-    throw ArgumentError("-o", "the path is written as CSV: the name must end in .csv, got '" + options.output + "'");
+  const std::string out_ext = lower_extension(options.output);
+  if (out_ext != "csv" && !is_geojson(options.output))
+    throw ArgumentError("-o", "the path is written as .csv (x,y,z in the mesh's CRS) or .geojson (WGS 84), got '" +
+                                  options.output + "'");
   check_plan_options(options.plan);
   PlanReport report;
   report.mesh = options.mesh;
   report.waypoints = options.waypoints;
   report.output = options.output;
 
-  const std::vector<Point3> waypoints = read_waypoints_csv(options.waypoints);
-  report.waypoint_count = waypoints.size();
-  if (waypoints.size() < 2)
+  const bool geo_in = is_geojson(options.waypoints);
+  const std::vector<Point3> read_points =
+      geo_in ? read_waypoints_geojson(options.waypoints) : read_waypoints_csv(options.waypoints);
+  report.waypoint_count = read_points.size();
+  if (read_points.size() < 2)
     throw InputError(options.waypoints, "",
-                     "a path needs at least two waypoints, the file has " + std::to_string(waypoints.size()));
+                     "a path needs at least two waypoints, the file has " + std::to_string(read_points.size()));
 
   Stopwatch clock;
   const Mesh mesh = read_mesh(options.mesh, sub_progress(progress, 0, 0.2));
   require_projected(mesh.crs, options.mesh);
   if (mesh.triangles.empty()) throw InputError(options.mesh, "", "the mesh has no triangles");
+  std::optional<Wgs84Transform> wgs84;
+  if (geo_in || is_geojson(options.output)) {
+    wgs84.emplace(mesh.crs, HeightReference::Ellipsoid, options.vertical);
+    report.transformation = wgs84->description();
+  }
+  std::vector<Point3> waypoints = read_points;
+  if (geo_in)
+    for (Point3& p : waypoints) p = wgs84->from_wgs84(p);
+  Grid dsm;
+  if (!options.dsm.empty()) {
+    dsm = read_raster(options.dsm);
+    if (dsm.crs.epsg && mesh.crs.epsg && dsm.crs.epsg != mesh.crs.epsg)
+      throw InputError(options.dsm, "", "its CRS is EPSG:" + std::to_string(dsm.crs.epsg) + ", the mesh's EPSG:" +
+                                            std::to_string(mesh.crs.epsg));
+  }
   const ClearanceIndex index(mesh);
   report.seconds_load = clock.lap();
 
-  const PlanResult result = plan_path(index, waypoints, options.plan, sub_progress(progress, 0.2, 0.95));
+  // A roadmap file is reused when it exists (and fits this mesh and these options), else made.
+  PlanResult result;
+  if (!options.roadmap.empty() && options.plan.planner == PlannerKind::prm) {
+    const uint64_t fingerprint = mesh_fingerprint(mesh);
+    Roadmap map;
+    if (std::ifstream(options.roadmap).good()) {
+      map = read_roadmap(options.roadmap, fingerprint, options.plan);
+      report.roadmap_reused = true;
+    } else {
+      map = build_roadmap(index, options.plan, sub_progress(progress, 0.2, 0.9));
+      write_roadmap(options.roadmap, map, fingerprint, options.plan);
+    }
+    const double seconds_roadmap = clock.lap();
+    result = query_roadmap(map, index, waypoints, options.plan);
+    result.seconds_roadmap = report.roadmap_reused ? 0 : seconds_roadmap;
+    report.seconds_load += report.roadmap_reused ? seconds_roadmap : 0;
+  } else {
+    result = plan_path(index, waypoints, options.plan, sub_progress(progress, 0.2, 0.9));
+  }
   report.roadmap_nodes = result.roadmap_nodes;
   report.roadmap_edges = result.roadmap_edges;
   report.seconds_roadmap = result.seconds_roadmap;
@@ -107,15 +215,30 @@ PlanReport plan_job(const PlanJobOptions& options, const Progress& progress) {
 
   report.path_points = result.path.size();
   report.path_length_m = path_length(result.path);
-  // Measured on its own, not taken from the planner: the number a user checks the path by.
+  // Measured on their own, not taken from the planner: the numbers a user checks the path by.
   const double cap = options.plan.safety + options.plan.max_agl;
   report.min_clearance_m = cap;
   for (size_t k = 1; k < result.path.size(); ++k)
     report.min_clearance_m = std::min(report.min_clearance_m, index.clearance(result.path[k - 1], result.path[k], cap));
+  if (!options.dsm.empty()) {
+    report.min_clearance_dsm_m = cap;
+    for (size_t k = 1; k < result.path.size(); ++k)
+      report.min_clearance_dsm_m =
+          std::min(report.min_clearance_dsm_m, column_clearance(dsm, result.path[k - 1], result.path[k], cap));
+  }
+  dsmplan::report(progress, 0.95);
 
-  std::string text = "x,y,z\n";
-  for (const Point3& p : result.path) text += shortest(p[0]) + "," + shortest(p[1]) + "," + shortest(p[2]) + "\n";
-  write_text_file(options.output, text);
+  if (out_ext == "csv") {
+    write_text_file(options.output, path_to_csv(result.path));
+  } else {
+    std::vector<Point3> lonlath;
+    lonlath.reserve(result.path.size());
+    for (const Point3& p : result.path) lonlath.push_back(wgs84->to_wgs84(p));
+    Json properties{{"crs_source", mesh.crs.name}, {"transformation", report.transformation},
+                    {"height", "metres above the WGS 84 ellipsoid"}, {"safety_m", options.plan.safety},
+                    {"path_length_m", report.path_length_m}, {"min_clearance_m", report.min_clearance_m}};
+    write_text_file(options.output, path_to_geojson(lonlath, properties.dump()));
+  }
   dsmplan::report(progress, 1);
   return report;
 }
@@ -130,17 +253,29 @@ Json to_json(const PlanReport& r) {
   j["seconds_roadmap"] = r.seconds_roadmap;
   j["seconds_query"] = r.seconds_query;
   j["seconds_smooth"] = r.seconds_smooth;
+  if (!std::isnan(r.min_clearance_dsm_m)) j["min_clearance_dsm_m"] = r.min_clearance_dsm_m;
+  j["roadmap_reused"] = r.roadmap_reused;
+  j["planner"] = r.planner;
+  if (!r.transformation.empty()) j["transformation"] = r.transformation;
   return j;
 }
 
 std::string to_text(const PlanReport& r) {
-  char buffer[256];
+  char buffer[512];
   std::snprintf(buffer, sizeof buffer,
-                "%s: %zu points, %.1f m, min clearance %.2f m; roadmap %zu nodes, %zu edges "
-                "(%.2f s), query %.3f s, smoothing %.3f s\n",
-                r.output.c_str(), r.path_points, r.path_length_m, r.min_clearance_m, r.roadmap_nodes, r.roadmap_edges,
-                r.seconds_roadmap, r.seconds_query, r.seconds_smooth);
-  return buffer;
+                "%s: %zu points, %.1f m, min clearance %.2f m to the mesh%s; %s %zu nodes, %zu edges "
+                "(%.2f s%s), query %.3f s, smoothing %.3f s\n",
+                r.output.c_str(), r.path_points, r.path_length_m, r.min_clearance_m,
+                std::isnan(r.min_clearance_dsm_m)
+                    ? ""
+                    : (", " + std::to_string(r.min_clearance_dsm_m).substr(0, std::to_string(r.min_clearance_dsm_m).find('.') + 3) +
+                       " m to the DSM's columns")
+                          .c_str(),
+                r.planner == "prm" ? "roadmap" : "trees", r.roadmap_nodes, r.roadmap_edges, r.seconds_roadmap,
+                r.roadmap_reused ? ", reused" : "", r.seconds_query, r.seconds_smooth);
+  std::string text = buffer;
+  if (!r.transformation.empty()) text += "heights and coordinates to WGS 84 by: " + r.transformation + "\n";
+  return text;
 }
 
 }  // namespace dsmplan

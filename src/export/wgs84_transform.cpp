@@ -1,0 +1,119 @@
+// CRS coordinates to WGS84 longitude, latitude and height, through PROJ (proj.h), with the
+// vertical part made explicit: the operation is the best one PROJ knows for the data's area
+// whose grids are present (proj_create_operations with missing-grid operations discarded);
+// when that is only a "ballpark" one (heights copied across datums, metres to tens of metres
+// wrong: DHHN2016 to the ellipsoid is about 47 m at Muelheim), it is refused unless allowed.
+// Axis order: proj_normalize_for_visualization, so longitude comes first whatever EPSG says.
+#include <proj.h>
+#include <proj_experimental.h>
+
+#include <cmath>
+#include <memory>
+#include <string>
+
+#include "dsmplan/export.hpp"
+
+namespace dsmplan {
+
+namespace {
+
+struct ContextDeleter {
+  void operator()(PJ_CONTEXT* c) const { proj_context_destroy(c); }
+};
+struct PjDeleter {
+  void operator()(PJ* p) const { proj_destroy(p); }
+};
+using Pj = std::unique_ptr<PJ, PjDeleter>;
+
+std::string last_error(PJ_CONTEXT* ctx) {
+  const int code = proj_context_errno(ctx);
+  return code ? std::string(": ") + proj_context_errno_string(ctx, code) : std::string();
+}
+
+const char* target_code(HeightReference target) {
+  switch (target) {
+    case HeightReference::Ellipsoid:
+      return "EPSG:4979";  // WGS 84 3D: ellipsoidal heights, as RFC 7946 GeoJSON states them
+    case HeightReference::MeanSeaLevel:
+      return "EPSG:4326+5773";  // WGS 84 + EGM96 height: the AMSL of MAVLink missions
+  }
+  return "EPSG:4979";
+}
+
+}  // namespace
+
+struct Wgs84Transform::State {
+  std::unique_ptr<PJ_CONTEXT, ContextDeleter> ctx{proj_context_create()};
+  Pj operation;
+  bool heights_copied = false;
+};
+
+Wgs84Transform::~Wgs84Transform() = default;
+Wgs84Transform::Wgs84Transform(Wgs84Transform&&) noexcept = default;
+
+Wgs84Transform::Wgs84Transform(const Crs& crs, HeightReference target, const VerticalOptions& options,
+                               const std::array<double, 4>& area)
+    : state_(std::make_unique<State>()) {
+  PJ_CONTEXT* ctx = state_->ctx.get();
+  proj_log_level(ctx, PJ_LOG_NONE);
+  const std::string horizontal_text = !crs.wkt.empty() ? crs.wkt : crs.definition;
+  if (horizontal_text.empty()) throw ArgumentError("crs", "the data has no coordinate reference system");
+  Pj source(proj_create(ctx, horizontal_text.c_str()));
+  if (!source) throw ArgumentError("crs", "PROJ cannot read the data's CRS" + last_error(ctx));
+  const bool has_vertical = proj_get_type(source.get()) == PJ_TYPE_COMPOUND_CRS;
+  if (!has_vertical && !options.vertical_crs.empty()) {
+    Pj vertical(proj_create(ctx, options.vertical_crs.c_str()));
+    if (!vertical || proj_get_type(vertical.get()) != PJ_TYPE_VERTICAL_CRS)
+      throw ArgumentError("--vertical-crs", "'" + options.vertical_crs + "' is not a vertical CRS PROJ knows");
+    source.reset(proj_create_compound_crs(ctx, "data", source.get(), vertical.get()));
+    if (!source) throw ArgumentError("--vertical-crs", "cannot combine it with the data's CRS" + last_error(ctx));
+  }
+  if (!has_vertical && options.vertical_crs.empty()) {
+    if (!options.allow_approximate_vertical)
+      throw ArgumentError("--vertical-crs",
+                          "the data's vertical reference is unknown, so its heights cannot be converted; name it "
+                          "(e.g. --vertical-crs EPSG:7837 for DHHN2016) or pass --allow-approximate-vertical to copy "
+                          "heights unchanged");
+    state_->heights_copied = true;
+  }
+  Pj destination(proj_create(ctx, state_->heights_copied ? "EPSG:4326" : target_code(target)));
+  if (!destination) throw ArgumentError("crs", "PROJ cannot build the WGS 84 target" + last_error(ctx));
+
+  PJ_OPERATION_FACTORY_CONTEXT* factory = proj_create_operation_factory_context(ctx, nullptr);
+  proj_operation_factory_context_set_grid_availability_use(ctx, factory,
+                                                           PROJ_GRID_AVAILABILITY_DISCARD_OPERATION_IF_MISSING_GRID);
+  proj_operation_factory_context_set_spatial_criterion(ctx, factory,
+                                                       PROJ_SPATIAL_CRITERION_PARTIAL_INTERSECTION);
+  if (std::isfinite(area[0]))
+    proj_operation_factory_context_set_area_of_interest(ctx, factory, area[0], area[1], area[2], area[3]);
+  PJ_OBJ_LIST* list = proj_create_operations(ctx, source.get(), destination.get(), factory);
+  proj_operation_factory_context_destroy(factory);
+  const int count = list ? proj_list_get_count(list) : 0;
+  Pj best(count > 0 ? proj_list_get(ctx, list, 0) : nullptr);  // sorted best first
+  if (list) proj_list_destroy(list);
+  if (!best) throw ArgumentError("crs", "PROJ has no transformation from the data's CRS to WGS 84" + last_error(ctx));
+  description_ = proj_get_name(best.get()) ? proj_get_name(best.get()) : "unnamed";
+  approximate_ = !state_->heights_copied && proj_coordoperation_has_ballpark_transformation(ctx, best.get());
+  if (approximate_ && !options.allow_approximate_vertical)
+    throw ArgumentError("--vertical-crs",
+                        "PROJ has only an approximate (ballpark) height transformation here ('" + description_ +
+                            "': heights copied across datums, off by the geoid's height, tens of metres); install "
+                            "the datum's geoid grid or pass --allow-approximate-vertical");
+  if (state_->heights_copied) description_ += "; heights copied unchanged (vertical reference unknown)";
+  if (approximate_) description_ += " (approximate heights)";
+  state_->operation.reset(proj_normalize_for_visualization(ctx, best.get()));
+  if (!state_->operation) throw ArgumentError("crs", "PROJ cannot order the axes longitude first" + last_error(ctx));
+}
+
+Point3 Wgs84Transform::apply(const Point3& p, bool forward) const {
+  PJ_COORD c = proj_coord(p[0], p[1], p[2], 0);
+  const PJ_COORD out = proj_trans(state_->operation.get(), forward ? PJ_FWD : PJ_INV, c);
+  Point3 r{out.xyz.x, out.xyz.y, state_->heights_copied ? p[2] : out.xyz.z};
+  for (double v : r)
+    if (!std::isfinite(v))
+      throw ArgumentError("crs", "PROJ cannot transform the point (" + std::to_string(p[0]) + ", " +
+                                     std::to_string(p[1]) + ", " + std::to_string(p[2]) + ")");
+  return r;
+}
+
+}  // namespace dsmplan
