@@ -290,6 +290,14 @@ PlanResult plan_path(const ClearanceIndex& index, const std::vector<Point3>& way
 //   - PlanResult: roadmap_nodes, roadmap_edges are the nodes and edges of all trees grown,
 //     summed over the legs (roots included; a tree of n nodes has n - 1 edges); seconds_roadmap
 //     is 0 (there is no roadmap), seconds_query the trees' growth, seconds_smooth finish_path().
+// Measured on the NRW 1 m tile (1,996,002 triangles, one thread), 3 waypoints 10 m above the
+// surface at the south-west corner, the middle and the north-east corner, defaults but
+// max_agl 30, seeds 1-5: trees of 71-101 nodes grown in 2-7 ms, paths of 1308-1498 m (the PRM:
+// 3,296 samples, roadmap 0.07-0.12 s, 1292 m). With max_agl 15 every seed found a path
+// (1383-1523 m, 2-16 ms) where the PRM needs spacing 12 (0.35 s, 1291 m). Random trees give
+// longer paths than a dense roadmap after the same smoothing; they need no roadmap and find
+// narrow passages a sparse one misses. A leg it cannot fly costs about 13 us a sample there
+// (the 20,000 of the default: 0.2-0.5 s, 6,000-9,000 nodes).
 // Errors as plan_path(); ArgumentError("rrt_max_samples") when it is below 1.
 // Time per leg O(samples * (nearest search + segment_clear)); the nearest search visits the
 // grid's cells around the query until no unvisited cell can hold a nearer node.
