@@ -272,9 +272,11 @@ PlanResult plan_rrt_connect(const ClearanceIndex& index, const std::vector<Point
       result.status = PlanStatus::NoPath;
       result.waypoint = leg;
       result.reason = "RRT-Connect's trees did not meet within " + std::to_string(options.rrt_max_samples) +
-                      (options.rrt_max_samples == 1 ? " sample (" : " samples (") + std::to_string(from_a.nodes.size() + from_b.nodes.size()) +
+                      (options.rrt_max_samples == 1 ? " sample (" : " samples (") +
+                      std::to_string(from_a.nodes.size() + from_b.nodes.size()) +
                       " nodes); another --seed, a larger --max-edge or --max-agl may find a path";
       result.seconds_query = clock.lap();
+      report(progress, 1);
       return result;
     }
     legs.push_back(std::move(path));
