@@ -886,6 +886,26 @@ TEST(RrtConnect, ThroughTheDoorOrOverTheWallNeverThroughIt) {
   EXPECT_EQ(solved, 5);
 }
 
+TEST(RrtConnect, ProgressRisesToOneAndStoppingCancels) {
+  // A leg that runs to the sample limit: progress reports along the way, then exactly 1.
+  const Mesh mesh = two_islands();
+  const ClearanceIndex index(mesh);
+  const std::vector<Point3> waypoints{{356030, 5699050, 20}, {356230, 5699050, 20}};
+  PlanOptions options = rrt_options(40);
+  options.rrt_max_samples = 5000;
+  std::vector<double> seen;
+  const PlanResult r = plan_rrt_connect(index, waypoints, options, [&](double f) {
+    seen.push_back(f);
+    return true;
+  });
+  EXPECT_EQ(r.status, PlanStatus::NoPath);
+  ASSERT_GE(seen.size(), 4u);  // every 1024 samples, and the end
+  EXPECT_TRUE(std::is_sorted(seen.begin(), seen.end()));
+  EXPECT_GE(seen.front(), 0);
+  EXPECT_EQ(seen.back(), 1);
+  EXPECT_THROW(plan_rrt_connect(index, waypoints, options, [](double) { return false; }), Cancelled);
+}
+
 TEST(RrtConnect, OneSampleGrowsOneExtendAndOneConnectAtMost) {
   const Mesh mesh = two_islands();
   const ClearanceIndex index(mesh);
