@@ -147,7 +147,7 @@ int main(int argc, char** argv) {
   PlanJobOptions plan;
   std::string plan_stats;
   CLI::App* plan_cmd = app.add_subcommand(
-      "plan", "Plan a collision-free path through waypoints over an obstacle mesh (Halton PRM, A*, shortcuts)");
+      "plan", "Plan a collision-free path through waypoints over an obstacle mesh (Halton PRM or RRT-Connect, shortcuts, spline)");
   plan_cmd->add_option("MESH", plan.mesh, "Obstacle mesh (.ply, .obj, .off) in a projected CRS")->required();
   plan_cmd
       ->add_option("--waypoints", plan.waypoints,
@@ -162,6 +162,13 @@ int main(int argc, char** argv) {
   plan_cmd->add_option("--max-agl", plan.plan.max_agl, "Top of the flight volume above the surface")
       ->capture_default_str();
   plan_cmd->add_option("--threads", plan.plan.threads, "Threads (0: every core)")->capture_default_str();
+  std::string planner = "prm";
+  // Checked below, not by CLI::IsMember: CLI11 adds a second line ("Run with --help") to its errors.
+  plan_cmd->add_option("--planner", planner, "prm (Halton roadmap, A*) or rrtconnect (RRT-Connect, single query)")
+      ->capture_default_str();
+  int64_t seed = 1;  // signed: CLI11 would wrap -3 round to 2^64 - 3 as an unsigned
+  plan_cmd->add_option("--seed", seed, "Random seed of rrtconnect (>= 0): the same seed, the same path")
+      ->capture_default_str();
   plan_cmd->add_option("--roadmap", plan.roadmap,
                        "Roadmap file: reused when it exists (same mesh and options), else built and saved");
   plan_cmd->add_option("--dsm", plan.dsm, "Raw DSM: report the path's clearance to its cells as solid columns");
@@ -216,6 +223,11 @@ int main(int argc, char** argv) {
       render_job(render, terminal_progress(quiet));
     }
     if (*plan_cmd) {
+      if (planner != "prm" && planner != "rrtconnect")
+        throw ArgumentError("--planner", "must be prm or rrtconnect, got '" + planner + "'");
+      plan.plan.planner = planner == "rrtconnect" ? PlannerKind::rrt_connect : PlannerKind::prm;
+      if (seed < 0) throw ArgumentError("--seed", "must be >= 0, got " + std::to_string(seed));
+      plan.plan.seed = static_cast<uint64_t>(seed);
       const PlanReport report = plan_job(plan, terminal_progress(quiet));
       if (!plan_stats.empty()) write_text_file(plan_stats, to_json(report).dump(2) + "\n");
       if (!quiet) std::fputs(to_text(report).c_str(), stdout);

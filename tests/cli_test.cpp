@@ -1092,3 +1092,44 @@ TEST(CliBadInput, PlanMalformedGeoJsonWaypointsNameThePlace) {
   expect(R"({"type":"FeatureCollection","features":[)" + point + ",", "byte", "not JSON");
   expect(R"({"type":"FeatureCollection"})", "", "features");
 }
+
+// ---- dsmplan plan --planner rrtconnect ------------------------------------------------------
+
+TEST(CliPlan, RrtConnectWritesAPathThroughTheWaypointsAndRepeatsItForTheSameSeed) {
+  PlanFixture f;
+  const auto waypoints = f.corners();
+  f.write_waypoints(waypoints);
+  TempDir out;
+  auto plan = [&](const std::string& name, const std::string& seed) {
+    return run_cli({"plan", f.mesh, "--waypoints", f.waypoints, "-o", out.path(name), "--stats",
+                    out.path(name + ".json"), "--planner", "rrtconnect", "--seed", seed, "-q"});
+  };
+  const auto result = plan("a.csv", "5");
+  ASSERT_EQ(result.exit_code, 0) << result.err;
+  EXPECT_EQ(result.err, "");
+  const auto points = read_path_csv(out.path("a.csv"));
+  ASSERT_GE(points.size(), 3u);
+  EXPECT_EQ(points.front(), waypoints.front());
+  EXPECT_EQ(points.back(), waypoints.back());
+  EXPECT_NE(std::find(points.begin(), points.end(), waypoints[1]), points.end());
+  const json s = json::parse(testkit::read_file(out.path("a.csv.json")));
+  EXPECT_GE(s["min_clearance_m"].get<double>(), 2.0);
+  EXPECT_EQ(s["seconds_roadmap"].get<double>(), 0);  // no roadmap: trees
+  EXPECT_GT(s["roadmap_nodes"].get<long long>(), 2);
+
+  ASSERT_EQ(plan("b.csv", "5").exit_code, 0);
+  EXPECT_EQ(testkit::read_file(out.path("b.csv")), testkit::read_file(out.path("a.csv")));
+}
+
+TEST(CliBadInput, PlanUnknownPlannerOrNegativeSeed) {
+  PlanFixture f;
+  f.write_waypoints(f.corners());
+  TempDir out;
+  auto plan = [&](std::vector<std::string> extra) {
+    std::vector<std::string> args{"plan", f.mesh, "--waypoints", f.waypoints, "-o", out.path("p.csv"), "-q"};
+    args.insert(args.end(), extra.begin(), extra.end());
+    return run_cli(args);
+  };
+  expect_clean_failure(plan({"--planner", "bogus"}), out, "--planner", {"prm or rrtconnect"});
+  expect_clean_failure(plan({"--planner", "rrtconnect", "--seed", "-1"}), out, "--seed", {">= 0"});
+}

@@ -9,8 +9,9 @@
 
 #include <algorithm>
 #include <atomic>
-#include <cstring>
+#include <chrono>
 #include <cmath>
+#include <cstring>
 #include <random>
 
 #include "dsmplan/mesh.hpp"
@@ -868,6 +869,243 @@ TEST(PlanPath, NoPathNamesTheLeg) {
   EXPECT_EQ(r.place(), "waypoints 1 to 2");
   EXPECT_FALSE(r.reason.empty());
   EXPECT_TRUE(r.path.empty());
+}
+
+}  // namespace
+
+// ---- RRT-Connect (Kuffner & LaValle 2000) on the real mesh ----------------------------------
+//
+// The same oracles as the PRM's: brute-force clearance of every segment (no ClearanceIndex),
+// the waypoints' exact coordinates, the triangle inequality for smoothing. Besides: the trees'
+// steps (raw path) are at most max_edge long and their nodes lie over the mesh and not under
+// it, a fixed seed repeats the path bit for bit, and a leg that cannot be flown within the
+// volume ends in NoPath after the sample limit.
+
+namespace {
+
+PlanOptions rrt_options(double max_agl = 45) {
+  PlanOptions options;
+  options.planner = PlannerKind::rrt_connect;
+  options.max_agl = max_agl;
+  return options;
+}
+
+// The trees' own steps: each at most the range (up to the rounding of UTM coordinates, about
+// 1e-9 m), each node over the mesh and not under its surface.
+void expect_tree_steps(const ClearanceIndex& index, const PlanResult& result, double range) {
+  for (size_t k = 1; k < result.raw_path.size(); ++k)
+    EXPECT_LE(dist(result.raw_path[k - 1], result.raw_path[k]), range + 1e-6) << "step " << k;
+  for (const Point3& p : result.raw_path) {
+    const double g = index.ground(p[0], p[1]);
+    EXPECT_FALSE(std::isnan(g));
+    EXPECT_GE(p[2], g);
+  }
+}
+
+TEST(RrtConnect, ThreeWaypointsLowOverTheRealMeshAreVerifiedByBruteForce) {
+  const Mesh& mesh = mesh_2m();
+  const ClearanceIndex index(mesh);
+  const auto waypoints = three_waypoints(mesh, index, 15);
+  const PlanOptions options = rrt_options(25);  // low: among the roofs, not over them
+  const PlanResult result = plan_rrt_connect(index, waypoints, options);
+  expect_path_verified(mesh, index, waypoints, result, options.safety);
+  expect_tree_steps(index, result, options.max_edge);
+  // Two legs of 300-odd metres need several steps each.
+  EXPECT_GT(result.raw_path.size(), 2 * 300 / options.max_edge);
+  EXPECT_GE(result.roadmap_nodes, result.raw_path.size());
+  EXPECT_EQ(result.roadmap_edges, result.roadmap_nodes - 4);  // two legs, two trees each
+  EXPECT_EQ(result.seconds_roadmap, 0);
+  EXPECT_LT(path_length(result.path), path_length(result.raw_path));  // the shortcuts did something
+  RecordProperty("path_length_m", std::to_string(path_length(result.path)));
+  RecordProperty("raw_length_m", std::to_string(path_length(result.raw_path)));
+  RecordProperty("tree_nodes", std::to_string(result.roadmap_nodes));
+}
+
+TEST(RrtConnect, SimplifiedConservativeMeshSmallStepsLargerSafety) {
+  // Short steps: many nodes a leg, a nearest-neighbour grid of many occupied cells.
+  const Mesh& mesh = mesh_bounded();
+  const ClearanceIndex index(mesh);
+  const auto waypoints = three_waypoints(mesh, index, 30, 5);
+  PlanOptions options = rrt_options(50);
+  options.safety = 5;
+  options.max_edge = 6;
+  const PlanResult result = plan_rrt_connect(index, waypoints, options);
+  expect_path_verified(mesh, index, waypoints, result, options.safety);
+  expect_tree_steps(index, result, options.max_edge);
+  EXPECT_GT(result.raw_path.size(), 2 * 300 / 6u);
+}
+
+TEST(RrtConnect, SameSeedSamePathOtherSeedOtherValidPath) {
+  const Mesh& mesh = mesh_2m();
+  const ClearanceIndex index(mesh);
+  const auto waypoints = three_waypoints(mesh, index);
+  PlanOptions options = rrt_options(60);
+  options.seed = 7;
+  const PlanResult first = plan_rrt_connect(index, waypoints, options);
+  const PlanResult again = plan_rrt_connect(index, waypoints, options);
+  ASSERT_EQ(first.status, PlanStatus::Solved) << first.reason;
+  EXPECT_EQ(first.raw_path, again.raw_path);
+  EXPECT_EQ(first.path, again.path);
+  EXPECT_EQ(first.roadmap_nodes, again.roadmap_nodes);
+  // plan_path() dispatches on options.planner to the very same planner.
+  const PlanResult dispatched = plan_path(index, waypoints, options);
+  EXPECT_EQ(dispatched.raw_path, first.raw_path);
+  EXPECT_EQ(dispatched.seconds_roadmap, 0);
+
+  options.seed = 8;
+  const PlanResult other = plan_rrt_connect(index, waypoints, options);
+  expect_path_verified(mesh, index, waypoints, other, options.safety);
+  EXPECT_NE(other.raw_path, first.raw_path);  // the seed is used
+}
+
+TEST(RrtConnect, BadWaypointsNameWhichAndWhy) {
+  const Mesh& mesh = mesh_2m();
+  const ClearanceIndex index(mesh);
+  const auto good = three_waypoints(mesh, index);
+  const MeshBox b(mesh);
+  auto expect_invalid = [&](std::vector<Point3> waypoints, size_t which, const std::string& why) {
+    const PlanResult r = plan_path(index, waypoints, rrt_options());
+    EXPECT_EQ(r.status, PlanStatus::InvalidWaypoint);
+    EXPECT_EQ(r.waypoint, which);
+    EXPECT_EQ(r.place(), "waypoint " + std::to_string(which + 1));
+    EXPECT_NE(r.reason.find(why), std::string::npos) << r.reason;
+    EXPECT_EQ(r.reason.find('\n'), std::string::npos);
+    EXPECT_EQ(r.roadmap_nodes, 0u);  // refused before any tree grew
+    EXPECT_TRUE(r.path.empty());
+  };
+  auto w = good;
+  w[2] = {w[2][0], b.y1 + 40, w[2][2]};
+  expect_invalid(w, 2, "outside");
+  w = good;
+  w[1][2] = index.ground(w[1][0], w[1][1]) - 2;
+  expect_invalid(w, 1, "under the surface");
+  w = good;
+  w[0][2] = index.ground(w[0][0], w[0][1]) + 0.5;
+  expect_invalid(w, 0, "safety distance");
+  EXPECT_THROW(plan_rrt_connect(index, {good[0]}, rrt_options()), ArgumentError);
+  PlanOptions bad = rrt_options();
+  bad.rrt_max_samples = 0;
+  EXPECT_THROW(plan_rrt_connect(index, good, bad), ArgumentError);
+  bad = rrt_options();
+  bad.max_edge = -1;
+  EXPECT_THROW(plan_path(index, good, bad), ArgumentError);
+}
+
+// Two flat 100 m squares at z = 0 with a 50 m gap between them (no triangle: no ground).
+// Every node lies over the mesh and every step is at most max_edge long, so with max_edge below
+// 50 no path can cross the gap; above it one can.
+Mesh two_islands() {
+  Mesh mesh;
+  const double x = 356000, y = 5699000;
+  for (double x0 : {x, x + 150}) {
+    const auto v = static_cast<uint32_t>(mesh.vertices.size());
+    mesh.vertices.insert(mesh.vertices.end(), {{x0, y, 0}, {x0 + 100, y, 0}, {x0 + 100, y + 100, 0}, {x0, y + 100, 0}});
+    mesh.triangles.push_back({v, v + 1, v + 2});
+    mesh.triangles.push_back({v, v + 2, v + 3});
+  }
+  return mesh;
+}
+
+TEST(RrtConnect, ALegAcrossAGapWiderThanTheStepEndsInNoPathAtTheLimit) {
+  const Mesh mesh = two_islands();
+  const ClearanceIndex index(mesh);
+  const std::vector<Point3> waypoints{{356030, 5699050, 20}, {356070, 5699040, 25}, {356230, 5699050, 20}};
+  PlanOptions options = rrt_options(40);
+  options.rrt_max_samples = 3000;
+  const auto started = std::chrono::steady_clock::now();
+  const PlanResult r = plan_rrt_connect(index, waypoints, options);
+  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+  EXPECT_EQ(r.status, PlanStatus::NoPath);
+  EXPECT_EQ(r.waypoint, 1u);  // the first leg, on one island, was flown
+  EXPECT_EQ(r.place(), "waypoints 2 to 3");
+  EXPECT_NE(r.reason.find("3000 samples"), std::string::npos) << r.reason;
+  EXPECT_EQ(r.reason.find('\n'), std::string::npos);
+  EXPECT_TRUE(r.path.empty());
+  EXPECT_GT(r.roadmap_nodes, 100u);  // the trees did grow, on their own islands
+  EXPECT_LT(seconds, 5);
+  // The control: steps longer than the gap cross it.
+  options.max_edge = 60;
+  const PlanResult crossed = plan_rrt_connect(index, waypoints, options);
+  expect_path_verified(mesh, index, waypoints, crossed, options.safety);
+  expect_tree_steps(index, crossed, options.max_edge);
+}
+
+// A 200 m square of ground at z = 0 and across it a wall 1 m thick and 60 m tall with a 20 m
+// door in the middle (a triangle soup: the ground runs on under the wall).
+Mesh wall_with_door() {
+  Mesh mesh;
+  const double x = 356000, y = 5699000;
+  auto box = [&](double x0, double y0, double x1, double y1, double z0, double z1) {
+    const auto v = static_cast<uint32_t>(mesh.vertices.size());
+    for (double z : {z0, z1})
+      mesh.vertices.insert(mesh.vertices.end(), {{x0, y0, z}, {x1, y0, z}, {x1, y1, z}, {x0, y1, z}});
+    mesh.triangles.push_back({v + 4, v + 5, v + 6});  // top
+    mesh.triangles.push_back({v + 4, v + 6, v + 7});
+    for (uint32_t k = 0; k < 4 && z1 > z0; ++k) {  // sides
+      const uint32_t a = v + k, b = v + (k + 1) % 4;
+      mesh.triangles.push_back({a, b, b + 4});
+      mesh.triangles.push_back({a, b + 4, a + 4});
+    }
+  };
+  box(x, y, x + 200, y + 200, 0, 0);
+  box(x, y + 100, x + 90, y + 101, 0, 60);
+  box(x + 110, y + 100, x + 200, y + 101, 0, 60);
+  return mesh;
+}
+
+TEST(RrtConnect, ThroughTheDoorOrOverTheWallNeverThroughIt) {
+  // The straight line between the waypoints crosses the wall: 30 m steps on both sides of it
+  // would pass straight through it unless every step is checked.
+  const Mesh mesh = wall_with_door();
+  const ClearanceIndex index(mesh);
+  const std::vector<Point3> waypoints{{356030, 5699060, 15}, {356030, 5699140, 15}};
+  PlanOptions options = rrt_options(40);
+  options.max_edge = 30;
+  int solved = 0;
+  for (uint64_t seed = 1; seed <= 5; ++seed) {
+    options.seed = seed;
+    const PlanResult r = plan_rrt_connect(index, waypoints, options);
+    expect_path_verified(mesh, index, waypoints, r, options.safety);
+    expect_tree_steps(index, r, options.max_edge);
+    solved += r.status == PlanStatus::Solved;
+  }
+  EXPECT_EQ(solved, 5);
+}
+
+TEST(RrtConnect, ProgressRisesToOneAndStoppingCancels) {
+  // A leg that runs to the sample limit: progress reports along the way, then exactly 1.
+  const Mesh mesh = two_islands();
+  const ClearanceIndex index(mesh);
+  const std::vector<Point3> waypoints{{356030, 5699050, 20}, {356230, 5699050, 20}};
+  PlanOptions options = rrt_options(40);
+  options.rrt_max_samples = 5000;
+  std::vector<double> seen;
+  const PlanResult r = plan_rrt_connect(index, waypoints, options, [&](double f) {
+    seen.push_back(f);
+    return true;
+  });
+  EXPECT_EQ(r.status, PlanStatus::NoPath);
+  ASSERT_GE(seen.size(), 4u);  // every 1024 samples, and the end
+  EXPECT_TRUE(std::is_sorted(seen.begin(), seen.end()));
+  EXPECT_GE(seen.front(), 0);
+  EXPECT_EQ(seen.back(), 1);
+  EXPECT_THROW(plan_rrt_connect(index, waypoints, options, [](double) { return false; }), Cancelled);
+}
+
+TEST(RrtConnect, OneSampleGrowsOneExtendAndOneConnectAtMost) {
+  const Mesh mesh = two_islands();
+  const ClearanceIndex index(mesh);
+  const std::vector<Point3> waypoints{{356030, 5699050, 20}, {356230, 5699050, 20}};
+  PlanOptions options = rrt_options(40);
+  options.rrt_max_samples = 1;
+  const PlanResult r = plan_path(index, waypoints, options);
+  EXPECT_EQ(r.status, PlanStatus::NoPath);
+  EXPECT_EQ(r.place(), "waypoints 1 to 2");
+  EXPECT_NE(r.reason.find("within 1 sample "), std::string::npos) << r.reason;
+  // Two roots, one EXTEND step, and a CONNECT run of at most distance / step + 1 steps.
+  const double reach = dist(waypoints[0], waypoints[1]) + options.max_edge;
+  EXPECT_LE(r.roadmap_nodes, 3 + static_cast<size_t>(reach / options.max_edge) + 1);
+  EXPECT_GE(r.roadmap_nodes, 2u);
 }
 
 }  // namespace

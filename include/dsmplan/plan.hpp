@@ -197,14 +197,12 @@ private:
 // the ground at opposite corners and the middle: 14,510 samples kept, 124,018 edges, roadmap
 // 0.08 s, query 0.008 s, smoothing < 0.1 ms (reading the PLY and indexing it: 1.1 s).
 
-/// Which planner plan_path() runs.
-enum class PlannerKind {
-  prm,         ///< the paper's multi-query Halton PRM (build_roadmap + query_roadmap)
-  rrt_connect  ///< single-query RRT-Connect per leg
-};
+/// Which planner plan_path() runs: the paper's roadmap (multi-query, see above) or RRT-Connect
+/// (single-query, see plan_rrt_connect() below).
+enum class PlannerKind { prm, rrt_connect };
 
 struct PlanOptions {
-  PlannerKind planner = PlannerKind::prm;
+  PlannerKind planner = PlannerKind::prm;  ///< what plan_path() runs
   double safety = 2;       ///< least distance to the mesh, CRS units (the paper's 2 m)
   double spacing = 20;     ///< relative sample distance: samples = volume / spacing^3
   double max_edge = 34.5;  ///< longest roadmap edge, CRS units
@@ -213,6 +211,13 @@ struct PlanOptions {
   bool smooth = true;      ///< shortcut smoothing
   bool spline = true;      ///< then corner rounding by a quadratic B-spline, each chord re-checked
   int threads = 0;         ///< 0: every core
+  /// RRT-Connect only (the PRM's samples are quasi-random, it has none): its random numbers.
+  /// The same seed, mesh and waypoints give the same path.
+  uint64_t seed = 1;
+  /// RRT-Connect only: random samples drawn per leg before it gives up with NoPath (those
+  /// falling over a hole of the mesh count too), so it always ends. RRT-Connect's step length
+  /// ("range") is max_edge.
+  int rrt_max_samples = 20000;
 };
 
 /// Throws ArgumentError naming the option ("--safety", "--spacing", "--max-edge", "--max-agl",
@@ -261,7 +266,8 @@ PlanResult query_roadmap(const Roadmap& roadmap, const ClearanceIndex& index, co
                          const PlanOptions& options);
 
 /// build_roadmap() then query_roadmap(): the whole single-query planner. Waypoints are checked
-/// first, so a bad one costs no roadmap (roadmap_nodes is 0 then).
+/// first, so a bad one costs no roadmap (roadmap_nodes is 0 then). With options.planner
+/// rrt_connect it is plan_rrt_connect() instead (see below).
 PlanResult plan_path(const ClearanceIndex& index, const std::vector<Point3>& waypoints, const PlanOptions& options = {},
                      const Progress& progress = {});
 
@@ -299,6 +305,49 @@ void write_roadmap(const std::string& path, const Roadmap& map, uint64_t mesh_fi
 /// mesh ("built for another mesh") or with other options ("was built with --spacing 20, this
 /// run asks for 15"). O(file size).
 Roadmap read_roadmap(const std::string& path, uint64_t mesh_fingerprint, const PlanOptions& options);
+
+// ---- RRT-Connect --------------------------------------------------------------------------
+//
+// Kuffner & LaValle, "RRT-Connect: An Efficient Approach to Single-Query Path Planning", ICRA
+// 2000: for each leg two rapidly-exploring random trees, one rooted at each waypoint. Each
+// iteration draws a random sample, EXTENDs one tree one step towards it, then CONNECTs the
+// other tree greedily (step after step) towards the new node; the trees swap roles every
+// iteration. The leg is the path through both trees once they meet.
+//   - Samples: uniform (std::mt19937_64 from options.seed and the leg's number, mapped to
+//     [0, 1) by its top 53 bits, so the same on every platform) in the PRM's flight volume: the
+//     mesh's x,y bounding box, from the surface up to max_agl above it; a sample over a hole
+//     (ground() NaN) is skipped and counts towards rrt_max_samples.
+//   - Steps: at most max_edge (the range; up to rounding, about 1e-9 m at UTM coordinates)
+//     from the tree's nearest node (exact nearest, ties to the older node, by a uniform 3D grid
+//     of cells max_edge wide, at least 1/64 of the footprint's longer side); the new node must
+//     lie over the mesh, not under its surface, and be point_clear(safety), and the new edge
+//     segment_clear(safety) (exact). spacing, connections and threads are the PRM's alone.
+//   - Limits: rrt_max_samples samples a leg, then NoPath naming the leg; each CONNECT ends
+//     after at most distance / max_edge + 1 steps. Single-threaded (options.threads is not
+//     used), deterministic for a fixed seed.
+//   - Then detail::finish_path(), the PRM's shortcuts and corner rounding and last check:
+//     raw_path is the trees' path, path the smoothed one; every segment clear by safety. A leg
+//     between two equal waypoints is that point twice.
+//   - PlanResult: roadmap_nodes, roadmap_edges are the nodes and edges of all trees grown,
+//     summed over the legs (roots included; a tree of n nodes has n - 1 edges); seconds_roadmap
+//     is 0 (there is no roadmap), seconds_query the trees' growth, seconds_smooth finish_path().
+// Measured on the NRW 1 m tile (1,996,002 triangles, one thread), 3 waypoints 10 m above the
+// surface at the south-west corner, the middle and the north-east corner, defaults but
+// max_agl 30, seeds 1-5: trees of 71-101 nodes grown in 2-7 ms, paths of 1308-1498 m (the PRM:
+// 3,296 samples, roadmap 0.07-0.12 s, 1292 m). With max_agl 15 every seed found a path
+// (1383-1523 m, 2-16 ms) where the PRM needs spacing 12 (0.35 s, 1291 m). Random trees give
+// longer paths than a dense roadmap after the same smoothing; they need no roadmap and find
+// narrow passages a sparse one misses. A leg it cannot fly costs about 13 us a sample there
+// (the 20,000 of the default: 0.2-0.5 s, 6,000-9,000 nodes).
+// Errors as plan_path(); ArgumentError("rrt_max_samples") when it is below 1.
+// Time per leg O(samples * (nearest search + segment_clear)); the nearest search visits the
+// grid's cells around the query until no unvisited cell can hold a nearer node.
+
+/// RRT-Connect through `waypoints` (CRS coordinates, in order), leg by leg; the same
+/// validation, statuses, reasons and smoothing as query_roadmap(). NoPath names the leg when
+/// its trees did not meet within rrt_max_samples samples.
+PlanResult plan_rrt_connect(const ClearanceIndex& index, const std::vector<Point3>& waypoints,
+                            const PlanOptions& options = {}, const Progress& progress = {});
 
 /// Length of a polyline, CRS units.
 double path_length(const std::vector<Point3>& path);

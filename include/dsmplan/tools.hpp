@@ -189,7 +189,7 @@ struct PlanJobOptions {
   /// The path, by extension: .csv "x,y,z" in the mesh's CRS (shortest exact decimals);
   /// .geojson/.json an RFC 7946 LineString Feature (WGS 84, ellipsoidal heights).
   std::string output;
-  PlanOptions plan;       ///< safety, spacing, max_edge, max_agl, planner, threads
+  PlanOptions plan;       ///< planner (prm, rrt_connect), seed, safety, spacing, max_edge, max_agl, threads
   /// Roadmap file (PRM): read when it exists (read_roadmap(): refused when made for another mesh
   /// or other options), else built and written there for the next query.
   std::string roadmap;

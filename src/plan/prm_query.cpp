@@ -131,6 +131,7 @@ PlanResult query_roadmap(const Roadmap& map, const ClearanceIndex& index, const 
 
 PlanResult plan_path(const ClearanceIndex& index, const std::vector<Point3>& waypoints, const PlanOptions& options,
                      const Progress& progress) {
+  if (options.planner == PlannerKind::rrt_connect) return plan_rrt_connect(index, waypoints, options, progress);
   check_plan_options(options);
   detail::check_waypoint_list(waypoints);
   if (PlanResult invalid; detail::first_invalid_waypoint(waypoints, index, options.safety, invalid)) return invalid;

@@ -152,7 +152,10 @@ PlanReport plan_job(const PlanJobOptions& options, const Progress& progress) {
     throw ArgumentError("-o", "the path is written as .csv (x,y,z in the mesh's CRS) or .geojson (WGS 84), got '" +
                                   options.output + "'");
   check_plan_options(options.plan);
+  if (!options.roadmap.empty() && options.plan.planner != PlannerKind::prm)
+    throw ArgumentError("--roadmap", "only the prm planner keeps a roadmap; rrtconnect grows its trees per query");
   PlanReport report;
+  report.planner = options.plan.planner == PlannerKind::prm ? "prm" : "rrtconnect";
   report.mesh = options.mesh;
   report.waypoints = options.waypoints;
   report.output = options.output;
@@ -189,7 +192,7 @@ PlanReport plan_job(const PlanJobOptions& options, const Progress& progress) {
 
   // A roadmap file is reused when it exists (and fits this mesh and these options), else made.
   PlanResult result;
-  if (!options.roadmap.empty() && options.plan.planner == PlannerKind::prm) {
+  if (!options.roadmap.empty()) {
     const uint64_t fingerprint = mesh_fingerprint(mesh);
     Roadmap map;
     if (std::ifstream(options.roadmap).good()) {
