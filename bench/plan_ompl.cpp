@@ -24,7 +24,7 @@
 //
 // Per mesh:
 //   - dsmplan: build_roadmap() on both cores (threads = 0) and query_roadmap() over 4 waypoints
-//     30 m above ground (3 legs); best of 3 repetitions each.
+//     30 m above ground (3 legs); best of 3 repetitions each (argv[1] sets another count).
 //   - OMPL: RealVectorStateSpace(3) bounded by the footprint and [lowest vertex, highest vertex
 //     + max_agl]; an exact StateValidityChecker and MotionValidator; a PRM subclass that is
 //     given every Halton candidate build_roadmap() draws (same function, re-implemented here
@@ -90,6 +90,7 @@ namespace og = ompl::geometric;
 namespace {
 
 const PlanOptions plan_options{};  // the CLI's defaults: safety 2, spacing 20, max_edge 34.5, max_agl 120
+int repetitions = 3;               // best of: argv[1], 3 by default
 
 // ---- the samples: build_roadmap()'s Halton candidates, re-generated ----------------------
 
@@ -157,7 +158,8 @@ public:
   EmbreeChecker(const Mesh& mesh, const Point3& origin) : origin_(origin) {
     device_ = rtcNewDevice(nullptr);
     scene_ = rtcNewScene(device_);
-    rtcSetSceneBuildQuality(scene_, RTC_BUILD_QUALITY_HIGH);
+    // Default (medium) build quality: HIGH took 2.5x longer to build (4.8 s vs 1.9 s at 1 m) and
+    // answered point queries no faster (5.6 us each, measured apart).
     RTCGeometry geometry = rtcNewGeometry(device_, RTC_GEOMETRY_TYPE_TRIANGLE);
     auto* v = static_cast<float*>(rtcSetNewGeometryBuffer(geometry, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3,
                                                           3 * sizeof(float), mesh.vertices.size()));
@@ -365,8 +367,11 @@ struct MeshRow {
   size_t candidates = 0, samples = 0, edges = 0;
   bool same_nodes = false;
   std::vector<double> roadmap_s, query_ms;  // every repetition
-  double roadmap1_s = INFINITY;              // best of 3 on one thread, for the profile
-  double sample_s = 0;                       // one thread: Halton candidates, ground, point_clear
+  double roadmap1_s = INFINITY;              // best on one thread, for the profile
+  // build_roadmap's phases re-done here on one thread (profile): Halton candidates with ground()
+  // and point_clear(); the candidate pairs from its grid of max_edge cells; segment_clear() on them.
+  double sample_s = 0, pairs_s = 0, checks_s = 0;
+  size_t pairs = 0;
   double length = NAN, raw_length = NAN;
   bool solved = false;
   std::vector<OmplRun> ompl;
@@ -416,10 +421,10 @@ OmplRun run_ompl(const ClearanceIndex& index, const Mesh& mesh, const Checker& c
   };
 
   // The roadmap: every candidate through OMPL's validity check, the valid ones as milestones.
-  // Best of 3 as for dsmplan, a fresh planner each time; the last one answers the queries.
+  // Best of as many as dsmplan, a fresh planner each time; the last one answers the queries.
   std::shared_ptr<GivenSamplesPRM> prm;
   run.roadmap_s = INFINITY;
-  for (int rep = 0; rep < 3; ++rep) {
+  for (int rep = 0; rep < repetitions; ++rep) {
     prm.reset();
     profile = {};
     prm = std::make_shared<GivenSamplesPRM>(si, profile);
@@ -510,6 +515,49 @@ OmplRun run_ompl(const ClearanceIndex& index, const Mesh& mesh, const Checker& c
   return run;
 }
 
+// The candidate pairs of build_roadmap (src/plan/prm_roadmap.cpp, re-done for the profile):
+// nodes sorted by their cell of a max_edge grid, the 27 cells around each node looked up by
+// binary search, pairs i < j closer than max_edge. One thread.
+std::vector<std::pair<uint32_t, uint32_t>> candidate_pairs(const ClearanceIndex& index,
+                                                           const std::vector<Point3>& nodes, double& seconds) {
+  const auto start = std::chrono::steady_clock::now();
+  const ClearanceIndex::Footprint& e = index.footprint();
+  const double cell = plan_options.max_edge, reach2 = cell * cell;
+  double zmin = INFINITY;
+  for (const Point3& p : nodes) zmin = std::min(zmin, p[2]);
+  const int64_t nx = static_cast<int64_t>((e.xmax - e.xmin) / cell) + 1,
+                ny = static_cast<int64_t>((e.ymax - e.ymin) / cell) + 1;
+  auto coord = [&](const Point3& p, int k) {
+    const double lo = k == 0 ? e.xmin : k == 1 ? e.ymin : zmin;
+    return static_cast<int64_t>(std::floor((p[k] - lo) / cell));
+  };
+  auto key = [&](int64_t ix, int64_t iy, int64_t iz) { return (iz * ny + iy) * nx + ix; };
+  std::vector<std::pair<int64_t, uint32_t>> sorted(nodes.size());
+  for (size_t i = 0; i < nodes.size(); ++i)
+    sorted[i] = {key(coord(nodes[i], 0), coord(nodes[i], 1), coord(nodes[i], 2)), static_cast<uint32_t>(i)};
+  std::sort(sorted.begin(), sorted.end());
+  std::vector<std::pair<uint32_t, uint32_t>> out;
+  for (size_t i = 0; i < nodes.size(); ++i) {
+    const Point3& p = nodes[i];
+    const int64_t cx = coord(p, 0), cy = coord(p, 1), cz = coord(p, 2);
+    for (int64_t z = cz - 1; z <= cz + 1; ++z)
+      for (int64_t y = cy - 1; y <= cy + 1; ++y)
+        for (int64_t x = cx - 1; x <= cx + 1; ++x) {
+          if (x < 0 || y < 0 || z < 0 || x >= nx || y >= ny) continue;
+          const int64_t k = key(x, y, z);
+          for (auto it = std::lower_bound(sorted.begin(), sorted.end(), std::make_pair(k, uint32_t{0}));
+               it != sorted.end() && it->first == k; ++it) {
+            const Point3& q = nodes[it->second];
+            const double dx = p[0] - q[0], dy = p[1] - q[1], dz = p[2] - q[2];
+            if (it->second > i && dx * dx + dy * dy + dz * dz < reach2)
+              out.emplace_back(static_cast<uint32_t>(i), it->second);
+          }
+        }
+  }
+  seconds = seconds_since(start);
+  return out;
+}
+
 MeshRow run_mesh(const std::string& name, double cell, const Mesh& mesh) {
   MeshRow row;
   row.name = name, row.cell = cell, row.triangles = mesh.triangles.size();
@@ -518,7 +566,7 @@ MeshRow run_mesh(const std::string& name, double cell, const Mesh& mesh) {
   row.index_s = seconds_since(start);
 
   Roadmap map;
-  for (int rep = 0; rep < 3; ++rep) {
+  for (int rep = 0; rep < repetitions; ++rep) {
     start = std::chrono::steady_clock::now();
     Roadmap built = build_roadmap(index, plan_options);
     row.roadmap_s.push_back(seconds_since(start));
@@ -527,7 +575,7 @@ MeshRow run_mesh(const std::string& name, double cell, const Mesh& mesh) {
   row.samples = map.nodes.size(), row.edges = map.edges();
   PlanOptions one_thread = plan_options;
   one_thread.threads = 1;
-  for (int rep = 0; rep < 3; ++rep) {
+  for (int rep = 0; rep < repetitions; ++rep) {
     start = std::chrono::steady_clock::now();
     const Roadmap built = build_roadmap(index, one_thread);
     row.roadmap1_s = std::min(row.roadmap1_s, seconds_since(start));
@@ -542,10 +590,19 @@ MeshRow run_mesh(const std::string& name, double cell, const Mesh& mesh) {
   row.sample_s = seconds_since(start);
   row.candidates = candidates.size();
   row.same_nodes = kept == map.nodes;
+  {
+    const std::vector<std::pair<uint32_t, uint32_t>> found = candidate_pairs(index, map.nodes, row.pairs_s);
+    row.pairs = found.size();
+    start = std::chrono::steady_clock::now();
+    size_t clear = 0;
+    for (const auto& [i, j] : found) clear += index.segment_clear(map.nodes[i], map.nodes[j], plan_options.safety);
+    row.checks_s = seconds_since(start);
+    if (clear != map.edges()) std::printf("  re-done phases give %zu edges, not %zu\n", clear, map.edges());
+  }
 
   const std::vector<Point3> waypoints = make_waypoints(index);
   PlanResult result;
-  for (int rep = 0; rep < 3; ++rep) {
+  for (int rep = 0; rep < repetitions; ++rep) {
     start = std::chrono::steady_clock::now();
     result = query_roadmap(map, index, waypoints, plan_options);
     row.query_ms.push_back(1e3 * seconds_since(start));
@@ -571,8 +628,11 @@ MeshRow run_mesh(const std::string& name, double cell, const Mesh& mesh) {
     row.ompl.push_back(run_ompl(index, mesh, checker, candidates, map, waypoints));
   }
 #endif
-  std::printf("  dsmplan build_roadmap: %.3f s on %u threads, %.3f s on 1 (of which sampling %.3f s)\n",
-              best(row.roadmap_s), std::max(1u, std::thread::hardware_concurrency()), row.roadmap1_s, row.sample_s);
+  std::printf(
+      "  dsmplan build_roadmap: %.3f s on %u threads, %.3f s on 1; its phases re-done on 1 thread: samples %.3f s, "
+      "%s candidate pairs %.3f s, their segment_clear %.3f s\n",
+      best(row.roadmap_s), std::max(1u, std::thread::hardware_concurrency()), row.roadmap1_s, row.sample_s,
+      grouped(row.pairs).c_str(), row.pairs_s, row.checks_s);
   for (const OmplRun& r : row.ompl) {
     const Profile& p = r.profile;
     std::printf(
@@ -784,7 +844,8 @@ std::string check_arena_log(const std::string& path) {
 
 }  // namespace
 
-int main() {
+int main(int argc, char** argv) {
+  if (argc > 1) repetitions = std::max(1, std::atoi(argv[1]));
   ompl::msg::setLogLevel(ompl::msg::LOG_WARN);
   const auto begin = std::chrono::steady_clock::now();
   const unsigned cores = std::max(1u, std::thread::hardware_concurrency());
@@ -808,12 +869,12 @@ int main() {
   }
 
   std::printf(
-      "\nRoadmap: best of 3 for both (dsmplan with TBB on %u cores; OMPL's PRM adds milestones on one thread).\n"
-      "Query: dsmplan best of 3; OMPL one run (its query milestones stay in its graph).\n"
+      "\nRoadmap: best of %d for both (dsmplan with TBB on %u cores; OMPL's PRM adds milestones on one thread).\n"
+      "Query: dsmplan best of %d; OMPL one run (its query milestones stay in its graph).\n"
       "Query: 4 waypoints 30 m above ground, 3 legs; dsmplan = query_roadmap (validate, connect, A*, shortcut, "
       "spline); OMPL = validate, addMilestone both ends, constructSolution per leg.\n"
       "Length: dsmplan smoothed (raw A*) / OMPL raw (after simplifyMax); ratios dsmplan/OMPL.\n\n",
-      cores);
+      repetitions, cores, repetitions);
   std::printf(
       "| mesh | OMPL checker | samples | edges dsmplan / OMPL | roadmap s dsmplan | OMPL | ratio | query ms dsmplan | "
       "OMPL | ratio | length m dsmplan (raw) | OMPL (simplified) | ratio raw/raw | smoothed/simplified |\n");
