@@ -370,7 +370,7 @@ struct MeshRow {
   double roadmap1_s = INFINITY;              // best on one thread, for the profile
   // build_roadmap's phases re-done here on one thread (profile): Halton candidates with ground()
   // and point_clear(); the candidate pairs from its grid of max_edge cells; segment_clear() on them.
-  double sample_s = 0, pairs_s = 0, checks_s = 0;
+  double sample_s = 0, ground_s = 0, pairs_s = 0, checks_s = 0;  // ground_s: Halton + ground() part
   size_t pairs = 0;
   double length = NAN, raw_length = NAN;
   bool solved = false;
@@ -587,6 +587,7 @@ MeshRow run_mesh(const std::string& name, double cell, const Mesh& mesh) {
   // The samples re-generated here (one thread), and checked equal to build_roadmap's.
   start = std::chrono::steady_clock::now();
   const std::vector<Point3> candidates = halton_candidates(index, plan_options);
+  row.ground_s = seconds_since(start);
   std::vector<Point3> kept;
   for (const Point3& c : candidates)
     if (!std::isnan(c[2]) && index.point_clear(c, plan_options.safety)) kept.push_back(c);
@@ -632,10 +633,10 @@ MeshRow run_mesh(const std::string& name, double cell, const Mesh& mesh) {
   }
 #endif
   std::printf(
-      "  dsmplan build_roadmap: %.3f s on %u threads, %.3f s on 1; its phases re-done on 1 thread: samples %.3f s, "
-      "%s candidate pairs %.3f s, their segment_clear %.3f s\n",
+      "  dsmplan build_roadmap: %.3f s on %u threads, %.3f s on 1; its phases re-done on 1 thread: samples %.3f s "
+      "(Halton + ground() %.3f s, point_clear %.3f s), %s candidate pairs %.3f s, their segment_clear %.3f s\n",
       best(row.roadmap_s), std::max(1u, std::thread::hardware_concurrency()), row.roadmap1_s, row.sample_s,
-      grouped(row.pairs).c_str(), row.pairs_s, row.checks_s);
+      row.ground_s, row.sample_s - row.ground_s, grouped(row.pairs).c_str(), row.pairs_s, row.checks_s);
   for (const OmplRun& r : row.ompl) {
     const Profile& p = r.profile;
     std::printf(
