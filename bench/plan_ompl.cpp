@@ -276,7 +276,9 @@ Point3 to_point(const ob::State* s) {
 }
 
 // A state is valid where dsmplan's planner would accept it: over a triangle, not under the
-// surface, and at least `safety` from the mesh.
+// surface, and at least `safety` from the mesh. The height of the surface comes from
+// ClearanceIndex::ground() with either checker (it is the flight volume, not a collision test),
+// as build_roadmap() takes it.
 class Validity : public ob::StateValidityChecker {
 public:
   Validity(const ob::SpaceInformationPtr& si, const ClearanceIndex& index, const Checker& checker, Profile& profile)
