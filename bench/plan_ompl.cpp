@@ -110,7 +110,7 @@ int repetitions = 3;               // best of: argv[1], 3 by default
 
 // ---- the samples: build_roadmap()'s Halton candidates, re-generated ----------------------
 
-// Same as src/plan/prm_roadmap.cpp (not public); main() checks the kept ones equal
+// Same as src/plan/prm_roadmap.cpp (not public); run_mesh() checks the kept ones equal
 // Roadmap::nodes bit for bit.
 double halton(uint64_t index, uint32_t base) {
   double result = 0, f = 1;
