@@ -52,7 +52,7 @@
 //   1 m      Embree 3         0.273 / 0.49  (1.8x)       2.1 / 14.2
 //   0.64 m   ClearanceIndex   0.331 / 0.49  (1.5x)       2.3 / 52.9
 //   0.64 m   Embree 3         0.331 / 0.88  (2.7x)       2.3 / 24.3
-// Bar 1 fails (0.9-1.9x over eight runs), bar 2 passes (about 2-3 ms). The profile says why:
+// Bar 1 fails (0.9-1.9x over nine runs), bar 2 passes (about 2-3 ms). The profile says why:
 // OMPL spends about half its roadmap time in the same exact checks dsmplan makes (same samples,
 // same candidate pairs, same checker), so with 2 cores dsmplan's ceiling is 2 / that share,
 // 3.1-4.7x over the runs, whatever it does around them; and under this load dsmplan's second
