@@ -1,8 +1,11 @@
 #!/usr/bin/env bash
 # Installs the Debian 12 packages dsmplan builds with, when any is missing.
+# With arguments, installs those packages instead (scripts/bench_deps.sh: the optional
+# benchmark dependencies), so there is one installer.
 set -euo pipefail
 packages=(cmake make g++ libcgal-dev libgmp-dev libmpfr-dev libgdal-dev libproj-dev
           libcli11-dev nlohmann-json3-dev libgtest-dev libgmock-dev libtbb-dev libpng-dev)
+[ $# -gt 0 ] && packages=("$@")
 missing=()
 for p in "${packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
