@@ -627,6 +627,27 @@ void expect_refused(const std::string& path, uint64_t fingerprint, const PlanOpt
 
 }  // namespace
 
+TEST(ClearanceIndex, ClearanceBoundNeverExceedsTheBruteForceClearance) {
+  const Mesh& mesh = mesh_2m();
+  const ClearanceIndex index(mesh);
+  const MeshBox b(mesh);
+  std::mt19937_64 rng(17);
+  std::uniform_real_distribution<double> u(0, 1);
+  int positive = 0;
+  for (int i = 0; i < 200; ++i) {
+    const double x = b.x0 + u(rng) * (b.x1 - b.x0), y = b.y0 + u(rng) * (b.y1 - b.y0);
+    const double g = index.ground(x, y);
+    if (std::isnan(g)) continue;
+    const Point3 p{x, y, g + 0.5 + 60 * u(rng) * u(rng)};
+    const double cap = 36.5, bound = index.clearance_bound(p, cap);
+    EXPECT_GE(bound, 0);
+    EXPECT_LE(bound, brute_clearance(mesh, index.origin(), p, p, cap) + 1e-9) << i;
+    positive += bound > 2;
+  }
+  EXPECT_GT(positive, 40);  // it certifies something: the roadmap relies on that for speed
+  EXPECT_EQ(index.clearance_bound({b.x0 + 100, b.y0 + 100, 1e4}, 36.5), 36.5);
+}
+
 TEST(RoadmapFile, RoundTripGivesTheSameRoadmapAndPath) {
   const Mesh& mesh = mesh_2m();
   const ClearanceIndex index(mesh);

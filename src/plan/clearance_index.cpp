@@ -357,6 +357,26 @@ double ClearanceIndex::clearance(const Point3& p, const Point3& q, double max_d)
   return visit<true>(p, q, max_d);
 }
 
+double ClearanceIndex::clearance_bound(const Point3& p, double max_d) const {
+  if (tris_.empty()) return max_d;
+  const double X = p[0] - origin_[0], Y = p[1] - origin_[1], Z = p[2] - origin_[2];
+  // Every mesh point within R of p horizontally lies in a bucket meeting the square of side 2R
+  // around it, so no higher than those buckets' highest point H: it is at least min(R, Z - H)
+  // away. A smaller square can give a lower H: try R, R/2, R/4.
+  double best = 0;
+  for (double R = max_d; R > cell_ * 0.5 && best < R; R *= 0.5) {
+    const int c0 = clamp_index((X - R - gx0_) / cell_, cols_), c1 = clamp_index((X + R - gx0_) / cell_, cols_);
+    const int r0 = clamp_index((Y - R - gy0_) / cell_, rows_), r1 = clamp_index((Y + R - gy0_) / cell_, rows_);
+    double H = -INFINITY;
+    for (int r = r0; r <= r1; ++r) {
+      const double* row = top_.data() + static_cast<size_t>(r) * cols_;
+      for (int c = c0; c <= c1; ++c) H = std::max(H, row[c]);
+    }
+    best = std::max(best, std::min(R, Z - H - margin_));
+  }
+  return std::min(max_d, best);
+}
+
 double ClearanceIndex::ground(double x, double y) const {
   if (tris_.empty() || !std::isfinite(x) || !std::isfinite(y)) return NAN;
   const double X = x - origin_[0], Y = y - origin_[1];
@@ -368,7 +388,12 @@ double ClearanceIndex::ground(double x, double y) const {
       static_cast<size_t>(clamp_index(std::floor(v), rows_)) * cols_ + clamp_index(std::floor(u), cols_);
   double top = NAN;
   for (uint32_t k = start_[bucket]; k < start_[bucket + 1]; ++k) {
-    const auto& tri = tris_[items_[k].tri];
+    const Listing& item = items_[k];
+    // Listed highest first: nothing further down can be higher than what was found.
+    if (item.top + origin_[2] < top) break;
+    // The box is rounded outwards; the margin covers the inside test's tolerance below.
+    if (X < item.x0 - margin_ || X > item.x1 + margin_ || Y < item.y0 - margin_ || Y > item.y1 + margin_) continue;
+    const auto& tri = tris_[item.tri];
     const LocalVertex& A = verts_[tri[0]];
     const LocalVertex& B = verts_[tri[1]];
     const LocalVertex& C = verts_[tri[2]];

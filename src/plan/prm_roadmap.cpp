@@ -63,39 +63,66 @@ Roadmap build_roadmap(const ClearanceIndex& index, const PlanOptions& options, c
     // Samples, each kept or dropped on its own, then compacted in Halton order: the same
     // roadmap for every thread count.
     std::vector<Point3> candidates(n);
-    std::vector<char> keep(n, 0);
+    std::vector<double> room(n, -1);  // a lower bound of each kept sample's clearance, -1 dropped
+    const double cap = options.safety + options.max_edge;
     tbb::parallel_for(tbb::blocked_range<size_t>(0, n), [&](const tbb::blocked_range<size_t>& r) {
       for (size_t i = r.begin(); i < r.end(); ++i) {
         const double x = e.xmin + halton(i + 1, 2) * wx, y = e.ymin + halton(i + 1, 3) * wy;
         const double g = index.ground(x, y);
         if (std::isnan(g)) continue;
         candidates[i] = {x, y, g + halton(i + 1, 5) * options.max_agl};
-        keep[i] = index.point_clear(candidates[i], options.safety);
+        if (index.point_clear(candidates[i], options.safety))
+          room[i] = std::max(options.safety, index.clearance_bound(candidates[i], cap));
+        else
+          room[i] = -1;
       }
     });
+    std::vector<double> node_room;
     for (size_t i = 0; i < n; ++i)
-      if (keep[i]) map.nodes.push_back(candidates[i]);
+      if (room[i] >= 0) {
+        map.nodes.push_back(candidates[i]);
+        node_room.push_back(room[i]);
+      }
     report(progress, 0.2);
 
     // A uniform grid of max_edge cells: the neighbours within max_edge of a node lie in the 27
-    // cells around its own. Cells are found by binary search in the nodes sorted by cell.
+    // cells around its own. The nodes are copied in cell order (a counting sort), so a cell's
+    // nodes are one contiguous run found through a dense table of cell starts.
     const size_t m = map.nodes.size();
     const double cell = options.max_edge;
-    double zmin = INFINITY;
-    for (const Point3& p : map.nodes) zmin = std::min(zmin, p[2]);
+    double zmin = INFINITY, zmax = -INFINITY;
+    for (const Point3& p : map.nodes) zmin = std::min(zmin, p[2]), zmax = std::max(zmax, p[2]);
     const int64_t nx = static_cast<int64_t>(wx / cell) + 1, ny = static_cast<int64_t>(wy / cell) + 1;
+    const int64_t nz = m ? static_cast<int64_t>((zmax - zmin) / cell) + 1 : 0;
+    if (static_cast<double>(nx) * static_cast<double>(ny) * static_cast<double>(nz) > 4e8)
+      throw ArgumentError("--max-edge", "is too small for the flight volume (more than 4e8 grid cells)");
     auto coord = [&](const Point3& p, int k) {
       const double lo = k == 0 ? e.xmin : k == 1 ? e.ymin : zmin;
-      return static_cast<int64_t>(std::floor((p[k] - lo) / cell));
+      const int64_t n = k == 0 ? nx : k == 1 ? ny : nz;
+      return std::clamp<int64_t>(static_cast<int64_t>(std::floor((p[k] - lo) / cell)), 0, n - 1);
     };
-    auto key = [&](int64_t ix, int64_t iy, int64_t iz) { return (iz * ny + iy) * nx + ix; };
-    std::vector<std::pair<int64_t, uint32_t>> sorted(m);
-    for (size_t i = 0; i < m; ++i)
-      sorted[i] = {key(coord(map.nodes[i], 0), coord(map.nodes[i], 1), coord(map.nodes[i], 2)),
-                   static_cast<uint32_t>(i)};
-    std::sort(sorted.begin(), sorted.end());
+    auto key = [&](int64_t ix, int64_t iy, int64_t iz) { return static_cast<size_t>((iz * ny + iy) * nx + ix); };
+    std::vector<uint32_t> cell_start(static_cast<size_t>(nx * ny * nz) + 1, 0);
+    std::vector<size_t> node_cell(m);
+    for (size_t i = 0; i < m; ++i) {
+      const Point3& p = map.nodes[i];
+      node_cell[i] = key(coord(p, 0), coord(p, 1), coord(p, 2));
+      ++cell_start[node_cell[i] + 1];
+    }
+    for (size_t c = 1; c < cell_start.size(); ++c) cell_start[c] += cell_start[c - 1];
+    struct Member {
+      Point3 p;
+      uint32_t id;
+    };
+    std::vector<Member> members(m);
+    {
+      std::vector<uint32_t> fill(cell_start.begin(), cell_start.end() - 1);
+      for (size_t i = 0; i < m; ++i) members[fill[node_cell[i]]++] = {map.nodes[i], static_cast<uint32_t>(i)};
+    }
 
     const double reach2 = cell * cell;
+    // Rounding of the clearances and the length: far below any safety distance that matters.
+    const double certificate_slack = 1e-9 * (1 + cap);
     std::vector<std::vector<uint32_t>> up(m);  // neighbours j > i of node i, ascending
     tbb::parallel_for(tbb::blocked_range<size_t>(0, m, 64), [&](const tbb::blocked_range<size_t>& r) {
       std::vector<uint32_t> candidates_j;
@@ -103,19 +130,25 @@ Roadmap build_roadmap(const ClearanceIndex& index, const PlanOptions& options, c
         const Point3& p = map.nodes[i];
         const int64_t cx = coord(p, 0), cy = coord(p, 1), cz = coord(p, 2);
         candidates_j.clear();
-        for (int64_t z = cz - 1; z <= cz + 1; ++z)
-          for (int64_t y = cy - 1; y <= cy + 1; ++y)
-            for (int64_t x = cx - 1; x <= cx + 1; ++x) {
-              if (x < 0 || y < 0 || z < 0 || x >= nx || y >= ny) continue;
-              const int64_t k = key(x, y, z);
-              auto it = std::lower_bound(sorted.begin(), sorted.end(), std::make_pair(k, uint32_t{0}));
-              for (; it != sorted.end() && it->first == k; ++it)
-                if (it->second > i && squared_distance(p, map.nodes[it->second]) < reach2)
-                  candidates_j.push_back(it->second);
-            }
+        for (int64_t z = std::max<int64_t>(cz - 1, 0); z <= std::min(cz + 1, nz - 1); ++z)
+          for (int64_t y = std::max<int64_t>(cy - 1, 0); y <= std::min(cy + 1, ny - 1); ++y) {
+            // The three cells of a row along x are consecutive: one run.
+            const size_t first = key(std::max<int64_t>(cx - 1, 0), y, z), last = key(std::min(cx + 1, nx - 1), y, z);
+            for (uint32_t k = cell_start[first]; k < cell_start[last + 1]; ++k)
+              if (members[k].id > i && squared_distance(p, members[k].p) < reach2) candidates_j.push_back(members[k].id);
+          }
         std::sort(candidates_j.begin(), candidates_j.end());
-        for (uint32_t j : candidates_j)
-          if (index.segment_clear(p, map.nodes[j], options.safety)) up[i].push_back(j);
+        for (uint32_t j : candidates_j) {
+          // Free-space balls (Quinlan & Khatib, "Elastic bands", ICRA 1993): no mesh point lies
+          // within room[i] of p or room[j] of q, so every point of [p, q] is at least
+          // (room[i] + room[j] - |pq|) / 2 from the mesh. When that is the safety distance the
+          // exact check can only agree: the same edges, most of them high above the roofs
+          // without reading a triangle.
+          const double length = std::sqrt(squared_distance(p, map.nodes[j]));
+          if (node_room[i] + node_room[j] - length >= 2 * options.safety + certificate_slack ||
+              index.segment_clear(p, map.nodes[j], options.safety))
+            up[i].push_back(j);
+        }
       }
     });
     report(progress, 0.9);
