@@ -138,6 +138,9 @@ int main(int argc, char** argv) {
   render_cmd->add_option("--window", window, "Area to draw: xmin,ymin,xmax,ymax in CRS units (default: all)");
   render_cmd->add_option("--zoom", render.render.pixels_per_cell, "Pixels per DSM cell")->capture_default_str();
   render_cmd->add_flag("--no-edges", no_edges, "Do not draw the meshes' edges");
+  render_cmd->add_option("--path", render.paths, "Path CSV (from dsmplan plan) to draw; repeatable");
+  render_cmd->add_option("--waypoints", render.waypoints, "Waypoint CSV: numbered discs");
+  render_cmd->add_option("--roadmap", render.roadmap, "Roadmap file (dsmplan plan --roadmap): its edges");
   CLI::Option* render_res =
       render_cmd->add_option("--res", render_resolution, "Resample the DSM to this x/y resolution first");
   render_cmd->add_option("--band", render.read.band, "Band to read")->capture_default_str();

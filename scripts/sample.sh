@@ -41,6 +41,9 @@ build/dsmplan plan "$out/bounded_1m.ply" --waypoints data/nrw-dom1/sample_waypoi
 build/dsmplan plan "$out/bounded_1m.ply" --waypoints data/nrw-dom1/sample_waypoints.csv \
   -o "$out/path.geojson" --roadmap "$out/bounded_1m.roadmap" \
   --vertical-crs EPSG:7837 --allow-approximate-vertical -q
+build/dsmplan render "$dsm" --mesh "$out/bounded_1m.ply" --no-edges --roadmap "$out/bounded_1m.roadmap" \
+  --path "$out/path.csv" --waypoints data/nrw-dom1/sample_waypoints.csv --zoom 2 \
+  --title "path over the conservative mesh, roadmap in blue" -o "$out/path.png" -q
 echo
 echo "Outputs in $out/:"
 ls -l "$out"

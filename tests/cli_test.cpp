@@ -780,6 +780,32 @@ TEST(CliRender, SampleWithItsMeshGivesAPictureOfTheWindowsSize) {
             std::make_pair(static_cast<uint32_t>(source.width), static_cast<uint32_t>(source.height)));
 }
 
+TEST(CliRender, PathRoadmapAndWaypointsOverTheMesh) {
+  const std::string input = testkit::data_path(kSample);
+  TempDir in, out;
+  const std::string mesh = in.path("mesh.ply"), roadmap = in.path("map.roadmap"), path = in.path("path.csv");
+  ASSERT_EQ(run_cli({"mesh", input, "-o", mesh, "--res", "2", "-q"}).exit_code, 0);
+  const auto planned = run_cli({"plan", mesh, "--waypoints", testkit::data_path("nrw-dom1/sample_waypoints.csv"), "-o",
+                                path, "--roadmap", roadmap, "-q"});
+  ASSERT_EQ(planned.exit_code, 0) << planned.err;
+  const auto plain = run_cli({"render", input, "--mesh", mesh, "-o", out.path("plain.png"), "--zoom", "1", "-q"});
+  const auto drawn = run_cli({"render", input, "--mesh", mesh, "--roadmap", roadmap, "--path", path, "--waypoints",
+                              testkit::data_path("nrw-dom1/sample_waypoints.csv"), "-o", out.path("drawn.png"),
+                              "--zoom", "1", "-q"});
+  ASSERT_EQ(plain.exit_code, 0) << plain.err;
+  ASSERT_EQ(drawn.exit_code, 0) << drawn.err;
+  EXPECT_EQ(png_size(out.path("plain.png")), png_size(out.path("drawn.png")));
+  EXPECT_NE(testkit::read_file(out.path("plain.png")), testkit::read_file(out.path("drawn.png")));
+
+  TempDir none;
+  testkit::write_file(in.path("bad.csv"), "x,y,z\n356320,5699270,130\nnot,a,point\n");
+  expect_clean_failure(run_cli({"render", input, "--path", in.path("bad.csv"), "-o", none.path("p.png"), "-q"}), none,
+                       in.path("bad.csv") + ": line 3", {"expected"});
+  testkit::write_file(in.path("bad.roadmap"), "DSMPLAN-ROADMAP\n");
+  expect_clean_failure(run_cli({"render", input, "--roadmap", in.path("bad.roadmap"), "-o", none.path("p.png"), "-q"}),
+                       none, in.path("bad.roadmap"), {"truncated"});
+}
+
 TEST(CliBadInput, RenderWindowOutsideOrMalformed) {
   const std::string input = testkit::data_path(kSample);
   TempDir out;

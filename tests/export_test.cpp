@@ -461,6 +461,50 @@ TEST(Render, EdgesChangeExactlyThePixelsAlongThem) {
   EXPECT_LT(brightness(with, mx, my), brightness(without, mx, my) - 60);
 }
 
+TEST(Render, PathAndWaypointsAreDrawnWhereTheyAreAndNowhereElse) {
+  const Grid& grid = nrw_grid();
+  const Window window{grid.x0 + 100, grid.y0 - 160, grid.x0 + 160, grid.y0 - 100};
+  RenderOptions options = plain(window, 4);
+  const Image without = render_view(grid, nullptr, options);
+  const std::vector<Point3> path{{grid.x0 + 105, grid.y0 - 150, 150}, {grid.x0 + 130, grid.y0 - 110, 160},
+                                 {grid.x0 + 155, grid.y0 - 140, 150}};
+  LineLayer line;
+  line.polylines = {path};
+  options.lines.push_back(line);
+  const Point3 waypoint{grid.x0 + 140, grid.y0 - 150, 150};
+  options.markers.push_back(MarkerLayer{{waypoint}});
+  const Image with = render_view(grid, nullptr, options);
+  auto px = [&](double x) { return (x - window.xmin) * 4; };
+  auto py = [&](double y) { return (window.ymax - y) * 4; };
+  const double wx = px(waypoint[0]), wy = py(waypoint[1]);
+  size_t path_coloured = 0;
+  for (int y = 0; y < with.height; ++y)
+    for (int x = 0; x < with.width; ++x) {
+      double nearest = INFINITY;
+      for (size_t k = 1; k < path.size(); ++k)
+        nearest = std::min(nearest, segment_distance(x + 0.5, y + 0.5, px(path[k - 1][0]), py(path[k - 1][1]),
+                                                      px(path[k][0]), py(path[k][1])));
+      const double to_marker = std::hypot(x + 0.5 - wx, y + 0.5 - wy);
+      const bool differs = std::memcmp(pixel(with, x, y), pixel(without, x, y), 3) != 0;
+      // 3-pixel line with a 1-pixel halo: 2.5 pixels from the centre line, plus antialiasing;
+      // the disc (radius 6 + 1.5 outline) and its number to its right.
+      const bool label = x > wx && x < wx + 20 && std::abs(y + 0.5 - wy) < 6;
+      if (differs) EXPECT_TRUE(nearest < 3.6 || to_marker < 8.5 || label) << "pixel " << x << "," << y;
+      const uint8_t* p = pixel(with, x, y);
+      if (nearest < 0.7 && to_marker > 10) {
+        ++path_coloured;
+        EXPECT_TRUE(p[0] > 150 && p[1] < 60 && p[2] > 80) << "pixel " << x << "," << y << " on the path is not magenta";
+      }
+    }
+  EXPECT_GT(path_coloured, 150u);
+  const uint8_t* centre = pixel(with, static_cast<int>(wx), static_cast<int>(wy));
+  EXPECT_TRUE(centre[0] > 200 && centre[1] > 170 && centre[2] < 60) << "the waypoint's disc is yellow";
+  LineLayer bad = line;
+  bad.width = 0;
+  options.lines = {bad};
+  EXPECT_THROW(render_view(grid, nullptr, options), ArgumentError);
+}
+
 TEST(Render, RealMeshAndDecorationsStayInsideThePicture) {
   const Grid& grid = nrw_grid();
   const Mesh mesh = triangulate_xy3(grid);

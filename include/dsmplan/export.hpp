@@ -77,7 +77,27 @@ struct Window {
 /// when it is not four numbers. The order of the bounds is checked by render_view().
 Window parse_window(const std::string& text);
 
+/// Lines drawn over the picture: a path (one polyline), a roadmap (many two-point ones).
+/// Coordinates in the DSM's CRS; z is not drawn.
+struct LineLayer {
+  std::vector<std::vector<Point3>> polylines;
+  std::array<uint8_t, 3> colour{200, 0, 120};
+  double width = 3;    ///< pixels
+  float alpha = 1;     ///< 0..1
+  bool halo = true;    ///< a white edge one pixel wider on each side, to stand out on any ground
+};
+
+/// Numbered discs, e.g. waypoints: 1, 2, 3 ... in order.
+struct MarkerLayer {
+  std::vector<Point3> points;
+  std::array<uint8_t, 3> colour{255, 210, 0};
+  double radius = 6;  ///< pixels
+  bool numbered = true;
+};
+
 struct RenderOptions {
+  std::vector<LineLayer> lines;      ///< drawn over the mesh edges, in order
+  std::vector<MarkerLayer> markers;  ///< drawn last
   std::optional<Window> window;  ///< none: the whole grid
   double pixels_per_cell = 4;    ///< zoom: pixels per cell along x (y keeps the same scale)
   bool edges = true;             ///< draw the mesh's triangle edges
@@ -102,7 +122,10 @@ struct RenderOptions {
 /// the DSM's CRS. Throws ArgumentError for: a window that is empty, not finite or does not
 /// overlap the grid ("--window"); pixels_per_cell not positive and finite ("--zoom"); a picture
 /// over 30000 pixels a side or 2^26 pixels ("--zoom"); a triangle naming a missing vertex
-/// ("mesh"). Time O(pixels + triangles + e log e), e = edges over the picture.
+/// ("mesh"), a line width or marker radius that is not in (0, 100] pixels ("layer"). Line layers
+/// and markers (RenderOptions::lines, markers) are drawn over the mesh, clipped to the picture,
+/// markers with their number (1-based) beside them. Time O(pixels + triangles + e log e +
+/// layer segments), e = edges over the picture.
 Image render_view(const Grid& dsm, const Mesh* mesh, const RenderOptions& options);
 
 /// The panels left to right, top-aligned, `gap` white pixels apart, shorter ones padded white.

@@ -316,6 +316,16 @@ void write_roadmap(const std::string& path, const Roadmap& map, uint64_t mesh_fi
 /// run asks for 15"). O(file size).
 Roadmap read_roadmap(const std::string& path, uint64_t mesh_fingerprint, const PlanOptions& options);
 
+/// What a roadmap file says it was built for.
+struct RoadmapHeader {
+  uint64_t mesh_fingerprint = 0;
+  double safety = 0, spacing = 0, max_edge = 0, max_agl = 0;
+};
+
+/// Reads a roadmap file without asking what it was built for (to draw it, say); the same checks
+/// of the file itself as above. `header` (may be null) receives what it was built for.
+Roadmap read_roadmap(const std::string& path, RoadmapHeader* header);
+
 // ---- RRT-Connect --------------------------------------------------------------------------
 //
 // Kuffner & LaValle, "RRT-Connect: An Efficient Approach to Single-Query Path Planning", ICRA

@@ -150,6 +150,9 @@ struct RenderJobOptions {
   ReadRasterOptions read;
   std::optional<double> resolution;  ///< resample the DSM (median) to this cell size first
   RenderOptions render;              ///< window, zoom, edges, scale bar, north arrow (title: per panel)
+  std::vector<std::string> paths;    ///< path CSVs (x,y,z as `dsmplan plan` writes them), drawn on every panel
+  std::string waypoints;             ///< waypoint CSV: numbered discs on every panel
+  std::string roadmap;               ///< roadmap file (`dsmplan plan --roadmap`): its edges, thin, under the paths
 };
 
 struct RenderReport {
@@ -158,7 +161,8 @@ struct RenderReport {
   size_t panels = 0;
 };
 
-/// The paper's Figures 6 and 7: one hillshaded panel per mesh with its edges drawn, side by
+/// The paper's Figures 3 and 6-8: one hillshaded panel per mesh with its edges drawn (and the
+/// roadmap, paths and waypoints over it when given), side by
 /// side (8 pixels apart), or one panel of the DSM alone when there is no mesh; written as a PNG
 /// atomically. Checks before reading: the output ends in .png, --res, the window and the zoom
 /// (ArgumentError), at most one title per panel ("--title"). A mesh whose header names an EPSG

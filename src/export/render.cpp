@@ -532,11 +532,68 @@ Window parse_window(const std::string& text) {
   throw ArgumentError("--window", "expected four numbers xmin,ymin,xmax,ymax, got '" + text.substr(0, 80) + "'");
 }
 
+// ---- layers: paths, roadmaps, waypoints --------------------------------------------------------
+
+namespace {
+
+Rgb rgb(const std::array<uint8_t, 3>& c) { return {c[0] / 255.0f, c[1] / 255.0f, c[2] / 255.0f}; }
+
+void check_layers(const RenderOptions& options) {
+  for (const LineLayer& layer : options.lines)
+    if (!(layer.width > 0 && layer.width <= 100) || !(layer.alpha >= 0 && layer.alpha <= 1))
+      throw ArgumentError("layer", "line width must be in (0, 100] pixels and alpha in [0, 1]");
+  for (const MarkerLayer& layer : options.markers)
+    if (!(layer.radius > 0 && layer.radius <= 100)) throw ArgumentError("layer", "marker radius must be in (0, 100] pixels");
+}
+
+void draw_lines(Canvas& canvas, const View& view, const LineLayer& layer) {
+  // Halo first, under every segment of the layer, so crossings of the layer stay unbroken.
+  for (int pass = layer.halo ? 0 : 1; pass < 2; ++pass) {
+    const Rgb colour = pass == 0 ? Rgb{1, 1, 1} : rgb(layer.colour);
+    const double width = pass == 0 ? layer.width + 2 : layer.width;
+    for (const auto& line : layer.polylines)
+      for (size_t k = 1; k < line.size(); ++k) {
+        double x0 = view.px(line[k - 1][0]), y0 = view.py(line[k - 1][1]);
+        double x1 = view.px(line[k][0]), y1 = view.py(line[k][1]);
+        if (!(std::isfinite(x0) && std::isfinite(y0) && std::isfinite(x1) && std::isfinite(y1))) continue;
+        if (clip(x0, y0, x1, y1, -width, -width, view.width + width, view.height + width))
+          draw_line(canvas, x0, y0, x1, y1, colour, layer.alpha, width);
+      }
+  }
+}
+
+void draw_markers(Canvas& canvas, const View& view, const MarkerLayer& layer, int s) {
+  for (size_t i = 0; i < layer.points.size(); ++i) {
+    const double cx = view.px(layer.points[i][0]), cy = view.py(layer.points[i][1]), r = layer.radius;
+    if (!(cx > -r && cy > -r && cx < view.width + r && cy < view.height + r)) continue;
+    // A disc as a fan of triangles, outlined dark: visible on light and dark ground alike.
+    constexpr int kSides = 24;
+    for (int pass = 0; pass < 2; ++pass) {
+      const double radius = pass == 0 ? r + 1.5 : r;
+      const Rgb colour = pass == 0 ? Rgb{0.1f, 0.1f, 0.1f} : rgb(layer.colour);
+      for (int k = 0; k < kSides; ++k) {
+        const double a0 = 2 * M_PI * k / kSides, a1 = 2 * M_PI * (k + 1) / kSides;
+        fill_triangle(canvas, {cx, cy, cx + radius * std::cos(a0), cy + radius * std::sin(a0),
+                               cx + radius * std::cos(a1), cy + radius * std::sin(a1)},
+                      colour);
+      }
+    }
+    if (layer.numbered)
+      draw_text(canvas, static_cast<int>(cx + r + 2), static_cast<int>(cy - kGlyph * s / 2), std::to_string(i + 1),
+                Rgb{0.1f, 0.1f, 0.1f}, s);
+  }
+}
+
+}  // namespace
+
 Image render_view(const Grid& dsm, const Mesh* mesh, const RenderOptions& options) {
   const View view = make_view(dsm, options);
+  check_layers(options);
   Canvas canvas(view.width, view.height);
   draw_ground(canvas, dsm, view);
   if (mesh && options.edges) draw_edges(canvas, dsm, *mesh, view);
+  const int marker_scale = std::clamp(std::min(view.width, view.height) / 280, 1, 4);
+  for (const LineLayer& layer : options.lines) draw_lines(canvas, view, layer);
   // Decorations grow with the picture so they stay readable, and disappear when it is tiny.
   const int s = std::clamp(std::min(view.width, view.height) / 280, 1, 4);
   int title_room = view.width - 6 * s;
@@ -546,6 +603,8 @@ Image render_view(const Grid& dsm, const Mesh* mesh, const RenderOptions& option
   }
   if (options.scale_bar && !dsm.crs.geographic) draw_scale_bar(canvas, view, s);
   if (!options.title.empty()) draw_title(canvas, options.title, s, title_room);
+  // Waypoints over everything: one under the scale bar must still show.
+  for (const MarkerLayer& layer : options.markers) draw_markers(canvas, view, layer, marker_scale);
   return canvas.take();
 }
 

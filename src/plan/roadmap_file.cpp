@@ -101,6 +101,19 @@ void write_roadmap(const std::string& path, const Roadmap& map, uint64_t fingerp
 }
 
 Roadmap read_roadmap(const std::string& path, uint64_t fingerprint, const PlanOptions& options) {
+  RoadmapHeader header;
+  Roadmap map = read_roadmap(path, &header);
+  if (header.mesh_fingerprint != fingerprint)
+    throw InputError(path, "", "the roadmap was built for another mesh (fingerprints differ); build it again");
+  const double built[4] = {header.safety, header.spacing, header.max_edge, header.max_agl};
+  const double asked[4] = {options.safety, options.spacing, options.max_edge, options.max_agl};
+  const char* names[4] = {"--safety", "--spacing", "--max-edge", "--max-agl"};
+  for (int k = 0; k < 4; ++k)
+    if (built[k] != asked[k]) throw InputError(path, "", "the roadmap " + mismatch(names[k], built[k], asked[k]));
+  return map;
+}
+
+Roadmap read_roadmap(const std::string& path, RoadmapHeader* header) {
   std::ifstream in(path, std::ios::binary);
   if (!in) throw InputError(path, "", "cannot open the roadmap file");
   const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
@@ -116,14 +129,10 @@ Roadmap read_roadmap(const std::string& path, uint64_t fingerprint, const PlanOp
   Reader r{bytes, path, sizeof kMagic};
   if (const uint32_t version = r.get<uint32_t>("the version"); version != kVersion)
     throw InputError(path, "", "roadmap file version " + std::to_string(version) + ", this dsmplan reads version 1");
-  if (r.get<uint64_t>("the mesh fingerprint") != fingerprint)
-    throw InputError(path, "", "the roadmap was built for another mesh (fingerprints differ); build it again");
-  const double built[4] = {r.get<double>("the options"), r.get<double>("the options"), r.get<double>("the options"),
-                           r.get<double>("the options")};
-  const double asked[4] = {options.safety, options.spacing, options.max_edge, options.max_agl};
-  const char* names[4] = {"--safety", "--spacing", "--max-edge", "--max-agl"};
-  for (int k = 0; k < 4; ++k)
-    if (built[k] != asked[k]) throw InputError(path, "", "the roadmap " + mismatch(names[k], built[k], asked[k]));
+  RoadmapHeader stored;
+  stored.mesh_fingerprint = r.get<uint64_t>("the mesh fingerprint");
+  for (double* v : {&stored.safety, &stored.spacing, &stored.max_edge, &stored.max_agl}) *v = r.get<double>("the options");
+  if (header) *header = stored;
 
   const uint64_t nodes = r.get<uint64_t>("the node count"), listings = r.get<uint64_t>("the edge count");
   const uint64_t payload = bytes.size() - 8 - r.at;

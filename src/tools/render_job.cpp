@@ -6,6 +6,7 @@
 #include <limits>
 
 #include "dsmplan/export.hpp"
+#include "dsmplan/plan.hpp"
 #include "dsmplan/tools.hpp"
 
 namespace dsmplan {
@@ -62,10 +63,32 @@ RenderReport render_job(const RenderJobOptions& options, const Progress& progres
     dsm = resample(dsm, *options.resolution, Resampling::Median, sub_progress(progress, 0.25, 0.3));
   }
 
+  // Layers, read before any drawing so a bad file costs nothing: roadmap under paths under waypoints.
+  RenderOptions layered = options.render;
+  if (!options.roadmap.empty()) {
+    const Roadmap map = read_roadmap(options.roadmap, nullptr);
+    LineLayer edges;
+    edges.colour = {40, 90, 200};
+    edges.width = 1;
+    edges.alpha = 0.25f;
+    edges.halo = false;
+    for (uint32_t i = 0; i < map.nodes.size(); ++i)
+      for (uint32_t k = map.start[i]; k < map.start[i + 1]; ++k)
+        if (map.neighbour[k] > i) edges.polylines.push_back({map.nodes[i], map.nodes[map.neighbour[k]]});
+    layered.lines.push_back(std::move(edges));
+  }
+  for (const std::string& path : options.paths) {
+    LineLayer line;
+    line.polylines.push_back(read_waypoints_csv(path));
+    if (line.polylines.back().size() < 2) throw InputError(path, "", "a path needs at least two points");
+    layered.lines.push_back(std::move(line));
+  }
+  if (!options.waypoints.empty()) layered.markers.push_back(MarkerLayer{read_waypoints_csv(options.waypoints)});
+
   std::vector<Image> images;
   for (size_t i = 0; i < panels; ++i) {
     const double begin = 0.3 + 0.6 * i / panels, end = 0.3 + 0.6 * (i + 1) / panels;
-    RenderOptions render = options.render;
+    RenderOptions render = layered;
     if (options.meshes.empty()) {
       render.title = i < options.titles.size() ? options.titles[i] : file_name(options.dsm);
       images.push_back(render_view(dsm, nullptr, render));
