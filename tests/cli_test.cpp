@@ -25,6 +25,7 @@
 #include <string>
 #include <vector>
 
+#include "dsmplan/raster.hpp"
 #include "testkit.hpp"
 
 using nlohmann::json;
@@ -1095,6 +1096,38 @@ TEST(CliPlan, DsmClearanceIsReportedWithTheDsm) {
   // Columns reach half a cell (1 m at 2 m cells... here the DSM's own 1 m) past the mesh's vertices.
   EXPECT_GT(s["min_clearance_dsm_m"].get<double>(), 0);
   EXPECT_LE(s["min_clearance_dsm_m"].get<double>(), s["min_clearance_m"].get<double>() + 1.5);
+}
+
+TEST(CliBadInput, PlanPathThroughATowerOfTheDsmIsNeverWritten) {
+  PlanFixture f;
+  f.write_waypoints(f.corners());
+  TempDir out;
+  const std::string path = out.path("p.csv");
+  const auto planned = run_cli({"plan", f.mesh, "--waypoints", f.waypoints, "-o", path, "--dsm",
+                                testkit::data_path(kSample), "--stats", out.path("s.json"), "-q"});
+  ASSERT_EQ(planned.exit_code, 0) << planned.err;
+  const json s = json::parse(testkit::read_file(out.path("s.json")));
+  // The 2 m mesh is the median of 2 x 2 cells: below the 1 m DSM in places, so the tolerance
+  // is more than half a cell diagonal of the DSM.
+  EXPECT_GT(s["mesh_max_below_dsm_m"].get<double>(), 0);
+  EXPECT_NEAR(s["dsm_tolerance_m"].get<double>(), std::hypot(std::sqrt(0.5), s["mesh_max_below_dsm_m"].get<double>()), 1e-9);
+  EXPECT_GE(s["min_clearance_dsm_m"].get<double>(), 2 - s["dsm_tolerance_m"].get<double>());
+
+  // A 3 x 3 m tower in the DSM (not in the mesh) where the path's middle segment passes.
+  const auto points = read_path_csv(path);
+  const auto& a = points[points.size() / 2 - 1];
+  const auto& b = points[points.size() / 2];
+  dsmplan::Grid dsm = dsmplan::read_raster(testkit::data_path(kSample));
+  const double mx = 0.5 * (a[0] + b[0]), my = 0.5 * (a[1] + b[1]), top = std::max(a[2], b[2]) + 20;
+  const int col = static_cast<int>((mx - dsm.x0) / dsm.cell_x), row = static_cast<int>((dsm.y0 - my) / dsm.cell_y);
+  for (int r = row - 1; r <= row + 1; ++r)
+    for (int c = col - 1; c <= col + 1; ++c) dsm.z[dsm.index(c, r)] = static_cast<float>(top);
+  const std::string towered = f.in.path("tower.tif");
+  dsmplan::write_geotiff(dsm, towered);
+  TempDir none;
+  expect_clean_failure(run_cli({"plan", f.mesh, "--waypoints", f.waypoints, "-o", none.path("p.csv"), "--dsm",
+                                towered, "-q"}),
+                       none, towered, {"do not match"});
 }
 
 TEST(CliBadInput, PlanMalformedGeoJsonWaypointsNameThePlace) {

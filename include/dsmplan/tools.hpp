@@ -210,6 +210,10 @@ struct PlanReport {
   double min_clearance_m = 0;
   /// With a DSM: least distance of the path to the DSM's columns (column_clearance(), same cap); NaN without.
   double min_clearance_dsm_m = NAN;
+  /// With a DSM: the mesh's certified depth below it (certify().max_below) and the tolerance
+  /// the path is held to, sqrt((cell diagonal / 2)^2 + max_below^2): the path is written only
+  /// when min_clearance_dsm_m >= safety - tolerance and > 0.
+  double mesh_max_below_dsm_m = NAN, dsm_tolerance_m = NAN;
   size_t roadmap_nodes = 0, roadmap_edges = 0;
   bool roadmap_reused = false;  ///< the roadmap came from the --roadmap file
   std::string planner = "prm";
@@ -222,11 +226,13 @@ struct PlanReport {
 /// A bad waypoint is an InputError(waypoints file, "waypoint N", why: outside the extent, under
 /// the surface, closer than the safety distance); a leg without a path InputError(waypoints
 /// file, "waypoints N to M", why); fewer than two waypoints InputError(waypoints file); a
-/// roadmap file of another mesh or other options InputError(roadmap file). Nothing is written
-/// then. seconds_load includes reading a reused roadmap.
+/// roadmap file of another mesh or other options InputError(roadmap file); with a DSM, a path
+/// closer to its columns than safety - dsm_tolerance_m InputError(DSM file). Nothing is
+/// written then. seconds_load includes reading a reused roadmap.
 PlanReport plan_job(const PlanJobOptions& options, const Progress& progress = {});
 /// Keys: path_length_m, min_clearance_m, roadmap_nodes, roadmap_edges, seconds_load,
-/// seconds_roadmap, seconds_query, seconds_smooth; min_clearance_dsm_m with a DSM;
+/// seconds_roadmap, seconds_query, seconds_smooth; min_clearance_dsm_m, dsm_tolerance_m,
+/// mesh_max_below_dsm_m with a DSM;
 /// roadmap_reused, planner; transformation when GeoJSON was involved.
 Json to_json(const PlanReport& report);
 /// One summary line for people.

@@ -12,6 +12,7 @@
 
 #include "dsmplan/export.hpp"
 #include "dsmplan/plan.hpp"
+#include "dsmplan/simplify.hpp"
 #include "dsmplan/tools.hpp"
 #include "tools/report_json.hpp"
 #include "tools/job_parts.hpp"
@@ -146,6 +147,39 @@ std::vector<Point3> read_waypoints_geojson(const std::string& path) {
   return points;
 }
 
+namespace {
+
+// The path against the raw DSM taken as solid columns, before anything is written. On a mesh
+// with 0 <= dsm - mesh <= E_below at every DSM cell centre (certify()), a column's point above
+// the mesh lies within sqrt((cell diagonal / 2)^2 + E_below^2) of a point under the mesh (the
+// cell centre's vertical, E_below lower), so the straight line from it to the path crosses the
+// mesh within that distance: clearance to the columns >= clearance to the mesh - tolerance.
+// A path closer than safety - tolerance (or touching a column at all) means mesh and DSM do not
+// belong together, or a bug: it is refused.
+void verify_against_dsm(const std::vector<Point3>& path, const Mesh& mesh, const Grid& dsm,
+                        const PlanJobOptions& options, double cap, PlanReport& report) {
+  const VerticalError error = certify(mesh, dsm);
+  report.mesh_max_below_dsm_m = error.max_below;
+  report.dsm_tolerance_m = std::hypot(0.5 * std::hypot(dsm.cell_x, dsm.cell_y), error.max_below);
+  report.min_clearance_dsm_m = cap;
+  size_t worst = 0;
+  for (size_t k = 1; k < path.size(); ++k) {
+    const double d = column_clearance(dsm, path[k - 1], path[k], cap);
+    if (d < report.min_clearance_dsm_m) report.min_clearance_dsm_m = d, worst = k;
+  }
+  const double required = options.plan.safety - report.dsm_tolerance_m;
+  if (report.min_clearance_dsm_m > 0 && report.min_clearance_dsm_m >= required) return;
+  char why[320];
+  std::snprintf(why, sizeof why,
+                "the path passes %.2f m from the DSM's columns (segment %zu), closer than the safety distance "
+                "%.2f m less the tolerance %.2f m (half a cell diagonal and the mesh's %.2f m below the DSM): "
+                "mesh and DSM do not match; nothing written",
+                report.min_clearance_dsm_m, worst, options.plan.safety, report.dsm_tolerance_m, error.max_below);
+  throw InputError(options.dsm, "", why);
+}
+
+}  // namespace
+
 PlanReport plan_job(const PlanJobOptions& options, const Progress& progress) {
   const std::string out_ext = lower_extension(options.output);
   if (out_ext != "csv" && !is_geojson(options.output))
@@ -223,12 +257,7 @@ PlanReport plan_job(const PlanJobOptions& options, const Progress& progress) {
   report.min_clearance_m = cap;
   for (size_t k = 1; k < result.path.size(); ++k)
     report.min_clearance_m = std::min(report.min_clearance_m, index.clearance(result.path[k - 1], result.path[k], cap));
-  if (!options.dsm.empty()) {
-    report.min_clearance_dsm_m = cap;
-    for (size_t k = 1; k < result.path.size(); ++k)
-      report.min_clearance_dsm_m =
-          std::min(report.min_clearance_dsm_m, column_clearance(dsm, result.path[k - 1], result.path[k], cap));
-  }
+  if (!options.dsm.empty()) verify_against_dsm(result.path, mesh, dsm, options, cap, report);
   dsmplan::report(progress, 0.95);
 
   if (out_ext == "csv") {
@@ -256,7 +285,11 @@ Json to_json(const PlanReport& r) {
   j["seconds_roadmap"] = r.seconds_roadmap;
   j["seconds_query"] = r.seconds_query;
   j["seconds_smooth"] = r.seconds_smooth;
-  if (!std::isnan(r.min_clearance_dsm_m)) j["min_clearance_dsm_m"] = r.min_clearance_dsm_m;
+  if (!std::isnan(r.min_clearance_dsm_m)) {
+    j["min_clearance_dsm_m"] = r.min_clearance_dsm_m;
+    j["dsm_tolerance_m"] = r.dsm_tolerance_m;
+    j["mesh_max_below_dsm_m"] = r.mesh_max_below_dsm_m;
+  }
   j["roadmap_reused"] = r.roadmap_reused;
   j["planner"] = r.planner;
   if (!r.transformation.empty()) j["transformation"] = r.transformation;
