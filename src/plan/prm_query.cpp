@@ -135,7 +135,7 @@ public:
       ++rounds_;
       const int level = std::min(round, levels_);
       const size_t before = nodes_.size();
-      add_samples(level, seeds);
+      add_samples(level, std::max(0, round - levels_), seeds);
       if (nodes_.size() == before && level == levels_) break;  // nothing more to add there
       s = search(a, ia, &b, ib, SIZE_MAX);
     }
@@ -293,24 +293,56 @@ private:
     return result;
   }
 
-  // Adds the level's samples whose x,y lie within max_edge of a seed (not added before).
-  void add_samples(int level, const std::vector<Point3>& seeds) {
+  // Adds the level's samples whose x,y lie within max_edge * 2^widen of a seed (not added
+  // before).
+  void add_samples(int level, int widen, const std::vector<Point3>& seeds) {
     finest_ = std::max(finest_, level);
     const ClearanceIndex::Footprint& e = index_.footprint();
-    // The region as a bitmap of square cells of a quarter max_edge: a cell is in when its
-    // centre is within max_edge plus half its diagonal of a seed.
+    // The region as a bitmap of square cells of a quarter max_edge.
     const double c = o_.max_edge / 4;
     const int cols = static_cast<int>(wx_ / c) + 1, rows = static_cast<int>(wy_ / c) + 1;
     std::vector<char> region(static_cast<size_t>(cols) * rows, 0);
-    const double reach = o_.max_edge + c * 0.7072;
-    const int span = static_cast<int>(std::ceil(reach / c)) + 1;
-    for (const Point3& p : seeds) {
-      const int ci = static_cast<int>((p[0] - e.xmin) / c), cj = static_cast<int>((p[1] - e.ymin) / c);
-      for (int j = std::max(0, cj - span); j <= std::min(rows - 1, cj + span); ++j)
-        for (int i = std::max(0, ci - span); i <= std::min(cols - 1, ci + span); ++i) {
-          const double x = e.xmin + (i + 0.5) * c, y = e.ymin + (j + 0.5) * c;
-          if (std::hypot(x - p[0], y - p[1]) <= reach) region[static_cast<size_t>(j) * cols + i] = 1;
-        }
+    auto cell_of = [&](const Point3& p) {
+      const int ci = std::clamp(static_cast<int>((p[0] - e.xmin) / c), 0, cols - 1);
+      const int cj = std::clamp(static_cast<int>((p[1] - e.ymin) / c), 0, rows - 1);
+      return std::make_pair(ci, cj);
+    };
+    if (widen == 0) {
+      // A cell is in when its centre is within max_edge plus half its diagonal of a seed.
+      const double reach = o_.max_edge + c * 0.7072;
+      const int span = static_cast<int>(std::ceil(reach / c)) + 1;
+      for (const Point3& p : seeds) {
+        const auto [ci, cj] = cell_of(p);
+        for (int j = std::max(0, cj - span); j <= std::min(rows - 1, cj + span); ++j)
+          for (int i = std::max(0, ci - span); i <= std::min(cols - 1, ci + span); ++i) {
+            const double x = e.xmin + (i + 0.5) * c, y = e.ymin + (j + 0.5) * c;
+            if (std::hypot(x - p[0], y - p[1]) <= reach) region[static_cast<size_t>(j) * cols + i] = 1;
+          }
+      }
+    } else {
+      // Wide: the cells within as many steps (8-neighbours, so a square, a little more than
+      // the disc) of a seed's cell, by a breadth-first search from all seeds: O(cells).
+      const int steps = static_cast<int>(std::ceil(o_.max_edge * (1 << std::min(widen, 5)) / c)) + 1;
+      std::vector<int> depth(region.size(), -1);
+      std::vector<size_t> queue;
+      for (const Point3& p : seeds) {
+        const auto [ci, cj] = cell_of(p);
+        const size_t k = static_cast<size_t>(cj) * cols + ci;
+        if (depth[k] < 0) depth[k] = 0, queue.push_back(k);
+      }
+      for (size_t head = 0; head < queue.size(); ++head) {
+        const size_t k = queue[head];
+        region[k] = 1;
+        if (depth[k] == steps) continue;
+        const int i = static_cast<int>(k % cols), j = static_cast<int>(k / cols);
+        for (int dj = -1; dj <= 1; ++dj)
+          for (int di = -1; di <= 1; ++di) {
+            const int x = i + di, y = j + dj;
+            if (x < 0 || y < 0 || x >= cols || y >= rows) continue;
+            const size_t n = static_cast<size_t>(y) * cols + x;
+            if (depth[n] < 0) depth[n] = depth[k] + 1, queue.push_back(n);
+          }
+      }
     }
     const uint64_t first = static_cast<uint64_t>(count_[level - 1]) + 1;
     const uint64_t last = static_cast<uint64_t>(count_[level]);
