@@ -190,7 +190,7 @@ private:
 //     result stays a function of mesh and options; later legs of the query reuse the extension).
 //     It follows the expansion step of Kavraki et al. 1996 (more samples where the roadmap is
 //     poorly connected) with Lazy PRM's edge checks (Bohlin & Kavraki, "Path Planning Using
-//     Lazy PRM", ICRA 2000):
+//     Lazy PRM", ICRA 2000). First the query as above (the paper's planner, unchanged); then
 //       0. A lazy A* over the roadmap with each waypoint joined to every sample within max_edge
 //          (not only the first `connections`). A queue entry is a node with the edge it would
 //          be reached by; that edge is measured (segment_clear, exact, cached) only when the
@@ -210,12 +210,13 @@ private:
 //          widen the region to 2, 4, ... 32 times max_edge around the frontier (a street
 //          network at 10 m above ground is crossed that way). Bounds: refine_rounds rounds a
 //          leg, a level needing more than 4 million Halton indices is not used, at most 1
-//          million added samples a query, a round at the finest level that adds nothing stops.
+//          million added samples a query; a round at the finest level over the widest region
+//          that adds nothing stops.
 //          Then NoPath, the reason naming the rounds, the samples added and the finest spacing.
 //     Deterministic: samples are tested in parallel and kept in index order, the searches are
 //     sequential with ties broken by node number. Measured on the NRW 1 m tile, 25 street
 //     waypoints 5 m above ground spread over the tile, 108 legs of 0.2-1.3 km: at max_agl 30 and
-//     20 every leg is solved by step 0 (the roadmap: 3,296 and 2,042 samples; 0.4 ms a leg);
+//     20 the roadmap solves every leg (3,296 and 2,042 samples; 0.4 ms a leg);
 //     at 15 all 108 (the roadmap alone: none of bench_table3's 3 legs), 21 ms a leg on average,
 //     1.5 s the worst; at 10 all 108, 1.7 s a leg on average, 5 s the worst (2 cores, busy).
 // Every segment of a returned path satisfies segment_clear(p, q, safety) (checked once more

@@ -94,6 +94,7 @@ std::vector<Point3> astar(const Roadmap& map, const Point3& a, const Point3& b,
 constexpr int kMaxLevel = 3;                   // finest spacing: spacing / 2^3
 constexpr double kMaxHaltonIndex = 4.0e6;      // a level needs at most this many Halton indices
 constexpr size_t kMaxRefinedSamples = 1000000;  // added samples a query, at most
+constexpr int kMaxWiden = 5;                    // the region: at most 2^5 max_edge around the frontier
 
 // The roadmap with the samples a query adds to it, connected lazily. Level l (1..kMaxLevel)
 // continues the roadmap's Halton sequence from where build_roadmap() stopped to the count of
@@ -133,10 +134,11 @@ public:
       const bool from_b = t.closed.size() <= s.closed.size();
       const std::vector<Point3> seeds = frontier(from_b ? b : a, from_b ? t.closed : s.closed);
       ++rounds_;
-      const int level = std::min(round, levels_);
+      const int level = std::min(round, levels_), widen = std::max(0, round - levels_);
       const size_t before = nodes_.size();
-      add_samples(level, std::max(0, round - levels_), seeds);
-      if (nodes_.size() == before && level == levels_) break;  // nothing more to add there
+      add_samples(level, widen, seeds);
+      // Nothing added at the finest level over the widest region: no later round would add any.
+      if (nodes_.size() == before && level == levels_ && widen >= kMaxWiden) break;
       s = search(a, ia, &b, ib, SIZE_MAX);
     }
     return s.path;
@@ -322,7 +324,7 @@ private:
     } else {
       // Wide: the cells within as many steps (8-neighbours, so a square, a little more than
       // the disc) of a seed's cell, by a breadth-first search from all seeds: O(cells).
-      const int steps = static_cast<int>(std::ceil(o_.max_edge * (1 << std::min(widen, 5)) / c)) + 1;
+      const int steps = static_cast<int>(std::ceil(o_.max_edge * (1 << std::min(widen, kMaxWiden)) / c)) + 1;
       std::vector<int> depth(region.size(), -1);
       std::vector<size_t> queue;
       for (const Point3& p : seeds) {
