@@ -920,7 +920,7 @@ TEST(CliPlan, ThreeWaypointsGiveAPathCsvAndStats) {
   std::sort(keys.begin(), keys.end());
   std::vector<std::string> expected{"path_length_m", "min_clearance_m", "roadmap_nodes",  "roadmap_edges",
                                     "seconds_load",  "seconds_roadmap", "seconds_query",  "seconds_smooth",
-                                    "planner",       "roadmap_reused"};
+                                    "planner",       "roadmap_reused", "refined_samples"};
   std::sort(expected.begin(), expected.end());
   EXPECT_EQ(keys, expected);
   EXPECT_NEAR(s["path_length_m"].get<double>(), length, 1e-6);

@@ -1130,3 +1130,184 @@ TEST(RrtConnect, OneSampleGrowsOneExtendAndOneConnectAtMost) {
 }
 
 }  // namespace
+
+// ---- very low altitude: query-time refinement (prm_query.cpp) --------------------------
+// Street-level waypoints (5 m above the ground of a street or square) with a flight volume
+// only 30 m (and less) deep; the refinement's paths verified by brute force, its determinism,
+// and the grid lookup that joins waypoints to the roadmap against a scan over every node.
+
+#include "../src/plan/prm_parts.hpp"
+
+namespace {
+
+// A point `agl` above street level near (x, y): the point of a 2 m lattice (within 100 m)
+// nearest (x, y) whose ground is within 1 m of the lowest within 30 m (a street, not a roof)
+// and with nothing more than 1 m above it within 4 m (no wall or tree beside it); then it must
+// be `safety` clear by brute force. Deterministic: the same mesh gives the same point.
+Point3 street_waypoint(const Mesh& mesh, const ClearanceIndex& index, double x, double y, double agl, double safety) {
+  constexpr double step = 2;
+  constexpr int search = 50, low = 15, open = 2;  // in lattice steps
+  const int n = search + low, side = 2 * n + 1;
+  std::vector<double> g(static_cast<size_t>(side) * side);
+  for (int j = 0; j < side; ++j)
+    for (int i = 0; i < side; ++i) g[static_cast<size_t>(j) * side + i] = index.ground(x + (i - n) * step, y + (j - n) * step);
+  auto at = [&](int i, int j) { return g[static_cast<size_t>(j) * side + i]; };
+  std::vector<std::pair<int, std::pair<int, int>>> order;
+  for (int j = -search; j <= search; ++j)
+    for (int i = -search; i <= search; ++i)
+      if (i * i + j * j <= search * search) order.push_back({i * i + j * j, {i, j}});
+  std::stable_sort(order.begin(), order.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+  for (const auto& [r2, ij] : order) {
+    const int ci = ij.first + n, cj = ij.second + n;
+    const double z = at(ci, cj);
+    if (std::isnan(z)) continue;
+    bool ok = true;
+    for (int dj = -low; dj <= low && ok; ++dj)
+      for (int di = -low; di <= low && ok; ++di) {
+        const int d2 = di * di + dj * dj;
+        if (d2 > low * low) continue;
+        const double h = at(ci + di, cj + dj);
+        ok = !std::isnan(h) && h >= z - 1 && (d2 > open * open || h <= z + 1);
+      }
+    if (!ok) continue;
+    const Point3 p{x + ij.first * step, y + ij.second * step, z + agl};
+    if (brute_clearance(mesh, index.origin(), p, p, safety + 1) >= safety + 0.5) return p;
+  }
+  ADD_FAILURE() << "no street near " << x << ", " << y;
+  return {x, y, 1e4};
+}
+
+// Corners of the crop, 40 m in: south-west, north-east, north-west, south-east (three legs,
+// two of them across the whole crop).
+std::vector<Point3> street_corners(const Mesh& mesh, const ClearanceIndex& index) {
+  const MeshBox b(mesh);
+  const double in = 40;
+  return {street_waypoint(mesh, index, b.x0 + in, b.y0 + in, 5, 2),
+          street_waypoint(mesh, index, b.x1 - in, b.y1 - in, 5, 2),
+          street_waypoint(mesh, index, b.x0 + in, b.y1 - in, 5, 2),
+          street_waypoint(mesh, index, b.x1 - in, b.y0 + in, 5, 2)};
+}
+
+TEST(LowAltitude, StreetWaypointsThirtyMetresDeepAreVerifiedByBruteForce) {
+  const Mesh& mesh = mesh_2m();
+  const ClearanceIndex index(mesh);
+  const auto waypoints = street_corners(mesh, index);
+  PlanOptions options;
+  options.max_agl = 30;
+  const PlanResult result = plan_path(index, waypoints, options);
+  expect_path_verified(mesh, index, waypoints, result, options.safety);
+  RecordProperty("refined_samples", std::to_string(result.refined_samples));
+  RecordProperty("path_length_m", std::to_string(path_length(result.path)));
+}
+
+TEST(LowAltitude, RefinementSolvesWhatTheRoadmapAloneCannot) {
+  const Mesh& mesh = mesh_2m();
+  const ClearanceIndex index(mesh);
+  const auto waypoints = street_corners(mesh, index);
+  for (double agl : {20.0, 15.0, 10.0}) {
+    PlanOptions options;
+    options.max_agl = agl;
+    options.refine_rounds = 0;
+    const PlanResult alone = plan_path(index, waypoints, options);
+    options.refine_rounds = PlanOptions{}.refine_rounds;
+    const PlanResult refined = plan_path(index, waypoints, options);
+    expect_path_verified(mesh, index, waypoints, refined, options.safety);
+    RecordProperty("alone_" + std::to_string(int(agl)), alone.status == PlanStatus::Solved ? "solved" : alone.place());
+    RecordProperty("refined_samples_" + std::to_string(int(agl)), std::to_string(refined.refined_samples));
+    if (agl <= 15) {
+      // The roadmap alone fails here: refinement did the work (at 10 m through its widened
+      // rounds, along the streets).
+      EXPECT_EQ(alone.status, PlanStatus::NoPath);
+      EXPECT_EQ(alone.refined_samples, 0u);
+      EXPECT_GT(refined.refined_samples, 0u);
+      EXPECT_GT(refined.refine_rounds, 0);
+    }
+    // The roadmap itself is untouched by queries (multi-query): the same for both.
+    EXPECT_EQ(alone.roadmap_nodes, refined.roadmap_nodes);
+    EXPECT_EQ(alone.roadmap_edges, refined.roadmap_edges);
+  }
+}
+
+TEST(LowAltitude, RefinementIsTheSameOnOneAndTwoThreads) {
+  const Mesh& mesh = mesh_2m();
+  const ClearanceIndex index(mesh);
+  const auto waypoints = street_corners(mesh, index);
+  PlanOptions options;
+  options.max_agl = 10;  // every refinement stage: finer levels, then widened rounds
+  options.threads = 1;
+  const PlanResult one = plan_path(index, waypoints, options);
+  options.threads = 2;
+  const PlanResult two = plan_path(index, waypoints, options);
+  const Roadmap map = build_roadmap(index, options);
+  const PlanResult reused = query_roadmap(map, index, waypoints, options);
+  ASSERT_EQ(one.status, PlanStatus::Solved) << one.reason;
+  EXPECT_GT(one.refined_samples, 0u);
+  EXPECT_EQ(one.refined_samples, two.refined_samples);
+  EXPECT_EQ(one.raw_path, two.raw_path);
+  EXPECT_EQ(one.path, two.path);
+  EXPECT_EQ(reused.path, two.path);
+}
+
+TEST(LowAltitude, RefinementIsBoundedAndSaysWhy) {
+  const Mesh& mesh = mesh_2m();
+  const ClearanceIndex index(mesh);
+  const auto waypoints = street_corners(mesh, index);
+  PlanOptions options;
+  options.max_agl = 6;  // a 6 m layer: no way over any building
+  options.refine_rounds = 2;
+  const PlanResult r = plan_path(index, waypoints, options);
+  ASSERT_EQ(r.status, PlanStatus::NoPath);
+  EXPECT_LE(r.refine_rounds, 2 * 3);  // at most refine_rounds a leg, one failing leg stops the query
+  EXPECT_NE(r.reason.find("refinement rounds"), std::string::npos) << r.reason;
+  EXPECT_EQ(r.reason.find('\n'), std::string::npos);
+  options.refine_rounds = -1;
+  EXPECT_THROW(plan_path(index, waypoints, options), ArgumentError);
+}
+
+TEST(LowAltitude, GridLookupJoinsTheSameNodesAsAScanOverAll) {
+  const Mesh& mesh = mesh_2m();
+  const ClearanceIndex index(mesh);
+  PlanOptions options;
+  options.max_agl = 30;
+  const Roadmap map = build_roadmap(index, options);
+  ASSERT_GT(map.nodes.size(), 500u);
+  std::vector<uint32_t> ids(map.nodes.size());
+  for (size_t i = 0; i < ids.size(); ++i) ids[i] = static_cast<uint32_t>(i);
+  const detail::PointGrid grid(map.nodes, ids, options.max_edge);
+  const MeshBox b(mesh);
+  std::mt19937_64 rng(7);
+  std::uniform_real_distribution<double> ux(b.x0, b.x1), uy(b.y0, b.y1), up(2, 40), jitter(-3, 3);
+  int compared = 0, with_links = 0;
+  for (int k = 0; k < 400; ++k) {
+    // Half anywhere, half right beside a node (equal distances and cube borders included).
+    Point3 w;
+    if (k % 2) {
+      const double x = ux(rng), y = uy(rng), g = index.ground(x, y);
+      if (std::isnan(g)) continue;
+      w = {x, y, g + up(rng)};
+    } else {
+      const Point3& p = map.nodes[rng() % map.nodes.size()];
+      w = {p[0] + jitter(rng), p[1] + jitter(rng), p[2] + jitter(rng)};
+    }
+    for (int connections : {1, 10, 1000}) {
+      options.connections = connections;
+      // The scan over every node: what the query did before the grid.
+      std::vector<std::pair<double, uint32_t>> near, links;
+      for (size_t i = 0; i < map.nodes.size(); ++i) {
+        const double d = dist(w, map.nodes[i]);
+        if (d < options.max_edge) near.emplace_back(d, static_cast<uint32_t>(i));
+      }
+      std::sort(near.begin(), near.end());
+      for (const auto& c : near)
+        if (links.size() < static_cast<size_t>(connections) && index.segment_clear(w, map.nodes[c.second], 2))
+          links.push_back(c);
+      EXPECT_EQ(detail::roadmap_links(w, map, grid, index, options), links) << k;
+      ++compared;
+      with_links += !links.empty();
+    }
+  }
+  EXPECT_GT(compared, 900);
+  EXPECT_GT(with_links, 300);
+}
+
+}  // namespace

@@ -216,6 +216,7 @@ struct PlanReport {
   double mesh_max_below_dsm_m = NAN, dsm_tolerance_m = NAN;
   size_t roadmap_nodes = 0, roadmap_edges = 0;
   bool roadmap_reused = false;  ///< the roadmap came from the --roadmap file
+  size_t refined_samples = 0;   ///< samples the query added where the roadmap failed a leg (plan.hpp, "Refinement")
   std::string planner = "prm";
   std::string transformation;  ///< the PROJ operation used for GeoJSON, empty when none
   double seconds_load = 0, seconds_roadmap = 0, seconds_query = 0, seconds_smooth = 0;
@@ -233,7 +234,7 @@ PlanReport plan_job(const PlanJobOptions& options, const Progress& progress = {}
 /// Keys: path_length_m, min_clearance_m, roadmap_nodes, roadmap_edges, seconds_load,
 /// seconds_roadmap, seconds_query, seconds_smooth; min_clearance_dsm_m, dsm_tolerance_m,
 /// mesh_max_below_dsm_m with a DSM;
-/// roadmap_reused, planner; transformation when GeoJSON was involved.
+/// roadmap_reused, refined_samples, planner; transformation when GeoJSON was involved.
 Json to_json(const PlanReport& report);
 /// One summary line for people.
 std::string to_text(const PlanReport& report);

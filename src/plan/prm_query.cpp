@@ -4,16 +4,29 @@
 // PathSimplifier::shortcutPath does it deterministically (Geraerts & Overmars, "Creating
 // High-quality Paths for Motion Planning", IJRR 26(8), 2007). The multi-query structure is
 // Kavraki et al. 1996's: the roadmap is built once, each query only adds its waypoints.
+//
+// Where the roadmap fails a leg, the query refines it (see "Refinement" in plan.hpp): the
+// expansion step of Kavraki, Svestka, Latombe & Overmars 1996 (more samples where the roadmap
+// is poorly connected), here around the smaller of the two components the leg's waypoints lie
+// in, with samples from the same Halton sequence continued at a finer spacing, and edges
+// checked lazily (Bohlin & Kavraki, "Path Planning Using Lazy PRM", ICRA 2000): a candidate
+// edge is measured only when the search would settle a node through it.
+#include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
+
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <functional>
+#include <memory>
 #include <queue>
 #include <string>
+#include <unordered_map>
 
 #include "core/stopwatch.hpp"
 #include "dsmplan/plan.hpp"
 #include "plan/path_parts.hpp"
+#include "plan/prm_parts.hpp"
 
 namespace dsmplan {
 
@@ -21,23 +34,12 @@ namespace {
 
 using detail::distance;
 using detail::format_number;
+using detail::PointGrid;
 
-// Roadmap nodes within max_edge of `w`, nearest first, that a clear straight segment joins to
-// it; at most `limit`. Ties in distance break by node number.
-std::vector<std::pair<double, uint32_t>> connect(const Point3& w, const Roadmap& map, const ClearanceIndex& index,
-                                                 const PlanOptions& options) {
-  std::vector<std::pair<double, uint32_t>> near;
-  for (size_t i = 0; i < map.nodes.size(); ++i) {
-    const double d = distance(w, map.nodes[i]);
-    if (d < options.max_edge) near.emplace_back(d, static_cast<uint32_t>(i));
-  }
-  std::sort(near.begin(), near.end());
-  std::vector<std::pair<double, uint32_t>> links;
-  for (const auto& candidate : near) {
-    if (links.size() >= static_cast<size_t>(options.connections)) break;
-    if (index.segment_clear(w, map.nodes[candidate.second], options.safety)) links.push_back(candidate);
-  }
-  return links;
+std::vector<uint32_t> all_nodes(size_t n) {
+  std::vector<uint32_t> ids(n);
+  for (size_t i = 0; i < n; ++i) ids[i] = static_cast<uint32_t>(i);
+  return ids;
 }
 
 // A* from waypoint a to waypoint b through the roadmap; the points of the path (a and b
@@ -87,6 +89,318 @@ std::vector<Point3> astar(const Roadmap& map, const Point3& a, const Point3& b,
   return path;
 }
 
+// ---- refinement ---------------------------------------------------------------------------
+
+constexpr int kMaxLevel = 3;                   // finest spacing: spacing / 2^3
+constexpr double kMaxHaltonIndex = 4.0e6;      // a level needs at most this many Halton indices
+constexpr size_t kMaxRefinedSamples = 1000000;  // added samples a query, at most
+constexpr int kMaxWiden = 5;                    // the region: at most 2^5 max_edge around the frontier
+
+// The roadmap with the samples a query adds to it, connected lazily. Level l (1..kMaxLevel)
+// continues the roadmap's Halton sequence from where build_roadmap() stopped to the count of
+// spacing / 2^l over the whole flight volume, keeping only the indices inside a refinement
+// region: the levels are nested, so a sample is the same point whichever round adds it. A
+// sample of level l is joined to the samples within max_edge / 2^l (both ends' radius: the
+// smaller), a roadmap node through its own edges, a waypoint to every sample within max_edge.
+// Node numbers: the roadmap's, then the added samples in the order they were added.
+class Refinement {
+public:
+  Refinement(const Roadmap& map, const PointGrid& base_grid, const ClearanceIndex& index, const PlanOptions& options)
+      : map_(map), base_grid_(base_grid), index_(index), o_(options), nb_(static_cast<uint32_t>(map.nodes.size())) {
+    const ClearanceIndex::Footprint& e = index.footprint();
+    wx_ = e.xmax - e.xmin, wy_ = e.ymax - e.ymin;
+    count_[0] = std::round(wx_ * wy_ * o_.max_agl / std::pow(o_.spacing, 3));
+    for (int l = 1; l <= kMaxLevel; ++l) {
+      count_[l] = std::round(wx_ * wy_ * o_.max_agl / std::pow(o_.spacing / (1 << l), 3));
+      if (count_[l] <= kMaxHaltonIndex) levels_ = l;
+    }
+    level_ids_.resize(kMaxLevel + 1);
+    level_grid_.resize(kMaxLevel + 1);
+    taken_.resize(kMaxLevel + 1);
+  }
+
+  size_t added() const { return nodes_.size(); }
+  int rounds() const { return rounds_; }
+  double finest_spacing() const { return o_.spacing / (1 << finest_); }
+
+  // The points of a path from waypoint a (number ia in the query) to b, or empty; every edge on
+  // it is clear (checked here or a roadmap edge).
+  std::vector<Point3> solve(const Point3& a, size_t ia, const Point3& b, size_t ib) {
+    Search s = search(a, ia, &b, ib, SIZE_MAX);
+    for (int round = 1; s.path.empty() && round <= o_.refine_rounds; ++round) {
+      if (levels_ == 0 || nodes_.size() >= kMaxRefinedSamples) break;
+      // The smaller component: s.closed is all of a's; b's is explored up to that size.
+      Search t = search(b, ib, nullptr, 0, s.closed.size() + 1);
+      const bool from_b = t.closed.size() <= s.closed.size();
+      const std::vector<Point3> seeds = frontier(from_b ? b : a, from_b ? t.closed : s.closed);
+      ++rounds_;
+      const int level = std::min(round, levels_), widen = std::max(0, round - levels_);
+      const size_t before = nodes_.size();
+      add_samples(level, widen, seeds);
+      // Nothing added at the finest level over the widest region: no later round would add any.
+      if (nodes_.size() == before && level == levels_ && widen >= kMaxWiden) break;
+      s = search(a, ia, &b, ib, SIZE_MAX);
+    }
+    return s.path;
+  }
+
+private:
+  struct Search {
+    std::vector<Point3> path;      // with a goal: the path found, else empty
+    std::vector<uint32_t> closed;  // the nodes settled (waypoints left out)
+  };
+
+  const Point3& point(uint32_t v) const { return v < nb_ ? map_.nodes[v] : nodes_[v - nb_]; }
+  int level_of(uint32_t v) const { return v < nb_ ? 0 : level_[v - nb_]; }
+  double radius(int level) const { return o_.max_edge / (1 << level); }
+
+  // Cached exact check of the edge u-v (node numbers; a waypoint is kWaypoint + its number).
+  static constexpr uint32_t kWaypoint = 0xF0000000u;
+  bool clear(uint32_t u, uint32_t v, const Point3& p, const Point3& q) {
+    const uint64_t key = u < v ? (uint64_t{u} << 32 | v) : (uint64_t{v} << 32 | u);
+    auto [it, fresh] = cache_.try_emplace(key, false);
+    if (fresh) it->second = u < v ? index_.segment_clear(p, q, o_.safety) : index_.segment_clear(q, p, o_.safety);
+    return it->second;
+  }
+  int cached(uint32_t u, uint32_t v) const {  // 1 clear, 0 blocked, -1 not measured yet
+    const uint64_t key = u < v ? (uint64_t{u} << 32 | v) : (uint64_t{v} << 32 | u);
+    auto it = cache_.find(key);
+    return it == cache_.end() ? -1 : it->second;
+  }
+
+  // fn(v) for every node that may be joined to the node u (not a waypoint) by a candidate edge,
+  // with `known` true for a roadmap edge.
+  template <class F>
+  void candidates(uint32_t u, F&& fn) const {
+    const Point3& p = point(u);
+    const int lu = level_of(u);
+    const double ru = radius(lu);
+    if (lu == 0)
+      for (uint32_t k = map_.start[u]; k < map_.start[u + 1]; ++k) fn(map_.neighbour[k], true);
+    else
+      base_grid_.around(p, [&](uint32_t v) {
+        if (detail::squared_distance(p, map_.nodes[v]) < ru * ru) fn(v, false);
+      });
+    for (int l = 1; l <= levels_; ++l) {
+      if (level_grid_[l].empty()) continue;
+      const double r = std::min(ru, radius(l));
+      level_grid_[l].around(p, [&](uint32_t k) {
+        const uint32_t v = nb_ + k;
+        if (v != u && detail::squared_distance(p, nodes_[k]) < r * r) fn(v, false);
+      });
+    }
+  }
+
+  // Where the component `part` (settled from waypoint w) may be joined to the rest: w and the
+  // nodes of `part` with a node outside it within their joining radius (a candidate edge
+  // measured blocked, or a roadmap pair never joined). Refinement samples around these.
+  std::vector<Point3> frontier(const Point3& w, const std::vector<uint32_t>& part) const {
+    std::vector<char> inside(nb_ + nodes_.size(), 0);
+    for (uint32_t v : part) inside[v] = 1;
+    std::vector<Point3> seeds{w};
+    for (uint32_t v : part) {
+      const Point3& p = point(v);
+      const double r = radius(level_of(v));
+      bool border = false;
+      base_grid_.around(p, [&](uint32_t x) {
+        if (!border && !inside[x] && detail::squared_distance(p, map_.nodes[x]) < r * r) border = true;
+      });
+      if (!border) candidates(v, [&](uint32_t x, bool) { border = border || !inside[x]; });
+      if (border) seeds.push_back(p);
+    }
+    return seeds;
+  }
+
+  // fn(v, d) for every node within max_edge of the waypoint w.
+  template <class F>
+  void near_waypoint(const Point3& w, F&& fn) const {
+    base_grid_.around(w, [&](uint32_t v) {
+      const double d = distance(w, map_.nodes[v]);
+      if (d < o_.max_edge) fn(v, d);
+    });
+    for (size_t k = 0; k < nodes_.size(); ++k) {
+      const double d = distance(w, nodes_[k]);
+      if (d < o_.max_edge) fn(nb_ + static_cast<uint32_t>(k), d);
+    }
+  }
+
+  // A* from waypoint a to waypoint b (Dijkstra's exploration of a's component, at most `limit`
+  // nodes, when b is null) over the roadmap and the added samples. An entry of the queue is a
+  // node with the edge it would be reached by; that edge is measured when the entry comes first
+  // (Lazy PRM), so a settled node's cost is its least over clear edges only and the path is the
+  // shortest in the graph of clear candidate edges. Ties break by node, then by predecessor.
+  Search search(const Point3& a, size_t ia, const Point3* b, size_t ib, size_t limit) {
+    const uint32_t total = nb_ + static_cast<uint32_t>(nodes_.size()), S = total, G = total + 1;
+    const uint32_t wa = kWaypoint + static_cast<uint32_t>(ia), wb = kWaypoint + static_cast<uint32_t>(ib);
+    auto pt = [&](uint32_t v) -> const Point3& { return v == S ? a : v == G ? *b : point(v); };
+    auto h = [&](uint32_t v) { return b ? distance(pt(v), *b) : 0.0; };
+    std::vector<double> goal_cost;
+    if (b) {
+      goal_cost.assign(total, -1);
+      near_waypoint(*b, [&](uint32_t v, double d) { goal_cost[v] = d; });
+    }
+    std::vector<double> best(total + 2, INFINITY);  // least cost over edges known to be clear
+    std::vector<uint32_t> parent(total + 2, UINT32_MAX);
+    std::vector<char> closed(total + 2, 0);
+    struct Entry {
+      double f, g;
+      uint32_t v, u;
+      bool operator>(const Entry& o) const {
+        return f != o.f ? f > o.f : v != o.v ? v > o.v : u > o.u;
+      }
+    };
+    std::priority_queue<Entry, std::vector<Entry>, std::greater<>> open;
+    auto push = [&](uint32_t u, double gu, uint32_t v, double w, int known) {
+      if (closed[v] || known == 0) return;
+      const double cost = gu + w;
+      if (!(cost < best[v])) return;
+      if (known == 1) best[v] = cost;
+      open.push({cost + h(v), cost, v, u});
+    };
+    Search result;
+    best[S] = 0;
+    open.push({h(S), 0, S, UINT32_MAX});
+    while (!open.empty()) {
+      const Entry e = open.top();
+      open.pop();
+      const uint32_t v = e.v, u = e.u;
+      if (closed[v]) continue;
+      if (u != UINT32_MAX && !(u < nb_ && v < nb_)) {
+        // Not a roadmap edge (those were measured when the roadmap was built): measure it now.
+        const bool ok = u == S   ? clear(wa, v, a, pt(v))
+                        : v == G ? clear(u, wb, pt(u), *b)
+                                 : clear(u, v, pt(u), pt(v));
+        if (!ok) continue;
+      }
+      closed[v] = 1;
+      parent[v] = u;
+      if (v == G) break;
+      if (v != S) {
+        result.closed.push_back(v);
+        if (result.closed.size() >= limit) break;
+      }
+      if (v == S) {
+        near_waypoint(a, [&](uint32_t x, double d) { push(S, e.g, x, d, cached(wa, x)); });
+        continue;
+      }
+      if (b && goal_cost[v] >= 0) push(v, e.g, G, goal_cost[v], cached(v, wb));
+      candidates(v, [&](uint32_t x, bool known) {
+        push(v, e.g, x, distance(point(v), point(x)), known ? 1 : cached(v, x));
+      });
+    }
+    if (b && closed[G]) {
+      for (uint32_t v = G; v != UINT32_MAX; v = parent[v]) result.path.push_back(pt(v));
+      std::reverse(result.path.begin(), result.path.end());
+    }
+    return result;
+  }
+
+  // Adds the level's samples whose x,y lie within max_edge * 2^widen of a seed (not added
+  // before).
+  void add_samples(int level, int widen, const std::vector<Point3>& seeds) {
+    finest_ = std::max(finest_, level);
+    const ClearanceIndex::Footprint& e = index_.footprint();
+    // The region as a bitmap of square cells of a quarter max_edge.
+    const double c = o_.max_edge / 4;
+    const int cols = static_cast<int>(wx_ / c) + 1, rows = static_cast<int>(wy_ / c) + 1;
+    std::vector<char> region(static_cast<size_t>(cols) * rows, 0);
+    auto cell_of = [&](const Point3& p) {
+      const int ci = std::clamp(static_cast<int>((p[0] - e.xmin) / c), 0, cols - 1);
+      const int cj = std::clamp(static_cast<int>((p[1] - e.ymin) / c), 0, rows - 1);
+      return std::make_pair(ci, cj);
+    };
+    if (widen == 0) {
+      // A cell is in when its centre is within max_edge plus half its diagonal of a seed.
+      const double reach = o_.max_edge + c * 0.7072;
+      const int span = static_cast<int>(std::ceil(reach / c)) + 1;
+      for (const Point3& p : seeds) {
+        const auto [ci, cj] = cell_of(p);
+        for (int j = std::max(0, cj - span); j <= std::min(rows - 1, cj + span); ++j)
+          for (int i = std::max(0, ci - span); i <= std::min(cols - 1, ci + span); ++i) {
+            const double x = e.xmin + (i + 0.5) * c, y = e.ymin + (j + 0.5) * c;
+            if (std::hypot(x - p[0], y - p[1]) <= reach) region[static_cast<size_t>(j) * cols + i] = 1;
+          }
+      }
+    } else {
+      // Wide: the cells within as many steps (8-neighbours, so a square, a little more than
+      // the disc) of a seed's cell, by a breadth-first search from all seeds: O(cells).
+      const int steps = static_cast<int>(std::ceil(o_.max_edge * (1 << std::min(widen, kMaxWiden)) / c)) + 1;
+      std::vector<int> depth(region.size(), -1);
+      std::vector<size_t> queue;
+      for (const Point3& p : seeds) {
+        const auto [ci, cj] = cell_of(p);
+        const size_t k = static_cast<size_t>(cj) * cols + ci;
+        if (depth[k] < 0) depth[k] = 0, queue.push_back(k);
+      }
+      for (size_t head = 0; head < queue.size(); ++head) {
+        const size_t k = queue[head];
+        region[k] = 1;
+        if (depth[k] == steps) continue;
+        const int i = static_cast<int>(k % cols), j = static_cast<int>(k / cols);
+        for (int dj = -1; dj <= 1; ++dj)
+          for (int di = -1; di <= 1; ++di) {
+            const int x = i + di, y = j + dj;
+            if (x < 0 || y < 0 || x >= cols || y >= rows) continue;
+            const size_t n = static_cast<size_t>(y) * cols + x;
+            if (depth[n] < 0) depth[n] = depth[k] + 1, queue.push_back(n);
+          }
+      }
+    }
+    const uint64_t first = static_cast<uint64_t>(count_[level - 1]) + 1;
+    const uint64_t last = static_cast<uint64_t>(count_[level]);
+    if (last < first) return;
+    const size_t n = static_cast<size_t>(last - first + 1);
+    std::vector<char>& taken = taken_[level];
+    if (taken.empty()) taken.assign(n, 0);
+    // Fixed chunks, each filling its own list, joined in order: the same samples on any
+    // number of threads.
+    constexpr size_t chunk = 1 << 15;
+    const size_t chunks = (n + chunk - 1) / chunk;
+    std::vector<std::vector<std::pair<uint64_t, Point3>>> found(chunks);
+    tbb::task_arena arena(o_.threads > 0 ? o_.threads : tbb::task_arena::automatic);
+    arena.execute([&] {
+      tbb::parallel_for(size_t(0), chunks, [&](size_t k) {
+        for (size_t off = k * chunk; off < std::min(n, (k + 1) * chunk); ++off) {
+          if (taken[off]) continue;
+          const uint64_t i = first + off;
+          const double x = e.xmin + detail::halton(i, 2) * wx_, y = e.ymin + detail::halton(i, 3) * wy_;
+          const int ci = std::min(cols - 1, static_cast<int>((x - e.xmin) / c));
+          const int cj = std::min(rows - 1, static_cast<int>((y - e.ymin) / c));
+          if (!region[static_cast<size_t>(cj) * cols + ci]) continue;
+          taken[off] = 1;  // decided once: a sample of this index is the same point every time
+          const double g = index_.ground(x, y);
+          if (std::isnan(g)) continue;
+          const Point3 p{x, y, g + detail::halton(i, 5) * o_.max_agl};
+          if (index_.point_clear(p, o_.safety)) found[k].emplace_back(i, p);
+        }
+      });
+    });
+    for (const auto& list : found)
+      for (const auto& [i, p] : list) {
+        if (nodes_.size() >= kMaxRefinedSamples) break;
+        level_ids_[level].push_back(static_cast<uint32_t>(nodes_.size()));
+        nodes_.push_back(p);
+        level_.push_back(static_cast<uint8_t>(level));
+      }
+    level_grid_[level] = PointGrid(nodes_, level_ids_[level], radius(level));
+  }
+
+  const Roadmap& map_;
+  const PointGrid& base_grid_;
+  const ClearanceIndex& index_;
+  const PlanOptions& o_;
+  const uint32_t nb_;
+  double wx_ = 0, wy_ = 0;
+  double count_[kMaxLevel + 1] = {};
+  int levels_ = 0, finest_ = 0, rounds_ = 0;
+  std::vector<Point3> nodes_;
+  std::vector<uint8_t> level_;
+  std::vector<std::vector<uint32_t>> level_ids_;
+  std::vector<PointGrid> level_grid_;
+  std::vector<std::vector<char>> taken_;
+  std::unordered_map<uint64_t, bool> cache_;
+};
+
 }  // namespace
 
 PlanResult query_roadmap(const Roadmap& map, const ClearanceIndex& index, const std::vector<Point3>& waypoints,
@@ -98,9 +412,11 @@ PlanResult query_roadmap(const Roadmap& map, const ClearanceIndex& index, const 
   result.roadmap_edges = map.edges();
   Stopwatch clock;
   if (detail::first_invalid_waypoint(waypoints, index, options.safety, result)) return result;
+  const PointGrid grid(map.nodes, all_nodes(map.nodes.size()), options.max_edge);
   std::vector<std::vector<std::pair<double, uint32_t>>> links(waypoints.size());
   std::vector<std::vector<Point3>> legs;
-  for (size_t i = 0; i < waypoints.size(); ++i) links[i] = connect(waypoints[i], map, index, options);
+  for (size_t i = 0; i < waypoints.size(); ++i) links[i] = detail::roadmap_links(waypoints[i], map, grid, index, options);
+  std::unique_ptr<Refinement> refinement;  // made when a leg first needs it
   for (size_t i = 0; i + 1 < waypoints.size(); ++i) {
     const Point3 &a = waypoints[i], &b = waypoints[i + 1];
     std::vector<Point3> leg;
@@ -109,15 +425,30 @@ PlanResult query_roadmap(const Roadmap& map, const ClearanceIndex& index, const 
     } else {
       leg = astar(map, a, b, links[i], links[i + 1]);
     }
+    if (leg.empty() && options.refine_rounds > 0) {
+      if (!refinement) refinement = std::make_unique<Refinement>(map, grid, index, options);
+      leg = refinement->solve(a, i, b, i + 1);
+    }
+    if (refinement) {
+      result.refined_samples = refinement->added();
+      result.refine_rounds = refinement->rounds();
+    }
     if (leg.empty()) {
       result.status = PlanStatus::NoPath;
       result.waypoint = i;
       const size_t lonely = links[i].empty() ? i : links[i + 1].empty() ? i + 1 : SIZE_MAX;
+      std::string refined;
+      if (refinement)
+        refined = " nor after " + std::to_string(refinement->rounds()) + " refinement rounds (" +
+                  std::to_string(refinement->added()) + " samples added, spacing down to " +
+                  format_number(refinement->finest_spacing()) + ")";
       result.reason = lonely != SIZE_MAX ? "no roadmap sample within --max-edge " + format_number(options.max_edge) +
                                                " has a clear straight segment to waypoint " +
-                                               std::to_string(lonely + 1) + "; a smaller --spacing may give one"
+                                               std::to_string(lonely + 1) + refined +
+                                               "; a smaller --spacing may give one"
                                          : "no path within the roadmap (" + std::to_string(map.nodes.size()) +
-                                               " samples); a smaller --spacing or a larger --max-edge may find one";
+                                               " samples)" + refined +
+                                               "; a smaller --spacing or a larger --max-edge may find one";
       result.seconds_query = clock.lap();
       return result;
     }

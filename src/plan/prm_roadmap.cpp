@@ -11,27 +11,12 @@
 #include <string>
 
 #include "dsmplan/plan.hpp"
+#include "plan/prm_parts.hpp"
 
 namespace dsmplan {
 
-namespace {
-
-double halton(uint64_t index, uint32_t base) {
-  double result = 0, f = 1;
-  while (index > 0) {
-    f /= base;
-    result += f * static_cast<double>(index % base);
-    index /= base;
-  }
-  return result;
-}
-
-double squared_distance(const Point3& a, const Point3& b) {
-  const double dx = a[0] - b[0], dy = a[1] - b[1], dz = a[2] - b[2];
-  return dx * dx + dy * dy + dz * dz;
-}
-
-}  // namespace
+using detail::halton;
+using detail::squared_distance;
 
 void check_plan_options(const PlanOptions& o) {
   auto positive = [](double v, const char* name) {
@@ -44,6 +29,7 @@ void check_plan_options(const PlanOptions& o) {
   positive(o.max_agl, "--max-agl");
   if (o.connections < 1) throw ArgumentError("connections", "must be at least 1");
   if (o.threads < 0) throw ArgumentError("--threads", "must be >= 0");
+  if (o.refine_rounds < 0) throw ArgumentError("refine_rounds", "must be >= 0");
 }
 
 Roadmap build_roadmap(const ClearanceIndex& index, const PlanOptions& options, const Progress& progress) {

@@ -248,6 +248,7 @@ PlanReport plan_job(const PlanJobOptions& options, const Progress& progress) {
   report.seconds_roadmap = result.seconds_roadmap;
   report.seconds_query = result.seconds_query;
   report.seconds_smooth = result.seconds_smooth;
+  report.refined_samples = result.refined_samples;
   if (result.status != PlanStatus::Solved) throw InputError(options.waypoints, result.place(), result.reason);
 
   report.path_points = result.path.size();
@@ -291,6 +292,7 @@ Json to_json(const PlanReport& r) {
     j["mesh_max_below_dsm_m"] = r.mesh_max_below_dsm_m;
   }
   j["roadmap_reused"] = r.roadmap_reused;
+  j["refined_samples"] = r.refined_samples;
   j["planner"] = r.planner;
   if (!r.transformation.empty()) j["transformation"] = r.transformation;
   return j;
