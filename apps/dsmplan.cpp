@@ -156,7 +156,8 @@ int main(int argc, char** argv) {
       ->add_option("--waypoints", plan.waypoints,
                    "Waypoints: .csv (x,y,z in the mesh's CRS) or .geojson (WGS 84 lon, lat, ellipsoidal height)")
       ->required();
-  plan_cmd->add_option("-o,--output", plan.output, "Path: .csv (x,y,z in the mesh's CRS) or .geojson (WGS 84)")
+  plan_cmd->add_option("-o,--output", plan.output, "Path: .csv (x,y,z in the mesh's CRS), .geojson (WGS 84, ellipsoidal heights), or with heights "
+                       "above mean sea level: .plan (QGroundControl), .waypoints (QGC WPL 110), .kml")
       ->required();
   plan_cmd->add_option("--safety", plan.plan.safety, "Least distance to the mesh")->capture_default_str();
   plan_cmd->add_option("--spacing", plan.plan.spacing, "Relative sample distance: samples = volume / spacing^3")
@@ -178,7 +179,7 @@ int main(int argc, char** argv) {
   plan_cmd->add_option("--vertical-crs", plan.vertical.vertical_crs,
                        "Vertical CRS of the mesh's heights when the file does not say (e.g. EPSG:7837)");
   plan_cmd->add_flag("--allow-approximate-vertical", plan.vertical.allow_approximate_vertical,
-                     "Accept a ballpark height transformation (or an unknown vertical reference) for GeoJSON");
+                     "Accept a ballpark height transformation (or an unknown vertical reference) for WGS 84 output");
   plan_cmd->add_option("--stats", plan_stats, "Write statistics as JSON to this file");
   plan_cmd->add_flag("-q,--quiet", quiet, "No progress output");
 

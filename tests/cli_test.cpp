@@ -1192,3 +1192,169 @@ TEST(CliBadInput, PlanUnknownPlannerOrNegativeSeed) {
   expect_clean_failure(plan({"--planner", "bogus"}), out, "--planner", {"prm or rrtconnect"});
   expect_clean_failure(plan({"--planner", "rrtconnect", "--seed", "-1"}), out, "--seed", {">= 0"});
 }
+
+// ---- dsmplan plan -o .plan / .waypoints / .kml ----------------------------------------------
+//
+// Oracle for the horizontal part: GDAL's own OGRCoordinateTransformation (traditional GIS order);
+// heights given as EGM96 (--vertical-crs EPSG:5773) reach mean sea level unchanged, so the first
+// and last items must carry the first and last waypoints' heights.
+
+TEST(CliPlan, MissionsAndKmlCarryTheWaypointsInLatLonAndMeanSeaLevelHeights) {
+  PlanFixture f;
+  const auto waypoints = f.corners();
+  f.write_waypoints(waypoints);
+  TempDir out;
+  const std::vector<std::string> egm96{"--vertical-crs", "EPSG:5773"};
+  auto run = [&](const std::string& name, bool quiet) {
+    std::vector<std::string> args{"plan", f.mesh, "--waypoints", f.waypoints, "-o", out.path(name), "--stats",
+                                  out.path(name + ".json")};
+    args.insert(args.end(), egm96.begin(), egm96.end());
+    if (quiet) args.push_back("-q");
+    return run_cli(args);
+  };
+  const auto written = run("m.plan", false);  // not quiet: names the transformation
+  ASSERT_EQ(written.exit_code, 0) << written.err;
+  EXPECT_NE(written.out.find("to WGS 84 by: "), std::string::npos) << written.out;
+  EXPECT_NE(written.out.find("EGM96"), std::string::npos) << written.out;
+  const json stats = json::parse(testkit::read_file(out.path("m.plan.json")));
+  EXPECT_NE(stats["transformation"].get<std::string>().find("EGM96"), std::string::npos);
+  EXPECT_EQ(stats["transformation"].get<std::string>().find("approximate"), std::string::npos);
+  EXPECT_GE(stats["min_clearance_m"].get<double>(), 2.0 - 0.01);  // measured on the thinned path
+
+  OGRSpatialReferenceH utm = OSRNewSpatialReference(nullptr), wgs = OSRNewSpatialReference(nullptr);
+  OSRImportFromEPSG(utm, 25832);
+  OSRImportFromEPSG(wgs, 4326);
+  OSRSetAxisMappingStrategy(utm, OAMS_TRADITIONAL_GIS_ORDER);
+  OSRSetAxisMappingStrategy(wgs, OAMS_TRADITIONAL_GIS_ORDER);
+  OGRCoordinateTransformationH to_wgs = OCTNewCoordinateTransformation(utm, wgs);
+  std::vector<std::array<double, 3>> lonlath;
+  for (const auto& w : waypoints) {
+    double x = w[0], y = w[1];
+    ASSERT_TRUE(OCTTransform(to_wgs, 1, &x, &y, nullptr));
+    lonlath.push_back({x, y, w[2]});
+  }
+  OCTDestroyCoordinateTransformation(to_wgs);
+  OSRDestroySpatialReference(utm);
+  OSRDestroySpatialReference(wgs);
+
+  const json plan = json::parse(testkit::read_file(out.path("m.plan")));
+  EXPECT_EQ(plan["fileType"], "Plan");
+  const json& items = plan["mission"]["items"];
+  ASSERT_GE(items.size(), 3u);
+  // The summary line counts the points written: the mission's items.
+  EXPECT_NE(written.out.find("m.plan: " + std::to_string(items.size()) + " points"), std::string::npos) << written.out;
+  for (size_t i : {size_t{0}, items.size() - 1}) {
+    const auto& w = i == 0 ? lonlath.front() : lonlath.back();
+    const json& p = items[i]["params"];
+    EXPECT_EQ(items[i]["command"], 16);
+    EXPECT_EQ(items[i]["frame"], 0);
+    EXPECT_NEAR(p[4].get<double>(), w[1], 2e-9);  // latitude first
+    EXPECT_NEAR(p[5].get<double>(), w[0], 2e-9);
+    EXPECT_NEAR(p[6].get<double>(), w[2], 1e-3);
+  }
+  EXPECT_EQ(plan["mission"]["plannedHomePosition"],
+            (json{items[0]["params"][4], items[0]["params"][5], items[0]["params"][6]}));
+
+  ASSERT_EQ(run("m.waypoints", true).exit_code, 0);
+  std::istringstream wpl(testkit::read_file(out.path("m.waypoints")));
+  std::string line;
+  std::getline(wpl, line);
+  EXPECT_EQ(line, "QGC WPL 110");
+  size_t lines = 0;
+  std::vector<std::string> last;
+  while (std::getline(wpl, line)) {
+    std::vector<std::string> fields;
+    std::istringstream split(line);
+    for (std::string field; std::getline(split, field, '\t');) fields.push_back(field);
+    ASSERT_EQ(fields.size(), 12u) << line;
+    EXPECT_EQ(std::stoul(fields[0]), lines);
+    if (lines == 1) {  // the first waypoint after home
+      EXPECT_NEAR(std::stod(fields[8]), lonlath.front()[1], 2e-9);
+      EXPECT_NEAR(std::stod(fields[9]), lonlath.front()[0], 2e-9);
+      EXPECT_NEAR(std::stod(fields[10]), lonlath.front()[2], 1e-3);
+    }
+    last = fields;
+    ++lines;
+  }
+  EXPECT_EQ(lines, items.size() + 1);  // the same thinned points, home first
+  ASSERT_EQ(last.size(), 12u);
+  EXPECT_NEAR(std::stod(last[8]), lonlath.back()[1], 2e-9);
+  EXPECT_NEAR(std::stod(last[9]), lonlath.back()[0], 2e-9);
+
+  ASSERT_EQ(run("m.kml", true).exit_code, 0);
+  const std::string kml = testkit::read_file(out.path("m.kml"));
+  EXPECT_EQ(count_lines_starting(kml, "        <altitudeMode>absolute</altitudeMode>"), 1 + waypoints.size());
+  for (size_t k = 0; k < waypoints.size(); ++k) {
+    char expected[128];
+    std::snprintf(expected, sizeof expected, "<coordinates>%.9f,%.9f,", lonlath[k][0], lonlath[k][1]);
+    // Within a unit in the last place of PROJ's and GDAL's routes: compare to 1e-8 by prefix.
+    const std::string prefix(expected, std::strlen(expected) - 3);
+    EXPECT_NE(kml.find(prefix), std::string::npos) << expected;
+  }
+  // KML keeps every point of the path (the same path: the planner is deterministic); the mission
+  // may have dropped points on straight runs, never added any.
+  const size_t begin = kml.find("<coordinates>\n"), end = kml.find("</coordinates>");
+  ASSERT_NE(begin, std::string::npos);
+  EXPECT_LE(items.size(), size_t(std::count(kml.begin() + begin, kml.begin() + end, '\n')) - 1);
+}
+
+TEST(CliBadInput, MissionsNeedAKnownAndExactVerticalReference) {
+  PlanFixture f;
+  f.write_waypoints(f.corners());
+  TempDir out;
+  auto plan = [&](const std::string& name, std::vector<std::string> extra) {
+    std::vector<std::string> args{"plan", f.mesh, "--waypoints", f.waypoints, "-o", out.path(name), "-q"};
+    args.insert(args.end(), extra.begin(), extra.end());
+    return run_cli(args);
+  };
+  expect_clean_failure(plan("m.plan", {}), out, "--vertical-crs", {"unknown"});
+  expect_clean_failure(plan("m.kml", {"--vertical-crs", "EPSG:7837"}), out, "--vertical-crs", {"approximate"});
+  expect_clean_failure(plan("m.waypoints", {"--vertical-crs", "EPSG:7837"}), out, "--vertical-crs", {"approximate"});
+  expect_clean_failure(plan("m.txt", {"--vertical-crs", "EPSG:5773"}), out, "-o", {".plan"});
+}
+
+TEST(CliPlan, MissionDropsOnlyPointsWithinACentimetreOfItsLegs) {
+  PlanFixture f;
+  TempDir out;
+  const std::string waypoints = testkit::data_path("nrw-dom1/sample_waypoints.csv");
+  for (const std::string name : {"p.csv", "p.waypoints"})
+    ASSERT_EQ(run_cli({"plan", f.mesh, "--waypoints", waypoints, "-o", out.path(name), "--vertical-crs", "EPSG:5773",
+                       "-q"}).exit_code, 0);
+  const auto path = read_path_csv(out.path("p.csv"));
+  // The mission's items back in UTM by GDAL (EGM96 heights are the data's heights here).
+  OGRSpatialReferenceH utm = OSRNewSpatialReference(nullptr), wgs = OSRNewSpatialReference(nullptr);
+  OSRImportFromEPSG(utm, 25832);
+  OSRImportFromEPSG(wgs, 4326);
+  OSRSetAxisMappingStrategy(utm, OAMS_TRADITIONAL_GIS_ORDER);
+  OSRSetAxisMappingStrategy(wgs, OAMS_TRADITIONAL_GIS_ORDER);
+  OGRCoordinateTransformationH to_utm = OCTNewCoordinateTransformation(wgs, utm);
+  std::vector<std::array<double, 3>> legs;
+  std::istringstream wpl(testkit::read_file(out.path("p.waypoints")));
+  std::string line;
+  std::getline(wpl, line);
+  for (size_t k = 0; std::getline(wpl, line); ++k) {
+    std::vector<std::string> fields;
+    std::istringstream split(line);
+    for (std::string field; std::getline(split, field, '\t');) fields.push_back(field);
+    ASSERT_EQ(fields.size(), 12u);
+    double x = std::stod(fields[9]), y = std::stod(fields[8]);  // longitude, latitude
+    ASSERT_TRUE(OCTTransform(to_utm, 1, &x, &y, nullptr));
+    if (k > 0) legs.push_back({x, y, std::stod(fields[10])});  // item 0 is home
+  }
+  OCTDestroyCoordinateTransformation(to_utm);
+  OSRDestroySpatialReference(utm);
+  OSRDestroySpatialReference(wgs);
+  ASSERT_GE(legs.size(), 2u);
+  EXPECT_LT(legs.size(), path.size()) << "the spline's straight runs should have been thinned";
+  for (const auto& p : path) {
+    double best = INFINITY;
+    for (size_t k = 1; k < legs.size(); ++k) {
+      const auto &a = legs[k - 1], &b = legs[k];
+      const double ab[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]}, ap[3] = {p[0] - a[0], p[1] - a[1], p[2] - a[2]};
+      const double len2 = ab[0] * ab[0] + ab[1] * ab[1] + ab[2] * ab[2];
+      const double t = len2 > 0 ? std::clamp((ab[0] * ap[0] + ab[1] * ap[1] + ab[2] * ap[2]) / len2, 0.0, 1.0) : 0;
+      best = std::min(best, std::hypot(ap[0] - t * ab[0], ap[1] - t * ab[1], ap[2] - t * ab[2]));
+    }
+    EXPECT_LE(best, 0.01 + 0.002) << p[0] << "," << p[1] << "," << p[2];  // 1 cm + the text's rounding
+  }
+}

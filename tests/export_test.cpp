@@ -7,6 +7,8 @@
 #include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
 #include <CGAL/IO/polygon_soup_io.h>
 #include <gtest/gtest.h>
+#include <gdal.h>
+#include <ogr_api.h>
 #include <ogr_spatialref.h>
 #include <png.h>
 
@@ -708,4 +710,288 @@ TEST(PathText, CsvReadsBackExactlyAndGeoJsonIsALineString) {
   EXPECT_NEAR(j["geometry"]["coordinates"][0][0].get<double>(), 6.93329, 1e-12);
   EXPECT_NEAR(j["geometry"]["coordinates"][0][1].get<double>(), 51.4264, 1e-12);
   EXPECT_NEAR(j["geometry"]["coordinates"][0][2].get<double>(), 177.5, 1e-12);
+}
+
+// ---- drone missions and KML ---------------------------------------------------------------
+//
+// Oracles: golden files (tests/data/path.*) checked by hand against the formats' documentation;
+// the .plan against a JSON schema written from QGC's "Plan File Format" (tests/data/
+// qgc_plan.schema.json) by a small validator of the keywords it uses; the WPL read the way QGC's
+// loader reads it (MissionController::_loadTextMissionFile, MissionItem::load(QTextStream&));
+// the KML read back by GDAL's KML driver, an independent reader.
+
+namespace {
+
+std::string test_data(const std::string& name) { return std::string(DSMPLAN_TEST_DATA_DIR) + "/" + name; }
+
+// JSON Schema (2020-12) for the keywords qgc_plan.schema.json uses: type, const, required,
+// properties, items, prefixItems, minItems, maxItems, minimum, maximum. Appends "where: why" to
+// `errors` for each violation.
+void validate(const nlohmann::json& v, const nlohmann::json& schema, const std::string& where,
+              std::vector<std::string>& errors) {
+  const auto fail = [&](const std::string& why) { errors.push_back((where.empty() ? "/" : where) + ": " + why); };
+  const auto has_type = [&](const std::string& t) {
+    if (t == "object") return v.is_object();
+    if (t == "array") return v.is_array();
+    if (t == "string") return v.is_string();
+    if (t == "boolean") return v.is_boolean();
+    if (t == "null") return v.is_null();
+    if (t == "number") return v.is_number();
+    if (t == "integer") return v.is_number_integer() || (v.is_number_float() && std::floor(v.get<double>()) == v.get<double>());
+    throw std::runtime_error("schema: unknown type " + t);
+  };
+  for (const auto& [key, rule] : schema.items()) {
+    if (key == "type") {
+      const bool ok = rule.is_string() ? has_type(rule.get<std::string>())
+                                       : std::any_of(rule.begin(), rule.end(), [&](const auto& t) { return has_type(t); });
+      if (!ok) return fail("not of type " + rule.dump());
+    } else if (key == "const") {
+      if (v != rule) fail("is " + v.dump() + ", not " + rule.dump());
+    } else if (key == "required") {
+      for (const auto& name : rule)
+        if (v.is_object() && !v.contains(name.get<std::string>())) fail("misses " + name.dump());
+    } else if (key == "properties") {
+      for (const auto& [name, sub] : rule.items())
+        if (v.is_object() && v.contains(name)) validate(v[name], sub, where + "/" + name, errors);
+    } else if (key == "items") {
+      const size_t first = schema.contains("prefixItems") ? schema["prefixItems"].size() : 0;
+      for (size_t i = first; v.is_array() && i < v.size(); ++i) validate(v[i], rule, where + "/" + std::to_string(i), errors);
+    } else if (key == "prefixItems") {
+      for (size_t i = 0; v.is_array() && i < v.size() && i < rule.size(); ++i)
+        validate(v[i], rule[i], where + "/" + std::to_string(i), errors);
+    } else if (key == "minItems" || key == "maxItems") {
+      if (v.is_array() && (key == "minItems" ? v.size() < rule.get<size_t>() : v.size() > rule.get<size_t>()))
+        fail("has " + std::to_string(v.size()) + " items, " + key + " " + rule.dump());
+    } else if (key == "minimum" || key == "maximum") {
+      if (v.is_number() && (key == "minimum" ? v.get<double>() < rule.get<double>() : v.get<double>() > rule.get<double>()))
+        fail(v.dump() + " is outside " + key + " " + rule.dump());
+    } else if (key != "$schema" && key != "$comment") {
+      throw std::runtime_error("schema: keyword not implemented: " + key);
+    }
+  }
+}
+
+std::vector<std::string> plan_schema_errors(const nlohmann::json& plan) {
+  const auto schema = nlohmann::json::parse(testkit::read_file(test_data("qgc_plan.schema.json")));
+  std::vector<std::string> errors;
+  validate(plan, schema, "", errors);
+  return errors;
+}
+
+// Muelheim an der Ruhr (the sample's area): lon, lat, height above mean sea level.
+const std::vector<Point3> kMission{{6.933290123, 51.426401234, 177.5}, {6.9341, 51.4269, 180.25}, {6.935, 51.4271, 179}};
+
+struct WplItem {
+  int index, current, frame, command, autocontinue;
+  double param[4], latitude, longitude, altitude;
+};
+
+// As QGC reads it: the first line split at blanks must be "QGC WPL 110"; each further line split
+// at tabs must have 12 fields (else "The mission file is corrupted."), read with toInt/toDouble.
+std::vector<WplItem> read_wpl_as_qgc(const std::string& text) {
+  std::istringstream in(text);
+  std::string line;
+  std::getline(in, line);
+  EXPECT_EQ(line, "QGC WPL 110");
+  std::vector<WplItem> items;
+  while (std::getline(in, line)) {
+    std::vector<std::string> f;
+    for (size_t b = 0;;) {
+      const size_t e = line.find('\t', b);
+      f.push_back(line.substr(b, e == std::string::npos ? std::string::npos : e - b));
+      if (e == std::string::npos) break;
+      b = e + 1;
+    }
+    EXPECT_EQ(f.size(), 12u) << line;
+    if (f.size() != 12) break;
+    WplItem w{};
+    w.index = std::stoi(f[0]);
+    w.current = std::stoi(f[1]);
+    w.frame = std::stoi(f[2]);
+    w.command = std::stoi(f[3]);
+    for (int k = 0; k < 4; ++k) w.param[k] = std::stod(f[4 + k]);
+    w.latitude = std::stod(f[8]);
+    w.longitude = std::stod(f[9]);
+    w.altitude = std::stod(f[10]);
+    w.autocontinue = std::stoi(f[11]);
+    items.push_back(w);
+  }
+  return items;
+}
+
+}  // namespace
+
+TEST(MissionText, PlanMatchesTheGoldenFileAndPassesTheQgcSchema) {
+  const std::string text = path_to_qgc_plan(kMission);
+  EXPECT_EQ(text, testkit::read_file(test_data("path.plan")));
+  const auto plan = nlohmann::json::parse(text);
+  const auto errors = plan_schema_errors(plan);
+  EXPECT_TRUE(errors.empty()) << errors.front();
+  const auto& items = plan["mission"]["items"];
+  ASSERT_EQ(items.size(), kMission.size());
+  for (size_t i = 0; i < items.size(); ++i) {
+    EXPECT_EQ(items[i]["command"], 16);
+    EXPECT_EQ(items[i]["frame"], 0);  // MAV_FRAME_GLOBAL: altitude above mean sea level
+    EXPECT_EQ(items[i]["AltitudeMode"], 2);
+    EXPECT_EQ(items[i]["doJumpId"], i + 1);
+    EXPECT_TRUE(items[i]["params"][3].is_null());
+    EXPECT_NEAR(items[i]["params"][4].get<double>(), kMission[i][1], 1e-12);  // latitude first
+    EXPECT_NEAR(items[i]["params"][5].get<double>(), kMission[i][0], 1e-12);
+    EXPECT_NEAR(items[i]["params"][6].get<double>(), kMission[i][2], 1e-12);
+    EXPECT_EQ(items[i]["Altitude"], items[i]["params"][6]);
+  }
+  const auto& home = plan["mission"]["plannedHomePosition"];
+  EXPECT_EQ(home, (nlohmann::json{items[0]["params"][4], items[0]["params"][5], items[0]["params"][6]}));
+
+  // The validator does validate: broken plans are caught.
+  auto broken = plan;
+  broken["fileType"] = "Mission";
+  EXPECT_FALSE(plan_schema_errors(broken).empty());
+  broken = plan;
+  broken["mission"]["items"][1]["params"].erase(6);
+  EXPECT_FALSE(plan_schema_errors(broken).empty());
+  broken = plan;
+  broken["mission"]["items"][0]["params"][4] = 356320.5;  // an easting where the latitude goes
+  EXPECT_FALSE(plan_schema_errors(broken).empty());
+  broken = plan;
+  broken["mission"].erase("plannedHomePosition");
+  EXPECT_FALSE(plan_schema_errors(broken).empty());
+}
+
+TEST(MissionText, WplMatchesTheGoldenFileAndReadsAsQgcReadsIt) {
+  const std::string text = path_to_qgc_wpl(kMission);
+  EXPECT_EQ(text, testkit::read_file(test_data("path.waypoints")));
+  const auto items = read_wpl_as_qgc(text);
+  ASSERT_EQ(items.size(), kMission.size() + 1);  // home first
+  for (size_t i = 0; i < items.size(); ++i) {
+    const Point3& p = kMission[i == 0 ? 0 : i - 1];
+    EXPECT_EQ(items[i].index, int(i));
+    EXPECT_EQ(items[i].current, i == 0 ? 1 : 0);
+    EXPECT_EQ(items[i].frame, 0);
+    EXPECT_EQ(items[i].command, 16);
+    EXPECT_EQ(items[i].autocontinue, 1);
+    for (double q : items[i].param) EXPECT_EQ(q, 0);
+    EXPECT_LE(std::abs(items[i].latitude), 90);
+    EXPECT_NEAR(items[i].latitude, p[1], 5e-10);
+    EXPECT_NEAR(items[i].longitude, p[0], 5e-10);
+    EXPECT_NEAR(items[i].altitude, p[2], 5e-4);
+  }
+}
+
+TEST(MissionText, KmlMatchesTheGoldenFileAndGdalReadsLonLatAbsoluteAltitudes) {
+  const std::vector<Point3> marks{kMission.front(), kMission.back()};
+  MissionOptions options;
+  options.name = "path <A&B>";
+  options.description = "heights above mean sea level";
+  const std::string text = path_to_kml(kMission, marks, options);
+  EXPECT_EQ(text, testkit::read_file(test_data("path.kml")));
+  EXPECT_NE(text.find("<name>path &lt;A&amp;B&gt;</name>"), std::string::npos);
+  // Every geometry says absolute, else a viewer clamps it to the ground.
+  for (const std::string tag : {"LineString", "Point"}) {
+    size_t count = 0;
+    for (size_t b = text.find("<" + tag + ">"); b != std::string::npos; b = text.find("<" + tag + ">", b + 1)) {
+      const size_t e = text.find("</" + tag + ">", b);
+      ASSERT_NE(e, std::string::npos);
+      EXPECT_NE(text.substr(b, e - b).find("<altitudeMode>absolute</altitudeMode>"), std::string::npos) << tag;
+      ++count;
+    }
+    EXPECT_EQ(count, tag == "Point" ? marks.size() : 1u);
+  }
+
+  testkit::TempDir dir;
+  const std::string path = dir.path("path.kml");
+  write_text_file(path, text);
+  GDALAllRegister();
+  GDALDatasetH ds = GDALOpenEx(path.c_str(), GDAL_OF_VECTOR, nullptr, nullptr, nullptr);
+  ASSERT_TRUE(ds) << "GDAL cannot read the KML";
+  std::vector<std::vector<Point3>> lines, points;
+  for (int l = 0; l < GDALDatasetGetLayerCount(ds); ++l) {
+    OGRLayerH layer = GDALDatasetGetLayer(ds, l);
+    OGR_L_ResetReading(layer);
+    while (OGRFeatureH feature = OGR_L_GetNextFeature(layer)) {
+      OGRGeometryH g = OGR_F_GetGeometryRef(feature);
+      if (g) {
+        std::vector<Point3> xyz;
+        for (int k = 0; k < OGR_G_GetPointCount(g); ++k)
+          xyz.push_back({OGR_G_GetX(g, k), OGR_G_GetY(g, k), OGR_G_GetZ(g, k)});
+        (wkbFlatten(OGR_G_GetGeometryType(g)) == wkbLineString ? lines : points).push_back(xyz);
+      }
+      OGR_F_Destroy(feature);
+    }
+  }
+  GDALClose(ds);
+  ASSERT_EQ(lines.size(), 1u);
+  ASSERT_EQ(lines[0].size(), kMission.size());
+  for (size_t i = 0; i < kMission.size(); ++i)
+    for (int k = 0; k < 3; ++k) EXPECT_NEAR(lines[0][i][k], kMission[i][k], 1e-9) << i << " " << k;  // x = longitude
+  ASSERT_EQ(points.size(), marks.size());
+  for (size_t i = 0; i < marks.size(); ++i)
+    for (int k = 0; k < 3; ++k) EXPECT_NEAR(points[i][0][k], marks[i][k], 1e-9);
+}
+
+TEST(MissionText, RefusesNoPointsAndPointsThatAreNotLonLat) {
+  EXPECT_THROW(path_to_qgc_plan({}), ArgumentError);
+  EXPECT_THROW(path_to_qgc_wpl({}), ArgumentError);
+  EXPECT_THROW(path_to_kml({}), ArgumentError);
+  EXPECT_THROW(path_to_qgc_wpl({{356320, 5699270, 130}}), ArgumentError);  // UTM, not degrees
+  EXPECT_THROW(path_to_qgc_plan({{6.9, 51.4, NAN}}), ArgumentError);
+  MissionOptions still;
+  still.hover_speed = 0;
+  EXPECT_THROW(path_to_qgc_plan(kMission, still), ArgumentError);
+}
+
+TEST(MissionText, MeanSeaLevelRoundTripThroughTheWplTextLandsWithinAMillimetre) {
+  VerticalOptions egm96;
+  egm96.vertical_crs = "EPSG:5773";  // the data in EGM96 heights: exact, and the identity in height
+  const Wgs84Transform t(utm32(), HeightReference::MeanSeaLevel, egm96);
+  EXPECT_FALSE(t.approximate_heights()) << t.description();
+  OGRSpatialReference utm, wgs;
+  utm.importFromEPSG(25832);
+  wgs.importFromEPSG(4326);
+  wgs.SetAxisMappingStrategy(OAMS_TRADITIONAL_GIS_ORDER);
+  utm.SetAxisMappingStrategy(OAMS_TRADITIONAL_GIS_ORDER);
+  std::unique_ptr<OGRCoordinateTransformation> gdal(OGRCreateCoordinateTransformation(&utm, &wgs));
+  ASSERT_TRUE(gdal);
+  const std::vector<Point3> path{{356320, 5699270, 130}, {357000, 5700000, 90.125}, {356800.25, 5699745.5, 160.001}};
+  std::vector<Point3> lonlatamsl;
+  for (const Point3& p : path) {
+    lonlatamsl.push_back(t.to_wgs84(p));
+    double x = p[0], y = p[1];
+    ASSERT_TRUE(gdal->Transform(1, &x, &y));
+    EXPECT_NEAR(lonlatamsl.back()[0], x, 1e-9);
+    EXPECT_NEAR(lonlatamsl.back()[1], y, 1e-9);
+    EXPECT_NEAR(lonlatamsl.back()[2], p[2], 1e-6);  // EGM96 to EGM96
+    const Point3 back = t.from_wgs84(lonlatamsl.back());
+    EXPECT_LT(std::hypot(back[0] - p[0], back[1] - p[1], back[2] - p[2]), 1e-3);
+  }
+  const auto items = read_wpl_as_qgc(path_to_qgc_wpl(lonlatamsl));
+  ASSERT_EQ(items.size(), path.size() + 1);
+  for (size_t i = 0; i < path.size(); ++i) {
+    const Point3 back = t.from_wgs84({items[i + 1].longitude, items[i + 1].latitude, items[i + 1].altitude});
+    EXPECT_LT(std::hypot(back[0] - path[i][0], back[1] - path[i][1], back[2] - path[i][2]), 1e-3) << i;
+  }
+}
+
+TEST(MissionText, StraightRunsAreDroppedWithinTheTolerance) {
+  // An L with points every metre, a 4 mm wobble on the first leg, and a 5 cm bump on the second.
+  std::vector<Point3> path;
+  for (int i = 0; i <= 20; ++i) path.push_back({double(i), (i % 2) * 0.004, 100});
+  for (int i = 1; i <= 20; ++i) path.push_back({20, double(i), 100 + (i == 10 ? 0.05 : 0)});
+  const auto kept = drop_straight_points(path, 0.01);
+  EXPECT_EQ(kept.front(), path.front());
+  EXPECT_EQ(kept.back(), path.back());
+  EXPECT_LE(kept.size(), 6u);
+  EXPECT_NE(std::find(kept.begin(), kept.end(), Point3{20, 10, 100.05}), kept.end());  // the bump is a turn
+  // Every dropped point lies within 1 cm of the kept polyline.
+  for (const Point3& p : path) {
+    double best = INFINITY;
+    for (size_t k = 1; k < kept.size(); ++k) {
+      const Point3 &a = kept[k - 1], &b = kept[k];
+      const double ab[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]}, ap[3] = {p[0] - a[0], p[1] - a[1], p[2] - a[2]};
+      const double t = std::clamp((ab[0] * ap[0] + ab[1] * ap[1] + ab[2] * ap[2]) / (ab[0] * ab[0] + ab[1] * ab[1] + ab[2] * ab[2]), 0.0, 1.0);
+      best = std::min(best, std::hypot(ap[0] - t * ab[0], ap[1] - t * ab[1], ap[2] - t * ab[2]));
+    }
+    EXPECT_LE(best, 0.01 + 1e-12);
+  }
+  EXPECT_EQ(drop_straight_points({{0, 0, 0}, {1, 0, 0}}, 0.01).size(), 2u);
 }

@@ -173,8 +173,10 @@ public:
   Point3 to_wgs84(const Point3& p) const { return apply(p, true); }
   /// The inverse: longitude, latitude, height to x, y, z in the CRS.
   Point3 from_wgs84(const Point3& p) const { return apply(p, false); }
-  /// PROJ's name of the operation, e.g. "UTM zone 32N to ETRS89 + ..."; says when heights are
-  /// approximate or copied.
+  /// PROJ's name of the operation, e.g. "UTM zone 32N to ETRS89 + ...", then "; heights from
+  /// <the data's vertical CRS> to <EGM96 height (mean sea level) | WGS 84 ellipsoidal height>"
+  /// (PROJ's name omits a vertical step that is the identity); says when heights are approximate
+  /// or copied.
   const std::string& description() const { return description_; }
   bool approximate_heights() const { return approximate_; }
 
@@ -195,5 +197,54 @@ std::string path_to_csv(const std::vector<Point3>& path);
 /// (degrees to 1e-9, about 0.1 mm; heights to 1 mm), and `properties` (a JSON object's text,
 /// "{}" for none). Plain text, no PROJ: the caller transforms (Wgs84Transform).
 std::string path_to_geojson(const std::vector<Point3>& lonlath, const std::string& properties = "{}");
+
+// ---- drone missions and KML (formatting only; the caller transforms) ----------------------
+//
+// Input: the path's points as WGS 84 longitude, latitude (degrees) and height above mean sea
+// level (EGM96, Wgs84Transform with HeightReference::MeanSeaLevel): what MAVLink's
+// MAV_FRAME_GLOBAL and QGroundControl call AMSL, and what KML 2.2 states its altitudes in (CRS
+// LonLat84_5773, EGM96 geoid). Each point becomes one MAV_CMD_NAV_WAYPOINT (16) in
+// MAV_FRAME_GLOBAL (0: absolute altitude); the first is also the planned home. Degrees are
+// written to 1e-9 (0.1 mm), altitudes to 1 mm. ArgumentError when there is no point, or a point
+// is not finite or outside longitude [-180, 180], latitude [-90, 90] (e.g. still in UTM).
+// The formats' sources (QGC's and MAVLink's documentation, OGC KML 2.2): mission_writers.cpp.
+
+struct MissionOptions {
+  double cruise_speed = 15;  ///< m/s, .plan: default speed of fixed-wing vehicles (QGC's default)
+  double hover_speed = 5;    ///< m/s, .plan: default speed of multirotors (QGC's default)
+  /// .plan: MAV_AUTOPILOT the plan is for; 0 (generic) since NAV_WAYPOINT in the global frame
+  /// is common to every autopilot (12 PX4, 3 ArduPilot).
+  int firmware_type = 0;
+  int vehicle_type = 2;  ///< .plan: MAV_TYPE, 2 = quadrotor
+  std::string name = "dsmplan path";  ///< KML: the Document's name
+  std::string description;            ///< KML: the Document's description (e.g. the transformation), may be empty
+};
+
+/// A QGroundControl plan (JSON, "Plan File Format"): fileType "Plan", version 1, groundStation
+/// "QGroundControl"; mission version 2, globalPlanAltitudeMode 2 (absolute), one SimpleItem per
+/// point {AMSLAltAboveTerrain null, Altitude, AltitudeMode 2, autoContinue true, command 16,
+/// doJumpId 1.., frame 0, params [0, 0, 0, null (yaw: the vehicle's own), lat, lon, alt]},
+/// plannedHomePosition [lat, lon, alt] of the first point; empty geoFence and rallyPoints
+/// (version 2). Also ArgumentError for speeds that are not positive.
+std::string path_to_qgc_plan(const std::vector<Point3>& lonlatamsl, const MissionOptions& options = {});
+
+/// A MAVLink plain-text mission, "QGC WPL 110" (Mission Planner's .waypoints): the header line,
+/// then "INDEX CURRENT FRAME COMMAND P1 P2 P3 P4 LATITUDE LONGITUDE ALTITUDE AUTOCONTINUE"
+/// separated by tabs: line 0 is home (the first point, current 1), lines 1..n the points
+/// (current 0); frame 0, command 16, P1..P4 = 0, autocontinue 1. Latitude comes before longitude.
+std::string path_to_qgc_wpl(const std::vector<Point3>& lonlatamsl);
+
+/// KML 2.2: a Document with a Placemark "path" whose LineString has <altitudeMode>absolute
+/// </altitudeMode> and "lon,lat,alt" tuples one a line, then a Point Placemark "waypoint k"
+/// (also absolute) for each of `marks` (may be empty). Without altitudeMode a viewer would clamp
+/// the path to the ground. Name and description are XML-escaped.
+std::string path_to_kml(const std::vector<Point3>& lonlatamsl, const std::vector<Point3>& marks = {},
+                        const MissionOptions& options = {});
+
+/// The path without the points that lie within `tolerance` of the straight segment between the
+/// points kept around them (first and last always kept), so that every mission item is a turn:
+/// the result is within `tolerance` of the path and the path within `tolerance` of it
+/// (Hausdorff). For points in a metric CRS. O(n * longest dropped run).
+std::vector<Point3> drop_straight_points(const std::vector<Point3>& path, double tolerance);
 
 }  // namespace dsmplan

@@ -191,14 +191,18 @@ struct PlanJobOptions {
   /// latitude, ellipsoidal height (read_waypoints_geojson), transformed by Wgs84Transform.
   std::string waypoints;
   /// The path, by extension: .csv "x,y,z" in the mesh's CRS (shortest exact decimals);
-  /// .geojson/.json an RFC 7946 LineString Feature (WGS 84, ellipsoidal heights).
+  /// .geojson/.json an RFC 7946 LineString Feature (WGS 84, ellipsoidal heights); missions in
+  /// WGS 84 with heights above mean sea level (EGM96): .plan a QGroundControl plan
+  /// (path_to_qgc_plan), .waypoints a "QGC WPL 110" text mission (path_to_qgc_wpl), both without
+  /// the points within 1 cm of a straight leg (drop_straight_points); .kml a KML 2.2 LineString
+  /// with altitudeMode absolute and the waypoints as Points (path_to_kml), every path point.
   std::string output;
   PlanOptions plan;       ///< planner (prm, rrt_connect), seed, safety, spacing, max_edge, max_agl, threads
   /// Roadmap file (PRM): read when it exists (read_roadmap(): refused when made for another mesh
   /// or other options), else built and written there for the next query.
   std::string roadmap;
   std::string dsm;          ///< raw DSM: when given, the path's clearance to its columns is reported
-  VerticalOptions vertical;  ///< heights for GeoJSON: --vertical-crs, --allow-approximate-vertical
+  VerticalOptions vertical;  ///< heights for GeoJSON, missions, KML: --vertical-crs, --allow-approximate-vertical
 };
 
 struct PlanReport {
@@ -218,12 +222,16 @@ struct PlanReport {
   bool roadmap_reused = false;  ///< the roadmap came from the --roadmap file
   size_t refined_samples = 0;   ///< samples the query added where the roadmap failed a leg (plan.hpp, "Refinement")
   std::string planner = "prm";
-  std::string transformation;  ///< the PROJ operation used for GeoJSON, empty when none
+  /// The PROJ operation(s) used: GeoJSON waypoints' and GeoJSON output's (to ellipsoidal
+  /// heights), then "; path by: " the missions' and KML's (to EGM96 heights); empty when none.
+  std::string transformation;
   double seconds_load = 0, seconds_roadmap = 0, seconds_query = 0, seconds_smooth = 0;
 };
 
-/// Mesh file + waypoints -> roadmap -> path (plan_path(), see plan.hpp) -> CSV or GeoJSON,
-/// written atomically. Options and the output's extension are checked before anything is read.
+/// Mesh file + waypoints -> roadmap -> path (plan_path(), see plan.hpp) -> CSV, GeoJSON, a
+/// mission (.plan, .waypoints) or KML, written atomically. The transformation to WGS 84 is made
+/// before planning: ArgumentError("--vertical-crs") then for an unknown or approximate vertical
+/// reference that is not allowed (Wgs84Transform). Options and the output's extension are checked before anything is read.
 /// A bad waypoint is an InputError(waypoints file, "waypoint N", why: outside the extent, under
 /// the surface, closer than the safety distance); a leg without a path InputError(waypoints
 /// file, "waypoints N to M", why); fewer than two waypoints InputError(waypoints file); a
@@ -234,7 +242,7 @@ PlanReport plan_job(const PlanJobOptions& options, const Progress& progress = {}
 /// Keys: path_length_m, min_clearance_m, roadmap_nodes, roadmap_edges, seconds_load,
 /// seconds_roadmap, seconds_query, seconds_smooth; min_clearance_dsm_m, dsm_tolerance_m,
 /// mesh_max_below_dsm_m with a DSM;
-/// roadmap_reused, refined_samples, planner; transformation when GeoJSON was involved.
+/// roadmap_reused, refined_samples, planner; transformation when WGS 84 was involved.
 Json to_json(const PlanReport& report);
 /// One summary line for people.
 std::string to_text(const PlanReport& report);

@@ -99,7 +99,16 @@ Wgs84Transform::Wgs84Transform(const Crs& crs, HeightReference target, const Ver
                         "PROJ has only an approximate (ballpark) height transformation here ('" + description_ +
                             "': heights copied across datums, off by the geoid's height, tens of metres); install "
                             "the datum's geoid grid or pass --allow-approximate-vertical");
-  if (state_->heights_copied) description_ += "; heights copied unchanged (vertical reference unknown)";
+  if (state_->heights_copied) {
+    description_ += "; heights copied unchanged (vertical reference unknown)";
+  } else {
+    // PROJ's name leaves out a vertical step that is the identity (EGM96 to EGM96): say it.
+    Pj vertical(proj_crs_get_sub_crs(ctx, source.get(), 1));
+    const char* from = vertical ? proj_get_name(vertical.get()) : nullptr;
+    description_ += std::string("; heights from ") + (from ? from : "the data's vertical CRS") + " to " +
+                    (target == HeightReference::MeanSeaLevel ? "EGM96 height (mean sea level)"
+                                                             : "WGS 84 ellipsoidal height");
+  }
   if (approximate_) description_ += " (approximate heights)";
   state_->operation.reset(proj_normalize_for_visualization(ctx, best.get()));
   if (!state_->operation) throw ArgumentError("crs", "PROJ cannot order the axes longitude first" + last_error(ctx));

@@ -182,9 +182,11 @@ void verify_against_dsm(const std::vector<Point3>& path, const Mesh& mesh, const
 
 PlanReport plan_job(const PlanJobOptions& options, const Progress& progress) {
   const std::string out_ext = lower_extension(options.output);
-  if (out_ext != "csv" && !is_geojson(options.output))
-    throw ArgumentError("-o", "the path is written as .csv (x,y,z in the mesh's CRS) or .geojson (WGS 84), got '" +
-                                  options.output + "'");
+  // Missions and KML state heights above mean sea level (EGM96); GeoJSON above the ellipsoid.
+  const bool msl_out = out_ext == "plan" || out_ext == "waypoints" || out_ext == "kml";
+  if (out_ext != "csv" && !is_geojson(options.output) && !msl_out)
+    throw ArgumentError("-o", "the path is written as .csv (x,y,z in the mesh's CRS), .geojson (WGS 84), .plan "
+                              "(QGroundControl), .waypoints (QGC WPL 110) or .kml, got '" + options.output + "'");
   check_plan_options(options.plan);
   if (!options.roadmap.empty() && options.plan.planner != PlannerKind::prm)
     throw ArgumentError("--roadmap", "only the prm planner keeps a roadmap; rrtconnect grows its trees per query");
@@ -210,6 +212,12 @@ PlanReport plan_job(const PlanJobOptions& options, const Progress& progress) {
   if (geo_in || is_geojson(options.output)) {
     wgs84.emplace(mesh.crs, HeightReference::Ellipsoid, options.vertical);
     report.transformation = wgs84->description();
+  }
+  // Made before planning, so that an unknown or approximate vertical reference stops the run early.
+  std::optional<Wgs84Transform> to_msl;
+  if (msl_out) {
+    to_msl.emplace(mesh.crs, HeightReference::MeanSeaLevel, options.vertical);
+    report.transformation += (report.transformation.empty() ? "" : "; path by: ") + to_msl->description();
   }
   std::vector<Point3> waypoints = read_points;
   if (geo_in)
@@ -250,6 +258,9 @@ PlanReport plan_job(const PlanJobOptions& options, const Progress& progress) {
   report.seconds_smooth = result.seconds_smooth;
   report.refined_samples = result.refined_samples;
   if (result.status != PlanStatus::Solved) throw InputError(options.waypoints, result.place(), result.reason);
+  // A mission flies straight from item to item: points on a straight run of the spline's chords
+  // add items, not turns. Dropped within 1 cm (before the clearance below is measured on it).
+  if (out_ext == "plan" || out_ext == "waypoints") result.path = drop_straight_points(result.path, 0.01);
 
   report.path_points = result.path.size();
   report.path_length_m = path_length(result.path);
@@ -263,6 +274,20 @@ PlanReport plan_job(const PlanJobOptions& options, const Progress& progress) {
 
   if (out_ext == "csv") {
     write_text_file(options.output, path_to_csv(result.path));
+  } else if (msl_out) {
+    std::vector<Point3> lonlatamsl, marks;
+    for (const Point3& p : result.path) lonlatamsl.push_back(to_msl->to_wgs84(p));
+    if (out_ext == "plan") {
+      write_text_file(options.output, path_to_qgc_plan(lonlatamsl));
+    } else if (out_ext == "waypoints") {
+      write_text_file(options.output, path_to_qgc_wpl(lonlatamsl));
+    } else {
+      for (const Point3& p : waypoints) marks.push_back(to_msl->to_wgs84(p));
+      MissionOptions kml;
+      kml.description = "dsmplan path from " + mesh.crs.name + "; heights above mean sea level (EGM96) by: " +
+                        to_msl->description();
+      write_text_file(options.output, path_to_kml(lonlatamsl, marks, kml));
+    }
   } else {
     std::vector<Point3> lonlath;
     lonlath.reserve(result.path.size());
