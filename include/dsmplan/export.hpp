@@ -62,9 +62,11 @@ const char* to_string(MeshFormat format);
 ///          "origin" [x, y, z] (CRS units, as the child's translation), "axes" (a sentence on
 ///          the above), "positions" ("float32, vertex minus origin").
 ///        - Triangles whose three corners are collinear or coincide once rounded to float32
-///          (exact test) would have no area, and validators flag them: they are left out, and
-///          the count is returned. dsmplan's meshes of real data have none (the tests check
-///          that); a mesh with no triangle left is written as the nodes alone, without buffers.
+///          (exact test) would have no area: they are left out, and the count is returned. This
+///          is stricter than the Khronos validator, which flags only triangles naming a vertex
+///          twice (ACCESSOR_INDEX_TRIANGLE_DEGENERATE). dsmplan's meshes of real data have none
+///          (the tests check that); a mesh with no triangle left is written as the nodes alone,
+///          without buffers. ArgumentError("mesh") when a triangle names a missing vertex.
 ///        The whole file is built in memory (about 3 x its size: 12 bytes a vertex, 6 or 12
 ///        bytes a triangle) before it is written; O(vertices + triangles).
 /// Atomic; OutputError on failure. Returns the number of triangles left out (0 but for GLB).

@@ -90,7 +90,9 @@ size_t write_glb(const Mesh& mesh, AtomicFile& file, const Progress& progress) {
   report(progress, 0.2);
 
   // Triangles with no area in float32 (collinear or coincident corners, exact predicate on the
-  // stored floats) are what viewers and validators call degenerate: leave them out.
+  // stored floats) are left out. The Khronos validator flags only those naming a vertex twice
+  // (ACCESSOR_INDEX_TRIANGLE_DEGENERATE); three distinct but collinear floats pass it, yet have
+  // no normal for a renderer, so the test here is the stricter one.
   auto point = [&](uint32_t i) {
     return Kernel::Point_3(positions[3 * size_t(i)], positions[3 * size_t(i) + 1], positions[3 * size_t(i) + 2]);
   };
