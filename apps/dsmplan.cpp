@@ -73,9 +73,12 @@ int main(int argc, char** argv) {
   double mesh_resolution = 0;
   std::string resampling = "median", stats_path;
   CLI::App* mesh_cmd =
-      app.add_subcommand("mesh", "Build the XY-3 Delaunay mesh of a DSM (PLY, OBJ or OFF by extension)");
+      app.add_subcommand("mesh", "Build the XY-3 Delaunay mesh of a DSM (PLY, OBJ, OFF or GLB by extension)");
   mesh_cmd->add_option("DSM", mesh.input, "Raster file")->required();
-  mesh_cmd->add_option("-o,--output", mesh.output, "Mesh file: .ply (binary, double x,y,z), .obj or .off")->required();
+  mesh_cmd->add_option("-o,--output", mesh.output, "Mesh file: .ply (binary, double x,y,z), .obj, .off or .glb (glTF)")
+      ->required();
+  std::string mesh_of;
+  mesh_cmd->add_option("--of", mesh_of, "Output format, overriding the extension: ply, obj, off or glb");
   CLI::Option* mesh_res =
       mesh_cmd->add_option("--res", mesh_resolution, "Resample to this x/y resolution (CRS units) first");
   mesh_cmd->add_option("--resampling", resampling, "median, max (conservative), mean, min or nearest")
@@ -98,7 +101,9 @@ int main(int argc, char** argv) {
   CLI::App* simplify_cmd = app.add_subcommand(
       "simplify", "Simplify a DSM's mesh: the paper's variant one or two, or the bounded mode (--max-error)");
   simplify_cmd->add_option("INPUT", simplify.input, "DSM raster, or a mesh (.ply, .obj, .off) with --dsm")->required();
-  simplify_cmd->add_option("-o,--output", simplify.output, "Mesh file: .ply, .obj or .off")->required();
+  simplify_cmd->add_option("-o,--output", simplify.output, "Mesh file: .ply, .obj, .off or .glb (glTF)")->required();
+  std::string simplify_of;
+  simplify_cmd->add_option("--of", simplify_of, "Output format, overriding the extension: ply, obj, off or glb");
   CLI::Option* method_option =
       simplify_cmd->add_option("--method", method, "variant1, variant2 (the paper's) or bounded")
           ->capture_default_str();
@@ -201,12 +206,14 @@ int main(int argc, char** argv) {
     if (*mesh_cmd) {
       if (mesh_res->count()) mesh.resolution = mesh_resolution;
       mesh.resampling = parse_resampling(resampling);
+      if (!mesh_of.empty()) mesh.format = parse_mesh_format(mesh_of, "--of");
       const MeshReport report = mesh_dsm(mesh, terminal_progress(quiet));
       if (!stats_path.empty()) write_text_file(stats_path, to_json(report).dump(2) + "\n");
     }
     if (*simplify_cmd) {
       if (simplify_res->count()) simplify.resolution = simplify_resolution;
       simplify.resampling = parse_resampling(simplify_resampling);
+      if (!simplify_of.empty()) simplify.format = parse_mesh_format(simplify_of, "--of");
       simplify.method = parse_simplify_method(method);
       if (max_error->count()) {
         if (method_option->count() && simplify.method != SimplifyMethod::Bounded) {

@@ -23,6 +23,7 @@ for method in variant1 variant2; do
 done
 build/dsmplan simplify "$dsm" --max-error 0.4 --conservative -o "$out/bounded_1m.ply" \
   --stats "$out/bounded_1m.json" -q
+build/dsmplan simplify "$dsm" --max-error 0.4 --conservative -o "$out/bounded_1m.glb" -q >/dev/null  # the same, glTF for 3D viewers
 echo
 echo "Drawing a 150 m crop of the three meshes side by side (the paper's Figs 6 and 7):"
 build/dsmplan render "$dsm" --window 356500,5699450,356650,5699600 --zoom 4 \

@@ -1358,3 +1358,45 @@ TEST(CliPlan, MissionDropsOnlyPointsWithinACentimetreOfItsLegs) {
     EXPECT_LE(best, 0.01 + 0.002) << p[0] << "," << p[1] << "," << p[2];  // 1 cm + the text's rounding
   }
 }
+
+// ---- GLB and --of -----------------------------------------------------------------------------
+
+TEST(CliGlb, OfOverridesTheExtensionForMeshAndSimplify) {
+  TempDir out;
+  const std::string dsm = testkit::data_path(kSample);
+  const auto mesh = run_cli({"mesh", dsm, "-o", out.path("x.dat"), "--of", "glb", "--res", "5", "--stats",
+                             out.path("x.json"), "-q"});
+  ASSERT_EQ(mesh.exit_code, 0) << mesh.err;
+  EXPECT_EQ(mesh.err, "");
+  const std::string bytes = testkit::read_file(out.path("x.dat"));
+  ASSERT_GE(bytes.size(), 12u);
+  EXPECT_EQ(bytes.substr(0, 4), "glTF");
+  const json stats = json::parse(testkit::read_file(out.path("x.json")));
+  EXPECT_EQ(stats["file_bytes"], bytes.size());
+  EXPECT_EQ(stats["dropped_triangles"], 0);
+
+  // By extension, and --of ply over a .glb name.
+  ASSERT_EQ(run_cli({"mesh", dsm, "-o", out.path("y.glb"), "--res", "5", "-q"}).exit_code, 0);
+  EXPECT_EQ(testkit::read_file(out.path("y.glb")), bytes);
+  ASSERT_EQ(run_cli({"mesh", dsm, "-o", out.path("z.glb"), "--of", "PLY", "--res", "5", "-q"}).exit_code, 0);
+  EXPECT_EQ(testkit::read_file(out.path("z.glb")).substr(0, 4), "ply\n");
+
+  const auto simplify = run_cli({"simplify", dsm, "--max-error", "0.4", "-o", out.path("s.out"), "--of", "glb",
+                                 "--res", "5", "--json", "-q"});
+  ASSERT_EQ(simplify.exit_code, 0) << simplify.err;
+  EXPECT_EQ(testkit::read_file(out.path("s.out")).substr(0, 4), "glTF");
+  EXPECT_EQ(json::parse(simplify.out)["dropped_triangles"], 0);
+
+  // A GLB is not read back: one line naming the file.
+  expect_clean_failure(run_cli({"render", dsm, "--mesh", out.path("y.glb"), "-o", out.path("r/r.png")}), TempDir(),
+                       out.path("y.glb"), {"not read"});
+}
+
+TEST(CliBadInput, UnknownOfFormat) {
+  TempDir out;
+  const std::string dsm = testkit::data_path(kSample);
+  expect_clean_failure(run_cli({"mesh", dsm, "-o", out.path("x.glb"), "--of", "bogus"}), out, "--of",
+                       {"unknown mesh format"});
+  expect_clean_failure(run_cli({"simplify", dsm, "-o", out.path("x.glb"), "--of", "bogus"}), out, "--of",
+                       {"unknown mesh format"});
+}

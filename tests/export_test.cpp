@@ -27,6 +27,7 @@
 
 #include "dsmplan/mesh.hpp"
 #include "dsmplan/raster.hpp"
+#include "dsmplan/simplify.hpp"
 #include "testkit.hpp"
 
 using namespace dsmplan;
@@ -994,4 +995,286 @@ TEST(MissionText, StraightRunsAreDroppedWithinTheTolerance) {
     EXPECT_LE(best, 0.01 + 1e-12);
   }
   EXPECT_EQ(drop_straight_points({{0, 0, 0}, {1, 0, 0}}, 0.01).size(), 2u);
+}
+
+// ---- GLB (glTF 2.0) --------------------------------------------------------------------------
+//
+// Read back by parsing the container here (glTF 2.0 section 4.4: 12-byte header "glTF", version
+// 2, length; a JSON chunk; a BIN chunk), independently of the tinygltf that wrote it, and
+// checked by the Khronos glTF validator (npm package gltf-validator, which scripts/test.sh
+// installs into build/npm from tests/gltf_validator/package-lock.json).
+
+namespace {
+
+struct Glb {
+  nlohmann::json json;
+  std::string bin;
+};
+
+uint32_t le32(const std::string& bytes, size_t at) {
+  uint32_t v = 0;
+  std::memcpy(&v, bytes.data() + at, 4);
+  return v;
+}
+
+Glb parse_glb(const std::string& path) {
+  const std::string bytes = testkit::read_file(path);
+  Glb glb;
+  EXPECT_GE(bytes.size(), 20u);
+  if (bytes.size() < 20) return glb;
+  EXPECT_EQ(bytes.substr(0, 4), "glTF");
+  EXPECT_EQ(le32(bytes, 4), 2u);
+  EXPECT_EQ(le32(bytes, 8), bytes.size());
+  const uint32_t json_length = le32(bytes, 12);
+  EXPECT_EQ(le32(bytes, 16), 0x4E4F534Au);  // "JSON"
+  EXPECT_EQ(json_length % 4, 0u);
+  glb.json = nlohmann::json::parse(bytes.substr(20, json_length));
+  const size_t bin_at = 20 + size_t(json_length);
+  if (bin_at < bytes.size()) {
+    const uint32_t bin_length = le32(bytes, bin_at);
+    EXPECT_EQ(le32(bytes, bin_at + 4), 0x004E4942u);  // "BIN\0"
+    EXPECT_EQ(bin_at + 8 + bin_length, bytes.size());
+    glb.bin = bytes.substr(bin_at + 8, bin_length);
+  }
+  return glb;
+}
+
+// The positions, translation and indices of a GLB written by write_mesh, as a Mesh in the CRS
+// (translation + position, in double), so it can be compared with what was written.
+struct GlbMesh {
+  std::vector<std::array<float, 3>> local;
+  std::array<double, 3> translation{};
+  std::vector<Triangle> triangles;
+};
+
+GlbMesh glb_mesh(const Glb& glb) {
+  GlbMesh out;
+  const auto& j = glb.json;
+  const auto& child = j["nodes"][1];
+  for (int k = 0; k < 3; ++k) out.translation[k] = child["translation"][k].get<double>();
+  if (!child.contains("mesh")) return out;
+  const auto& primitive = j["meshes"][child["mesh"].get<int>()]["primitives"][0];
+  const auto& positions = j["accessors"][primitive["attributes"]["POSITION"].get<int>()];
+  const auto& indices = j["accessors"][primitive["indices"].get<int>()];
+  EXPECT_EQ(positions["componentType"], 5126);  // float
+  EXPECT_EQ(positions["type"], "VEC3");
+  const auto& pview = j["bufferViews"][positions["bufferView"].get<int>()];
+  const size_t pat = pview.value("byteOffset", 0) + positions.value("byteOffset", 0);
+  out.local.resize(positions["count"].get<size_t>());
+  std::memcpy(out.local.data(), glb.bin.data() + pat, out.local.size() * 12);
+  const auto& iview = j["bufferViews"][indices["bufferView"].get<int>()];
+  const size_t iat = iview.value("byteOffset", 0) + indices.value("byteOffset", 0);
+  const size_t count = indices["count"].get<size_t>();
+  EXPECT_EQ(count % 3, 0u);
+  const int type = indices["componentType"].get<int>();
+  EXPECT_TRUE(type == 5123 || type == 5125) << type;  // uint16 or uint32
+  out.triangles.resize(count / 3);
+  for (size_t i = 0; i < count; ++i) {
+    uint32_t v = 0;
+    if (type == 5123) {
+      uint16_t s;
+      std::memcpy(&s, glb.bin.data() + iat + 2 * i, 2);
+      v = s;
+    } else {
+      std::memcpy(&v, glb.bin.data() + iat + 4 * i, 4);
+    }
+    out.triangles[i / 3][i % 3] = v;
+  }
+  return out;
+}
+
+// The Khronos validator's reports (a JSON array, one per file) for `files`.
+nlohmann::json validate_gltf(const std::vector<std::string>& files) {
+  const std::string modules = DSMPLAN_NPM_DIR "/node_modules";
+  if (!std::filesystem::exists(modules + "/gltf-validator")) {
+    ADD_FAILURE() << "the glTF validator is not installed in " DSMPLAN_NPM_DIR
+                     ": scripts/test.sh installs it (npm ci from tests/gltf_validator)";
+    return nlohmann::json::array();
+  }
+  std::string command = "NODE_PATH='" + modules + "' node '" DSMPLAN_GLTF_VALIDATOR "'";
+  for (const auto& file : files) command += " '" + file + "'";
+  FILE* pipe = ::popen(command.c_str(), "r");
+  if (!pipe) {
+    ADD_FAILURE() << "cannot run " << command;
+    return nlohmann::json::array();
+  }
+  std::string output;
+  char buffer[4096];
+  for (size_t n; (n = std::fread(buffer, 1, sizeof buffer, pipe)) > 0;) output.append(buffer, n);
+  const int status = ::pclose(pipe);
+  EXPECT_EQ(status, 0) << command << "\n" << output;
+  try {
+    return nlohmann::json::parse(output);
+  } catch (const std::exception& e) {
+    ADD_FAILURE() << command << ": " << e.what() << "\n" << output;
+    return nlohmann::json::array();
+  }
+}
+
+void expect_valid(const nlohmann::json& report) {
+  const auto& issues = report["issues"];
+  EXPECT_EQ(issues["numErrors"], 0) << report.dump(1);
+  EXPECT_EQ(issues["numWarnings"], 0) << report.dump(1);
+}
+
+}  // namespace
+
+TEST(GlbWriter, RealMeshReadsBackWithinFloat32AndCarriesTheCrs) {
+  const Mesh mesh = triangulate_xy3(testkit::nrw_crop());
+  ASSERT_GT(mesh.vertices.size(), 65535u);  // uint32 indices
+  testkit::TempDir dir;
+  const std::string path = dir.path("crop.glb");
+  EXPECT_EQ(mesh_format_for(path), MeshFormat::Glb);
+  EXPECT_EQ(write_mesh(mesh, path, MeshFormat::Glb), 0u);
+  const Glb glb = parse_glb(path);
+  const GlbMesh back = glb_mesh(glb);
+  ASSERT_EQ(back.local.size(), mesh.vertices.size());
+  ASSERT_EQ(back.triangles.size(), mesh.triangles.size());
+  EXPECT_TRUE(back.triangles == mesh.triangles);
+
+  // The origin: the bounding box's centre rounded to whole units, recorded twice.
+  const auto& asset = glb.json["asset"];
+  EXPECT_EQ(asset["version"], "2.0");
+  EXPECT_EQ(asset["generator"], "dsmplan " DSMPLAN_VERSION);
+  const auto& extras = asset["extras"];
+  for (int k = 0; k < 3; ++k) {
+    EXPECT_EQ(back.translation[k], std::round(back.translation[k]));
+    EXPECT_EQ(extras["origin"][k].get<double>(), back.translation[k]);
+  }
+  double max_local = 0;
+  for (const auto& p : back.local)
+    for (float c : p) max_local = std::max(max_local, double(std::abs(c)));
+  EXPECT_LE(max_local, 260.0);  // 500 m x 500 m around the centre
+  const double bound = std::ldexp(1.0, -24) * max_local * 2;
+  double worst = 0;
+  for (size_t i = 0; i < mesh.vertices.size(); ++i) {
+    const Vertex& v = mesh.vertices[i];
+    const double c[3] = {v.x, v.y, v.z};
+    for (int k = 0; k < 3; ++k) worst = std::max(worst, std::abs(back.translation[k] + back.local[i][k] - c[k]));
+  }
+  EXPECT_LE(worst, bound);
+
+  // The accessor's min and max are those of the stored floats (the spec requires them).
+  const auto& positions = glb.json["accessors"][0];
+  for (int k = 0; k < 3; ++k) {
+    float lo = INFINITY, hi = -INFINITY;
+    for (const auto& p : back.local) lo = std::min(lo, p[k]), hi = std::max(hi, p[k]);
+    EXPECT_EQ(positions["min"][k].get<double>(), lo);
+    EXPECT_EQ(positions["max"][k].get<double>(), hi);
+  }
+
+  // The root node turns z-up into glTF's y-up; the CRS and vertical reference are in extras.
+  const auto& root = glb.json["nodes"][0];
+  EXPECT_EQ(glb.json["scenes"][0]["nodes"], nlohmann::json::array({0}));
+  EXPECT_EQ(root["children"], nlohmann::json::array({1}));
+  EXPECT_NEAR(root["rotation"][0].get<double>(), -std::sqrt(0.5), 1e-15);
+  EXPECT_NEAR(root["rotation"][3].get<double>(), std::sqrt(0.5), 1e-15);
+  EXPECT_EQ(extras["crs"]["epsg"], 25832);
+  EXPECT_EQ(extras["crs"]["name"], mesh.crs.name);
+  EXPECT_EQ(extras["crs"]["wkt"], mesh.crs.wkt);
+  EXPECT_NE(extras["axes"].get<std::string>().find("z up"), std::string::npos);
+  EXPECT_EQ(extras.contains("vertical"), !mesh.crs.vertical_name.empty() || !mesh.crs.vertical_unit.empty());
+}
+
+TEST(GlbWriter, SmallMeshesUseUint16AndTheCrsVerticalIsRecorded) {
+  Mesh mesh;
+  mesh.vertices = {{356000, 5699000, 100}, {356001, 5699000, 100}, {356000, 5699001, 101.5}};
+  mesh.triangles = {{0, 1, 2}};
+  mesh.crs.name = "ETRS89 / UTM zone 32N + DHHN2016 height";
+  mesh.crs.vertical_name = "DHHN2016 height";
+  mesh.crs.vertical_unit = "metre";
+  testkit::TempDir dir;
+  const std::string path = dir.path("small.dat");  // the format is the argument's, not the name's
+  EXPECT_EQ(write_mesh(mesh, path, MeshFormat::Glb), 0u);
+  const Glb glb = parse_glb(path);
+  EXPECT_EQ(glb.json["accessors"][1]["componentType"], 5123);
+  EXPECT_EQ(glb.json["asset"]["extras"]["vertical"]["name"], "DHHN2016 height");
+  EXPECT_EQ(glb.json["asset"]["extras"]["vertical"]["unit"], "metre");
+  EXPECT_FALSE(glb.json["asset"]["extras"]["crs"].contains("epsg"));  // not known: left out
+  const GlbMesh back = glb_mesh(glb);
+  EXPECT_TRUE(back.triangles == mesh.triangles);
+  EXPECT_THROW(read_mesh(path), InputError);  // written, not read
+}
+
+TEST(GlbWriter, TrianglesWithoutAreaInFloat32AreLeftOutAndCounted) {
+  // Far from the origin, 1e-9 apart is the same float: the triangle 0-3-2 has no area in the
+  // file, though it has in double.
+  Mesh mesh;
+  mesh.vertices = {{0, 0, 0}, {2, 0, 0}, {0, 2, 0}, {1e-9, 0, 0}, {2, 2, 0}};
+  mesh.triangles = {{0, 1, 2}, {3, 1, 2}, {0, 3, 2}, {1, 4, 2}};
+  testkit::TempDir dir;
+  EXPECT_EQ(write_mesh(mesh, dir.path("d.glb"), MeshFormat::Glb), 1u);
+  const GlbMesh back = glb_mesh(parse_glb(dir.path("d.glb")));
+  EXPECT_EQ(back.triangles, (std::vector<Triangle>{{0, 1, 2}, {3, 1, 2}, {1, 4, 2}}));
+
+  // Nothing left: the nodes alone.
+  Mesh flat;
+  flat.vertices = {{0, 0, 0}, {1, 1, 1}, {2, 2, 2}};
+  flat.triangles = {{0, 1, 2}};
+  EXPECT_EQ(write_mesh(flat, dir.path("none.glb"), MeshFormat::Glb), 1u);
+  EXPECT_EQ(write_mesh(Mesh(), dir.path("empty.glb"), MeshFormat::Glb), 0u);
+  const Glb none = parse_glb(dir.path("none.glb"));
+  EXPECT_FALSE(none.json["nodes"][1].contains("mesh"));
+  EXPECT_FALSE(none.json.contains("buffers"));
+  const auto reports = validate_gltf({dir.path("none.glb"), dir.path("empty.glb")});
+  ASSERT_EQ(reports.size(), 2u);
+  for (const auto& report : reports) expect_valid(report);
+
+  EXPECT_THROW(write_mesh(mesh, dir.path("missing/m.glb"), MeshFormat::Glb), OutputError);
+}
+
+TEST(GlbWriter, FormatNames) {
+  for (MeshFormat f : {MeshFormat::Ply, MeshFormat::Obj, MeshFormat::Off, MeshFormat::Glb}) {
+    EXPECT_EQ(parse_mesh_format(to_string(f)), f);
+    EXPECT_EQ(mesh_format_for(std::string("a.") + to_string(f)), f);
+  }
+  EXPECT_EQ(parse_mesh_format("GLB"), MeshFormat::Glb);
+  EXPECT_EQ(mesh_format_for("A.GLB"), MeshFormat::Glb);
+  try {
+    parse_mesh_format("bogus");
+    ADD_FAILURE() << "parsed";
+  } catch (const ArgumentError& e) {
+    EXPECT_NE(std::string(e.what()).find("--of"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("glb"), std::string::npos) << e.what();
+  }
+}
+
+// The real sample, full resolution and simplified: the Khronos validator finds nothing, with
+// degenerate triangles raised to errors. A copy with one triangle made degenerate shows that
+// the raised check is live.
+TEST(GlbValidator, RealMeshesHaveNoErrorsOrWarnings) {
+  const Grid& dsm = testkit::nrw_crop();
+  const Mesh full = triangulate_xy3(dsm);
+  BoundedSimplifyOptions options;
+  options.max_error = 0.4;
+  options.conservative = true;
+  const Mesh simplified = simplify_bounded(dsm, options);
+  ASSERT_LT(simplified.vertices.size(), full.vertices.size());
+  testkit::TempDir dir;
+  EXPECT_EQ(write_mesh(full, dir.path("full.glb"), MeshFormat::Glb), 0u);
+  EXPECT_EQ(write_mesh(simplified, dir.path("bounded.glb"), MeshFormat::Glb), 0u);
+
+  // One degenerate triangle: the first triangle's second index made its first.
+  std::string bytes = testkit::read_file(dir.path("bounded.glb"));
+  const Glb glb = parse_glb(dir.path("bounded.glb"));
+  const auto& iview = glb.json["bufferViews"][glb.json["accessors"][1]["bufferView"].get<int>()];
+  const size_t bin_at = 20 + le32(bytes, 12) + 8;
+  const size_t first = bin_at + iview.value("byteOffset", 0);
+  const size_t width = glb.json["accessors"][1]["componentType"] == 5123 ? 2 : 4;
+  std::memcpy(bytes.data() + first + width, bytes.data() + first, width);
+  testkit::write_file(dir.path("broken.glb"), bytes);
+
+  const auto reports = validate_gltf({dir.path("full.glb"), dir.path("bounded.glb"), dir.path("broken.glb")});
+  ASSERT_EQ(reports.size(), 3u);
+  for (int i = 0; i < 2; ++i) {
+    expect_valid(reports[i]);
+    EXPECT_EQ(reports[i]["issues"]["numInfos"], 0) << reports[i].dump(1);
+  }
+  EXPECT_EQ(reports[0]["info"]["totalTriangleCount"], full.triangles.size());
+  EXPECT_EQ(reports[1]["info"]["totalTriangleCount"], simplified.triangles.size());
+  const auto& broken = reports[2]["issues"];
+  EXPECT_GE(broken["numErrors"].get<int>(), 1);
+  bool flagged = false;
+  for (const auto& message : broken["messages"]) flagged |= message["code"] == "ACCESSOR_INDEX_TRIANGLE_DEGENERATE";
+  EXPECT_TRUE(flagged) << broken.dump(1);
 }

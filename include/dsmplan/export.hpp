@@ -6,6 +6,8 @@
 //   PLY:  "comment crs_name ...", "comment crs_epsg N", "comment crs_wkt <single-line WKT2>",
 //         "comment vertical ..." ("unknown" when the source did not say)
 //   OBJ/OFF: the same lines behind '#'.
+// GLB (binary glTF 2.0, for viewers and the web) is the exception: glTF positions are float32,
+// so they are stored relative to an origin that the file records as doubles (see write_mesh).
 // Writing is atomic: a temporary file in the target folder is renamed into place when complete;
 // on any error nothing is left behind and OutputError names the file and the reason.
 //
@@ -25,15 +27,50 @@
 
 namespace dsmplan {
 
-enum class MeshFormat { Ply, Obj, Off };
+enum class MeshFormat { Ply, Obj, Off, Glb };
 
-/// The format for a file name by its extension (.ply, .obj, .off, case-insensitive);
+/// The format for a file name by its extension (.ply, .obj, .off, .glb, case-insensitive);
 /// ArgumentError naming the extension otherwise.
 MeshFormat mesh_format_for(const std::string& path);
 
-/// Writes `mesh` to `path` in `format` (binary little-endian PLY with double x,y,z and
-/// uint32 indices; OBJ and OFF as text). O(vertices + triangles), streaming.
-void write_mesh(const Mesh& mesh, const std::string& path, MeshFormat format, const Progress& progress = {});
+/// The format named `name` ("ply", "obj", "off", "glb", case-insensitive), as GDAL's `--of`
+/// names a driver; ArgumentError(option, ...) listing the names otherwise.
+MeshFormat parse_mesh_format(const std::string& name, const std::string& option = "--of");
+/// "ply", "obj", "off" or "glb".
+const char* to_string(MeshFormat format);
+
+/// Writes `mesh` to `path` in `format`, whatever the path's extension:
+///   PLY  binary little-endian, double x,y,z and uint32 indices; O(vertices + triangles), streaming;
+///   OBJ, OFF  text, shortest round-trip decimals; streaming;
+///   GLB  binary glTF 2.0 (Khronos, https://registry.khronos.org/glTF/specs/2.0/glTF-2.0.html),
+///        written with tinygltf, laid out as follows.
+///        - Origin: the centre of the vertices' bounding box rounded to whole CRS units (as the
+///          ClearanceIndex does), so vertex - origin is exact in double for coordinates on the
+///          CRS's usual decimal grid.
+///        - Positions: float32 POSITION accessor (min and max set) holding vertex - origin in
+///          the CRS's axes (x east, y north, z up; CRS units). Each coordinate is off by at most
+///          2^-24 of its local magnitude (a 1 km mesh: <= 30 micrometres).
+///        - Indices: uint16 when there are at most 65535 vertices (65535 itself is the
+///          primitive-restart value), else uint32; mode TRIANGLES; no normals, no material.
+///        - Nodes: glTF is y-up, GIS meshes are z-up. The scene's root node "z-up to y-up" has
+///          only a rotation, -90 degrees about x (quaternion [-sqrt(1/2), 0, 0, sqrt(1/2)]), so
+///          viewers show the mesh upright (glTF x = east, y = up, z = south). Its one child,
+///          "mesh", holds the mesh and translation = the origin as doubles, so child translation
+///          + position = the vertex in the CRS, without the rotation.
+///        - asset.generator "dsmplan VERSION"; asset.extras (JSON objects, fields that are not
+///          known are left out): "crs" {"name", "epsg", "wkt"}, "vertical" {"name", "unit"},
+///          "origin" [x, y, z] (CRS units, as the child's translation), "axes" (a sentence on
+///          the above), "positions" ("float32, vertex minus origin").
+///        - Triangles whose three corners are collinear or coincide once rounded to float32
+///          (exact test) would have no area: they are left out, and the count is returned. This
+///          is stricter than the Khronos validator, which flags only triangles naming a vertex
+///          twice (ACCESSOR_INDEX_TRIANGLE_DEGENERATE). dsmplan's meshes of real data have none
+///          (the tests check that); a mesh with no triangle left is written as the nodes alone,
+///          without buffers. ArgumentError("mesh") when a triangle names a missing vertex.
+///        The whole file is built in memory (about 3 x its size: 12 bytes a vertex, 6 or 12
+///        bytes a triangle) before it is written; O(vertices + triangles).
+/// Atomic; OutputError on failure. Returns the number of triangles left out (0 but for GLB).
+size_t write_mesh(const Mesh& mesh, const std::string& path, MeshFormat format, const Progress& progress = {});
 
 /// Writes `text` to `path` atomically (temporary file + rename). OutputError on failure.
 void write_text_file(const std::string& path, const std::string& text);
@@ -51,7 +88,8 @@ void write_text_file(const std::string& path, const std::string& text);
 ///        negative (relative) indices; groups, materials, "vt", "vn", lines and points are ignored;
 ///   OFF  plain "OFF", a "vertices faces [edges]" line, "x y z" lines, "3 a b c [colour]" lines.
 /// Vertices and triangles come in file order, indices unchanged, coordinates exactly as stored
-/// (float properties widen to double exactly). The CRS comes from the "crs_name", "crs_epsg",
+/// (float properties widen to double exactly). GLB files are not read (InputError at "header":
+/// glTF positions are float32, so use the PLY for further work). The CRS comes from the "crs_name", "crs_epsg",
 /// "crs_wkt" and "vertical NAME (UNIT)" comments write_mesh() puts in the header ("unknown" gives
 /// an empty field); `definition` is the WKT, else "EPSG:n"; `geographic` is read from the WKT's
 /// first CRS keyword. A file without those comments gives an unknown CRS.

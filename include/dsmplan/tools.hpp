@@ -65,8 +65,9 @@ GridSummary grid_to_geotiff(const GridOptions& options, const Progress& progress
 // ---- dsmplan mesh ---------------------------------------------------------------------------
 
 struct MeshJobOptions {
-  std::string input;   ///< DSM raster
-  std::string output;  ///< .ply, .obj or .off
+  std::string input;                 ///< DSM raster
+  std::string output;                ///< .ply, .obj, .off or .glb (see write_mesh)
+  std::optional<MeshFormat> format;  ///< overrides the output's extension (`--of`)
   ReadRasterOptions read;
   std::optional<double> resolution;  ///< resample to this x/y cell size first; none: keep the DSM's
   Resampling resampling = Resampling::Median;
@@ -82,6 +83,7 @@ struct MeshReport {
   std::optional<Resampling> resampling;  ///< none when the DSM was meshed at its own resolution
   double zstep = 0, max_edge_length = 0;
   uint64_t file_bytes = 0;
+  size_t dropped_triangles = 0;  ///< left out of a GLB as degenerate in float32 (write_mesh)
   Crs crs;
   std::vector<std::pair<std::string, double>> seconds;  ///< read, resample, triangulate, write, total
 };
@@ -90,8 +92,8 @@ struct MeshReport {
 /// geographic CRSs (x,y in degrees cannot carry a metric safety distance).
 MeshReport mesh_dsm(const MeshJobOptions& options, const Progress& progress = {});
 /// Keys: input, output, vertices, faces, cells, valid_cells, nodata_cells, holes, width, height,
-/// source_resolution, resolution, resampling, zstep, max_edge_length, file_bytes, crs, vertical,
-/// seconds {read, resample, triangulate, write, total}.
+/// source_resolution, resolution, resampling, zstep, max_edge_length, file_bytes, dropped_triangles,
+/// crs, vertical, seconds {read, resample, triangulate, write, total}.
 Json to_json(const MeshReport& report);
 
 // ---- dsmplan simplify -----------------------------------------------------------------------
@@ -102,9 +104,10 @@ const char* to_string(SimplifyMethod);
 SimplifyMethod parse_simplify_method(const std::string& name);
 
 struct SimplifyJobOptions {
-  std::string input;   ///< DSM raster, or a mesh file (.ply, .obj, .off) made from `dsm`
-  std::string output;  ///< .ply, .obj or .off
-  std::string dsm;     ///< with a mesh input: the DSM to certify against (required)
+  std::string input;                 ///< DSM raster, or a mesh file (.ply, .obj, .off) made from `dsm`
+  std::string output;                ///< .ply, .obj, .off or .glb (see write_mesh)
+  std::optional<MeshFormat> format;  ///< overrides the output's extension (`--of`)
+  std::string dsm;                   ///< with a mesh input: the DSM to certify against (required)
   ReadRasterOptions read;
   std::optional<double> resolution;  ///< resample the DSM to this x/y cell size first
   Resampling resampling = Resampling::Median;
@@ -124,6 +127,7 @@ struct SimplifyReport {
   std::optional<size_t> removed_coplanar, removed_colinear;  ///< the paper's variants only
   std::optional<size_t> restored_colinear;                   ///< marked co-linear, put back
   VerticalError error;                                       ///< certified on the output
+  size_t dropped_triangles = 0;  ///< left out of a GLB as degenerate in float32 (write_mesh)
   Crs crs;
   std::vector<std::pair<std::string, double>> seconds;  ///< per stage, and total
 };
@@ -134,7 +138,7 @@ SimplifyReport simplify_job(const SimplifyJobOptions& options, const Progress& p
 /// Keys (Table 2's columns and the certified error): input, output, method, dz, dco, max_error,
 /// conservative, delaunay, source_resolution, resolution, vertices_in, vertices_out, reduction,
 /// removed_coplanar, removed_colinear, restored_colinear (null in the bounded mode), faces_in, faces_out,
-/// max_above_m, max_below_m, rms_m, certified_cells, uncovered_cells, crs, vertical,
+/// max_above_m, max_below_m, rms_m, certified_cells, uncovered_cells, dropped_triangles, crs, vertical,
 /// seconds {read, mesh, search, triangulate | simplify, certify, write, total}.
 Json to_json(const SimplifyReport& report);
 /// One summary line for people.

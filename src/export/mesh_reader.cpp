@@ -918,6 +918,9 @@ Mesh read_mesh(const std::string& path, const Progress& progress) {
   } catch (const ArgumentError&) {
   }
   const std::string_view start = std::string_view(bytes).substr(0, 3);
+  if (bytes.compare(0, 4, "glTF") == 0 || named == MeshFormat::Glb) {
+    throw InputError(path, "header", "GLB (glTF) meshes are written, not read (float32 positions): use the PLY");
+  }
   Mesh mesh;
   if (start == "ply" || (start != "OFF" && named == MeshFormat::Ply)) {
     mesh = PlyReader(path, bytes, progress).read();

@@ -1,5 +1,6 @@
 // Mesh files: PLY (Turk, "The PLY Polygon File Format", binary_little_endian 1.0), Wavefront
 // OBJ and OFF. Coordinates stay doubles in the mesh's CRS; the CRS travels in header comments.
+// GLB (glTF 2.0) lives in glb_writer.cpp.
 #include <algorithm>
 #include <bit>
 #include <cctype>
@@ -11,6 +12,7 @@
 
 #include "core/atomic_file.hpp"
 #include "dsmplan/export.hpp"
+#include "export/glb_writer.hpp"
 
 namespace dsmplan {
 
@@ -106,25 +108,57 @@ void write_text(const Mesh& mesh, AtomicFile& file, MeshFormat format, const Pro
 
 }  // namespace
 
-MeshFormat mesh_format_for(const std::string& path) {
-  std::string extension = std::filesystem::path(path).extension().string();
-  std::transform(extension.begin(), extension.end(), extension.begin(),
-                 [](unsigned char c) { return std::tolower(c); });
-  if (extension == ".ply") return MeshFormat::Ply;
-  if (extension == ".obj") return MeshFormat::Obj;
-  if (extension == ".off") return MeshFormat::Off;
-  throw ArgumentError(path, "unknown mesh format '" + extension + "' (use .ply, .obj or .off)");
+namespace {
+
+std::string lower(std::string text) {
+  std::transform(text.begin(), text.end(), text.begin(), [](unsigned char c) { return std::tolower(c); });
+  return text;
 }
 
-void write_mesh(const Mesh& mesh, const std::string& path, MeshFormat format, const Progress& progress) {
+constexpr MeshFormat kFormats[] = {MeshFormat::Ply, MeshFormat::Obj, MeshFormat::Off, MeshFormat::Glb};
+
+}  // namespace
+
+const char* to_string(MeshFormat format) {
+  switch (format) {
+    case MeshFormat::Ply:
+      return "ply";
+    case MeshFormat::Obj:
+      return "obj";
+    case MeshFormat::Off:
+      return "off";
+    case MeshFormat::Glb:
+      return "glb";
+  }
+  return "?";
+}
+
+MeshFormat mesh_format_for(const std::string& path) {
+  const std::string extension = lower(std::filesystem::path(path).extension().string());
+  for (MeshFormat format : kFormats)
+    if (extension == std::string(".") + to_string(format)) return format;
+  throw ArgumentError(path, "unknown mesh format '" + extension + "' (use .ply, .obj, .off or .glb, or --of)");
+}
+
+MeshFormat parse_mesh_format(const std::string& name, const std::string& option) {
+  for (MeshFormat format : kFormats)
+    if (lower(name) == to_string(format)) return format;
+  throw ArgumentError(option, "unknown mesh format '" + name + "' (use ply, obj, off or glb)");
+}
+
+size_t write_mesh(const Mesh& mesh, const std::string& path, MeshFormat format, const Progress& progress) {
   AtomicFile file(path);
+  size_t dropped = 0;
   if (format == MeshFormat::Ply) {
     write_ply(mesh, file, progress);
+  } else if (format == MeshFormat::Glb) {
+    dropped = write_glb(mesh, file, progress);
   } else {
     write_text(mesh, file, format, progress);
   }
   file.commit();
   report(progress, 1);
+  return dropped;
 }
 
 void write_text_file(const std::string& path, const std::string& text) {

@@ -12,7 +12,7 @@ namespace dsmplan {
 
 MeshReport mesh_dsm(const MeshJobOptions& options, const Progress& progress) {
   // Everything that can be checked is checked before the long work starts.
-  const MeshFormat format = mesh_format_for(options.output);
+  const MeshFormat format = options.format ? *options.format : mesh_format_for(options.output);
   if (options.resolution && !(*options.resolution > 0 && std::isfinite(*options.resolution))) {
     throw ArgumentError("--res", "must be a positive number of CRS units");
   }
@@ -32,7 +32,7 @@ MeshReport mesh_dsm(const MeshJobOptions& options, const Progress& progress) {
   report.seconds.emplace_back("resample", clock.lap());
   const Mesh mesh = triangulate_xy3(dsm, options.mesh, sub_progress(progress, 0.4, 0.7));
   report.seconds.emplace_back("triangulate", clock.lap());
-  write_mesh(mesh, options.output, format, sub_progress(progress, 0.7, 1.0));
+  report.dropped_triangles = write_mesh(mesh, options.output, format, sub_progress(progress, 0.7, 1.0));
   report.seconds.emplace_back("write", clock.lap());
   add_total(report.seconds);
 
@@ -66,6 +66,7 @@ Json to_json(const MeshReport& report) {
           {"zstep", report.zstep},
           {"max_edge_length", report.max_edge_length},
           {"file_bytes", report.file_bytes},
+          {"dropped_triangles", report.dropped_triangles},
           {"crs", crs_json(report.crs)},
           {"vertical", vertical_json(report.crs)},
           {"seconds", seconds_json(report.seconds)}};

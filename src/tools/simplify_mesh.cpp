@@ -58,7 +58,7 @@ SimplifyMethod parse_simplify_method(const std::string& name) {
 
 SimplifyReport simplify_job(const SimplifyJobOptions& options, const Progress& progress) {
   // Everything that can be checked is checked before the long work starts.
-  const MeshFormat format = mesh_format_for(options.output);
+  const MeshFormat format = options.format ? *options.format : mesh_format_for(options.output);
   if (options.resolution && !(*options.resolution > 0 && std::isfinite(*options.resolution))) {
     throw ArgumentError("--res", "must be a positive number of CRS units");
   }
@@ -130,7 +130,7 @@ SimplifyReport simplify_job(const SimplifyJobOptions& options, const Progress& p
   input = Mesh();
   report.error = certify(output, dsm, sub_progress(progress, 0.8, 0.9));
   report.seconds.emplace_back("certify", clock.lap());
-  write_mesh(output, options.output, format, sub_progress(progress, 0.9, 1.0));
+  report.dropped_triangles = write_mesh(output, options.output, format, sub_progress(progress, 0.9, 1.0));
   report.seconds.emplace_back("write", clock.lap());
   add_total(report.seconds);
   report.vertices_out = output.vertices.size();
@@ -166,6 +166,7 @@ Json to_json(const SimplifyReport& report) {
           {"rms_m", report.error.rms},
           {"certified_cells", report.error.cells},
           {"uncovered_cells", report.error.uncovered},
+          {"dropped_triangles", report.dropped_triangles},
           {"crs", crs_json(report.crs)},
           {"vertical", vertical_json(report.crs)},
           {"seconds", seconds_json(report.seconds)}};
