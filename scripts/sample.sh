@@ -37,11 +37,14 @@ echo "Planning a path through the bundled waypoints on the conservative mesh (2 
 rm -f "$out/bounded_1m.roadmap"
 build/dsmplan plan "$out/bounded_1m.ply" --waypoints data/nrw-dom1/sample_waypoints.csv \
   -o "$out/path.csv" --roadmap "$out/bounded_1m.roadmap" --dsm "$dsm" --stats "$out/path.json"
-# The sample's heights are DHHN2016; without the GCG2016 geoid grid PROJ can only copy them to
-# the ellipsoid (about 47 m off), so the GeoJSON says so and the run must allow it explicitly.
-build/dsmplan plan "$out/bounded_1m.ply" --waypoints data/nrw-dom1/sample_waypoints.csv \
-  -o "$out/path.geojson" --roadmap "$out/bounded_1m.roadmap" \
-  --vertical-crs EPSG:7837 --allow-approximate-vertical -q
+# The sample's heights are DHHN2016; without the GCG2016 geoid grid PROJ can only copy them
+# ("ballpark"): to the ellipsoid for GeoJSON (about 47 m off), to EGM96 mean sea level for the
+# missions and KML (near a metre off). Each file names that, and the run must allow it explicitly.
+for format in geojson plan waypoints kml; do
+  build/dsmplan plan "$out/bounded_1m.ply" --waypoints data/nrw-dom1/sample_waypoints.csv \
+    -o "$out/path.$format" --roadmap "$out/bounded_1m.roadmap" \
+    --vertical-crs EPSG:7837 --allow-approximate-vertical -q
+done
 build/dsmplan render "$dsm" --mesh "$out/bounded_1m.ply" --no-edges --roadmap "$out/bounded_1m.roadmap" \
   --path "$out/path.csv" --waypoints data/nrw-dom1/sample_waypoints.csv --zoom 2 \
   --title "path over the conservative mesh, roadmap in blue" -o "$out/path.png" -q
