@@ -96,6 +96,7 @@
 #include "bench_kit.hpp"
 #include "dsmplan/mesh.hpp"
 #include "dsmplan/plan.hpp"
+#include "plan/prm_parts.hpp"
 #include "dsmplan/raster.hpp"
 
 using namespace dsmplan;
@@ -110,17 +111,9 @@ int repetitions = 3;               // best of: argv[1], 3 by default
 
 // ---- the samples: build_roadmap()'s Halton candidates, re-generated ----------------------
 
-// Same as src/plan/prm_roadmap.cpp (not public); run_mesh() checks the kept ones equal
-// Roadmap::nodes bit for bit.
-double halton(uint64_t index, uint32_t base) {
-  double result = 0, f = 1;
-  while (index > 0) {
-    f /= base;
-    result += f * static_cast<double>(index % base);
-    index /= base;
-  }
-  return result;
-}
+// The roadmap's own Halton sequence (src/plan/prm_parts.hpp); run_mesh() checks the kept
+// candidates equal Roadmap::nodes bit for bit.
+using detail::halton;
 
 // Every candidate build_roadmap() draws, before dropping; NaN z where no triangle covers (x, y).
 std::vector<Point3> halton_candidates(const ClearanceIndex& index, const PlanOptions& o) {
