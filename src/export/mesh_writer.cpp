@@ -127,6 +127,8 @@ void write_mesh(const Mesh& mesh, const std::string& path, MeshFormat format, co
   report(progress, 1);
 }
 
+void check_writable(const std::string& path) { AtomicFile probe(path); }
+
 void write_text_file(const std::string& path, const std::string& text) {
   AtomicFile file(path);
   file.write(text);
