@@ -113,9 +113,15 @@ PlanResult query_roadmap(const Roadmap& map, const ClearanceIndex& index, const 
       result.status = PlanStatus::NoPath;
       result.waypoint = i;
       const size_t lonely = links[i].empty() ? i : links[i + 1].empty() ? i + 1 : SIZE_MAX;
+      // Samples fill surface .. surface + max_agl: a waypoint above that needs a higher volume, not denser samples.
+      const bool above = lonely != SIZE_MAX && waypoints[lonely][2] > index.ground(waypoints[lonely][0],
+                                                                                  waypoints[lonely][1]) + options.max_agl;
+      const std::string hint = above ? "it is above the flight volume (the surface + --max-agl " +
+                                           format_number(options.max_agl) + "): lower it or raise --max-agl"
+                                     : "a smaller --spacing may give one";
       result.reason = lonely != SIZE_MAX ? "no roadmap sample within --max-edge " + format_number(options.max_edge) +
                                                " has a clear straight segment to waypoint " +
-                                               std::to_string(lonely + 1) + "; a smaller --spacing may give one"
+                                               std::to_string(lonely + 1) + "; " + hint
                                          : "no path within the roadmap (" + std::to_string(map.nodes.size()) +
                                                " samples); a smaller --spacing or a larger --max-edge may find one";
       result.seconds_query = clock.lap();
