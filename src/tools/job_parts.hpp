@@ -46,7 +46,7 @@ inline void require_triangles(size_t triangles, int width, int height, const std
   if (triangles > 0) return;
   throw InputError(path, "",
                    std::to_string(width) + " x " + std::to_string(height) +
-                       " cells give no triangle: a mesh needs valid cells on at least 2 x 2 neighbouring centres");
+                       " cells give no triangle: a mesh needs three valid cells, not in a line, within --max-edge of each other");
 }
 
 /// Delaunay on degrees with heights in metres means nothing, nor does a metric safety distance:
