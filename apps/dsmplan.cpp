@@ -207,6 +207,7 @@ int main(int argc, char** argv) {
       if (mesh_res->count()) mesh.resolution = mesh_resolution;
       mesh.resampling = parse_resampling(resampling);
       if (!mesh_of.empty()) mesh.format = parse_mesh_format(mesh_of, "--of");
+      if (!stats_path.empty()) check_writable(stats_path);
       const MeshReport report = mesh_dsm(mesh, terminal_progress(quiet));
       if (!stats_path.empty()) write_text_file(stats_path, to_json(report).dump(2) + "\n");
     }
@@ -223,6 +224,7 @@ int main(int argc, char** argv) {
       } else if (simplify.method == SimplifyMethod::Bounded) {
         throw ArgumentError("--method bounded", "needs --max-error E");
       }
+      if (!simplify_stats.empty()) check_writable(simplify_stats);
       const SimplifyReport report = simplify_job(simplify, terminal_progress(quiet));
       if (!simplify_stats.empty()) write_text_file(simplify_stats, to_json(report).dump(2) + "\n");
       std::fputs(simplify_json ? (to_json(report).dump(2) + "\n").c_str() : to_text(report).c_str(), stdout);
@@ -239,6 +241,7 @@ int main(int argc, char** argv) {
       plan.plan.planner = planner == "rrtconnect" ? PlannerKind::rrt_connect : PlannerKind::prm;
       if (seed < 0) throw ArgumentError("--seed", "must be >= 0, got " + std::to_string(seed));
       plan.plan.seed = static_cast<uint64_t>(seed);
+      if (!plan_stats.empty()) check_writable(plan_stats);
       const PlanReport report = plan_job(plan, terminal_progress(quiet));
       if (!plan_stats.empty()) write_text_file(plan_stats, to_json(report).dump(2) + "\n");
       if (!quiet) std::fputs(to_text(report).c_str(), stdout);

@@ -700,7 +700,7 @@ TEST(RoadmapFile, AnotherMeshOtherOptionsOrDamageAreRefused) {
   std::string flipped = good;
   flipped[good.size() / 2] ^= 0x10;
   expect_refused(with(flipped), fingerprint, options, "checksum");
-  expect_refused(with(good.substr(0, good.size() - 100)), fingerprint, options, "checksum");
+  expect_refused(with(good.substr(0, good.size() - 100)), fingerprint, options, "truncated roadmap file");
   expect_refused(with(good.substr(0, 40)), fingerprint, options, "truncated");
   expect_refused(with("x,y,z\n1,2,3\n"), fingerprint, options, "not a dsmplan roadmap");
   // Counts that lie, and an edge to a node that does not exist, behind a valid checksum.

@@ -59,6 +59,19 @@ void report(const Progress& progress, double fraction);
 /// The part [begin, end] of a parent's progress, for a sub-step of a longer operation.
 Progress sub_progress(const Progress& parent, double begin, double end);
 
+/// Memory. Before a large allocation (a raster's cells, a point cloud, a mesh) the readers and
+/// jobs estimate the bytes they will need and call require_memory(), so that an input too big for
+/// the machine is refused with the figure instead of being killed by the kernel part-way.
+/// The machine's memory: physical memory, or the cgroup's limit when that is lower.
+double machine_memory_bytes();
+/// "3.6 TB", "23 GB", "512 bytes" (binary steps, as free(1) counts).
+std::string format_bytes(double bytes);
+/// "needs about X of memory, this machine has Y" when `bytes` exceeds machine_memory_bytes(),
+/// else empty. A double, so that absurd declared sizes cannot overflow on the way here.
+std::string memory_problem(double bytes);
+/// Throws InputError(file, place, memory_problem(bytes)) when that is not empty.
+void require_memory(const std::string& file, const std::string& place, double bytes);
+
 /// A coordinate reference system as the data declared it. The core only carries it along;
 /// the I/O layer (GDAL/PROJ) resolves `definition` into the descriptive fields.
 using Point3 = std::array<double, 3>;  ///< x, y, z

@@ -75,6 +75,11 @@ size_t write_mesh(const Mesh& mesh, const std::string& path, MeshFormat format, 
 /// Writes `text` to `path` atomically (temporary file + rename). OutputError on failure.
 void write_text_file(const std::string& path, const std::string& text);
 
+/// OutputError now when `path` could not be written (its temporary file is created next to it
+/// and removed): for a second output written after the main one (--stats), so that a bad path
+/// fails before the main output exists rather than after, leaving half of the outputs.
+void check_writable(const std::string& path);
+
 // ---- mesh files in ------------------------------------------------------------------------
 
 /// Reads a triangle mesh written by write_mesh() or by another tool, in the mesh's own

@@ -157,12 +157,16 @@ struct ReadRasterOptions {
   int band = 1;
   std::string assign_crs;  ///< CRS to use when the raster has none ("EPSG:25832", WKT, ...)
   bool allow_no_crs = false;
+  /// Memory the caller will need per cell of this raster beyond the cell's 4-byte height (e.g.
+  /// for the mesh it will make of it): the total is checked against the machine before reading.
+  double extra_bytes_per_cell = 0;
 };
 
 /// Reads one band of any GDAL raster. Declared nodata becomes NaN. Throws InputError when the
 /// file is missing or not a raster, has no cells or no valid cell, has a rotated geotransform,
 /// has NaN (not declared nodata) or infinite heights (naming the first cell and its
-/// coordinates), or has no CRS and none is assigned. O(cells).
+/// coordinates), has no CRS and none is assigned, or would need more memory than the machine has
+/// (4 bytes a cell, 5 with a mask band, plus options.extra_bytes_per_cell), before reading. O(cells).
 Grid read_raster(const std::string& path, const ReadRasterOptions& options = {}, const Progress& progress = {});
 
 /// Fills `crs.name`, `crs.epsg`, `crs.wkt` and the vertical fields from `crs.definition`

@@ -9,7 +9,8 @@ namespace dsmplan {
 
 class AtomicFile {
 public:
-  /// Creates the temporary file next to `path`; OutputError when the folder is not writable.
+  /// Creates the temporary file next to `path`; OutputError when the folder is not writable or
+  /// `path` exists and is not a regular file (a directory, device, pipe or socket).
   explicit AtomicFile(std::string path);
   ~AtomicFile();
   AtomicFile(const AtomicFile&) = delete;

@@ -161,6 +161,8 @@ size_t write_mesh(const Mesh& mesh, const std::string& path, MeshFormat format, 
   return dropped;
 }
 
+void check_writable(const std::string& path) { AtomicFile probe(path); }
+
 void write_text_file(const std::string& path, const std::string& text) {
   AtomicFile file(path);
   file.write(text);

@@ -3,8 +3,10 @@
 // destructors: the libpng calls live in one function with only plain locals.
 #include <png.h>
 
+#include <cerrno>
 #include <csetjmp>
 #include <cstdio>
+#include <cstring>
 #include <string>
 #include <vector>
 
@@ -17,10 +19,12 @@ namespace {
 
 struct PngFailure {
   char message[256] = "libpng failed";
+  int error = 0;  // errno when libpng gave up: its "Write Error" does not say why (disk full?)
 };
 
 void on_error(png_structp png, png_const_charp message) {
   auto* failure = static_cast<PngFailure*>(png_get_error_ptr(png));
+  failure->error = errno;
   std::snprintf(failure->message, sizeof failure->message, "%s", message ? message : "libpng failed");
   png_longjmp(png, 1);
 }
@@ -69,7 +73,8 @@ void write_png(const Image& image, const std::string& path) {
   AtomicFile file(path);
   PngFailure failure;
   if (!write_rows(file.stream(), image.width, image.height, rows.data(), &failure)) {
-    throw OutputError(path, std::string("cannot write: ") + failure.message);
+    const bool io_error = std::ferror(file.stream()) && failure.error != 0;
+    throw OutputError(path, std::string("cannot write: ") + (io_error ? std::strerror(failure.error) : failure.message));
   }
   file.commit();
 }

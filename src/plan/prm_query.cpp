@@ -442,10 +442,15 @@ PlanResult query_roadmap(const Roadmap& map, const ClearanceIndex& index, const 
         refined = " nor after " + std::to_string(refinement->rounds()) + " refinement rounds (" +
                   std::to_string(refinement->added()) + " samples added, spacing down to " +
                   format_number(refinement->finest_spacing()) + ")";
+      // Samples fill surface .. surface + max_agl: a waypoint above that needs a higher volume, not denser samples.
+      const bool above = lonely != SIZE_MAX && waypoints[lonely][2] > index.ground(waypoints[lonely][0],
+                                                                                  waypoints[lonely][1]) + options.max_agl;
+      const std::string hint = above ? "it is above the flight volume (the surface + --max-agl " +
+                                           format_number(options.max_agl) + "): lower it or raise --max-agl"
+                                     : "a smaller --spacing may give one";
       result.reason = lonely != SIZE_MAX ? "no roadmap sample within --max-edge " + format_number(options.max_edge) +
                                                " has a clear straight segment to waypoint " +
-                                               std::to_string(lonely + 1) + refined +
-                                               "; a smaller --spacing may give one"
+                                               std::to_string(lonely + 1) + refined + "; " + hint
                                          : "no path within the roadmap (" + std::to_string(map.nodes.size()) +
                                                " samples)" + refined +
                                                "; a smaller --spacing or a larger --max-edge may find one";

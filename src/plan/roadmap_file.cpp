@@ -123,8 +123,22 @@ Roadmap read_roadmap(const std::string& path, RoadmapHeader* header) {
   if (bytes.size() < kHeaderBytes + 8) throw InputError(path, "", "truncated roadmap file (" + std::to_string(bytes.size()) + " bytes)");
   uint64_t stored_sum;
   std::memcpy(&stored_sum, bytes.data() + bytes.size() - 8, 8);
-  if (stored_sum != fnv1a(reinterpret_cast<const unsigned char*>(bytes.data()), bytes.size() - 8))
+  if (stored_sum != fnv1a(reinterpret_cast<const unsigned char*>(bytes.data()), bytes.size() - 8)) {
+    // The counts sit at fixed places: a damaged file shorter than they declare was cut short,
+    // which says more than "damaged" (a double, so that lying counts cannot overflow).
+    uint64_t declared[2];
+    std::memcpy(declared, bytes.data() + kHeaderBytes - 16, sizeof declared);
+    const double declared_bytes = kHeaderBytes + double(declared[0]) * 28 + 4 + double(declared[1]) * 4 + 8;
+    if (declared_bytes > double(bytes.size())) {
+      char why[200];
+      std::snprintf(why, sizeof why,
+                    "truncated roadmap file: %zu bytes, its header declares %.0f (%llu nodes, %llu edge listings)",
+                    bytes.size(), declared_bytes, static_cast<unsigned long long>(declared[0]),
+                    static_cast<unsigned long long>(declared[1]));
+      throw InputError(path, "", why);
+    }
     throw InputError(path, "", "damaged roadmap file (checksum mismatch)");
+  }
 
   Reader r{bytes, path, sizeof kMagic};
   if (const uint32_t version = r.get<uint32_t>("the version"); version != kVersion)

@@ -128,6 +128,12 @@ Grid read_raster(const std::string& path, const ReadRasterOptions& options, cons
   if (gt[2] != 0 || gt[4] != 0) throw InputError(path, "geotransform", "rotated or sheared rasters are not supported");
   if (!(gt[1] > 0) || gt[5] == 0) throw InputError(path, "geotransform", "cell size must be positive");
   const bool south_up = gt[5] > 0;
+  // A float per cell, a byte more when a mask band has to be read alongside.
+  GDALRasterBand* band = dataset->GetRasterBand(options.band);
+  const int mask_flags = band->GetMaskFlags();
+  const bool read_mask = !(mask_flags & (GMF_ALL_VALID | GMF_NODATA));
+  require_memory(path, std::to_string(width) + " x " + std::to_string(height) + " cells",
+                 double(width) * double(height) * (sizeof(float) + (read_mask ? 1 : 0) + options.extra_bytes_per_cell));
 
   Grid grid(width, height, gt[0], south_up ? gt[3] + height * gt[5] : gt[3], gt[1], std::abs(gt[5]));
   const OGRSpatialReference* srs = dataset->GetSpatialRef();
@@ -140,7 +146,6 @@ Grid read_raster(const std::string& path, const ReadRasterOptions& options, cons
     throw InputError(path, "", "raster has no CRS; assign one with --crs (e.g. --crs EPSG:25832)");
   }
 
-  GDALRasterBand* band = dataset->GetRasterBand(options.band);
   GdalProgress bridge{progress};
   GDALRasterIOExtraArg extra;
   INIT_RASTERIO_EXTRA_ARG(extra);
@@ -164,9 +169,8 @@ Grid read_raster(const std::string& path, const ReadRasterOptions& options, cons
   const bool nan_is_nodata = has_nodata && std::isnan(nodata);
   const float nodata_value = static_cast<float>(nodata);
   // An explicit mask (internal mask, alpha) marks nodata too.
-  const int mask_flags = band->GetMaskFlags();
   std::vector<GByte> mask;
-  if (!(mask_flags & (GMF_ALL_VALID | GMF_NODATA))) {
+  if (read_mask) {
     mask.resize(grid.cells());
     if (band->GetMaskBand()->RasterIO(GF_Read, 0, 0, width, height, mask.data(), width, height, GDT_Byte, 0, 0) !=
         CE_None) {

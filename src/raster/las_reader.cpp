@@ -54,6 +54,7 @@ constexpr size_t kVlrHeader = 54, kEvlrHeader = 60;
 // A CRS record larger than this is a corrupt length, not a WKT string.
 constexpr uint64_t kMaxCrsRecord = 1 << 20;
 constexpr uint64_t kReportEvery = 1 << 20;
+constexpr double kBytesPerPoint = 3 * sizeof(double) + sizeof(uint8_t);
 
 int header_size_of_version(int minor) { return minor >= 4 ? 375 : minor == 3 ? 235 : 227; }
 
@@ -309,6 +310,9 @@ Crs LasReader::crs(const Header& h) const {
 }
 
 void LasReader::points(const Header& h, PointCloud& cloud, const Progress& progress) const {
+  // A PointCloud keeps x, y, z as doubles and a class byte: 25 bytes a point, reserved exactly.
+  // The count is already bounded by the file's size; a big enough file can still outgrow memory.
+  require_memory(path_, std::to_string(h.point_count) + " points", double(h.point_count) * kBytesPerPoint);
   cloud.x.reserve(h.point_count);
   cloud.y.reserve(h.point_count);
   cloud.z.reserve(h.point_count);

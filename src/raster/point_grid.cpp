@@ -118,6 +118,12 @@ Grid grid_points(const std::vector<PointCloud>& clouds, const GridPointsOptions&
   if (!(columns >= 1 && rows >= 1 && columns * rows <= kMaxCells))  // also catches overflow to inf
     throw ArgumentError("--res", "a resolution of " + number(res) + " gives " + number(columns) + " x " + number(rows) +
                                      " cells for the points' extent; choose a coarser one");
+  // The grid's float and the counting sort's bound per cell, a double per kept point.
+  const std::string memory = memory_problem(columns * rows * (sizeof(float) + sizeof(uint32_t)) +
+                                            double(kept) * sizeof(double));
+  if (!memory.empty())
+    throw ArgumentError("--res", "a resolution of " + number(res) + " gives " + number(columns) + " x " +
+                                     number(rows) + " cells for " + std::to_string(kept) + " points, which " + memory);
   Grid grid(static_cast<int>(columns), static_cast<int>(rows), lattice.x0, lattice.y0, res, res);
   grid.crs = crs ? *crs : Crs{};
   auto cell_of = [&](double x, double y) { return grid.index(int(lattice.column(x)), int(lattice.row(y))); };

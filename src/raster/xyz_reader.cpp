@@ -108,6 +108,10 @@ PointCloud read_xyz(const std::string& path, const Progress& progress) {
   std::unique_ptr<std::FILE, int (*)(std::FILE*)> file(std::fopen(path.c_str(), "rb"), &std::fclose);
   if (!file) throw InputError(path, "", std::string("cannot open: ") + std::strerror(errno));
   const uintmax_t size = std::filesystem::file_size(path, ec);
+  // Memory up front, from the file's size: a point line of real coordinates has at least about
+  // 20 characters ("356300.5 5699750.5 51"), and each point costs 25 bytes (PointCloud: three
+  // doubles and a class byte, in vectors that may double when they grow: counted once here).
+  if (!ec) require_memory(path, "", double(size) / 20 * (3 * sizeof(double) + sizeof(uint8_t)));
 
   PointCloud cloud;
   XyzParser parser(path, cloud);

@@ -21,16 +21,23 @@ MeshReport mesh_dsm(const MeshJobOptions& options, const Progress& progress) {
   report.input = options.input;
   report.output = options.output;
   Stopwatch clock;
-  Grid dsm = read_raster(options.input, options.read, sub_progress(progress, 0, 0.3));
+  // Without resampling the mesh's memory is known from the raster's size, before reading it.
+  ReadRasterOptions read = options.read;
+  if (!options.resolution) read.extra_bytes_per_cell = kMeshBytesPerCell;
+  Grid dsm = read_raster(options.input, read, sub_progress(progress, 0, 0.3));
   require_projected(dsm.crs, options.input);
   report.seconds.emplace_back("read", clock.lap());
   report.source_resolution = dsm.cell_x;
   if (options.resolution && (*options.resolution != dsm.cell_x || *options.resolution != dsm.cell_y)) {
+    require_memory(options.input, "--res " + short_number(*options.resolution),
+                   resampled_cells(dsm.width, dsm.height, dsm.cell_x, dsm.cell_y, *options.resolution) *
+                       (sizeof(float) + kMeshBytesPerCell));
     dsm = resample(dsm, *options.resolution, options.resampling, sub_progress(progress, 0.3, 0.4));
     report.resampling = options.resampling;
   }
   report.seconds.emplace_back("resample", clock.lap());
   const Mesh mesh = triangulate_xy3(dsm, options.mesh, sub_progress(progress, 0.4, 0.7));
+  require_triangles(mesh.triangles.size(), dsm.width, dsm.height, options.input);
   report.seconds.emplace_back("triangulate", clock.lap());
   report.dropped_triangles = write_mesh(mesh, options.output, format, sub_progress(progress, 0.7, 1.0));
   report.seconds.emplace_back("write", clock.lap());

@@ -24,12 +24,19 @@ bool is_mesh_file(const std::string& path) {
   }
 }
 
-Grid read_dsm(const std::string& path, const SimplifyJobOptions& options, SimplifyReport& report,
-              const Progress& progress) {
-  Grid dsm = read_raster(path, options.read, progress);
+// `bytes_per_cell`: what the job will need per cell of the (resampled) DSM, refused up front
+// when the machine has less.
+Grid read_dsm(const std::string& path, const SimplifyJobOptions& options, double bytes_per_cell,
+              SimplifyReport& report, const Progress& progress) {
+  ReadRasterOptions read = options.read;
+  if (!options.resolution) read.extra_bytes_per_cell = bytes_per_cell;
+  Grid dsm = read_raster(path, read, progress);
   require_projected(dsm.crs, path);
   report.source_resolution = dsm.cell_x;
   if (options.resolution && (*options.resolution != dsm.cell_x || *options.resolution != dsm.cell_y)) {
+    require_memory(path, "--res " + short_number(*options.resolution),
+                   resampled_cells(dsm.width, dsm.height, dsm.cell_x, dsm.cell_y, *options.resolution) *
+                       (sizeof(float) + bytes_per_cell));
     dsm = resample(dsm, *options.resolution, options.resampling);
   }
   report.resolution = dsm.cell_x;
@@ -92,7 +99,7 @@ SimplifyReport simplify_job(const SimplifyJobOptions& options, const Progress& p
   if (mesh_input) {
     input = read_mesh(options.input, sub_progress(progress, 0, 0.1));
     check_2_5d(input, options.input);
-    dsm = read_dsm(options.dsm, options, report, sub_progress(progress, 0.1, 0.2));
+    dsm = read_dsm(options.dsm, options, kPaperSimplifyBytesPerCell, report, sub_progress(progress, 0.1, 0.2));
     if (input.crs.epsg && dsm.crs.epsg && input.crs.epsg != dsm.crs.epsg) {
       throw InputError(options.input, "",
                        "CRS EPSG:" + std::to_string(input.crs.epsg) +
@@ -101,7 +108,8 @@ SimplifyReport simplify_job(const SimplifyJobOptions& options, const Progress& p
     if (input.crs.wkt.empty()) input.crs = dsm.crs;
     report.seconds.emplace_back("read", clock.lap());
   } else {
-    dsm = read_dsm(options.input, options, report, sub_progress(progress, 0, 0.15));
+    dsm = read_dsm(options.input, options, bounded ? kBoundedBytesPerCell : kPaperSimplifyBytesPerCell, report,
+                   sub_progress(progress, 0, 0.15));
     report.seconds.emplace_back("read", clock.lap());
     if (!bounded) input = triangulate_xy3(dsm, options.mesh, sub_progress(progress, 0.15, 0.2));
     report.seconds.emplace_back("mesh", clock.lap());
@@ -128,6 +136,7 @@ SimplifyReport simplify_job(const SimplifyJobOptions& options, const Progress& p
     report.seconds.emplace_back("triangulate", result.seconds_triangulate);
   }
   input = Mesh();
+  require_triangles(output.triangles.size(), dsm.width, dsm.height, mesh_input ? options.dsm : options.input);
   report.error = certify(output, dsm, sub_progress(progress, 0.8, 0.9));
   report.seconds.emplace_back("certify", clock.lap());
   report.dropped_triangles = write_mesh(output, options.output, format, sub_progress(progress, 0.9, 1.0));

@@ -1,0 +1,47 @@
+// Memory refused up front: a job that would need more than the machine has is an InputError with
+// the figure, not a process the kernel's out-of-memory killer takes half-way through.
+#include <unistd.h>
+
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <string>
+
+#include "dsmplan/core.hpp"
+
+namespace dsmplan {
+
+double machine_memory_bytes() {
+  const long pages = ::sysconf(_SC_PHYS_PAGES), page = ::sysconf(_SC_PAGE_SIZE);
+  double bytes = pages > 0 && page > 0 ? static_cast<double>(pages) * static_cast<double>(page) : INFINITY;
+  // In a container the cgroup's limit is what the kernel enforces ("max" when there is none).
+  for (const char* limit_file : {"/sys/fs/cgroup/memory.max", "/sys/fs/cgroup/memory/memory.limit_in_bytes"}) {
+    std::ifstream in(limit_file);
+    double limit = 0;
+    if (in >> limit && limit > 0 && limit < bytes) bytes = limit;
+  }
+  return bytes;
+}
+
+std::string format_bytes(double bytes) {
+  static const char* units[] = {"bytes", "kB", "MB", "GB", "TB", "PB", "EB"};
+  int unit = 0;
+  // Binary steps, as free(1) and top(1) count, so the figure matches what the user looks up.
+  while (bytes >= 1024 && unit < 6) bytes /= 1024, ++unit;
+  char text[32];
+  std::snprintf(text, sizeof text, unit == 0 ? "%.0f %s" : bytes < 10 ? "%.1f %s" : "%.0f %s", bytes, units[unit]);
+  return text;
+}
+
+std::string memory_problem(double bytes) {
+  const double available = machine_memory_bytes();
+  if (!(bytes > available)) return {};
+  return "needs about " + format_bytes(bytes) + " of memory, this machine has " + format_bytes(available);
+}
+
+void require_memory(const std::string& file, const std::string& place, double bytes) {
+  const std::string problem = memory_problem(bytes);
+  if (!problem.empty()) throw InputError(file, place, problem);
+}
+
+}  // namespace dsmplan

@@ -1,0 +1,265 @@
+#!/usr/bin/env python3
+"""Writes the hostile-input fixtures of tests/hostile/ (run once; the outputs are committed).
+
+Usage: tests/hostile/make_fixtures.py DSMPLAN_BINARY
+
+Each file is small and wrong in one known way; catalogue.json says how dsmplan must refuse it.
+LAS fixtures start from the first 300 points of the real Delft AHN3 sample, so everything but
+the one lie is a real file. Rasters are VRTs over tiny raw float32 files (GDAL reads them, and a
+VRT can declare any size for free); meshes and the roadmap are made by dsmplan itself from a
+40 m x 40 m synthetic block with one building, then damaged where a case needs it.
+"""
+import math
+import os
+import shutil
+import struct
+import subprocess
+import sys
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+REPO = os.path.dirname(os.path.dirname(HERE))
+DELFT = os.path.join(REPO, "data", "delft-ahn3", "ahn3_cropped_2.las")
+
+
+def out(name, data, mode="wb"):
+    with open(os.path.join(HERE, name), mode) as f:
+        f.write(data)
+
+
+# ---- LAS ------------------------------------------------------------------------------------
+
+def delft_las(points=300):
+    """A LAS 1.2 file (227-byte header, no VLRs, format 1) of the first `points` Delft points."""
+    with open(DELFT, "rb") as f:
+        head = bytearray(f.read(227))
+        offset = struct.unpack_from("<I", head, 96)[0]
+        length = struct.unpack_from("<H", head, 105)[0]
+        f.seek(offset)
+        body = f.read(points * length)
+    assert head[24:26] == b"\x01\x02" and offset == 227 and struct.unpack_from("<I", head, 100)[0] == 0
+    struct.pack_into("<I", head, 107, points)
+    struct.pack_into("<5I", head, 111, points, 0, 0, 0, 0)  # points by return
+    return head, body
+
+
+def las_fixtures():
+    head, body = delft_las()
+    out("good_300.las", bytes(head) + body)  # a sound base, used by the roadmap/mesh fixtures too
+
+    out("las_truncated_header.las", bytes(head[:100]))
+
+    h = bytearray(head)
+    struct.pack_into("<I", h, 107, 1_000_000)  # 1e6 points claimed, 300 present
+    out("las_count_past_end.las", bytes(h) + body)
+
+    # LAS 1.4: the 64-bit count at byte 247 says 10^12 points (legacy count 0, as 1.4 allows).
+    h14 = bytearray(375)
+    h14[:227] = head
+    h14[25] = 4
+    struct.pack_into("<H", h14, 94, 375)
+    struct.pack_into("<I", h14, 96, 375)
+    struct.pack_into("<I", h14, 107, 0)
+    struct.pack_into("<Q", h14, 247, 10**12)
+    out("las_count_1e12.las", bytes(h14) + body)
+    # Only the header of a file that is all there: the test extends it (sparse, no disk used) to the
+    # 1.1 TB that 4*10^10 points of 28 bytes take, whose 1 TB in memory no test machine has.
+    struct.pack_into("<Q", h14, 247, 4 * 10**10)
+    out("las_huge_header.las", bytes(h14))
+
+    h = bytearray(head)
+    struct.pack_into("<I", h, 96, 1_000_000_000)  # point data "starts" 1 GB in
+    out("las_offset_past_end.las", bytes(h) + body)
+
+    h = bytearray(head)
+    struct.pack_into("<H", h, 94, 100)  # header size smaller than the 1.2 header itself
+    out("las_header_size_wrong.las", bytes(h) + body)
+
+    h = bytearray(head)
+    h[0:4] = b"LASX"
+    out("las_bad_signature.las", bytes(h) + body)
+
+    h = bytearray(head)
+    struct.pack_into("<H", h, 105, 10)  # format 1 records are 28 bytes
+    out("las_record_too_short.las", bytes(h) + body)
+
+    h = bytearray(head)
+    struct.pack_into("<d", h, 131, 0.0)  # x scale 0
+    out("las_zero_scale.las", bytes(h) + body)
+
+    h = bytearray(head)
+    struct.pack_into("<d", h, 147, float("nan"))  # z scale NaN: every height NaN
+    out("las_nan_scale.las", bytes(h) + body)
+
+    h = bytearray(head)
+    h[104] |= 0x80  # LAZ flag
+    out("las_laz_flag.las", bytes(h) + body)
+
+    h = bytearray(head)
+    struct.pack_into("<I", h, 100, 5)  # 5 VLRs claimed, none between header and points
+    out("las_vlr_overrun.las", bytes(h) + body)
+
+    h = bytearray(head)
+    h[24], h[25] = 2, 0
+    out("las_version_2.las", bytes(h) + body)
+
+    out("las_cut_in_points.las", bytes(head) + body[: len(body) // 2 + 13])  # cut mid-record
+
+
+# ---- XYZ ------------------------------------------------------------------------------------
+
+def xyz_fixtures():
+    rows = ["85000.10 446000.20 1.50", "85000.60 446000.30 1.70", "85001.10 446000.80 2.10"]
+    out("xyz_nan_height.xyz", ("\n".join(rows[:2] + ["85001.10 446000.80 nan"]) + "\n").encode())
+    out("xyz_inf_height.xyz", ("\n".join(rows[:1] + ["85000.60 446000.30 inf"] + rows[2:]) + "\n").encode())
+    out("xyz_malformed.xyz", ("\n".join(rows[:2] + ["85001.10;446000.80;one point one"]) + "\n").encode())
+    out("xyz_header_only.xyz", b"X Y Z\n# nothing measured\n")
+
+
+# ---- rasters --------------------------------------------------------------------------------
+
+X0, Y0, W, H = 356300.0, 5699790.0, 40, 40
+
+
+def raw(values):
+    return struct.pack("<%df" % len(values), *values)
+
+
+def vrt(name, width, height, gt, srs="EPSG:25832", source=None, nodata=None):
+    band_open = '  <VRTRasterBand dataType="Float32" band="1"%s>\n' % (
+        ' subClass="VRTRawRasterBand"' if source else "")
+    text = '<VRTDataset rasterXSize="%d" rasterYSize="%d">\n' % (width, height)
+    if srs:
+        text += "  <SRS>%s</SRS>\n" % srs
+    text += "  <GeoTransform>%s</GeoTransform>\n" % ", ".join(repr(float(v)) for v in gt)
+    text += band_open
+    if nodata is not None:
+        text += "    <NoDataValue>%s</NoDataValue>\n" % nodata
+    if source:
+        text += ('    <SourceFilename relativetoVRT="1">%s</SourceFilename>\n'
+                 "    <ImageOffset>0</ImageOffset><PixelOffset>4</PixelOffset>"
+                 "<LineOffset>%d</LineOffset><ByteOrder>LSB</ByteOrder>\n" % (source, 4 * width))
+    text += "  </VRTRasterBand>\n</VRTDataset>\n"
+    out(name, text.encode())
+
+
+def block(building=70.0):
+    """40 x 40 cells of 1 m: ground at 50 m, a 10 m x 10 m building (cells 15-24) of `building` m."""
+    return [building if 15 <= c < 25 and 15 <= r < 25 else 50.0 for r in range(H) for c in range(W)]
+
+
+def raster_fixtures():
+    north_up = (X0, 1, 0, Y0, 0, -1)
+    out("block.bin", raw(block()))
+    vrt("block.vrt", W, H, north_up, source="block.bin")
+    out("block_taller.bin", raw(block(75.0)))
+    vrt("block_taller.vrt", W, H, north_up, source="block_taller.bin")
+
+    small = [50.0 + i for i in range(16)]
+    nan_cells = list(small)
+    nan_cells[5] = float("nan")
+    out("raster_nan.bin", raw(nan_cells))
+    vrt("raster_nan.vrt", 4, 4, north_up, source="raster_nan.bin")
+
+    inf_cells = list(small)
+    inf_cells[10] = float("inf")
+    out("raster_inf.bin", raw(inf_cells))
+    vrt("raster_inf.vrt", 4, 4, north_up, source="raster_inf.bin")
+
+    out("raster_all_nodata.bin", raw([-9999.0] * 16))
+    vrt("raster_all_nodata.vrt", 4, 4, north_up, source="raster_all_nodata.bin", nodata=-9999)
+
+    out("raster_4x4.bin", raw(small))
+    vrt("raster_rotated.vrt", 4, 4, (X0, 0.866, 0.5, Y0, 0.5, -0.866), source="raster_4x4.bin")
+    vrt("raster_zero_cell.vrt", 4, 4, (X0, 0, 0, Y0, 0, -1), source="raster_4x4.bin")
+    vrt("raster_no_crs.vrt", 4, 4, north_up, srs=None, source="raster_4x4.bin")
+    vrt("raster_geographic.vrt", 4, 4, (6.9, 0.00001, 0, 51.4, 0, -0.00001), srs="EPSG:4326",
+        source="raster_4x4.bin")
+    # 10^6 x 10^6 cells with no source: GDAL would serve zeros, 4 TB of them.
+    vrt("raster_huge.vrt", 1_000_000, 1_000_000, north_up)
+    vrt("raster_one_row.vrt", 4, 1, north_up, source="raster_4x4.bin")
+    out("raster_text.tif", b"Heights of Delft, see attached spreadsheet.\n")
+    out("raster_missing_source.vrt",
+        open(os.path.join(HERE, "raster_nan.vrt")).read().replace("raster_nan.bin", "gone.bin").encode())
+
+
+# ---- meshes, waypoints, roadmaps ------------------------------------------------------------
+
+def run(dsmplan, *args):
+    subprocess.run([dsmplan, *args], check=True, stdout=subprocess.DEVNULL)
+
+
+def plan_fixtures(dsmplan):
+    tmp = os.path.join(HERE, "_tmp")
+    os.makedirs(tmp, exist_ok=True)
+    try:
+        # dsmplan writes the one-cell GeoTIFF and a small real GeoTIFF (to be cut) itself.
+        with open(os.path.join(tmp, "one.xyz"), "w") as f:
+            f.write("356300.5 5699789.5 51.0\n")
+        run(dsmplan, "grid", os.path.join(tmp, "one.xyz"), "-o", os.path.join(HERE, "raster_one_cell.tif"),
+            "--res", "1", "--crs", "EPSG:25832", "-q")
+        run(dsmplan, "grid", os.path.join(HERE, "good_300.las"), "-o", os.path.join(tmp, "delft.tif"),
+            "--res", "0.5", "--crs", "EPSG:28992", "-q")
+        tif = open(os.path.join(tmp, "delft.tif"), "rb").read()
+        out("raster_truncated.tif", tif[: len(tif) // 2])
+
+        run(dsmplan, "simplify", os.path.join(HERE, "block.vrt"), "-o", os.path.join(HERE, "block.ply"),
+            "--method", "variant1", "-q")
+        run(dsmplan, "simplify", os.path.join(HERE, "block_taller.vrt"), "-o", os.path.join(tmp, "taller.ply"),
+            "--method", "variant1", "-q")
+        run(dsmplan, "plan", os.path.join(tmp, "taller.ply"), "--waypoints", os.path.join(HERE, "wp_good.csv"),
+            "-o", os.path.join(tmp, "path.csv"), "--spacing", "6", "--max-agl", "10",
+            "--roadmap", os.path.join(HERE, "roadmap_other_mesh.roadmap"), "-q")
+        roadmap = open(os.path.join(HERE, "roadmap_other_mesh.roadmap"), "rb").read()
+        out("roadmap_truncated.roadmap", roadmap[: len(roadmap) // 3])
+        damaged = bytearray(roadmap)
+        damaged[len(damaged) // 2] ^= 0xFF
+        out("roadmap_damaged.roadmap", bytes(damaged))
+
+        ply = open(os.path.join(HERE, "block.ply"), "rb").read()
+        out("mesh_truncated.ply", ply[: len(ply) * 2 // 3])
+        end = ply.index(b"end_header\n")
+        header = ply[:end].decode()
+        vertices = int(header.split("element vertex ")[1].split()[0])
+        out("mesh_huge_count.ply", header.replace("element vertex %d" % vertices,
+                                                   "element vertex 1000000000000").encode() + ply[end:])
+    finally:
+        shutil.rmtree(tmp)
+
+    out("mesh_bad_index.obj", b"# a triangle naming a vertex that is not there\n"
+        b"v 356300 5699750 50\nv 356310 5699750 50\nv 356300 5699760 50\nf 1 2 9\n")
+    out("mesh_nan_vertex.off", b"OFF\n3 1 0\n356300 5699750 50\n356310 5699750 nan\n356300 5699760 50\n3 0 1 2\n")
+
+
+def waypoint_fixtures():
+    head = "x,y,z\n"
+    a, b = "356303,5699787,56\n", "356337,5699753,56\n"
+    out("wp_good.csv", (head + a + b).encode())
+    out("wp_inside_building.csv", (head + a + "356320,5699770,60\n" + b).encode())  # roof at 70 m
+    out("wp_under_ground.csv", (head + a + "356305,5699760,40\n" + b).encode())  # ground at 50 m
+    out("wp_outside_extent.csv", (head + a + "356900,5699770,60\n" + b).encode())
+    out("wp_too_high.csv", (head + a + "356310,5699760,400\n" + b).encode())  # far above --max-agl
+    out("wp_malformed.csv", (head + a + "356320;5699770;60\n" + b).encode())
+    out("wp_nan.csv", (head + a + "356320,5699770,nan\n" + b).encode())
+    out("wp_one_point.csv", (head + a).encode())
+    out("wp_truncated.geojson", b'{"type": "FeatureCollection", "features": [{"type": "Feature", "geometry": '
+        b'{"type": "Point", "coordinates": [6.9, 51.4')
+    out("wp_polygon.geojson", b'{"type": "Feature", "properties": {}, "geometry": {"type": "Polygon", '
+        b'"coordinates": [[[6.9, 51.4, 60], [6.91, 51.4, 60], [6.91, 51.41, 60], [6.9, 51.4, 60]]]}}\n')
+    out("wp_no_height.geojson", b'{"type": "LineString", "coordinates": [[6.9, 51.4], [6.91, 51.41]]}\n')
+    out("wp_swapped.geojson", b'{"type": "LineString", "coordinates": [[356303, 5699787, 56], '
+        b'[356337, 5699753, 56]]}\n')
+    out("plain.txt", b"an ordinary file: outputs under it cannot be created\n")
+
+
+def main():
+    if len(sys.argv) != 2:
+        sys.exit(__doc__)
+    las_fixtures()
+    xyz_fixtures()
+    raster_fixtures()
+    waypoint_fixtures()
+    plan_fixtures(os.path.abspath(sys.argv[1]))
+
+
+if __name__ == "__main__":
+    main()
