@@ -48,6 +48,25 @@ done
 build/dsmplan render "$dsm" --mesh "$out/bounded_1m.ply" --no-edges --roadmap "$out/bounded_1m.roadmap" \
   --path "$out/path.csv" --waypoints data/nrw-dom1/sample_waypoints.csv --zoom 2 \
   --title "path over the conservative mesh, roadmap in blue" -o "$out/path.png" -q
+# The paper's metrics in one table, read from the --stats files (one JSON key a line).
+value() { sed -n "s/^ *\"$2\": \([^,]*\),\{0,1\}$/\1/p" "$1" | head -n 1; }
+echo
+echo "Summary (the sample: $(value "$out/mesh_1m.json" vertices) cells at 1 m)"
+printf '| %-28s | %9s | %6s | %24s |\n' mesh vertices kept "certified above / below"
+printf '|%s|%s|%s|%s|\n' ------------------------------ ----------- -------- --------------------------
+cells=$(value "$out/mesh_1m.json" vertices)
+printf '| %-28s | %9s | %5s%% | %24s |\n' "XY-3 mesh (Section 3)" "$cells" 100 "0 (through every centre)"
+for run in variant1:"variant one, dz 0.4" variant2:"variant two, dz 0.4" bounded:"bounded, conservative 0.4 m"; do
+  f="$out/${run%%:*}_1m.json"
+  kept=$(value "$f" vertices_out)
+  printf '| %-28s | %9s | %5s%% | %24s |\n' "${run#*:}" "$kept" "$((100 * kept / cells))" \
+    "$(printf '+%.2f / -%.2f' "$(value "$f" max_above_m)" "$(value "$f" max_below_m)")"
+done
+echo
+printf 'Path (bounded mesh, 3 waypoints): %.1f m; clearance %.2f m to the mesh, %.2f m to the DSM columns (tolerance %.2f m); roadmap %s nodes, %s edges\n' \
+  "$(value "$out/path.json" path_length_m)" "$(value "$out/path.json" min_clearance_m)" \
+  "$(value "$out/path.json" min_clearance_dsm_m)" "$(value "$out/path.json" dsm_tolerance_m)" \
+  "$(value "$out/path.json" roadmap_nodes)" "$(value "$out/path.json" roadmap_edges)"
 echo
 echo "Outputs in $out/:"
 ls -l "$out"
