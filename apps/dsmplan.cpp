@@ -178,6 +178,9 @@ int main(int argc, char** argv) {
   int64_t seed = 1;  // signed: CLI11 would wrap -3 round to 2^64 - 3 as an unsigned
   plan_cmd->add_option("--seed", seed, "Random seed of rrtconnect (>= 0): the same seed, the same path")
       ->capture_default_str();
+  plan_cmd->add_option("--of", plan.format, "Path format, overriding the extension: csv, geojson, plan, waypoints, kml");
+  bool plan_json = false;
+  plan_cmd->add_flag("--json", plan_json, "Print the statistics as JSON instead of the summary line");
   plan_cmd->add_option("--roadmap", plan.roadmap,
                        "Roadmap file: reused when it exists (same mesh and options), else built and saved");
   plan_cmd->add_option("--dsm", plan.dsm, "Raw DSM: report the path's clearance to its cells as solid columns");
@@ -244,7 +247,10 @@ int main(int argc, char** argv) {
       if (!plan_stats.empty()) check_writable(plan_stats);
       const PlanReport report = plan_job(plan, terminal_progress(quiet));
       if (!plan_stats.empty()) write_text_file(plan_stats, to_json(report).dump(2) + "\n");
-      if (!quiet) std::fputs(to_text(report).c_str(), stdout);
+      if (plan_json)
+        std::fputs((to_json(report).dump(2) + "\n").c_str(), stdout);
+      else if (!quiet)
+        std::fputs(to_text(report).c_str(), stdout);
     }
   } catch (const CLI::ParseError& error) {
     return app.exit(error);

@@ -1084,6 +1084,23 @@ TEST(CliPlan, GeoJsonWaypointsAndPathAgreeWithTheCsvRun) {
                        "--vertical-crs", {"approximate"});
 }
 
+TEST(CliPlan, OfOverridesTheExtensionAndJsonPrintsTheStatistics) {
+  PlanFixture f;
+  f.write_waypoints(f.corners());
+  TempDir out;
+  const auto result = run_cli({"plan", f.mesh, "--waypoints", f.waypoints, "-o", out.path("path.txt"), "--of", "CSV",
+                               "--json", "-q", "--stats", out.path("s.json")});
+  ASSERT_EQ(result.exit_code, 0) << result.err;
+  EXPECT_EQ(result.err, "");
+  const auto points = read_path_csv(out.path("path.txt"));  // a CSV, whatever the name says
+  EXPECT_GE(points.size(), 2u);
+  EXPECT_EQ(json::parse(result.out), json::parse(testkit::read_file(out.path("s.json"))));
+  TempDir none;
+  expect_clean_failure(run_cli({"plan", f.mesh, "--waypoints", f.waypoints, "-o", none.path("p.csv"), "--of", "shp",
+                                "-q"}),
+                       none, "--of", {"unknown path format"});
+}
+
 TEST(CliPlan, DsmClearanceIsReportedWithTheDsm) {
   PlanFixture f;
   f.write_waypoints(f.corners());

@@ -201,6 +201,7 @@ struct PlanJobOptions {
   /// the points within 1 cm of a straight leg (drop_straight_points); .kml a KML 2.2 LineString
   /// with altitudeMode absolute and the waypoints as Points (path_to_kml), every path point.
   std::string output;
+  std::string format;     ///< csv, geojson, plan, waypoints or kml; empty: from the output's extension
   PlanOptions plan;       ///< planner (prm, rrt_connect), seed, safety, spacing, max_edge, max_agl, threads
   /// Roadmap file (PRM): read when it exists (read_roadmap(): refused when made for another mesh
   /// or other options), else built and written there for the next query.

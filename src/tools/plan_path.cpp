@@ -181,10 +181,16 @@ void verify_against_dsm(const std::vector<Point3>& path, const Mesh& mesh, const
 }  // namespace
 
 PlanReport plan_job(const PlanJobOptions& options, const Progress& progress) {
-  const std::string out_ext = lower_extension(options.output);
+  // The format: --of, else the extension (as GDAL's newer command line chooses).
+  std::string out_ext = options.format.empty() ? lower_extension(options.output) : options.format;
+  std::transform(out_ext.begin(), out_ext.end(), out_ext.begin(), [](unsigned char c) { return std::tolower(c); });
+  if (out_ext == "json") out_ext = "geojson";
+  const bool geojson_out = out_ext == "geojson";
   // Missions and KML state heights above mean sea level (EGM96); GeoJSON above the ellipsoid.
   const bool msl_out = out_ext == "plan" || out_ext == "waypoints" || out_ext == "kml";
-  if (out_ext != "csv" && !is_geojson(options.output) && !msl_out)
+  if (!options.format.empty() && out_ext != "csv" && !geojson_out && !msl_out)
+    throw ArgumentError("--of", "unknown path format '" + options.format + "' (use csv, geojson, plan, waypoints or kml)");
+  if (out_ext != "csv" && !geojson_out && !msl_out)
     throw ArgumentError("-o", "the path is written as .csv (x,y,z in the mesh's CRS), .geojson (WGS 84), .plan "
                               "(QGroundControl), .waypoints (QGC WPL 110) or .kml, got '" + options.output + "'");
   check_plan_options(options.plan);
@@ -209,7 +215,7 @@ PlanReport plan_job(const PlanJobOptions& options, const Progress& progress) {
   require_projected(mesh.crs, options.mesh);
   if (mesh.triangles.empty()) throw InputError(options.mesh, "", "the mesh has no triangles");
   std::optional<Wgs84Transform> wgs84;
-  if (geo_in || is_geojson(options.output)) {
+  if (geo_in || geojson_out) {
     wgs84.emplace(mesh.crs, HeightReference::Ellipsoid, options.vertical);
     report.transformation = wgs84->description();
   }
