@@ -668,6 +668,26 @@ TEST(RoadmapFile, RoundTripGivesTheSameRoadmapAndPath) {
   EXPECT_EQ(query_roadmap(read, index, waypoints, options).path, query_roadmap(built, index, waypoints, options).path);
 }
 
+// Found by fuzz/fuzz_roadmap (UBSan: memcpy to a null data() for 0 bytes): roadmaps without
+// nodes, or with nodes and no edges, are valid files and read back as they were written.
+TEST(RoadmapFile, EmptyRoadmapsAndRoadmapsWithoutEdgesRoundTrip) {
+  testkit::TempDir dir;
+  const std::string path = dir.path("map.bin");
+  PlanOptions options;
+  Roadmap empty;
+  empty.start = {0};
+  Roadmap lonely;
+  lonely.nodes = {Point3{1, 2, 3}, Point3{4, 5, 6}};
+  lonely.start = {0, 0, 0};
+  for (const Roadmap& map : {empty, lonely}) {
+    write_roadmap(path, map, 42, options);
+    const Roadmap read = read_roadmap(path, 42, options);
+    EXPECT_EQ(read.nodes, map.nodes);
+    EXPECT_EQ(read.start, map.start);
+    EXPECT_TRUE(read.neighbour.empty());
+  }
+}
+
 TEST(RoadmapFile, AnotherMeshOtherOptionsOrDamageAreRefused) {
   const Mesh& mesh = mesh_2m();
   const ClearanceIndex index(mesh);

@@ -158,11 +158,13 @@ Roadmap read_roadmap(const std::string& path, RoadmapHeader* header) {
   map.nodes.resize(nodes);
   map.start.resize(nodes + 1);
   map.neighbour.resize(listings);
-  std::memcpy(map.nodes.data(), bytes.data() + r.at, nodes * sizeof(Point3));
+  // An empty vector's data() may be null, and memcpy from or to null is undefined even for 0
+  // bytes (UBSan, found by fuzz/fuzz_roadmap): no nodes or no edges copy nothing.
+  if (nodes > 0) std::memcpy(map.nodes.data(), bytes.data() + r.at, nodes * sizeof(Point3));
   r.at += nodes * sizeof(Point3);
   std::memcpy(map.start.data(), bytes.data() + r.at, (nodes + 1) * 4);
   r.at += (nodes + 1) * 4;
-  std::memcpy(map.neighbour.data(), bytes.data() + r.at, listings * 4);
+  if (listings > 0) std::memcpy(map.neighbour.data(), bytes.data() + r.at, listings * 4);
   // The structure must be what build_roadmap() makes, or A* could read out of bounds.
   if (map.start[0] != 0 || map.start[nodes] != listings)
     throw InputError(path, "adjacency", "the edge lists do not span the edge listings");
