@@ -735,6 +735,14 @@ TEST(RoadmapFile, AnotherMeshOtherOptionsOrDamageAreRefused) {
   std::memcpy(&dangling[neighbours], &missing, 4);
   reseal(dangling);
   expect_refused(with(dangling), fingerprint, options, "does not exist");
+  // Found by fuzz/fuzz_roadmap (ASan: heap-buffer-overflow): a node's edge list that ends past
+  // the edge listings, the next node's start being lower again, was read before it was refused.
+  std::string past_end = good;
+  const size_t starts = 16 + 4 + 8 + 32 + 16 + built.nodes.size() * 28;
+  const uint32_t beyond = static_cast<uint32_t>(built.neighbour.size()) + 1000;
+  std::memcpy(&past_end[starts + 4], &beyond, 4);
+  reseal(past_end);
+  expect_refused(with(past_end), fingerprint, options, "runs past");
   expect_refused(dir.path("none.bin"), fingerprint, options, "cannot open");
 }
 

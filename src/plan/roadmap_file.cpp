@@ -170,6 +170,9 @@ Roadmap read_roadmap(const std::string& path, RoadmapHeader* header) {
     throw InputError(path, "adjacency", "the edge lists do not span the edge listings");
   for (uint64_t i = 0; i < nodes; ++i) {
     if (map.start[i] > map.start[i + 1]) throw InputError(path, "node " + std::to_string(i), "edge list ends before it starts");
+    // Checked here, not only by the next node's order check: this node's listings are read next.
+    if (map.start[i + 1] > listings)
+      throw InputError(path, "node " + std::to_string(i), "edge list runs past the file's edge listings");
     for (double v : map.nodes[i])
       if (!std::isfinite(v)) throw InputError(path, "node " + std::to_string(i), "coordinate is not finite");
     for (uint32_t k = map.start[i]; k < map.start[i + 1]; ++k)
