@@ -738,7 +738,7 @@ TEST(RoadmapFile, AnotherMeshOtherOptionsOrDamageAreRefused) {
   // Found by fuzz/fuzz_roadmap (ASan: heap-buffer-overflow): a node's edge list that ends past
   // the edge listings, the next node's start being lower again, was read before it was refused.
   std::string past_end = good;
-  const size_t starts = 16 + 4 + 8 + 32 + 16 + built.nodes.size() * 28;
+  const size_t starts = 16 + 4 + 8 + 32 + 16 + built.nodes.size() * sizeof(Point3);
   const uint32_t beyond = static_cast<uint32_t>(built.neighbour.size()) + 1000;
   std::memcpy(&past_end[starts + 4], &beyond, 4);
   reseal(past_end);

@@ -184,6 +184,18 @@ def raster_fixtures():
 
 # ---- meshes, waypoints, roadmaps ------------------------------------------------------------
 
+def roadmap_edges_past_end(roadmap):
+    """Node 0's edge list ends 1000 listings past the last one, behind a valid checksum (FNV-1a
+    of all bytes before it): read out of bounds until fuzz/fuzz_roadmap found it."""
+    data = bytearray(roadmap[:-8])
+    nodes, listings = struct.unpack_from("<QQ", data, 60)
+    struct.pack_into("<I", data, 76 + nodes * 24 + 4, listings + 1000)  # start[1]: 24-byte nodes first
+    h = 14695981039346656037
+    for b in data:
+        h = ((h ^ b) * 1099511628211) & 0xFFFFFFFFFFFFFFFF
+    return bytes(data) + struct.pack("<Q", h)
+
+
 def run(dsmplan, *args):
     subprocess.run([dsmplan, *args], check=True, stdout=subprocess.DEVNULL)
 
@@ -214,6 +226,7 @@ def plan_fixtures(dsmplan):
         damaged = bytearray(roadmap)
         damaged[len(damaged) // 2] ^= 0xFF
         out("roadmap_damaged.roadmap", bytes(damaged))
+        out("roadmap_edges_past_end.roadmap", roadmap_edges_past_end(roadmap))
 
         ply = open(os.path.join(HERE, "block.ply"), "rb").read()
         out("mesh_truncated.ply", ply[: len(ply) * 2 // 3])
