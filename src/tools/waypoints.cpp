@@ -82,6 +82,8 @@ std::vector<Point3> read_waypoints_geojson(const std::string& path) {
     doc = Json::parse(in);
   } catch (const Json::parse_error& e) {
     throw InputError(path, "byte " + std::to_string(e.byte), "not JSON");
+  } catch (const Json::out_of_range&) {  // e.g. 1e400: valid JSON, but no double holds it (found by fuzzing)
+    throw InputError(path, "", "a number beyond the range of a double");
   }
   std::vector<Point3> points;
   // The positions of one geometry: a Point gives one waypoint, MultiPoint and LineString theirs in order.

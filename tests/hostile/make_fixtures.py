@@ -256,6 +256,8 @@ def waypoint_fixtures():
     out("wp_one_point.csv", (head + a).encode())
     out("wp_truncated.geojson", b'{"type": "FeatureCollection", "features": [{"type": "Feature", "geometry": '
         b'{"type": "Point", "coordinates": [6.9, 51.4')
+    # Valid JSON, but the height is beyond a double (nlohmann throws out_of_range: found by fuzzing).
+    out("wp_number_overflow.geojson", b'{"type": "Point", "coordinates": [6.9, 51.4, 1e400]}\n')
     out("wp_polygon.geojson", b'{"type": "Feature", "properties": {}, "geometry": {"type": "Polygon", '
         b'"coordinates": [[[6.9, 51.4, 60], [6.91, 51.4, 60], [6.91, 51.41, 60], [6.9, 51.4, 60]]]}}\n')
     out("wp_no_height.geojson", b'{"type": "LineString", "coordinates": [[6.9, 51.4], [6.91, 51.41]]}\n')
