@@ -1,8 +1,9 @@
 #!/usr/bin/env python3
 """Writes the seed corpora of fuzz/corpus/<target>/ from the real data and the hostile fixtures.
 
-Usage: fuzz/make_seeds.py   (run from anywhere; run once, the outputs are committed. After a
-fuzzing session scripts/fuzz.sh merges what the fuzzer found back into these folders.)
+Usage: fuzz/make_seeds.py   (from anywhere). It adds the seeds to the folders; the committed
+corpora are these seeds merged (libFuzzer -merge=1, file names become hashes) with what fuzzing
+found: MERGE=1 scripts/fuzz.sh SECONDS.
 
 LAS seeds are a few dozen real points of data/delft-ahn3 under four valid headers (LAS 1.2
 format 1 as delivered, 1.2 with a VLR, 1.3, 1.4 format 6); XYZ seeds are those points as text;
@@ -27,6 +28,7 @@ def put(target, name, data):
 
 
 def hostile(target, pattern):
+    os.makedirs(os.path.join(CORPUS, target), exist_ok=True)
     for path in sorted(glob.glob(os.path.join(HOSTILE, pattern))):
         shutil.copy(path, os.path.join(CORPUS, target, os.path.basename(path)))
 
@@ -130,9 +132,8 @@ def mesh_seeds():
 
 
 def waypoint_seeds():
-    shutil.copy(os.path.join(REPO, "data", "nrw-dom1", "sample_waypoints.csv"),
-                os.path.join(CORPUS, "waypoints_csv", "sample_waypoints.csv")) if os.path.isdir(
-        os.path.join(CORPUS, "waypoints_csv")) else None
+    os.makedirs(os.path.join(CORPUS, "waypoints_csv"), exist_ok=True)
+    shutil.copy(os.path.join(REPO, "data", "nrw-dom1", "sample_waypoints.csv"), os.path.join(CORPUS, "waypoints_csv"))
     put("waypoints_csv", "comments.csv", "# waypoints\n\nx, y, z\n 356100.5 , 5699100.25,  160\n356200,5699300,1.7e2\n")
     hostile("waypoints_csv", "wp_*.csv")
     put("waypoints_geojson", "collection.geojson",
@@ -157,6 +158,5 @@ if __name__ == "__main__":
     hostile("las", "*.las")
     hostile("xyz", "*.xyz")
     mesh_seeds()
-    os.makedirs(os.path.join(CORPUS, "waypoints_csv"), exist_ok=True)
     waypoint_seeds()
     roadmap_seeds()
