@@ -184,6 +184,18 @@ def raster_fixtures():
 
 # ---- meshes, waypoints, roadmaps ------------------------------------------------------------
 
+def roadmap_edges_past_end(roadmap):
+    """Node 0's edge list ends 1000 listings past the last one, behind a valid checksum (FNV-1a
+    of all bytes before it): read out of bounds until fuzz/fuzz_roadmap found it."""
+    data = bytearray(roadmap[:-8])
+    nodes, listings = struct.unpack_from("<QQ", data, 60)
+    struct.pack_into("<I", data, 76 + nodes * 24 + 4, listings + 1000)  # start[1]: 24-byte nodes first
+    h = 14695981039346656037
+    for b in data:
+        h = ((h ^ b) * 1099511628211) & 0xFFFFFFFFFFFFFFFF
+    return bytes(data) + struct.pack("<Q", h)
+
+
 def run(dsmplan, *args):
     subprocess.run([dsmplan, *args], check=True, stdout=subprocess.DEVNULL)
 
@@ -214,6 +226,7 @@ def plan_fixtures(dsmplan):
         damaged = bytearray(roadmap)
         damaged[len(damaged) // 2] ^= 0xFF
         out("roadmap_damaged.roadmap", bytes(damaged))
+        out("roadmap_edges_past_end.roadmap", roadmap_edges_past_end(roadmap))
 
         ply = open(os.path.join(HERE, "block.ply"), "rb").read()
         out("mesh_truncated.ply", ply[: len(ply) * 2 // 3])
@@ -243,6 +256,8 @@ def waypoint_fixtures():
     out("wp_one_point.csv", (head + a).encode())
     out("wp_truncated.geojson", b'{"type": "FeatureCollection", "features": [{"type": "Feature", "geometry": '
         b'{"type": "Point", "coordinates": [6.9, 51.4')
+    # Valid JSON, but the height is beyond a double (nlohmann throws out_of_range: found by fuzzing).
+    out("wp_number_overflow.geojson", b'{"type": "Point", "coordinates": [6.9, 51.4, 1e400]}\n')
     out("wp_polygon.geojson", b'{"type": "Feature", "properties": {}, "geometry": {"type": "Polygon", '
         b'"coordinates": [[[6.9, 51.4, 60], [6.91, 51.4, 60], [6.91, 51.41, 60], [6.9, 51.4, 60]]]}}\n')
     out("wp_no_height.geojson", b'{"type": "LineString", "coordinates": [[6.9, 51.4], [6.91, 51.41]]}\n')

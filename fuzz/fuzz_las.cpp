@@ -1,0 +1,7 @@
+// libFuzzer target: dsmplan::read_las on arbitrary bytes (a file named *.las).
+#include "dsmplan/raster.hpp"
+#include "fuzz_file.hpp"
+
+extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
+  return dsmplan_fuzz::run(data, size, ".las", [](const std::string& p) { (void)dsmplan::read_las(p); });
+}

@@ -1,0 +1,162 @@
+#!/usr/bin/env python3
+"""Writes the seed corpora of fuzz/corpus/<target>/ from the real data and the hostile fixtures.
+
+Usage: fuzz/make_seeds.py   (from anywhere). It adds the seeds to the folders; the committed
+corpora are these seeds merged (libFuzzer -merge=1, file names become hashes) with what fuzzing
+found: MERGE=1 scripts/fuzz.sh SECONDS.
+
+LAS seeds are a few dozen real points of data/delft-ahn3 under four valid headers (LAS 1.2
+format 1 as delivered, 1.2 with a VLR, 1.3, 1.4 format 6); XYZ seeds are those points as text;
+meshes are small PLY (ascii/binary), OBJ and OFF files; waypoints come from
+data/nrw-dom1/sample_waypoints.csv; plus every tests/hostile/ fixture of the same kind.
+"""
+import glob
+import os
+import shutil
+import struct
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+REPO = os.path.dirname(HERE)
+CORPUS = os.path.join(HERE, "corpus")
+HOSTILE = os.path.join(REPO, "tests", "hostile")
+
+
+def put(target, name, data):
+    os.makedirs(os.path.join(CORPUS, target), exist_ok=True)
+    with open(os.path.join(CORPUS, target, name), "wb" if isinstance(data, bytes) else "w") as f:
+        f.write(data)
+
+
+def hostile(target, pattern):
+    os.makedirs(os.path.join(CORPUS, target), exist_ok=True)
+    for path in sorted(glob.glob(os.path.join(HOSTILE, pattern))):
+        shutil.copy(path, os.path.join(CORPUS, target, os.path.basename(path)))
+
+
+def delft(name, points):
+    with open(os.path.join(REPO, "data", "delft-ahn3", name), "rb") as f:
+        head = bytearray(f.read(227))
+        offset = struct.unpack_from("<I", head, 96)[0]
+        length = struct.unpack_from("<H", head, 105)[0]
+        f.seek(offset)
+        body = f.read(points * length)
+    assert head[24:26] == b"\x01\x02" and head[104] == 1 and length == 28
+    head = head[:227]
+    struct.pack_into("<I", head, 96, 227)   # offset to point data: no VLRs kept
+    struct.pack_into("<I", head, 100, 0)    # number of VLRs
+    struct.pack_into("<I", head, 107, points)
+    struct.pack_into("<5I", head, 111, points, 0, 0, 0, 0)
+    return head, body
+
+
+def las_seeds():
+    for i, name in enumerate(["ahn3_cropped_1.las", "ahn3_cropped_2.las"]):
+        head, body = delft(name, 40)
+        put("las", f"delft{i + 1}_las12_f1.las", bytes(head + body))
+    head, body = delft("ahn3_cropped_2.las", 24)
+    # 1.2 with one VLR (a 54-byte header and 16 bytes of payload).
+    vlr = b"\0\0" + b"dsmplan".ljust(16, b"\0") + struct.pack("<HH", 1, 16) + b"fuzz seed".ljust(32, b"\0")
+    vlr += b"0123456789abcdef"
+    h = bytearray(head)
+    struct.pack_into("<I", h, 96, 227 + len(vlr))
+    struct.pack_into("<I", h, 100, 1)
+    put("las", "delft_las12_vlr.las", bytes(h) + vlr + body)
+    # 1.3: 235-byte header (start of waveform data record = 0).
+    h = bytearray(head)
+    h[25] = 3
+    struct.pack_into("<H", h, 94, 235)
+    struct.pack_into("<I", h, 96, 235)
+    put("las", "delft_las13_f1.las", bytes(h) + bytes(8) + body)
+    # 1.4 format 6 (30-byte records, 64-bit count, legacy count 0).
+    h = bytearray(head) + bytearray(375 - 227)
+    h[25] = 4
+    struct.pack_into("<H", h, 94, 375)
+    struct.pack_into("<I", h, 96, 375)
+    h[104] = 6
+    struct.pack_into("<H", h, 105, 30)
+    struct.pack_into("<I", h, 107, 0)
+    struct.pack_into("<5I", h, 111, 0, 0, 0, 0, 0)
+    struct.pack_into("<QIQ", h, 235, 0, 0, 24)  # EVLR start, EVLR count, 64-bit point count
+    struct.pack_into("<Q", h, 255, 24)           # points by return: first return
+    records = b""
+    for k in range(24):
+        r = body[k * 28:(k + 1) * 28]
+        x, y, z, intensity, ret, cls, angle, user, source, gps = struct.unpack("<iiiHBBbBHd", r)
+        records += struct.pack("<iiiHBBBBhHd", x, y, z, intensity, 0x11, 0, cls, user, angle, source, gps)
+    put("las", "delft_las14_f6.las", bytes(h) + records)
+    # XYZ from the same points, as the header scales them.
+    sx, sy, sz, ox, oy, oz = struct.unpack_from("<6d", head, 131)
+    lines = []
+    for k in range(12):
+        x, y, z = struct.unpack_from("<iii", body, k * 28)
+        lines.append((x * sx + ox, y * sy + oy, z * sz + oz))
+    put("xyz", "delft_space.xyz", "".join(f"{x:.2f} {y:.2f} {z:.2f}\n" for x, y, z in lines))
+    put("xyz", "delft_comma_header.xyz", "x,y,z\n" + "".join(f"{x:.3f},{y:.3f},{z:.3f}\n" for x, y, z in lines))
+    put("xyz", "delft_tab_crlf.xyz", "# AHN3 Delft\r\n" + "".join(f"{x}\t{y}\t{z}\r\n" for x, y, z in lines[:5]))
+    put("xyz", "delft_semicolon.xyz", "".join(f"{x:.1f};{y:.1f};{z:.1f}\n" for x, y, z in lines[:4]))
+    put("xyz", "exponents.xyz", "8.5e4 4.46e5 1.5E0\n-0 +1 .5\n")
+
+
+def mesh_seeds():
+    v = [(0, 0, 1.5), (1, 0, 1.6), (2, 0, 1.4), (0, 1, 1.7), (1, 1, 9.5), (2, 1, 1.5), (0, 2, 1.2), (1, 2, 1.3),
+         (2, 2, 1.1)]
+    f = []
+    for r in range(2):
+        for c in range(2):
+            a = r * 3 + c
+            f += [(a, a + 1, a + 4), (a, a + 4, a + 3)]
+    crs = "EPSG:28992"
+    ply = (f"ply\nformat ascii 1.0\ncomment crs {crs}\nelement vertex {len(v)}\nproperty double x\n"
+           f"property double y\nproperty double z\nelement face {len(f)}\nproperty list uchar int vertex_indices\n"
+           "end_header\n" + "".join(f"{x} {y} {z}\n" for x, y, z in v) + "".join(f"3 {a} {b} {c}\n" for a, b, c in f))
+    put("mesh", "grid3x3_ascii.ply", ply)
+    for fmt, endian in [("binary_little_endian", "<"), ("binary_big_endian", ">")]:
+        head = (f"ply\nformat {fmt} 1.0\ncomment crs {crs}\nelement vertex {len(v)}\nproperty double x\n"
+                "property double y\nproperty double z\nelement face " + str(len(f)) +
+                "\nproperty list uchar int vertex_indices\nend_header\n").encode()
+        body = b"".join(struct.pack(endian + "3d", *p) for p in v)
+        body += b"".join(struct.pack(endian + "B3i", 3, *t) for t in f)
+        put("mesh", f"grid3x3_{fmt}.ply", head + body)
+    head = (f"ply\nformat binary_little_endian 1.0\nelement vertex {len(v)}\nproperty float x\nproperty float y\n"
+            f"property float z\nproperty uchar red\nelement face {len(f)}\nproperty list uint8 uint32 vertex_index\n"
+            "end_header\n").encode()
+    body = b"".join(struct.pack("<3fB", *p, 7) for p in v) + b"".join(struct.pack("<B3I", 3, *t) for t in f)
+    put("mesh", "grid3x3_float_extra.ply", head + body)
+    put("mesh", "grid3x3.obj", f"# crs {crs}\no grid\n" + "".join(f"v {x} {y} {z}\n" for x, y, z in v) +
+        "vn 0 0 1\nvt 0 0\n" + "".join(f"f {a + 1}/1/1 {b + 1}/1/1 {c + 1}/1/1\n" for a, b, c in f[:4]) +
+        "".join(f"f -{9 - a} -{9 - b} -{9 - c}\n" for a, b, c in f[4:]) + "f 1 2 5 4\n")
+    put("mesh", "grid3x3.off", f"OFF\n# crs {crs}\n{len(v)} {len(f)} 0\n" + "".join(f"{x} {y} {z}\n" for x, y, z in v) +
+        "".join(f"3 {a} {b} {c}\n" for a, b, c in f))
+    hostile("mesh", "*.ply")
+    hostile("mesh", "mesh_*")
+
+
+def waypoint_seeds():
+    os.makedirs(os.path.join(CORPUS, "waypoints_csv"), exist_ok=True)
+    shutil.copy(os.path.join(REPO, "data", "nrw-dom1", "sample_waypoints.csv"), os.path.join(CORPUS, "waypoints_csv"))
+    put("waypoints_csv", "comments.csv", "# waypoints\n\nx, y, z\n 356100.5 , 5699100.25,  160\n356200,5699300,1.7e2\n")
+    hostile("waypoints_csv", "wp_*.csv")
+    put("waypoints_geojson", "collection.geojson",
+        '{"type":"FeatureCollection","features":[{"type":"Feature","properties":{},"geometry":'
+        '{"type":"Point","coordinates":[7.02,51.45,180.5]}},{"type":"Feature","properties":null,"geometry":'
+        '{"type":"MultiPoint","coordinates":[[7.021,51.451,181],[7.022,51.452,182]]}},{"type":"Feature",'
+        '"geometry":{"type":"LineString","coordinates":[[7.023,51.453,183],[7.024,51.454,184]]}}]}\n')
+    put("waypoints_geojson", "feature.geojson",
+        '{"type": "Feature", "properties": {"name": "a"}, "geometry": {"type": "LineString", '
+        '"coordinates": [[4.3571, 52.0116, 45.0], [4.3580, 52.0120, 46.5]]}}\n')
+    put("waypoints_geojson", "point.geojson", '{"type":"Point","coordinates":[4.3571,52.0116,45]}')
+    hostile("waypoints_geojson", "wp_*.geojson")
+
+
+def roadmap_seeds():
+    os.makedirs(os.path.join(CORPUS, "roadmap"), exist_ok=True)
+    hostile("roadmap", "*.roadmap")
+
+
+if __name__ == "__main__":
+    las_seeds()
+    hostile("las", "*.las")
+    hostile("xyz", "*.xyz")
+    mesh_seeds()
+    waypoint_seeds()
+    roadmap_seeds()
