@@ -1256,17 +1256,120 @@ TEST(SimplifyBounded, ResultDoesNotDependOnThreads) {
   }
 }
 
-TEST(SimplifyBounded, VerticesAreCellCentresInRowMajorOrder) {
+// Vertices are numbered at their first use, in triangle order: the streamed mesh never refers
+// to a vertex it has not delivered yet. Each is a distinct cell centre.
+TEST(SimplifyBounded, VerticesAreDistinctCellCentresNumberedAtFirstUse) {
   const Grid& grid = testkit::delft_grid();
-  const Mesh mesh = simplify_bounded(grid, bounded(0.4));
-  size_t last = 0, out_of_order = 0;
-  for (size_t v = 0; v < mesh.vertices.size(); ++v) {
-    const CellOf cell = cell_of(grid, mesh.vertices[v]);
-    const size_t index = grid.index(cell.col, cell.row);
-    out_of_order += v > 0 && index <= last;
-    last = index;
+  BoundedSimplifyOptions options = bounded(0.4);
+  options.block_tiles = 2;
+  const Mesh mesh = simplify_bounded(grid, options);
+  size_t next = 0, ahead = 0;
+  for (const Triangle& t : mesh.triangles) {
+    for (uint32_t v : t) {
+      ahead += v > next;
+      if (v == next) ++next;
+    }
   }
-  EXPECT_EQ(out_of_order, 0u);
+  EXPECT_EQ(ahead, 0u);
+  EXPECT_EQ(next, mesh.vertices.size());  // and none unused
+  std::set<size_t> cells;
+  for (const Vertex& v : mesh.vertices) {
+    const CellOf cell = cell_of(grid, v);
+    cells.insert(grid.index(cell.col, cell.row));
+  }
+  EXPECT_EQ(cells.size(), mesh.vertices.size());
+}
+
+namespace {
+
+// A triangle as its three cells, rotated to start at the smallest: the surface without the
+// numbering, which depends on the block order.
+std::vector<std::array<size_t, 3>> cell_triangles(const Mesh& mesh, const Grid& grid) {
+  std::vector<std::array<size_t, 3>> out;
+  for (const Triangle& t : mesh.triangles) {
+    std::array<size_t, 3> c;
+    for (int k = 0; k < 3; ++k) {
+      const CellOf cell = cell_of(grid, mesh.vertices[t[k]]);
+      c[k] = grid.index(cell.col, cell.row);
+    }
+    std::rotate(c.begin(), std::min_element(c.begin(), c.end()), c.end());
+    out.push_back(c);
+  }
+  std::sort(out.begin(), out.end());
+  return out;
+}
+
+// Serves a grid by windows and remembers the largest window asked for.
+class CountingSource : public GridSource {
+public:
+  explicit CountingSource(const Grid& grid) : view_(grid) {}
+  const Grid& frame() const override { return view_.frame(); }
+  void read(int col0, int row0, int w, int h, float* out) override {
+    largest = std::max(largest, static_cast<size_t>(w) * h);
+    cells_read += static_cast<size_t>(w) * h;
+    view_.read(col0, row0, w, h, out);
+  }
+  size_t largest = 0, cells_read = 0;
+
+private:
+  GridView view_;
+};
+
+class CountingSink : public MeshSink {
+public:
+  void append(const std::vector<Vertex>& vertices, const std::vector<Triangle>& triangles) override {
+    ++calls;
+    largest = std::max(largest, triangles.size());
+    mesh.vertices.insert(mesh.vertices.end(), vertices.begin(), vertices.end());
+    mesh.triangles.insert(mesh.triangles.end(), triangles.begin(), triangles.end());
+  }
+  Mesh mesh;
+  size_t calls = 0, largest = 0;
+};
+
+}  // namespace
+
+// Blocks are the out-of-core unit: however the grid is cut into blocks, the surface is the same
+// (the same triangles over the same cells, the same heights), the seams between blocks are
+// watertight, and the error certified block by block is certify() of the whole mesh.
+TEST(SimplifyBounded, BlocksMeetWatertightAndMakeTheSameSurface) {
+  for (const Grid* grid : {&testkit::nrw_crop(), &testkit::delft_grid()}) {
+    const bool nrw = grid == &testkit::nrw_crop();
+    BoundedSimplifyOptions options = bounded(0.4, nrw);
+    options.tile_size = 37;
+    const Mesh whole_block = [&] {
+      BoundedSimplifyOptions one = options;
+      one.block_tiles = 1000;
+      return simplify_bounded(*grid, one);
+    }();
+    const auto reference = cell_triangles(whole_block, *grid);
+    for (int block_tiles : {1, 3, 0}) {
+      SCOPED_TRACE((nrw ? "nrw" : "delft") + std::string(" block_tiles ") + std::to_string(block_tiles));
+      options.block_tiles = block_tiles;
+      CountingSource source(*grid);
+      CountingSink sink;
+      const BoundedStreamResult result = simplify_bounded(source, options, sink);
+      const BoundedLayout layout = bounded_layout(grid->width, grid->height, options);
+      EXPECT_EQ(sink.calls, layout.blocks());
+      EXPECT_EQ(result.vertices, sink.mesh.vertices.size());
+      EXPECT_EQ(result.triangles, sink.mesh.triangles.size());
+      EXPECT_EQ(cell_triangles(sink.mesh, *grid), reference);
+      expect_watertight(sink.mesh, *grid);
+      if (nrw) expect_rectangle(sink.mesh, *grid);
+      expect_within_bound(sink.mesh, *grid, 0.4, nrw);
+      const VerticalError whole = certify(sink.mesh, *grid);
+      EXPECT_EQ(result.error.cells, whole.cells);
+      EXPECT_EQ(result.error.uncovered, whole.uncovered);
+      EXPECT_DOUBLE_EQ(result.error.max_above, whole.max_above);
+      EXPECT_DOUBLE_EQ(result.error.max_below, whole.max_below);
+      EXPECT_NEAR(result.error.rms, whole.rms, 1e-12);
+      EXPECT_EQ(result.valid_cells, summarize(*grid).valid);
+      // Bounded memory: no window larger than a block and its margin, each cell read about once.
+      const int side = layout.block_tiles * int(std::ceil(1.5 * layout.tile)) + 2 * layout.tile + 1;
+      EXPECT_LE(source.largest, size_t(side) * side);
+      if (block_tiles != 1) EXPECT_LT(source.cells_read, 4 * grid->cells());
+    }
+  }
 }
 
 // =================================================================================================

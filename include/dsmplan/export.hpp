@@ -72,6 +72,30 @@ const char* to_string(MeshFormat format);
 /// Atomic; OutputError on failure. Returns the number of triangles left out (0 but for GLB).
 size_t write_mesh(const Mesh& mesh, const std::string& path, MeshFormat format, const Progress& progress = {});
 
+class AtomicFile;
+
+/// A binary PLY written block by block as a MeshSink, for meshes larger than memory (the
+/// streamed bounded mode): the same file write_mesh() writes for MeshFormat::Ply. Vertices go
+/// straight to the file, face records to a scratch file beside it, appended by finish(); the
+/// header's two counts are written last into fixed-width fields (the numbers, then spaces, as
+/// PLY's whitespace-separated header allows). Memory: one block. Atomic: nothing appears at
+/// `path` before finish(); destroyed without finish(), both temporary files are removed.
+/// OutputError on any failure.
+class PlyStreamWriter : public MeshSink {
+public:
+  PlyStreamWriter(const std::string& path, const Crs& crs);
+  ~PlyStreamWriter() override;
+  void append(const std::vector<Vertex>& vertices, const std::vector<Triangle>& triangles) override;
+  void finish();
+
+private:
+  std::string header(size_t vertices, size_t faces) const;
+  std::unique_ptr<AtomicFile> file_, faces_;
+  Crs crs_;
+  size_t vertices_ = 0, faces_count_ = 0;
+  std::vector<char> records_;
+};
+
 /// Writes `text` to `path` atomically (temporary file + rename). OutputError on failure.
 void write_text_file(const std::string& path, const std::string& text);
 

@@ -47,6 +47,25 @@ struct Mesh {
   Crs crs;
 };
 
+/// Receives a mesh block by block, in order (simplify_bounded() streams out of core into one):
+/// each call brings the block's new vertices, numbered on from all earlier ones, and its
+/// triangles, which may use any vertex delivered so far.
+class MeshSink {
+public:
+  virtual ~MeshSink() = default;
+  virtual void append(const std::vector<Vertex>& vertices, const std::vector<Triangle>& triangles) = 0;
+};
+
+/// Collects the blocks into one Mesh.
+class MeshCollector : public MeshSink {
+public:
+  explicit MeshCollector(Mesh& mesh) : mesh_(mesh) {}
+  void append(const std::vector<Vertex>& vertices, const std::vector<Triangle>& triangles) override;
+
+private:
+  Mesh& mesh_;
+};
+
 struct MeshOptions {
   double zstep = 0.1;  ///< vertical resolution: heights are quantized to multiples of it (<= 0: keep)
   /// Longest x,y edge a triangle may have, in CRS units. 0 means 2.5 times the larger cell size,

@@ -19,6 +19,7 @@
 #include <cmath>
 #include <cstdint>
 #include <limits>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -53,6 +54,31 @@ struct Grid {
   double center_y(int row) const { return y0 - (row + 0.5) * cell_y; }
   double x1() const { return x0 + width * cell_x; }   ///< east edge
   double y1() const { return y0 - height * cell_y; }  ///< south edge
+};
+
+/// A north-up raster read by windows: how a DSM larger than memory is processed in blocks
+/// (simplify_bounded()). Implementations: GridView (a Grid in memory) and open_raster() (GDAL).
+class GridSource {
+public:
+  virtual ~GridSource() = default;
+  /// Size, georeference and CRS of the whole raster; its `z` is empty.
+  virtual const Grid& frame() const = 0;
+  /// Heights of the window [col0, col0 + w) x [row0, row0 + h), which must lie inside the frame,
+  /// row-major into `out` (w * h floats), NaN for nodata. Throws InputError naming the file and
+  /// cell for an infinite height or an undeclared NaN. Not thread-safe: one reader at a time.
+  virtual void read(int col0, int row0, int w, int h, float* out) = 0;
+};
+
+/// A Grid in memory as a GridSource. It refers to `grid`, which must outlive it.
+class GridView : public GridSource {
+public:
+  explicit GridView(const Grid& grid);
+  const Grid& frame() const override { return frame_; }
+  void read(int col0, int row0, int w, int h, float* out) override;
+
+private:
+  const Grid& grid_;
+  Grid frame_;
 };
 
 /// Counts and ranges of a grid, computed in one pass.
@@ -168,6 +194,12 @@ struct ReadRasterOptions {
 /// coordinates), has no CRS and none is assigned, or would need more memory than the machine has
 /// (4 bytes a cell, 5 with a mask band, plus options.extra_bytes_per_cell), before reading. O(cells).
 Grid read_raster(const std::string& path, const ReadRasterOptions& options = {}, const Progress& progress = {});
+
+/// Opens one band of any GDAL raster for reading by windows (GridSource), with the checks of
+/// read_raster() that need no cells (file, band, geotransform, CRS) done here and the per-cell
+/// ones (NaN, infinity) done on each window read. Memory: GDAL's block cache only, whatever the
+/// raster's size. VRT mosaics are read through, window by window.
+std::unique_ptr<GridSource> open_raster(const std::string& path, const ReadRasterOptions& options = {});
 
 /// Fills `crs.name`, `crs.epsg`, `crs.wkt` and the vertical fields from `crs.definition`
 /// (PROJ via GDAL's OGRSpatialReference). Throws ArgumentError when it cannot be parsed.

@@ -29,7 +29,7 @@ AtomicFile::AtomicFile(std::string path) : path_(std::move(path)) {
   int fd = ::mkstemp(pattern.data());
   if (fd < 0) throw OutputError(path_, std::string("cannot write: ") + std::strerror(errno));
   temp_path_ = pattern;
-  stream_ = ::fdopen(fd, "wb");
+  stream_ = ::fdopen(fd, "w+b");  // + : a writer may read back what it wrote (PlyStreamWriter)
   if (!stream_) {
     ::close(fd);
     ::unlink(temp_path_.c_str());

@@ -42,26 +42,42 @@ void append_number(std::string& out, double value) {
 
 constexpr size_t chunk = 1 << 16;
 
-void write_ply(const Mesh& mesh, AtomicFile& file, const Progress& progress) {
+// `count_width`: the counts padded with spaces to this many characters (0: as they are).
+std::string ply_header(const Crs& crs, size_t vertices, size_t faces, size_t count_width = 0) {
+  auto count = [&](size_t n) {
+    std::string text = std::to_string(n);
+    if (text.size() < count_width) text.append(count_width - text.size(), ' ');
+    return text;
+  };
   std::string header = "ply\nformat binary_little_endian 1.0\n";
-  for (const auto& line : crs_lines(mesh.crs)) header += "comment " + line + "\n";
-  header += "element vertex " + std::to_string(mesh.vertices.size()) +
-            "\nproperty double x\nproperty double y\nproperty double z\n"
-            "element face " +
-            std::to_string(mesh.triangles.size()) + "\nproperty list uchar uint vertex_indices\nend_header\n";
-  file.write(header);
+  for (const auto& line : crs_lines(crs)) header += "comment " + line + "\n";
+  return header + "element vertex " + count(vertices) +
+         "\nproperty double x\nproperty double y\nproperty double z\n"
+         "element face " +
+         count(faces) + "\nproperty list uchar uint vertex_indices\nend_header\n";
+}
+
+// Face records: a count byte (3) and three little-endian uint32 indices.
+void append_face_records(const Triangle* triangles, size_t count, std::vector<char>& records) {
+  const size_t begin = records.size();
+  records.resize(begin + count * 13);
+  char* out = records.data() + begin;
+  for (size_t i = 0; i < count; ++i) {
+    *out++ = 3;
+    std::memcpy(out, triangles[i].data(), 12);
+    out += 12;
+  }
+}
+
+void write_ply(const Mesh& mesh, AtomicFile& file, const Progress& progress) {
+  file.write(ply_header(mesh.crs, mesh.vertices.size(), mesh.triangles.size()));
   file.write(mesh.vertices.data(), mesh.vertices.size() * sizeof(Vertex));
   report(progress, 0.4);
   std::vector<char> records;
   for (size_t begin = 0; begin < mesh.triangles.size(); begin += chunk) {
     const size_t end = std::min(mesh.triangles.size(), begin + chunk);
-    records.resize((end - begin) * 13);
-    char* out = records.data();
-    for (size_t i = begin; i < end; ++i) {
-      *out++ = 3;
-      std::memcpy(out, mesh.triangles[i].data(), 12);
-      out += 12;
-    }
+    records.clear();
+    append_face_records(mesh.triangles.data() + begin, end - begin, records);
     file.write(records.data(), records.size());
     report(progress, 0.4 + 0.6 * end / mesh.triangles.size());
   }
@@ -167,6 +183,47 @@ void write_text_file(const std::string& path, const std::string& text) {
   AtomicFile file(path);
   file.write(text);
   file.commit();
+}
+
+// Counts up to 2^64 fit in 20 characters.
+constexpr size_t stream_count_width = 20;
+
+PlyStreamWriter::PlyStreamWriter(const std::string& path, const Crs& crs)
+    : file_(std::make_unique<AtomicFile>(path)), faces_(std::make_unique<AtomicFile>(path + ".faces")), crs_(crs) {
+  file_->write(header(0, 0));
+}
+
+PlyStreamWriter::~PlyStreamWriter() = default;
+
+std::string PlyStreamWriter::header(size_t vertices, size_t faces) const {
+  return ply_header(crs_, vertices, faces, stream_count_width);
+}
+
+void PlyStreamWriter::append(const std::vector<Vertex>& vertices, const std::vector<Triangle>& triangles) {
+  file_->write(vertices.data(), vertices.size() * sizeof(Vertex));
+  records_.clear();
+  append_face_records(triangles.data(), triangles.size(), records_);
+  faces_->write(records_.data(), records_.size());
+  vertices_ += vertices.size();
+  faces_count_ += triangles.size();
+}
+
+void PlyStreamWriter::finish() {
+  // The faces after the vertices, then the counts into the header's fixed-width fields.
+  std::FILE* faces = faces_->stream();
+  if (std::fflush(faces) != 0 || std::fseek(faces, 0, SEEK_SET) != 0)
+    throw OutputError(faces_->path(), "cannot read back the face records");
+  std::vector<char> buffer(1 << 20);
+  size_t got;
+  while ((got = std::fread(buffer.data(), 1, buffer.size(), faces)) > 0) file_->write(buffer.data(), got);
+  if (std::ferror(faces)) throw OutputError(faces_->path(), "cannot read back the face records");
+  faces_.reset();  // removes the scratch file
+  std::FILE* out = file_->stream();
+  const std::string final_header = header(vertices_, faces_count_);
+  if (std::fflush(out) != 0 || std::fseek(out, 0, SEEK_SET) != 0) throw OutputError(file_->path(), "cannot write");
+  file_->write(final_header);
+  if (std::fseek(out, 0, SEEK_END) != 0) throw OutputError(file_->path(), "cannot write");
+  file_->commit();
 }
 
 }  // namespace dsmplan

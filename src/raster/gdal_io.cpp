@@ -6,6 +6,7 @@
 #include <gdal_priv.h>
 #include <ogr_spatialref.h>
 
+#include <algorithm>
 #include <cmath>
 #include <memory>
 #include <mutex>
@@ -108,100 +109,148 @@ void resolve_crs(Crs& crs) {
   describe(srs, crs);
 }
 
+namespace {
+
+// One band of a GDAL raster, read by windows. Every window gets read_raster()'s treatment:
+// declared nodata and masked cells become NaN, scale and offset are applied, south-up rasters
+// are turned north-up, and an undeclared NaN or an infinite height is refused by cell.
+class GdalGridSource : public GridSource {
+public:
+  GdalGridSource(const std::string& path, const ReadRasterOptions& options) : path_(path), band_index_(options.band) {
+    init_gdal();
+    VSIStatBufL stat;
+    if (VSIStatL(path.c_str(), &stat) != 0) throw InputError(path, "", "no such file");
+    if (VSI_ISDIR(stat.st_mode)) throw InputError(path, "", "is a directory, not a raster");
+    CPLErrorReset();
+    dataset_.reset(GDALDataset::Open(path.c_str(), GDAL_OF_RASTER | GDAL_OF_READONLY));
+    if (!dataset_) throw InputError(path, "", "not a raster GDAL can read" + gdal_message());
+    const int width = dataset_->GetRasterXSize(), height = dataset_->GetRasterYSize();
+    if (width <= 0 || height <= 0) throw InputError(path, "", "raster has no cells");
+    if (dataset_->GetRasterCount() < 1) throw InputError(path, "", "raster has no band");
+    if (options.band < 1 || options.band > dataset_->GetRasterCount()) {
+      throw ArgumentError("--band", "band " + std::to_string(options.band) + " does not exist in " + path +
+                                        " (it has " + std::to_string(dataset_->GetRasterCount()) + ")");
+    }
+    double gt[6];
+    if (dataset_->GetGeoTransform(gt) != CE_None) throw InputError(path, "", "not geo-referenced (no geotransform)");
+    if (gt[2] != 0 || gt[4] != 0) throw InputError(path, "geotransform", "rotated or sheared rasters are not supported");
+    if (!(gt[1] > 0) || gt[5] == 0) throw InputError(path, "geotransform", "cell size must be positive");
+    south_up_ = gt[5] > 0;
+    frame_.width = width;
+    frame_.height = height;
+    frame_.x0 = gt[0];
+    frame_.y0 = south_up_ ? gt[3] + height * gt[5] : gt[3];
+    frame_.cell_x = gt[1];
+    frame_.cell_y = std::abs(gt[5]);
+    const OGRSpatialReference* srs = dataset_->GetSpatialRef();
+    if (srs && !srs->IsEmpty()) {
+      describe(*srs, frame_.crs);
+    } else if (!options.assign_crs.empty()) {
+      frame_.crs.definition = options.assign_crs;
+      resolve_crs(frame_.crs);
+    } else if (!options.allow_no_crs) {
+      throw InputError(path, "", "raster has no CRS; assign one with --crs (e.g. --crs EPSG:25832)");
+    }
+    band_ = dataset_->GetRasterBand(options.band);
+    if (frame_.crs.vertical_unit.empty() && band_->GetUnitType() && *band_->GetUnitType()) {
+      frame_.crs.vertical_unit = band_->GetUnitType();
+    }
+    read_mask_ = !(band_->GetMaskFlags() & (GMF_ALL_VALID | GMF_NODATA));
+    int has_nodata = 0;
+    nodata_ = band_->GetNoDataValue(&has_nodata);
+    has_nodata_ = has_nodata != 0;
+    int has_scale = 0, has_offset = 0;
+    scale_ = band_->GetScale(&has_scale);
+    offset_ = band_->GetOffset(&has_offset);
+    if (!has_scale) scale_ = 1;
+    if (!has_offset) offset_ = 0;
+  }
+
+  const Grid& frame() const override { return frame_; }
+  bool reads_mask() const { return read_mask_; }
+
+  void read(int col0, int row0, int w, int h, float* out) override { read(col0, row0, w, h, out, {}); }
+
+  void read(int col0, int row0, int w, int h, float* out, const Progress& progress) {
+    if (col0 < 0 || row0 < 0 || w <= 0 || h <= 0 || col0 + w > frame_.width || row0 + h > frame_.height)
+      throw Error(path_ + ": window outside the raster");  // a caller's bug, not the data's
+    // The file's rows for a south-up raster run the other way.
+    const int file_row0 = south_up_ ? frame_.height - row0 - h : row0;
+    GdalProgress bridge{progress};
+    GDALRasterIOExtraArg extra;
+    INIT_RASTERIO_EXTRA_ARG(extra);
+    extra.pfnProgress = GdalProgress::call;
+    extra.pProgressData = &bridge;
+    CPLErrorReset();
+    if (band_->RasterIO(GF_Read, col0, file_row0, w, h, out, w, h, GDT_Float32, 0, 0, &extra) != CE_None) {
+      if (bridge.cancelled) throw Cancelled();
+      throw InputError(path_, "band " + std::to_string(band_index_), "cannot read heights" + gdal_message());
+    }
+    const size_t cells = static_cast<size_t>(w) * h;
+    if (south_up_) {
+      for (int row = 0; row < h / 2; ++row)
+        std::swap_ranges(out + static_cast<size_t>(row) * w, out + static_cast<size_t>(row + 1) * w,
+                         out + static_cast<size_t>(h - 1 - row) * w);
+    }
+    // An explicit mask (internal mask, alpha) marks nodata too.
+    std::vector<GByte> mask;
+    if (read_mask_) {
+      mask.resize(cells);
+      if (band_->GetMaskBand()->RasterIO(GF_Read, col0, file_row0, w, h, mask.data(), w, h, GDT_Byte, 0, 0) !=
+          CE_None) {
+        throw InputError(path_, "mask band", "cannot read" + gdal_message());
+      }
+    }
+    const bool nan_is_nodata = has_nodata_ && std::isnan(nodata_);
+    const float nodata_value = static_cast<float>(nodata_);
+    const bool rescale = scale_ != 1 || offset_ != 0;
+    for (int row = 0; row < h; ++row) {
+      const int mask_row = south_up_ ? h - 1 - row : row;
+      for (int col = 0; col < w; ++col) {
+        float& z = out[static_cast<size_t>(row) * w + col];
+        if ((has_nodata_ && !nan_is_nodata && z == nodata_value) ||
+            (!mask.empty() && mask[static_cast<size_t>(mask_row) * w + col] == 0)) {
+          z = Grid::nodata;
+          continue;
+        }
+        if (std::isnan(z)) {
+          if (nan_is_nodata) continue;
+          throw InputError(path_, cell_place(frame_, col0 + col, row0 + row),
+                           "height is NaN but the raster declares no NaN nodata");
+        }
+        if (std::isinf(z)) throw InputError(path_, cell_place(frame_, col0 + col, row0 + row), "height is infinite");
+        if (rescale) z = static_cast<float>(z * scale_ + offset_);
+      }
+    }
+  }
+
+private:
+  std::string path_;
+  int band_index_;
+  GDALDatasetUniquePtr dataset_;
+  GDALRasterBand* band_ = nullptr;
+  Grid frame_;
+  bool south_up_ = false, read_mask_ = false, has_nodata_ = false;
+  double nodata_ = 0, scale_ = 1, offset_ = 0;
+};
+
+}  // namespace
+
+std::unique_ptr<GridSource> open_raster(const std::string& path, const ReadRasterOptions& options) {
+  return std::make_unique<GdalGridSource>(path, options);
+}
+
 Grid read_raster(const std::string& path, const ReadRasterOptions& options, const Progress& progress) {
-  init_gdal();
-  VSIStatBufL stat;
-  if (VSIStatL(path.c_str(), &stat) != 0) throw InputError(path, "", "no such file");
-  if (VSI_ISDIR(stat.st_mode)) throw InputError(path, "", "is a directory, not a raster");
-  CPLErrorReset();
-  GDALDatasetUniquePtr dataset(GDALDataset::Open(path.c_str(), GDAL_OF_RASTER | GDAL_OF_READONLY));
-  if (!dataset) throw InputError(path, "", "not a raster GDAL can read" + gdal_message());
-  const int width = dataset->GetRasterXSize(), height = dataset->GetRasterYSize();
-  if (width <= 0 || height <= 0) throw InputError(path, "", "raster has no cells");
-  if (dataset->GetRasterCount() < 1) throw InputError(path, "", "raster has no band");
-  if (options.band < 1 || options.band > dataset->GetRasterCount()) {
-    throw ArgumentError("--band", "band " + std::to_string(options.band) + " does not exist in " + path + " (it has " +
-                                      std::to_string(dataset->GetRasterCount()) + ")");
-  }
-  double gt[6];
-  if (dataset->GetGeoTransform(gt) != CE_None) throw InputError(path, "", "not geo-referenced (no geotransform)");
-  if (gt[2] != 0 || gt[4] != 0) throw InputError(path, "geotransform", "rotated or sheared rasters are not supported");
-  if (!(gt[1] > 0) || gt[5] == 0) throw InputError(path, "geotransform", "cell size must be positive");
-  const bool south_up = gt[5] > 0;
+  GdalGridSource source(path, options);
+  Grid grid = source.frame();
   // A float per cell, a byte more when a mask band has to be read alongside.
-  GDALRasterBand* band = dataset->GetRasterBand(options.band);
-  const int mask_flags = band->GetMaskFlags();
-  const bool read_mask = !(mask_flags & (GMF_ALL_VALID | GMF_NODATA));
-  require_memory(path, std::to_string(width) + " x " + std::to_string(height) + " cells",
-                 double(width) * double(height) * (sizeof(float) + (read_mask ? 1 : 0) + options.extra_bytes_per_cell));
-
-  Grid grid(width, height, gt[0], south_up ? gt[3] + height * gt[5] : gt[3], gt[1], std::abs(gt[5]));
-  const OGRSpatialReference* srs = dataset->GetSpatialRef();
-  if (srs && !srs->IsEmpty()) {
-    describe(*srs, grid.crs);
-  } else if (!options.assign_crs.empty()) {
-    grid.crs.definition = options.assign_crs;
-    resolve_crs(grid.crs);
-  } else if (!options.allow_no_crs) {
-    throw InputError(path, "", "raster has no CRS; assign one with --crs (e.g. --crs EPSG:25832)");
-  }
-
-  GdalProgress bridge{progress};
-  GDALRasterIOExtraArg extra;
-  INIT_RASTERIO_EXTRA_ARG(extra);
-  extra.pfnProgress = GdalProgress::call;
-  extra.pProgressData = &bridge;
-  CPLErrorReset();
-  if (band->RasterIO(GF_Read, 0, 0, width, height, grid.z.data(), width, height, GDT_Float32, 0, 0, &extra) !=
-      CE_None) {
-    if (bridge.cancelled) throw Cancelled();
-    throw InputError(path, "band " + std::to_string(options.band), "cannot read heights" + gdal_message());
-  }
-  if (south_up) {
-    for (int row = 0; row < height / 2; ++row) {
-      std::swap_ranges(grid.z.begin() + grid.index(0, row), grid.z.begin() + grid.index(0, row) + width,
-                       grid.z.begin() + grid.index(0, height - 1 - row));
-    }
-  }
-
-  int has_nodata = 0;
-  const double nodata = band->GetNoDataValue(&has_nodata);
-  const bool nan_is_nodata = has_nodata && std::isnan(nodata);
-  const float nodata_value = static_cast<float>(nodata);
-  // An explicit mask (internal mask, alpha) marks nodata too.
-  std::vector<GByte> mask;
-  if (read_mask) {
-    mask.resize(grid.cells());
-    if (band->GetMaskBand()->RasterIO(GF_Read, 0, 0, width, height, mask.data(), width, height, GDT_Byte, 0, 0) !=
-        CE_None) {
-      throw InputError(path, "mask band", "cannot read" + gdal_message());
-    }
-  }
-  int has_scale = 0, has_offset = 0;
-  const double scale = band->GetScale(&has_scale), offset = band->GetOffset(&has_offset);
-  const bool rescale = (has_scale && scale != 1) || (has_offset && offset != 0);
-  for (int row = 0; row < height; ++row) {
-    for (int col = 0; col < width; ++col) {
-      float& z = grid.z[grid.index(col, row)];
-      const int source_row = south_up ? height - 1 - row : row;
-      if ((has_nodata && !nan_is_nodata && z == nodata_value) ||
-          (!mask.empty() && mask[static_cast<size_t>(source_row) * width + col] == 0)) {
-        z = Grid::nodata;
-        continue;
-      }
-      if (std::isnan(z)) {
-        if (nan_is_nodata) continue;
-        throw InputError(path, cell_place(grid, col, row), "height is NaN but the raster declares no NaN nodata");
-      }
-      if (std::isinf(z)) throw InputError(path, cell_place(grid, col, row), "height is infinite");
-      if (rescale) z = static_cast<float>(z * (has_scale ? scale : 1) + (has_offset ? offset : 0));
-    }
-  }
+  require_memory(path, std::to_string(grid.width) + " x " + std::to_string(grid.height) + " cells",
+                 double(grid.width) * double(grid.height) *
+                     (sizeof(float) + (source.reads_mask() ? 1 : 0) + options.extra_bytes_per_cell));
+  grid.z.assign(static_cast<size_t>(grid.width) * grid.height, Grid::nodata);
+  source.read(0, 0, grid.width, grid.height, grid.z.data(), progress);
   if (std::all_of(grid.z.begin(), grid.z.end(), [](float z) { return std::isnan(z); })) {
     throw InputError(path, "", "no valid cell: every cell is nodata");
-  }
-  if (grid.crs.vertical_unit.empty() && band->GetUnitType() && *band->GetUnitType()) {
-    grid.crs.vertical_unit = band->GetUnitType();
   }
   return grid;
 }

@@ -1,5 +1,6 @@
 // Grid bookkeeping: one-pass summary (counts, height range, connected holes) and the vertical
 // quantization of Adolf & Hirschmueller, Table 1 ("the vertical resolution is always 10 cm").
+#include <algorithm>
 #include <cmath>
 #include <vector>
 
@@ -51,6 +52,28 @@ HeightQuantizer::HeightQuantizer(double step) : step_(step) {
   if (!(step > 0)) return;
   const double per_unit = 1.0 / step;
   if (std::abs(per_unit - std::round(per_unit)) < 1e-9 * per_unit) per_unit_ = std::round(per_unit);
+}
+
+}  // namespace dsmplan
+
+namespace dsmplan {
+
+GridView::GridView(const Grid& grid) : grid_(grid) {
+  frame_ = Grid();
+  frame_.width = grid.width;
+  frame_.height = grid.height;
+  frame_.x0 = grid.x0;
+  frame_.y0 = grid.y0;
+  frame_.cell_x = grid.cell_x;
+  frame_.cell_y = grid.cell_y;
+  frame_.crs = grid.crs;
+}
+
+void GridView::read(int col0, int row0, int w, int h, float* out) {
+  for (int row = 0; row < h; ++row) {
+    const float* from = grid_.z.data() + grid_.index(col0, row0 + row);
+    std::copy(from, from + w, out + static_cast<size_t>(row) * w);
+  }
 }
 
 }  // namespace dsmplan

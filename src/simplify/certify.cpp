@@ -86,3 +86,16 @@ VerticalError certify(const Mesh& mesh, const Grid& dsm, const Progress& progres
 }
 
 }  // namespace dsmplan
+
+namespace dsmplan {
+
+void VerticalError::merge(const VerticalError& other) {
+  const double squares = rms * rms * double(cells) + other.rms * other.rms * double(other.cells);
+  max_above = std::max(max_above, other.max_above);
+  max_below = std::max(max_below, other.max_below);
+  cells += other.cells;
+  uncovered += other.uncovered;
+  rms = cells ? std::sqrt(squares / double(cells)) : 0;
+}
+
+}  // namespace dsmplan

@@ -16,6 +16,7 @@
 #include <algorithm>
 #include <array>
 #include <atomic>
+#include <future>
 #include <cmath>
 #include <limits>
 #include <memory>
@@ -68,29 +69,40 @@ int64_t floor_div(int64_t a, int64_t b) {
 }
 int64_t ceil_div(int64_t a, int64_t b) { return -floor_div(-a, b); }
 
-// Heights to fit: the DSM plus a lift (E/2 in conservative mode), NaN where there is no data.
+// Heights to fit, the DSM plus a lift (E/2 in conservative mode), NaN where there is no data;
+// over a window of the grid (col0, row0, width x height), addressed by the grid's (col, row).
 struct Target {
-  const Grid& grid;
+  const float* z;
+  int col0, row0, width, height;
   double lift;
   double bound;  // the two-sided bound to keep around the target, margin included
+  int reach;     // how far at_or_nearest() looks: the window extends this far around its block
 
-  double at(int col, int row) const { return double(grid.z[grid.index(col, row)]) + lift; }
-  bool valid(int col, int row) const { return !std::isnan(grid.z[grid.index(col, row)]); }
+  size_t index(int col, int row) const { return static_cast<size_t>(row - row0) * width + (col - col0); }
+  double at(int col, int row) const { return double(z[index(col, row)]) + lift; }
+  bool valid(int col, int row) const { return !std::isnan(z[index(col, row)]); }
+  bool inside(int col, int row) const {
+    return col >= col0 && row >= row0 && col < col0 + width && row < row0 + height;
+  }
+  const float* row_heights(int row) const { return z + static_cast<size_t>(row - row0) * width; }
 
-  // Height for a vertex at a nodata cell (tile corners only): the nearest valid cell's, found
-  // in growing square rings; the corner then has no bound of its own.
+  // Height for a vertex at a nodata cell (tile corners only): the nearest valid cell's within
+  // `reach`, found in growing square rings; the corner then has no bound of its own. Looking no
+  // farther than the block's margin keeps every block's answer the same as its neighbours'.
+  // With no valid cell that near, the corner's triangles lie over nodata (dropped) or get
+  // refined down to the bound where they reach valid cells.
   double at_or_nearest(int col, int row) const {
     if (valid(col, row)) return at(col, row);
-    for (int r = 1; r < std::max(grid.width, grid.height); ++r) {
+    for (int r = 1; r <= reach; ++r) {
       for (int dy = -r; dy <= r; ++dy) {
         for (int dx = -r; dx <= r; ++dx) {
           if (std::max(std::abs(dx), std::abs(dy)) != r) continue;
           const int c = col + dx, w = row + dy;
-          if (c >= 0 && w >= 0 && c < grid.width && w < grid.height && valid(c, w)) return at(c, w);
+          if (inside(c, w) && valid(c, w)) return at(c, w);
         }
       }
     }
-    return lift;  // no valid cell at all: the caller refuses such grids before
+    return lift;
   }
 };
 
@@ -312,7 +324,6 @@ private:
     const Point edge_from[3] = {a, b, c}, edge_to[3] = {b, c, a};
     double worst = target_.bound;
     Point worst_cell{0, 0};
-    const Grid& grid = target_.grid;
     for (int row = row_begin; row <= row_end; ++row) {
       // orient(p, q, (x, row)) = A x + B >= 0 for each edge p->q.
       int64_t lo = col_min, hi = col_max;
@@ -328,10 +339,10 @@ private:
           hi = lo - 1;
       }
       if (lo > hi) continue;
-      const float* heights = &grid.z[grid.index(0, row)];
+      const float* heights = target_.row_heights(row);
       const double base = za + gy * (row - a.y) - gx * a.x + (-target_.lift);
       for (int64_t col = lo; col <= hi; ++col) {
-        const double error = std::abs(base + gx * double(col) - heights[col]);
+        const double error = std::abs(base + gx * double(col) - heights[col - target_.col0]);
         if (error > worst) {  // false for NaN (nodata)
           worst = error;
           worst_cell = {static_cast<int32_t>(col), row};
@@ -419,6 +430,143 @@ std::vector<int> split_points(int last, int tile) {
   return at;
 }
 
+constexpr uint32_t no_id = std::numeric_limits<uint32_t>::max();
+constexpr int default_block_tiles = 16;
+
+// A block's cells: tile columns [ti0, ti1) and rows [tj0, tj1), cells [cx0, cx1] x [ry0, ry1].
+struct BlockSpan {
+  size_t ti0, ti1, tj0, tj1;
+  int cx0, cx1, ry0, ry1;
+};
+
+BlockSpan block_span(const BoundedLayout& layout, size_t index) {
+  const size_t tiles_x = layout.xs.size() - 1, tiles_y = layout.ys.size() - 1, b = layout.block_tiles;
+  const size_t bi = index % layout.blocks_x, bj = index / layout.blocks_x;
+  BlockSpan span{bi * b, std::min(bi * b + b, tiles_x), bj * b, std::min(bj * b + b, tiles_y), 0, 0, 0, 0};
+  span.cx0 = layout.xs[span.ti0];
+  span.cx1 = layout.xs[span.ti1];
+  span.ry0 = layout.ys[span.tj0];
+  span.ry1 = layout.ys[span.tj1];
+  return span;
+}
+
+// The heights a block needs: its cells and a margin of `reach` cells, clipped to the grid.
+struct BlockWindow {
+  size_t index = 0;
+  int col0 = 0, row0 = 0, width = 0, height = 0;
+  std::vector<float> z;
+};
+
+BlockWindow read_block_window(GridSource& dsm, const BoundedLayout& layout, size_t index) {
+  const Grid& frame = dsm.frame();
+  const BlockSpan span = block_span(layout, index);
+  BlockWindow window;
+  window.index = index;
+  window.col0 = std::max(0, span.cx0 - layout.tile);
+  window.row0 = std::max(0, span.ry0 - layout.tile);
+  window.width = std::min(frame.width - 1, span.cx1 + layout.tile) - window.col0 + 1;
+  window.height = std::min(frame.height - 1, span.ry1 + layout.tile) - window.row0 + 1;
+  window.z.resize(static_cast<size_t>(window.width) * window.height);
+  dsm.read(window.col0, window.row0, window.width, window.height, window.z.data());
+  return window;
+}
+
+// One tile's part of a block: kept triangles (3 corners each, counter-clockwise in the CRS) and
+// the certified error of the tile's own cells (half-open: a border cell is its lower tile's,
+// except on the grid's last row and column).
+struct TilePart {
+  BoundedTile triangles;
+  VerticalError error;
+  size_t valid_cells = 0;
+};
+
+TilePart make_tile(const Grid& frame, const Target& target, const BoundedLayout& layout, size_t i, size_t j,
+                   bool has_nodata) {
+  const int x0 = layout.xs[i], x1 = layout.xs[i + 1], y0 = layout.ys[j], y1 = layout.ys[j + 1];
+  // The four sides, each simplified from its own cells only: the neighbour computes the same.
+  std::vector<Point> border;
+  simplify_polyline(target, {x0, y0}, {x1, y0}, border);
+  simplify_polyline(target, {x1, y0}, {x1, y1}, border);
+  simplify_polyline(target, {x0, y1}, {x1, y1}, border);
+  simplify_polyline(target, {x0, y0}, {x0, y1}, border);
+  TileTriangulation triangulation(target, x0, y0, x1, y1);
+  triangulation.start(border);
+  triangulation.fill();
+  const auto& points = triangulation.points();
+  const auto& corners = triangulation.corners();
+  TilePart part;
+  BoundedTile& kept = part.triangles;
+  kept.cols.reserve(corners.size());
+  kept.rows.reserve(corners.size());
+  kept.heights.reserve(corners.size());
+  for (size_t k = 0; k < corners.size(); k += 3) {
+    const std::array<Point, 3> p{points[corners[k]], points[corners[k + 1]], points[corners[k + 2]]};
+    if (has_nodata && over_nodata_only(target, p)) continue;
+    // Counter-clockwise in (col, row), whose rows run south: reversed for the CRS.
+    for (int m : {0, 2, 1}) {
+      kept.cols.push_back(p[m].x);
+      kept.rows.push_back(p[m].y);
+      kept.heights.push_back(triangulation.heights()[corners[k + m]]);
+    }
+  }
+  // The certified error, by certify() on the tile's triangles in CRS coordinates: the same
+  // measure as for any mesh, not the insertion's own bookkeeping.
+  const int cols = x1 - x0 + (x1 == frame.width - 1), rows = y1 - y0 + (y1 == frame.height - 1);
+  Grid cells(cols, rows, frame.x0 + x0 * frame.cell_x, frame.y0 - y0 * frame.cell_y, frame.cell_x, frame.cell_y);
+  for (int r = 0; r < rows; ++r) {
+    for (int c = 0; c < cols; ++c) {
+      const float z = target.z[target.index(x0 + c, y0 + r)];
+      cells.z[cells.index(c, r)] = z;
+      part.valid_cells += !std::isnan(z);
+    }
+  }
+  Mesh mesh;
+  const size_t n = kept.cols.size();
+  mesh.vertices.reserve(n);
+  for (size_t k = 0; k < n; ++k)
+    mesh.vertices.push_back({frame.center_x(kept.cols[k]), frame.center_y(kept.rows[k]), kept.heights[k]});
+  mesh.triangles.reserve(n / 3);
+  for (uint32_t k = 0; k < n; k += 3) mesh.triangles.push_back({k, k + 1, k + 2});
+  part.error = certify(mesh, cells);
+  return part;
+}
+
+BoundedBlock make_block(const Grid& frame, const BlockWindow& window, const BoundedLayout& layout,
+                        const BoundedSimplifyOptions& options) {
+  const double half = options.max_error / 2;
+  const Target target{window.z.data(),
+                      window.col0,
+                      window.row0,
+                      window.width,
+                      window.height,
+                      options.conservative ? half : 0.0,
+                      (options.conservative ? half : options.max_error) - rounding_margin,
+                      layout.tile};
+  const bool has_nodata = std::any_of(window.z.begin(), window.z.end(), [](float z) { return std::isnan(z); });
+  const BlockSpan span = block_span(layout, window.index);
+  const size_t tiles_x = span.ti1 - span.ti0, tiles = tiles_x * (span.tj1 - span.tj0);
+  std::vector<TilePart> parts(tiles);
+  const bool serial = options.delaunay || options.threads == 1;
+  tbb::task_arena arena(serial ? 1 : options.threads > 0 ? options.threads : tbb::task_arena::automatic);
+  arena.execute([&] {
+    tbb::parallel_for(
+        size_t(0), tiles,
+        [&](size_t t) {
+          parts[t] = make_tile(frame, target, layout, span.ti0 + t % tiles_x, span.tj0 + t / tiles_x, has_nodata);
+        },
+        tbb::simple_partitioner());
+  });
+  BoundedBlock block;
+  block.index = window.index;
+  block.tiles.reserve(tiles);
+  for (TilePart& part : parts) {
+    block.tiles.push_back(std::move(part.triangles));
+    block.error.merge(part.error);
+    block.valid_cells += part.valid_cells;
+  }
+  return block;
+}
+
 }  // namespace
 
 void check_bounded_options(const BoundedSimplifyOptions& options) {
@@ -426,125 +574,114 @@ void check_bounded_options(const BoundedSimplifyOptions& options) {
     throw ArgumentError("--max-error", "must be a positive number, got " + std::to_string(options.max_error));
   }
   if (options.tile_size < 0) throw ArgumentError("--tile-size", "must be >= 0 (0: automatic)");
+  if (options.block_tiles < 0) throw ArgumentError("--block-tiles", "must be >= 0 (0: automatic)");
+}
+
+BoundedLayout bounded_layout(int width, int height, const BoundedSimplifyOptions& options) {
+  check_bounded_options(options);
+  if (width < 2 || height < 2) throw ArgumentError("DSM", "needs at least 2 x 2 cells to triangulate");
+  BoundedLayout layout;
+  layout.tile = options.delaunay ? std::max(width, height) : std::max(2, options.tile_size ? options.tile_size
+                                                                                            : default_tile_size);
+  layout.block_tiles = options.delaunay ? 1 : options.block_tiles ? options.block_tiles : default_block_tiles;
+  layout.xs = split_points(width - 1, layout.tile);
+  layout.ys = split_points(height - 1, layout.tile);
+  layout.blocks_x = (layout.xs.size() - 1 + layout.block_tiles - 1) / layout.block_tiles;
+  layout.blocks_y = (layout.ys.size() - 1 + layout.block_tiles - 1) / layout.block_tiles;
+  return layout;
+}
+
+BoundedBlock simplify_bounded_block(GridSource& dsm, const BoundedLayout& layout, size_t index,
+                                    const BoundedSimplifyOptions& options) {
+  return make_block(dsm.frame(), read_block_window(dsm, layout, index), layout, options);
+}
+
+BoundedAssembler::BoundedAssembler(const Grid& frame, const BoundedLayout& layout, MeshSink& sink)
+    : frame_(frame),
+      layout_(layout),
+      sink_(sink),
+      seam_above_(frame.width, no_id),
+      seam_below_(frame.width, no_id),
+      seam_left_(frame.height, no_id) {}
+
+void BoundedAssembler::add(const BoundedBlock& block) {
+  if (block.index != expected_) throw Error("bounded mode: block " + std::to_string(block.index) + " out of order");
+  ++expected_;
+  const BlockSpan span = block_span(layout_, block.index);
+  const int width = span.cx1 - span.cx0 + 1, height = span.ry1 - span.ry0 + 1;
+  ids_.assign(static_cast<size_t>(width) * height, no_id);
+  auto id_at = [&](int col, int row) -> uint32_t& { return ids_[size_t(row - span.ry0) * width + (col - span.cx0)]; };
+  // The seams with earlier blocks: the row above (from the previous row of blocks) and the
+  // column to the left (from the previous block); their shared corner may be known to only one.
+  for (int col = span.cx0; col <= span.cx1; ++col) id_at(col, span.ry0) = seam_above_[col];
+  for (int row = span.ry0; row <= span.ry1; ++row)
+    if (seam_left_[row] != no_id) id_at(span.cx0, row) = seam_left_[row];
+
+  size_t corners = 0;
+  for (const BoundedTile& tile : block.tiles) corners += tile.cols.size();
+  vertices_.clear();
+  triangles_out_.resize(corners / 3);
+  size_t k = 0;
+  for (const BoundedTile& tile : block.tiles) {
+    for (size_t c = 0; c < tile.cols.size(); ++c, ++k) {
+      uint32_t& id = id_at(tile.cols[c], tile.rows[c]);
+      if (id == no_id) {
+        if (next_id_ >= no_id) throw ArgumentError("DSM", "the mesh would have 2^32 vertices or more; raise --max-error");
+        id = static_cast<uint32_t>(next_id_++);
+        vertices_.push_back({frame_.center_x(tile.cols[c]), frame_.center_y(tile.rows[c]), tile.heights[c]});
+      }
+      triangles_out_[k / 3][k % 3] = id;
+    }
+  }
+  triangles_ += triangles_out_.size();
+
+  for (int col = span.cx0; col <= span.cx1; ++col) seam_below_[col] = id_at(col, span.ry1);
+  for (int row = span.ry0; row <= span.ry1; ++row) seam_left_[row] = id_at(span.cx1, row);
+  if (block.index % layout_.blocks_x == layout_.blocks_x - 1) {  // the row of blocks is done
+    std::swap(seam_above_, seam_below_);
+    std::fill(seam_below_.begin(), seam_below_.end(), no_id);
+    std::fill(seam_left_.begin(), seam_left_.end(), no_id);
+  }
+  sink_.append(vertices_, triangles_out_);
+}
+
+BoundedStreamResult simplify_bounded(GridSource& dsm, const BoundedSimplifyOptions& options, MeshSink& sink,
+                                     const Progress& progress) {
+  const Grid& frame = dsm.frame();
+  const BoundedLayout layout = bounded_layout(frame.width, frame.height, options);
+  if (std::max(frame.width, frame.height) - 1 >= (1 << 30))
+    throw ArgumentError("DSM", "more than 2^30 cells a side");  // lattice products must fit 64 bits
+  BoundedAssembler assembler(frame, layout, sink);
+  BoundedStreamResult result;
+  result.blocks = layout.blocks();
+  report(progress, 0);
+  // The next block's window is read while the current block is made.
+  std::future<BlockWindow> next = std::async(std::launch::async, [&] { return read_block_window(dsm, layout, 0); });
+  for (size_t index = 0; index < layout.blocks(); ++index) {
+    BlockWindow window = next.get();
+    if (index + 1 < layout.blocks())
+      next = std::async(std::launch::async, [&, index] { return read_block_window(dsm, layout, index + 1); });
+    const BoundedBlock block = make_block(frame, window, layout, options);
+    window = BlockWindow();
+    assembler.add(block);
+    result.error.merge(block.error);
+    result.valid_cells += block.valid_cells;
+    report(progress, double(index + 1) / double(layout.blocks()));  // a pending read is waited for
+  }
+  if (result.valid_cells == 0) throw ArgumentError("DSM", "has no valid cell");
+  result.vertices = assembler.vertices();
+  result.triangles = assembler.triangles();
+  return result;
 }
 
 Mesh simplify_bounded(const Grid& dsm, const BoundedSimplifyOptions& options, const Progress& progress) {
   check_bounded_options(options);
   if (dsm.width < 2 || dsm.height < 2) throw ArgumentError("DSM", "needs at least 2 x 2 cells to triangulate");
-  if (std::all_of(dsm.z.begin(), dsm.z.end(), [](float z) { return std::isnan(z); }))
-    throw ArgumentError("DSM", "has no valid cell");
-  const double half = options.max_error / 2;
-  const Target target{dsm, options.conservative ? half : 0.0,
-                      (options.conservative ? half : options.max_error) - rounding_margin};
-
-  const int tile =
-      options.delaunay ? std::max(dsm.width, dsm.height) : (options.tile_size ? options.tile_size : default_tile_size);
-  const std::vector<int> xs = split_points(dsm.width - 1, std::max(tile, 2));
-  const std::vector<int> ys = split_points(dsm.height - 1, std::max(tile, 2));
-  const size_t tiles_x = xs.size() - 1, tiles_y = ys.size() - 1;
-
-  // Border polylines: horizontal[j][i] runs along row ys[j] over tile column i, vertical[j][i]
-  // along column xs[i] over tile row j. Shared by the tiles on both sides.
-  std::vector<std::vector<std::vector<Point>>> horizontal(ys.size(), std::vector<std::vector<Point>>(tiles_x));
-  std::vector<std::vector<std::vector<Point>>> vertical(tiles_y, std::vector<std::vector<Point>>(xs.size()));
-  for (size_t j = 0; j < ys.size(); ++j)
-    for (size_t i = 0; i < tiles_x; ++i)
-      simplify_polyline(target, {xs[i], ys[j]}, {xs[i + 1], ys[j]}, horizontal[j][i]);
-  for (size_t j = 0; j < tiles_y; ++j)
-    for (size_t i = 0; i < xs.size(); ++i)
-      simplify_polyline(target, {xs[i], ys[j]}, {xs[i], ys[j + 1]}, vertical[j][i]);
-  report(progress, 0.05);
-
-  // Per cell: 1 once a kept triangle uses it, later its vertex index; and that vertex's height.
-  // Tiles sharing a border write the same values there (relaxed atomics: no torn or racy writes).
-  if (dsm.cells() >= std::numeric_limits<uint32_t>::max())
-    throw ArgumentError("DSM", "too many cells for 32-bit vertex indices; split it into tiles");
-  const bool has_nodata = std::any_of(dsm.z.begin(), dsm.z.end(), [](float z) { return std::isnan(z); });
-  std::vector<uint32_t> id(dsm.cells(), 0);
-  std::unique_ptr<double[]> height(new double[dsm.cells()]);
-  std::vector<std::vector<Triangle>> tile_triangles(tiles_x * tiles_y);  // cell indices
-  std::mutex progress_mutex;
-  std::atomic<size_t> done{0};
-  std::atomic<bool> cancelled{false};
-  auto run_tile = [&](size_t index) {
-    if (cancelled) return;
-    const size_t i = index % tiles_x, j = index / tiles_x;
-    std::vector<Point> border;
-    for (const auto* side : {&horizontal[j][i], &vertical[j][i + 1], &horizontal[j + 1][i], &vertical[j][i]})
-      border.insert(border.end(), side->begin(), side->end());
-    TileTriangulation triangulation(target, xs[i], ys[j], xs[i + 1], ys[j + 1]);
-    triangulation.start(border);
-    triangulation.fill();
-    const auto& points = triangulation.points();
-    const auto& corners = triangulation.corners();
-    auto& kept = tile_triangles[index];
-    kept.reserve(corners.size() / 3);
-    for (size_t k = 0; k < corners.size(); k += 3) {
-      const std::array<Point, 3> p{points[corners[k]], points[corners[k + 1]], points[corners[k + 2]]};
-      if (has_nodata && over_nodata_only(target, p)) continue;
-      Triangle cells;
-      for (int m = 0; m < 3; ++m) {
-        cells[m] = static_cast<uint32_t>(dsm.index(p[m].x, p[m].y));
-        std::atomic_ref<uint32_t>(id[cells[m]]).store(1, std::memory_order_relaxed);
-        std::atomic_ref<double>(height[cells[m]])
-            .store(triangulation.heights()[corners[k + m]], std::memory_order_relaxed);
-      }
-      // Counter-clockwise in (col, row), whose rows run south: reversed for the CRS.
-      kept.push_back({cells[0], cells[2], cells[1]});
-    }
-    const size_t finished = ++done;
-    std::lock_guard lock(progress_mutex);
-    try {
-      report(progress, 0.05 + 0.85 * finished / tile_triangles.size());
-    } catch (const Cancelled&) {
-      cancelled = true;
-    }
-  };
-  const bool serial = options.delaunay || options.threads == 1;
-  tbb::task_arena arena(serial ? 1 : options.threads > 0 ? options.threads : tbb::task_arena::automatic);
-  arena.execute([&] {
-    tbb::parallel_for(
-        size_t(0), tile_triangles.size(), [&](size_t index) { run_tile(index); }, tbb::simple_partitioner());
-  });
-  if (cancelled) throw Cancelled();
-
-  // One vertex per used cell, in row-major order (numbered by blocks of rows in parallel).
+  GridView view(dsm);
   Mesh mesh;
   mesh.crs = dsm.crs;
-  const int block_rows = 16;
-  const size_t blocks = (dsm.height + block_rows - 1) / block_rows;
-  std::vector<uint32_t> block_first(blocks + 1, 0);
-  arena.execute([&] {
-    tbb::parallel_for(size_t(0), blocks, [&](size_t b) {
-      const size_t begin = dsm.index(0, int(b) * block_rows);
-      const size_t end = dsm.index(0, std::min(dsm.height, int(b + 1) * block_rows));
-      block_first[b + 1] = static_cast<uint32_t>(std::count(id.begin() + begin, id.begin() + end, 1u));
-    });
-  });
-  for (size_t b = 0; b < blocks; ++b) block_first[b + 1] += block_first[b];
-  mesh.vertices.resize(block_first[blocks]);
-  std::vector<size_t> triangle_first(tile_triangles.size() + 1, 0);
-  for (size_t t = 0; t < tile_triangles.size(); ++t)
-    triangle_first[t + 1] = triangle_first[t] + tile_triangles[t].size();
-  mesh.triangles.resize(triangle_first.back());
-  arena.execute([&] {
-    tbb::parallel_for(size_t(0), blocks, [&](size_t b) {
-      uint32_t next = block_first[b];
-      for (int row = int(b) * block_rows; row < std::min(dsm.height, int(b + 1) * block_rows); ++row) {
-        for (int col = 0; col < dsm.width; ++col) {
-          const size_t cell = dsm.index(col, row);
-          if (!id[cell]) continue;
-          id[cell] = next;
-          mesh.vertices[next++] = {dsm.center_x(col), dsm.center_y(row), height[cell]};
-        }
-      }
-    });
-    tbb::parallel_for(size_t(0), tile_triangles.size(), [&](size_t t) {
-      Triangle* out = mesh.triangles.data() + triangle_first[t];
-      for (const Triangle& cells : tile_triangles[t]) *out++ = {id[cells[0]], id[cells[1]], id[cells[2]]};
-    });
-  });
-  report(progress, 1);
+  MeshCollector collector(mesh);
+  simplify_bounded(view, options, collector, progress);
   return mesh;
 }
 

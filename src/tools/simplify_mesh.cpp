@@ -43,6 +43,57 @@ Grid read_dsm(const std::string& path, const SimplifyJobOptions& options, double
   return dsm;
 }
 
+// The bounded mode on the DSM as it is: read window by window and written block by block, so
+// any raster or VRT mosaic fits in memory (see "out of core" in simplify.hpp). PLY is written
+// as it comes; the other formats need the whole mesh in memory.
+SimplifyReport simplify_streamed(const SimplifyJobOptions& options, MeshFormat format, const Progress& progress) {
+  SimplifyReport report;
+  report.input = options.input;
+  report.output = options.output;
+  report.method = options.method;
+  report.paper = options.paper;
+  report.bounded = options.bounded;
+  Stopwatch clock;
+  const std::unique_ptr<GridSource> dsm = open_raster(options.input, options.read);
+  const Grid& frame = dsm->frame();
+  require_projected(frame.crs, options.input);
+  report.source_resolution = report.resolution = frame.cell_x;
+  report.crs = frame.crs;
+  report.seconds.emplace_back("read", clock.lap());
+  report.seconds.emplace_back("mesh", 0.0);
+  const Progress simplify_progress = sub_progress(progress, 0, format == MeshFormat::Ply ? 1.0 : 0.8);
+  BoundedStreamResult result;
+  if (format == MeshFormat::Ply) {
+    PlyStreamWriter writer(options.output, frame.crs);
+    result = simplify_bounded(*dsm, options.bounded, writer, simplify_progress);
+    require_triangles(result.triangles, frame.width, frame.height, options.input);
+    writer.finish();
+    // Reading, simplifying, certifying and writing are one pass here: all under "simplify".
+    report.seconds.emplace_back("simplify", clock.lap());
+    report.seconds.emplace_back("certify", 0.0);
+    report.seconds.emplace_back("write", 0.0);
+  } else {
+    require_memory(options.input, std::to_string(frame.width) + " x " + std::to_string(frame.height) + " cells",
+                   double(frame.width) * double(frame.height) * kBoundedBytesPerCell);
+    Mesh output;
+    output.crs = frame.crs;
+    MeshCollector collector(output);
+    result = simplify_bounded(*dsm, options.bounded, collector, simplify_progress);
+    report.seconds.emplace_back("simplify", clock.lap());
+    report.seconds.emplace_back("certify", 0.0);
+    require_triangles(output.triangles.size(), frame.width, frame.height, options.input);
+    report.dropped_triangles = write_mesh(output, options.output, format, sub_progress(progress, 0.8, 1.0));
+    report.seconds.emplace_back("write", clock.lap());
+  }
+  add_total(report.seconds);
+  report.vertices_in = result.valid_cells;
+  report.faces_in = 0;
+  report.vertices_out = result.vertices;
+  report.faces_out = result.triangles;
+  report.error = result.error;
+  return report;
+}
+
 }  // namespace
 
 const char* to_string(SimplifyMethod method) {
@@ -87,6 +138,8 @@ SimplifyReport simplify_job(const SimplifyJobOptions& options, const Progress& p
                                            ") as the input instead of the mesh " + options.input);
   }
 
+  if (bounded && !mesh_input && !options.resolution) return simplify_streamed(options, format, progress);
+
   SimplifyReport report;
   report.input = options.input;
   report.output = options.output;
@@ -120,7 +173,10 @@ SimplifyReport simplify_job(const SimplifyJobOptions& options, const Progress& p
   Mesh output;
   const Progress simplify_progress = sub_progress(progress, 0.2, 0.8);
   if (bounded) {
-    output = simplify_bounded(dsm, options.bounded, simplify_progress);
+    GridView view(dsm);
+    output.crs = dsm.crs;
+    MeshCollector collector(output);
+    report.error = simplify_bounded(view, options.bounded, collector, simplify_progress).error;
     report.seconds.emplace_back("simplify", clock.lap());
   } else {
     PaperSimplifyOptions paper = options.paper;
@@ -137,7 +193,8 @@ SimplifyReport simplify_job(const SimplifyJobOptions& options, const Progress& p
   }
   input = Mesh();
   require_triangles(output.triangles.size(), dsm.width, dsm.height, mesh_input ? options.dsm : options.input);
-  report.error = certify(output, dsm, sub_progress(progress, 0.8, 0.9));
+  // The bounded mode certified its blocks as it made them (certify() on every tile).
+  if (!bounded) report.error = certify(output, dsm, sub_progress(progress, 0.8, 0.9));
   report.seconds.emplace_back("certify", clock.lap());
   report.dropped_triangles = write_mesh(output, options.output, format, sub_progress(progress, 0.9, 1.0));
   report.seconds.emplace_back("write", clock.lap());
