@@ -37,7 +37,17 @@ int fail(const std::string& message, int exit_code) {
 
 }  // namespace
 
+// Rank 0 of an MPI run releases the workers however its job ends.
+struct ReleaseWorkers {
+  const MpiFarm& farm;
+  bool armed = false;
+  ~ReleaseWorkers() {
+    if (armed) farm.release_workers();
+  }
+};
+
 int main(int argc, char** argv) {
+  const MpiFarm farm(argc, argv);  // active only under mpirun with 2 or more ranks
   CLI::App app{"dsmplan: DSM to conservative obstacle mesh and UAV paths (Adolf & Hirschmueller)"};
   app.require_subcommand(1);
   app.set_version_flag("--version", "dsmplan " DSMPLAN_VERSION);
@@ -117,6 +127,11 @@ int main(int argc, char** argv) {
                          "Bounded mode: one global Delaunay triangulation (single-threaded) instead of tiles");
   simplify_cmd->add_option("--threads", simplify.bounded.threads, "Bounded mode: threads (0: every core)")
       ->capture_default_str();
+  simplify_cmd->add_option("--tile-size", simplify.bounded.tile_size, "Bounded mode: cells a tile side (0: 64)")
+      ->capture_default_str();
+  simplify_cmd->add_option("--block-tiles", simplify.bounded.block_tiles,
+                           "Bounded mode: tiles a block side, the unit read and farmed out (0: 16)")
+      ->capture_default_str();
   simplify_cmd->add_option("--dsm", simplify.dsm, "With a mesh input: the DSM it was made from (for the error)");
   CLI::Option* simplify_res =
       simplify_cmd->add_option("--res", simplify_resolution, "Resample the DSM to this x/y resolution first");
@@ -193,6 +208,11 @@ int main(int argc, char** argv) {
 
   try {
     app.parse(argc, argv);
+    if (farm.active() && farm.rank() > 0) {  // a worker: makes blocks for rank 0, says nothing
+      if (*simplify_cmd) farm.serve(simplify);
+      return 0;
+    }
+    ReleaseWorkers release{farm, farm.active() && *simplify_cmd};
     if (*info_cmd) {
       const RasterReport report = describe_raster(info);
       std::fputs(info_json ? (to_json(report).dump(2) + "\n").c_str() : to_text(report).c_str(), stdout);
@@ -228,6 +248,7 @@ int main(int argc, char** argv) {
         throw ArgumentError("--method bounded", "needs --max-error E");
       }
       if (!simplify_stats.empty()) check_writable(simplify_stats);
+      if (farm.active()) simplify.bounded_engine = farm.master();
       const SimplifyReport report = simplify_job(simplify, terminal_progress(quiet));
       if (!simplify_stats.empty()) write_text_file(simplify_stats, to_json(report).dump(2) + "\n");
       std::fputs(simplify_json ? (to_json(report).dump(2) + "\n").c_str() : to_text(report).c_str(), stdout);

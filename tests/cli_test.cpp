@@ -20,11 +20,13 @@
 #include <cstring>
 #include <filesystem>
 #include <limits>
+#include <map>
 #include <nlohmann/json.hpp>
 #include <sstream>
 #include <string>
 #include <vector>
 
+#include "dsmplan/export.hpp"
 #include "dsmplan/raster.hpp"
 #include "testkit.hpp"
 
@@ -1416,4 +1418,141 @@ TEST(CliBadInput, UnknownOfFormat) {
                        {"unknown mesh format"});
   expect_clean_failure(run_cli({"simplify", dsm, "-o", out.path("x.glb"), "--of", "bogus"}), out, "--of",
                        {"unknown mesh format"});
+}
+
+// =================================================================================================
+// Scale (issue 6): a VRT mosaic of pieces gives the very mesh of the whole raster, and so does an
+// MPI task farm of two ranks.
+// =================================================================================================
+
+namespace {
+
+std::string xml_escaped(const std::string& text) {
+  std::string out;
+  for (char c : text) {
+    if (c == '"') out += "&quot;";
+    else if (c == '<') out += "&lt;";
+    else if (c == '>') out += "&gt;";
+    else if (c == '&') out += "&amp;";
+    else out += c;
+  }
+  return out;
+}
+
+// The NRW crop cut into uneven pieces (GeoTIFFs) and a VRT mosaic that puts them together.
+std::string write_mosaic(const TempDir& dir) {
+  const dsmplan::Grid& whole = testkit::nrw_crop();
+  const std::vector<int> cols{0, 171, 333, whole.width}, rows{0, 260, whole.height};
+  char number[64];
+  auto g = [&](double v) {
+    std::snprintf(number, sizeof number, "%.17g", v);
+    return std::string(number);
+  };
+  std::string vrt = "<VRTDataset rasterXSize=\"" + std::to_string(whole.width) + "\" rasterYSize=\"" +
+                    std::to_string(whole.height) + "\">\n  <SRS>" + xml_escaped(whole.crs.wkt) + "</SRS>\n" +
+                    "  <GeoTransform>" + g(whole.x0) + ", " + g(whole.cell_x) + ", 0, " + g(whole.y0) + ", 0, " +
+                    g(-whole.cell_y) + "</GeoTransform>\n  <VRTRasterBand dataType=\"Float32\" band=\"1\">\n" +
+                    "    <NoDataValue>-9999</NoDataValue>\n";
+  for (size_t j = 0; j + 1 < rows.size(); ++j) {
+    for (size_t i = 0; i + 1 < cols.size(); ++i) {
+      const int w = cols[i + 1] - cols[i], h = rows[j + 1] - rows[j];
+      dsmplan::Grid piece(w, h, whole.x0 + cols[i] * whole.cell_x, whole.y0 - rows[j] * whole.cell_y, whole.cell_x,
+                          whole.cell_y);
+      piece.crs = whole.crs;
+      for (int r = 0; r < h; ++r)
+        for (int c = 0; c < w; ++c) piece.z[piece.index(c, r)] = whole.at(cols[i] + c, rows[j] + r);
+      const std::string name = "piece_" + std::to_string(j) + "_" + std::to_string(i) + ".tif";
+      dsmplan::write_geotiff(piece, dir.path(name));
+      const std::string size = "xSize=\"" + std::to_string(w) + "\" ySize=\"" + std::to_string(h) + "\"";
+      vrt += "    <SimpleSource>\n      <SourceFilename relativeToVRT=\"1\">" + name +
+             "</SourceFilename>\n      <SourceBand>1</SourceBand>\n      <SrcRect xOff=\"0\" yOff=\"0\" " + size +
+             "/>\n      <DstRect xOff=\"" + std::to_string(cols[i]) + "\" yOff=\"" + std::to_string(rows[j]) +
+             "\" " + size + "/>\n    </SimpleSource>\n";
+    }
+  }
+  vrt += "  </VRTRasterBand>\n</VRTDataset>\n";
+  testkit::write_file(dir.path("mosaic.vrt"), vrt);
+  return dir.path("mosaic.vrt");
+}
+
+// Every edge in exactly two triangles, once each way, but on the outer rectangle: no crack, no
+// T-junction (which would leave the long edge and the two short ones each with one triangle).
+size_t edges_not_shared(const std::string& ply, const dsmplan::Grid& grid) {
+  const dsmplan::Mesh mesh = dsmplan::read_mesh(ply);
+  std::map<std::pair<uint32_t, uint32_t>, int> uses;
+  for (const auto& t : mesh.triangles)
+    for (int k = 0; k < 3; ++k) ++uses[{t[k], t[(k + 1) % 3]}];
+  size_t bad = 0;
+  auto outer = [&](const dsmplan::Vertex& a, const dsmplan::Vertex& b) {
+    const double left = grid.center_x(0), right = grid.center_x(grid.width - 1);
+    const double top = grid.center_y(0), bottom = grid.center_y(grid.height - 1);
+    return (a.x == b.x && (a.x == left || a.x == right)) || (a.y == b.y && (a.y == top || a.y == bottom));
+  };
+  for (const auto& [edge, count] : uses) {
+    const bool twin = uses.count({edge.second, edge.first}) > 0;
+    if (count != 1 || (!twin && !outer(mesh.vertices[edge.first], mesh.vertices[edge.second]))) ++bad;
+  }
+  return bad;
+}
+
+}  // namespace
+
+TEST(CliScale, VrtMosaicOfPiecesGivesTheMeshOfTheWholeRaster) {
+  TempDir dir;
+  const std::string vrt = write_mosaic(dir);
+  const std::vector<std::string> options{"--max-error", "0.4", "--conservative", "--tile-size", "37",
+                                         "--block-tiles", "2", "-q", "--json"};
+  auto args = [&](const std::string& input, const std::string& output) {
+    std::vector<std::string> a{"simplify", input, "-o", output};
+    a.insert(a.end(), options.begin(), options.end());
+    return a;
+  };
+  const auto whole = run_cli(args(testkit::data_path(kSample), dir.path("whole.ply")));
+  const auto mosaic = run_cli(args(vrt, dir.path("mosaic.ply")));
+  ASSERT_EQ(whole.exit_code, 0) << whole.err;
+  ASSERT_EQ(mosaic.exit_code, 0) << mosaic.err;
+  const std::string a = testkit::read_file(dir.path("whole.ply")), b = testkit::read_file(dir.path("mosaic.ply"));
+  // The header's CRS comes from different files (GeoTIFF keys, the VRT's WKT): compare the data.
+  const size_t a_body = a.find("end_header\n"), b_body = b.find("end_header\n");
+  ASSERT_NE(a_body, std::string::npos);
+  ASSERT_NE(b_body, std::string::npos);
+  EXPECT_TRUE(a.compare(a_body, std::string::npos, b, b_body, std::string::npos) == 0)
+      << "the mosaic's mesh differs from the whole raster's";
+  const json w = json::parse(whole.out), m = json::parse(mosaic.out);
+  for (const char* key : {"vertices_in", "vertices_out", "faces_out", "max_above_m", "max_below_m", "certified_cells"})
+    EXPECT_EQ(w[key], m[key]) << key;
+  EXPECT_LE(m["max_above_m"].get<double>(), 0.4);
+  EXPECT_EQ(m["max_below_m"].get<double>(), 0.0);
+  EXPECT_EQ(m["certified_cells"], 250000);
+  EXPECT_EQ(edges_not_shared(dir.path("mosaic.ply"), testkit::nrw_crop()), 0u);
+}
+
+// `mpirun -np 2 dsmplan simplify ...`: rank 1 makes the blocks, rank 0 writes them; the file is
+// the one a single process writes, byte for byte. (As root OpenMPI wants --allow-run-as-root.)
+TEST(CliScale, MpiTaskFarmOfTwoRanksWritesTheSameMesh) {
+  TempDir dir;
+  const std::string vrt = write_mosaic(dir);
+  const std::vector<std::string> simplify{"simplify", vrt, "--max-error", "0.4", "--conservative",
+                                          "--tile-size", "37", "--block-tiles", "2", "-q", "--json"};
+  std::vector<std::string> single = simplify;
+  single.insert(single.end(), {"-o", dir.path("single.ply")});
+  std::vector<std::string> farm{"--allow-run-as-root", "--oversubscribe", "-np", "2", DSMPLAN_CLI};
+  farm.insert(farm.end(), simplify.begin(), simplify.end());
+  farm.insert(farm.end(), {"-o", dir.path("farm.ply")});
+  const auto one = run_cli(single);
+  const auto two = testkit::run_program("mpirun", farm);
+  ASSERT_EQ(one.exit_code, 0) << one.err;
+  ASSERT_EQ(two.exit_code, 0) << two.err << two.out;
+  EXPECT_EQ(testkit::read_file(dir.path("single.ply")), testkit::read_file(dir.path("farm.ply")));
+  const json a = json::parse(one.out), b = json::parse(two.out);  // only rank 0 prints
+  for (const char* key : {"vertices_out", "faces_out", "max_above_m", "max_below_m", "rms_m", "certified_cells"})
+    EXPECT_EQ(a[key], b[key]) << key;
+  // A failure on a worker (a piece of the mosaic gone) reaches rank 0's one line, no hang.
+  std::filesystem::remove(dir.path("piece_1_2.tif"));
+  std::vector<std::string> broken{"--allow-run-as-root", "--oversubscribe", "-np", "2", DSMPLAN_CLI, "simplify",
+                                  vrt, "--max-error", "0.4", "--block-tiles", "1", "-q", "-o", dir.path("broken.ply")};
+  const auto failed = testkit::run_program("mpirun", broken);
+  EXPECT_NE(failed.exit_code, 0);
+  EXPECT_NE(failed.err.find("piece_1_2.tif"), std::string::npos) << failed.err;
+  EXPECT_FALSE(std::filesystem::exists(dir.path("broken.ply")));
 }

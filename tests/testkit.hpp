@@ -44,6 +44,8 @@ struct CliResult {
 
 /// Runs the dsmplan binary with `args` (no shell), capturing stdout and stderr.
 CliResult run_cli(const std::vector<std::string>& args);
+/// Runs `program` (looked up in PATH) with `args`, the same way.
+CliResult run_program(const std::string& program, const std::vector<std::string>& args);
 
 /// Whole file as bytes.
 std::string read_file(const std::string& path);

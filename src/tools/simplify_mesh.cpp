@@ -62,10 +62,14 @@ SimplifyReport simplify_streamed(const SimplifyJobOptions& options, MeshFormat f
   report.seconds.emplace_back("read", clock.lap());
   report.seconds.emplace_back("mesh", 0.0);
   const Progress simplify_progress = sub_progress(progress, 0, format == MeshFormat::Ply ? 1.0 : 0.8);
+  auto simplify = [&](MeshSink& sink) {
+    return options.bounded_engine ? options.bounded_engine(*dsm, options.bounded, sink, simplify_progress)
+                                  : simplify_bounded(*dsm, options.bounded, sink, simplify_progress);
+  };
   BoundedStreamResult result;
   if (format == MeshFormat::Ply) {
     PlyStreamWriter writer(options.output, frame.crs);
-    result = simplify_bounded(*dsm, options.bounded, writer, simplify_progress);
+    result = simplify(writer);
     require_triangles(result.triangles, frame.width, frame.height, options.input);
     writer.finish();
     // Reading, simplifying, certifying and writing are one pass here: all under "simplify".
@@ -78,7 +82,7 @@ SimplifyReport simplify_streamed(const SimplifyJobOptions& options, MeshFormat f
     Mesh output;
     output.crs = frame.crs;
     MeshCollector collector(output);
-    result = simplify_bounded(*dsm, options.bounded, collector, simplify_progress);
+    result = simplify(collector);
     report.seconds.emplace_back("simplify", clock.lap());
     report.seconds.emplace_back("certify", 0.0);
     require_triangles(output.triangles.size(), frame.width, frame.height, options.input);
