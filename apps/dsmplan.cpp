@@ -171,7 +171,17 @@ int main(int argc, char** argv) {
   std::string plan_stats;
   CLI::App* plan_cmd = app.add_subcommand(
       "plan", "Plan a collision-free path through waypoints over an obstacle mesh (Halton PRM or RRT-Connect, shortcuts, spline)");
-  plan_cmd->add_option("MESH", plan.mesh, "Obstacle mesh (.ply, .obj, .off) in a projected CRS")->required();
+  plan_cmd->add_option("MESH", plan.mesh,
+                       "Obstacle mesh (.ply, .obj, .off) in a projected CRS, or a DSM (raster, VRT mosaic of a city): "
+                       "planned along a corridor, window by window")
+      ->required();
+  plan_cmd->add_option("--corridor-chunk", plan.corridor.chunk, "DSM input: longest piece of a leg in one window")
+      ->capture_default_str();
+  plan_cmd->add_option("--corridor-margin", plan.corridor.margin, "DSM input: flight area around a piece's box")
+      ->capture_default_str();
+  plan_cmd->add_option("--max-error", plan.corridor.mesh.max_error,
+                       "DSM input: the windows' conservative bounded meshes' error bound")
+      ->capture_default_str();
   plan_cmd
       ->add_option("--waypoints", plan.waypoints,
                    "Waypoints: .csv (x,y,z in the mesh's CRS) or .geojson (WGS 84 lon, lat, ellipsoidal height)")

@@ -14,6 +14,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <array>
 #include <cctype>
 #include <cmath>
 #include <cstdint>
@@ -1558,4 +1559,38 @@ TEST(CliScale, MpiTaskFarmOfTwoRanksWritesTheSameMesh) {
   EXPECT_NE(failed.exit_code, 0);
   EXPECT_NE(failed.err.find("piece_1_2.tif"), std::string::npos) << failed.err;
   EXPECT_FALSE(std::filesystem::exists(dir.path("broken.ply")));
+}
+
+// `dsmplan plan` on a DSM mosaic instead of a mesh: planned window by window along a corridor;
+// the path passes through the waypoints and keeps clear of the DSM's columns (measured here).
+TEST(CliScale, PlanOnAMosaicAlongACorridor) {
+  TempDir dir;
+  const std::string vrt = write_mosaic(dir);
+  const std::string waypoints = testkit::data_path("nrw-dom1/sample_waypoints.csv");
+  const auto run = run_cli({"plan", vrt, "--waypoints", waypoints, "-o", dir.path("path.csv"), "--corridor-chunk",
+                            "150", "--corridor-margin", "40", "--json", "-q"});
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  const json stats = json::parse(run.out);
+  EXPECT_GE(stats["corridor_windows"].get<int>(), 4);
+  EXPECT_LT(stats["corridor_largest_window_cells"].get<int>(), 250000 / 2);
+  EXPECT_GE(stats["min_clearance_m"].get<double>(), 2.0);
+  EXPECT_GT(stats["min_clearance_dsm_m"].get<double>(), 2.0 - std::sqrt(0.5) - 1e-9);
+  std::istringstream csv(testkit::read_file(dir.path("path.csv")));
+  std::string line;
+  std::getline(csv, line);  // header
+  std::vector<std::array<double, 3>> path;
+  while (std::getline(csv, line)) {
+    std::array<double, 3> p{};
+    ASSERT_EQ(std::sscanf(line.c_str(), "%lf,%lf,%lf", &p[0], &p[1], &p[2]), 3) << line;
+    path.push_back(p);
+  }
+  ASSERT_GE(path.size(), 3u);
+  EXPECT_EQ(path.front(), (std::array<double, 3>{356320, 5699270, 130}));
+  EXPECT_EQ(path.back(), (std::array<double, 3>{356780, 5699730, 135}));
+  // Nothing else is accepted with a DSM input that only a mesh input has.
+  const auto roadmap = run_cli({"plan", vrt, "--waypoints", waypoints, "-o", dir.path("x.csv"), "--roadmap",
+                                dir.path("r.roadmap"), "-q"});
+  EXPECT_EQ(roadmap.exit_code, 1);
+  EXPECT_NE(roadmap.err.find("--roadmap"), std::string::npos) << roadmap.err;
+  EXPECT_FALSE(std::filesystem::exists(dir.path("x.csv")));
 }

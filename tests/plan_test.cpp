@@ -1339,3 +1339,80 @@ TEST(LowAltitude, GridLookupJoinsTheSameNodesAsAScanOverAll) {
 }
 
 }  // namespace
+
+// ---- a tiled city: the corridor planner --------------------------------------------------------
+
+namespace {
+
+// Serves a grid by windows and remembers the largest one.
+class WindowCounter : public GridSource {
+public:
+  explicit WindowCounter(const Grid& grid) : view_(grid) {}
+  const Grid& frame() const override { return view_.frame(); }
+  void read(int col0, int row0, int w, int h, float* out) override {
+    largest = std::max(largest, size_t(w) * size_t(h));
+    ++reads;
+    view_.read(col0, row0, w, h, out);
+  }
+  size_t largest = 0, reads = 0;
+
+private:
+  GridView view_;
+};
+
+}  // namespace
+
+// The corridor planner never holds the whole DSM, and its path is checked against the whole
+// DSM taken as solid columns (an oracle that knows nothing of its windows or meshes): at least
+// the safety distance less half a cell diagonal (the windows' meshes are conservative), through
+// every waypoint in order.
+TEST(PlanCorridor, PathAcrossWindowsKeepsClearOfTheWholeDsm) {
+  const Grid& dsm = testkit::nrw_full();
+  const Mesh& mesh = mesh_bounded();  // only to place waypoints that are clear of the roofs
+  const ClearanceIndex index(mesh);
+  std::vector<Point3> waypoints = three_waypoints(mesh, index, 40);
+  PlanOptions plan;
+  plan.spacing = 15;
+  CorridorOptions options;
+  options.chunk = 120;
+  options.margin = 40;
+  WindowCounter source(dsm);
+  const CorridorResult result = plan_corridor(source, waypoints, plan, options);
+  ASSERT_EQ(result.plan.status, PlanStatus::Solved) << result.plan.place() << ": " << result.plan.reason;
+  EXPECT_GE(result.windows, 4u);
+  EXPECT_EQ(result.plan.path.front(), waypoints.front());
+  EXPECT_EQ(result.plan.path.back(), waypoints.back());
+  size_t at = 0;
+  for (const Point3& w : waypoints) {
+    while (at < result.plan.path.size() && result.plan.path[at] != w) ++at;
+    EXPECT_LT(at, result.plan.path.size()) << "waypoint missing or out of order";
+  }
+  const double tolerance = std::hypot(dsm.cell_x, dsm.cell_y) / 2;
+  double worst = INFINITY;
+  for (size_t k = 1; k < result.plan.path.size(); ++k)
+    worst = std::min(worst, column_clearance(dsm, result.plan.path[k - 1], result.plan.path[k], 10));
+  EXPECT_GE(worst, plan.safety - tolerance);
+  EXPECT_GT(worst, 0);
+  EXPECT_NEAR(worst, result.min_clearance_dsm_m, 1e-9);  // what it reports is what it flew
+  EXPECT_GE(result.min_clearance_m, plan.safety);
+  EXPECT_EQ(result.mesh_error.max_below, 0.0);  // conservative windows
+  EXPECT_LE(result.mesh_error.max_above, options.mesh.max_error);
+  // Bounded windows: a piece's box, its margin and the obstacle pad, far below the whole tile.
+  const double side = options.chunk + 2 * options.margin + 2 * (plan.safety + 2 * dsm.cell_x) + 2;
+  EXPECT_LE(source.largest, size_t(side * side));
+  EXPECT_LT(source.largest, dsm.cells() / 4);
+  EXPECT_EQ(result.largest_window_cells, source.largest);
+}
+
+TEST(PlanCorridor, WaypointOutsideTheDsmIsNamed) {
+  const Grid& dsm = nrw_2m();
+  GridView source(dsm);
+  const std::vector<Point3> waypoints{{dsm.center_x(10), dsm.center_y(10), 200}, {dsm.x1() + 50, dsm.center_y(10), 200}};
+  const CorridorResult result = plan_corridor(source, waypoints, PlanOptions{}, CorridorOptions{});
+  EXPECT_EQ(result.plan.status, PlanStatus::InvalidWaypoint);
+  EXPECT_EQ(result.plan.place(), "waypoint 2");
+  EXPECT_NE(result.plan.reason.find("outside the DSM's extent"), std::string::npos) << result.plan.reason;
+  CorridorOptions bad;
+  bad.chunk = 0;
+  EXPECT_THROW(plan_corridor(source, waypoints, PlanOptions{}, bad), ArgumentError);
+}

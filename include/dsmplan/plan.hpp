@@ -72,12 +72,14 @@
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
+#include <functional>
 #include <string>
 #include <vector>
 
 #include "dsmplan/core.hpp"
 #include "dsmplan/mesh.hpp"
 #include "dsmplan/raster.hpp"
+#include "dsmplan/simplify.hpp"
 
 namespace dsmplan {
 
@@ -93,6 +95,11 @@ double segment_triangle_squared_distance(const Point3& p, const Point3& q, const
 struct ClearanceOptions {
   /// Side of a bucket of the x,y grid, CRS units; 0 = automatic (about 32 triangles a bucket).
   double bucket_size = 0;
+  /// xmin, ymin, xmax, ymax (CRS units): footprint(), the planners' flight area, is clipped to
+  /// it, while every triangle still counts as an obstacle. The corridor planner meshes a margin
+  /// around the area it flies in, so nothing beyond a window's edge can come unseen within the
+  /// safety distance. Default: no clipping.
+  std::array<double, 4> flight_area{-INFINITY, -INFINITY, INFINITY, INFINITY};
 };
 
 class ClearanceIndex {
@@ -127,7 +134,8 @@ public:
   double ground(double x, double y) const;
 
   /// The x,y bounding box of the triangles' vertices, in CRS coordinates (lone vertices left
-  /// out); empty (min > max) for a mesh without triangles.
+  /// out), clipped to ClearanceOptions::flight_area; empty (min > max) for a mesh without
+  /// triangles.
   struct Footprint {
     double xmin = INFINITY, ymin = INFINITY, xmax = -INFINITY, ymax = -INFINITY;
   };
@@ -332,6 +340,47 @@ PlanResult plan_path(const ClearanceIndex& index, const std::vector<Point3>& way
 /// Throws ArgumentError for a non-finite point or max_d < 0.
 /// Time O(cells within the distance found of the segment's box; doubling search from 2 cells).
 double column_clearance(const Grid& dsm, const Point3& p, const Point3& q, double max_d);
+
+// ---- a tiled city: planning along a corridor ---------------------------------------------
+//
+// A DSM too large to mesh whole (a VRT mosaic of a city) is planned over piece by piece, never
+// holding more than two windows of it. Every leg is cut into pieces of at most `chunk` (x,y);
+// a piece flies inside the x,y box of its two ends widened by `margin`, over the conservative
+// bounded mesh (simplify_bounded(), conservative, max_error) of that box widened again by
+// safety + 2 cells, so that every obstacle within the safety distance of the flight area is in
+// the window. The point where two pieces meet (a "via" point, on the straight line of the leg)
+// is put at the lowest height, in whole metres above safety over the higher of the two
+// windows' surfaces, that keeps the safety distance from both windows' meshes and stays under
+// max_agl; the path passes through it. Each piece is planned by plan_path() on its window and
+// measured there: clearance to the window's mesh, and to the window's DSM columns
+// (column_clearance()). Rectangular windows keep every straight segment of a piece over known
+// ground. Memory: two windows, O((chunk + 2 margin)^2 cells) whatever the city's size.
+
+struct CorridorOptions {
+  BoundedSimplifyOptions mesh;  ///< the windows' meshes; conservative is forced on
+  double chunk = 1000;          ///< longest piece of a leg planned in one window (x,y), CRS units
+  double margin = 150;          ///< flight area around a piece's x,y box, CRS units
+  /// Applied to each piece's path before it is measured and joined (the tool drops the points
+  /// on straight runs for missions); empty: none.
+  std::function<std::vector<Point3>(const std::vector<Point3>&)> finish_piece;
+};
+
+struct CorridorResult {
+  PlanResult plan;                ///< the path through all waypoints; status, place and reason as plan_path()
+  size_t windows = 0;             ///< pieces planned (one window each)
+  size_t largest_window_cells = 0;
+  VerticalError mesh_error;       ///< the windows' meshes against the DSM, merged (certified per tile)
+  double min_clearance_m = 0;     ///< least clearance of the path to its windows' meshes
+  double min_clearance_dsm_m = 0; ///< least clearance to the DSM columns
+  double seconds_windows = 0;     ///< reading and meshing the windows
+};
+
+/// Plans through `waypoints` (CRS coordinates) over `dsm` along a corridor (see above). Throws
+/// ArgumentError for bad options (chunk or margin <= 0) and what simplify_bounded() throws for
+/// a window; a waypoint outside the DSM or no safe via point gives status InvalidWaypoint/NoPath
+/// with the place and the reason, like plan_path().
+CorridorResult plan_corridor(GridSource& dsm, const std::vector<Point3>& waypoints, const PlanOptions& plan,
+                             const CorridorOptions& options, const Progress& progress = {});
 
 // ---- multi-query: the roadmap file ---------------------------------------------------------
 //

@@ -216,6 +216,9 @@ struct PlanJobOptions {
   std::string roadmap;
   std::string dsm;          ///< raw DSM: when given, the path's clearance to its columns is reported
   VerticalOptions vertical;  ///< heights for GeoJSON, missions, KML: --vertical-crs, --allow-approximate-vertical
+  /// When `mesh` is a DSM (a raster or VRT mosaic, not a mesh file): planned along a corridor,
+  /// window by window (plan_corridor()), on conservative bounded meshes made on the fly.
+  CorridorOptions corridor;
 };
 
 struct PlanReport {
@@ -235,6 +238,8 @@ struct PlanReport {
   bool roadmap_reused = false;  ///< the roadmap came from the --roadmap file
   size_t refined_samples = 0;   ///< samples the query added where the roadmap failed a leg (plan.hpp, "Refinement")
   std::string planner = "prm";
+  size_t corridor_windows = 0;               ///< a DSM input: windows planned in (0: a mesh input)
+  size_t corridor_largest_window_cells = 0;  ///< a DSM input: cells of the largest window
   /// The PROJ operation(s) used: GeoJSON waypoints' and GeoJSON output's (to ellipsoidal
   /// heights), then "; path by: " the missions' and KML's (to EGM96 heights); empty when none.
   std::string transformation;

@@ -117,6 +117,12 @@ ClearanceIndex::ClearanceIndex(const Mesh& mesh, const ClearanceOptions& options
       footprint_.ymin = std::min(footprint_.ymin, v.y), footprint_.ymax = std::max(footprint_.ymax, v.y);
     }
   }
+  if (!mesh.triangles.empty()) {
+    footprint_.xmin = std::max(footprint_.xmin, options.flight_area[0]);
+    footprint_.ymin = std::max(footprint_.ymin, options.flight_area[1]);
+    footprint_.xmax = std::min(footprint_.xmax, options.flight_area[2]);
+    footprint_.ymax = std::min(footprint_.ymax, options.flight_area[3]);
+  }
   double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
   for (size_t i = 0; i < nv; ++i) {
     const Vertex& v = mesh.vertices[i];

@@ -29,6 +29,15 @@ std::string lower_extension(const std::string& path) {
   return ext;
 }
 
+bool is_mesh_file(const std::string& path) {
+  try {
+    mesh_format_for(path);
+    return true;
+  } catch (const ArgumentError&) {
+    return false;
+  }
+}
+
 bool is_geojson(const std::string& path) {
   const std::string ext = lower_extension(path);
   return ext == "geojson" || ext == "json";
@@ -96,9 +105,22 @@ PlanReport plan_job(const PlanJobOptions& options, const Progress& progress) {
                      "a path needs at least two waypoints, the file has " + std::to_string(read_points.size()));
 
   Stopwatch clock;
-  const Mesh mesh = read_mesh(options.mesh, sub_progress(progress, 0, 0.2));
+  // A DSM (raster, VRT mosaic) instead of a mesh: planned along a corridor, window by window.
+  const bool corridor = !is_mesh_file(options.mesh);
+  std::unique_ptr<GridSource> city;
+  Mesh mesh;
+  if (corridor) {
+    if (!options.roadmap.empty())
+      throw ArgumentError("--roadmap", "a DSM input is planned window by window along a corridor; no roadmap is kept");
+    if (!options.dsm.empty())
+      throw ArgumentError("--dsm", "the input " + options.mesh + " is the DSM already; its columns are checked");
+    city = open_raster(options.mesh);
+    mesh.crs = city->frame().crs;
+  } else {
+    mesh = read_mesh(options.mesh, sub_progress(progress, 0, 0.2));
+    if (mesh.triangles.empty()) throw InputError(options.mesh, "", "the mesh has no triangles");
+  }
   require_projected(mesh.crs, options.mesh);
-  if (mesh.triangles.empty()) throw InputError(options.mesh, "", "the mesh has no triangles");
   std::optional<Wgs84Transform> wgs84;
   if (geo_in || geojson_out) {
     wgs84.emplace(mesh.crs, HeightReference::Ellipsoid, options.vertical);
@@ -113,6 +135,37 @@ PlanReport plan_job(const PlanJobOptions& options, const Progress& progress) {
   std::vector<Point3> waypoints = read_points;
   if (geo_in)
     for (Point3& p : waypoints) p = wgs84->from_wgs84(p);
+  PlanResult result;
+  if (corridor) {
+    CorridorOptions along = options.corridor;
+    // A mission flies straight from item to item (see below): dropped before measuring.
+    if (out_ext == "plan" || out_ext == "waypoints")
+      along.finish_piece = [](const std::vector<Point3>& path) { return drop_straight_points(path, 0.01); };
+    report.seconds_load = clock.lap();
+    const CorridorResult planned = plan_corridor(*city, waypoints, options.plan, along, sub_progress(progress, 0, 0.95));
+    result = planned.plan;
+    report.seconds_load += planned.seconds_windows;
+    report.roadmap_nodes = result.roadmap_nodes;
+    report.roadmap_edges = result.roadmap_edges;
+    report.seconds_roadmap = result.seconds_roadmap;
+    report.seconds_query = result.seconds_query;
+    report.seconds_smooth = result.seconds_smooth;
+    report.refined_samples = result.refined_samples;
+    report.corridor_windows = planned.windows;
+    report.corridor_largest_window_cells = planned.largest_window_cells;
+    if (result.status != PlanStatus::Solved) throw InputError(options.waypoints, result.place(), result.reason);
+    report.path_points = result.path.size();
+    report.path_length_m = path_length(result.path);
+    report.min_clearance_m = planned.min_clearance_m;
+    // The windows' meshes are conservative (never below the DSM): the same rule as --dsm below.
+    report.min_clearance_dsm_m = planned.min_clearance_dsm_m;
+    report.mesh_max_below_dsm_m = planned.mesh_error.max_below;
+    const Grid& frame = city->frame();
+    report.dsm_tolerance_m = std::hypot(std::hypot(frame.cell_x, frame.cell_y) / 2, planned.mesh_error.max_below);
+    if (!(report.min_clearance_dsm_m > 0) || report.min_clearance_dsm_m < options.plan.safety - report.dsm_tolerance_m)
+      throw InputError(options.mesh, "", "the path comes within " + std::to_string(report.min_clearance_dsm_m) +
+                                             " m of the DSM's columns, less than the safety distance allows; nothing written");
+  } else {
   Grid dsm;
   if (!options.dsm.empty()) {
     dsm = read_raster(options.dsm);
@@ -124,7 +177,6 @@ PlanReport plan_job(const PlanJobOptions& options, const Progress& progress) {
   report.seconds_load = clock.lap();
 
   // A roadmap file is reused when it exists (and fits this mesh and these options), else made.
-  PlanResult result;
   if (!options.roadmap.empty()) {
     const uint64_t fingerprint = mesh_fingerprint(mesh);
     Roadmap map;
@@ -161,6 +213,7 @@ PlanReport plan_job(const PlanJobOptions& options, const Progress& progress) {
   for (size_t k = 1; k < result.path.size(); ++k)
     report.min_clearance_m = std::min(report.min_clearance_m, index.clearance(result.path[k - 1], result.path[k], cap));
   if (!options.dsm.empty()) verify_against_dsm(result.path, mesh, dsm, options, cap, report);
+  }
   dsmplan::report(progress, 0.95);
 
   if (out_ext == "csv") {
@@ -211,6 +264,10 @@ Json to_json(const PlanReport& r) {
   j["refined_samples"] = r.refined_samples;
   j["planner"] = r.planner;
   if (!r.transformation.empty()) j["transformation"] = r.transformation;
+  if (r.corridor_windows) {
+    j["corridor_windows"] = r.corridor_windows;
+    j["corridor_largest_window_cells"] = r.corridor_largest_window_cells;
+  }
   return j;
 }
 
