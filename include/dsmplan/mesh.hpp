@@ -72,6 +72,7 @@ struct MeshOptions {
   /// which bridges a single missing cell (edges of 2 cells) and leaves wider gaps open.
   /// Use infinity to keep the whole Delaunay triangulation.
   double max_edge_length = 0;
+  int band_rows = 0;  ///< out of core: rows a band (0: 256)
 };
 
 /// The longest edge allowed for `grid` under `options` (resolves the 0 default).
@@ -81,5 +82,24 @@ double max_edge_length(const Grid& grid, const MeshOptions& options);
 /// An all-nodata grid gives an empty mesh. Throws ArgumentError when max_edge_length < 0 or NaN,
 /// or the grid has 2^32 or more valid cells. Time O(cells + h log h), h = cells next to holes.
 Mesh triangulate_xy3(const Grid& grid, const MeshOptions& options = {}, const Progress& progress = {});
+
+// Out of core: the same mesh from a GridSource, band by band (band_rows rows at a time, each
+// read with a halo of rows above and below), into a MeshSink. Every triangle the whole grid's
+// mesh has is made by exactly one band (the one holding its topmost vertex), from a window
+// that holds every point its circumcircle could contain: with edges of at most L (max_edge)
+// between lattice points, a kept triangle's circumradius is at most L^3 / (2 cell_x cell_y), and
+// the halo is L plus twice that, in rows. Cocircular ties are broken by a rule that looks at the
+// points alone (see xy3_delaunay.cpp), so a window decides as the whole grid does. The result:
+// the same vertices (row-major, bit for bit) and the same triangles as triangulate_xy3(), in
+// another order. Needs a finite max_edge_length. Memory O(width x (band_rows + 2 halo)).
+
+struct MeshStreamResult {
+  size_t vertices = 0, triangles = 0, valid_cells = 0, bands = 0;
+};
+
+/// See above. Throws what triangulate_xy3() throws, ArgumentError for an infinite
+/// max_edge_length, and ArgumentError("grid") for 2^32 or more valid cells.
+MeshStreamResult triangulate_xy3(GridSource& dsm, MeshSink& sink, const MeshOptions& options = {},
+                                 const Progress& progress = {});
 
 }  // namespace dsmplan

@@ -80,6 +80,54 @@ using VertexBase = CGAL::Triangulation_vertex_base_with_info_2<uint32_t, Kernel>
 using Tds = CGAL::Triangulation_data_structure_2<VertexBase>;
 using Delaunay = CGAL::Delaunay_triangulation_2<Kernel, Tds>;
 
+// Cocircular border vertices (a hole's rim is full of them: the four edge neighbours of a
+// missing cell) leave the Delaunay triangulation open, and CGAL's choice may depend on the
+// insertion order, hence on every other point. A window of the grid (the out-of-core mode) must
+// choose as the whole grid does, so ties are broken by Simulation of Simplicity (Edelsbrunner &
+// Muecke 1990): each point is lifted by an infinitesimal that grows with its cell's row-major
+// index, which makes the triangulation the unique regular one of those lifts. In the 4x4
+// in-circle determinant (rows a, b, c, d; columns x, y, x^2 + y^2, 1), positive when d lies
+// inside the circle of the counter-clockwise a, b, c, the lift of the point in row i adds its
+// cofactor, (-1)^(i+3) times the orientation of the other three; the largest lift decides. Four
+// distinct cocircular points have no three on a line, so that orientation is never zero.
+bool inside_perturbed(const Kernel::Point_2* p, const size_t* key) {
+  const CGAL::Oriented_side side = CGAL::side_of_oriented_circle(p[0], p[1], p[2], p[3]);
+  if (side != CGAL::ON_ORIENTED_BOUNDARY) return side == CGAL::ON_POSITIVE_SIDE;
+  const int top = static_cast<int>(std::max_element(key, key + 4) - key);
+  Kernel::Point_2 others[3];
+  for (int i = 0, k = 0; i < 4; ++i)
+    if (i != top) others[k++] = p[i];
+  const int orientation = static_cast<int>(CGAL::orientation(others[0], others[1], others[2]));
+  return (top % 2 == 0 ? orientation : -orientation) > 0;  // (-1)^(i+3), row i = top + 1
+}
+
+// Lawson flips of the edges that are cocircular ties until every edge is Delaunay under the
+// perturbation above. The rest of the triangulation is strictly Delaunay already.
+template <typename Key>
+void break_ties(Delaunay& delaunay, const Key& key_of) {
+  std::vector<std::pair<Delaunay::Face_handle, int>> stack;
+  for (auto edge = delaunay.finite_edges_begin(); edge != delaunay.finite_edges_end(); ++edge)
+    stack.emplace_back(edge->first, edge->second);
+  while (!stack.empty()) {
+    auto [face, i] = stack.back();
+    stack.pop_back();
+    const auto neighbour = face->neighbor(i);
+    if (delaunay.is_infinite(face) || delaunay.is_infinite(neighbour)) continue;
+    const auto opposite = neighbour->vertex(neighbour->index(face));
+    const Kernel::Point_2 p[4] = {face->vertex(0)->point(), face->vertex(1)->point(), face->vertex(2)->point(),
+                                  opposite->point()};
+    if (CGAL::side_of_oriented_circle(p[0], p[1], p[2], p[3]) != CGAL::ON_ORIENTED_BOUNDARY) continue;
+    const size_t key[4] = {key_of(face->vertex(0)), key_of(face->vertex(1)), key_of(face->vertex(2)),
+                           key_of(opposite)};
+    if (!inside_perturbed(p, key)) continue;
+
+    delaunay.flip(face, i);
+    // The four edges around the flipped pair may now be ties to break.
+    for (auto f : {face, neighbour})
+      for (int k = 0; k < 3; ++k) stack.emplace_back(f, k);
+  }
+}
+
 // Delaunay faces next to holes, from CGAL's exact-predicate triangulation of the border vertices.
 void triangulate_border(const Lattice& lattice, std::vector<Triangle>& triangles, const Progress& progress) {
   const Grid& grid = lattice.grid;
@@ -108,6 +156,12 @@ void triangulate_border(const Lattice& lattice, std::vector<Triangle>& triangles
   report(progress, 0.2);
   if (border.size() < 3) return;
   Delaunay delaunay(border.begin(), border.end());
+  // Row-major cell index, from the rounded lattice coordinates: a window of whole rows orders
+  // its cells as the whole grid does.
+  break_ties(delaunay, [&](Delaunay::Vertex_handle v) {
+    const long col = std::lround(v->point().x()), row = std::lround(-v->point().y() / aspect);
+    return static_cast<size_t>(row) * static_cast<size_t>(grid.width) + static_cast<size_t>(col);
+  });
   report(progress, 0.8);
   for (auto face = delaunay.finite_faces_begin(); face != delaunay.finite_faces_end(); ++face) {
     Triangle triangle;
