@@ -8,6 +8,7 @@
 // Errors: as in core.hpp. Every option is checked before any long work starts.
 #pragma once
 
+#include <functional>
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
@@ -251,5 +252,28 @@ PlanReport plan_job(const PlanJobOptions& options, const Progress& progress = {}
 Json to_json(const PlanReport& report);
 /// One summary line for people.
 std::string to_text(const PlanReport& report);
+
+// ---- dsmplan view ---------------------------------------------------------------------------
+
+struct ViewOptions {
+  std::string mesh;       ///< GLB of `dsmplan mesh|simplify -o X.glb`
+  std::string path;       ///< optional path CSV (x,y,z in the mesh's CRS, as `dsmplan plan -o X.csv`)
+  std::string waypoints;  ///< optional waypoint CSV (x,y,z)
+  std::string host = "127.0.0.1";
+  int port = 8080;  ///< 0: any free port (the URL names the one taken)
+  /// The viewer's static files: index.html, viewer.js and node_modules/three (the build puts
+  /// them in build/web/viewer). Empty: default_viewer_dir().
+  std::string viewer_dir;
+};
+
+/// web/viewer beside the running executable (build/dsmplan -> build/web/viewer).
+std::string default_viewer_dir();
+
+/// The 3D viewer (web/viewer: three.js) over HTTP: serves the viewer folder at / and the given
+/// files as /data/mesh.glb, /data/path.csv, /data/waypoints.csv, nothing else (a request naming
+/// ".." is refused). Checks every file first (the mesh a GLB, the CSVs readable as x,y,z, the
+/// viewer folder complete: InputError), binds (ArgumentError("--port") when the port is taken), calls
+/// `listening` with the page's URL, then serves until the process is stopped.
+void serve_view(const ViewOptions& options, const std::function<void(const std::string& url)>& listening);
 
 }  // namespace dsmplan
