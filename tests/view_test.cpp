@@ -4,6 +4,7 @@
 // the screenshot is read back with libpng. Chromium missing is a failure, not a skip.
 #include <fcntl.h>
 #include <gtest/gtest.h>
+#include <httplib.h>
 #include <png.h>
 #include <signal.h>
 #include <spawn.h>
@@ -302,4 +303,46 @@ TEST(View, BadInputIsOneLineAndExitCodeOne) {
   EXPECT_EQ(second.exit_code, 1);
   EXPECT_NE(second.err.find("cannot listen on 127.0.0.1:" + std::to_string(first.port())), std::string::npos)
       << second.err;
+}
+
+TEST(View, ServesTheViewerAndTheNamedFilesOnly) {
+  testkit::TempDir dir;
+  const std::string glb = dir.path("m.glb"), csv = dir.path("p.csv");
+  ASSERT_EQ(testkit::run_cli({"mesh", testkit::data_path(kDsm), "--res", "25", "-o", glb, "-q"}).exit_code, 0);
+  testkit::write_file(csv, "x,y,z\n356400,5699300,180\n356700,5699700,180\n");
+  ViewServer server(dir, {glb, "--path", csv});
+  ASSERT_FALSE(server.url().empty());
+  EXPECT_NE(server.url().find("/?mesh=/data/mesh.glb&path=/data/path.csv"), std::string::npos) << server.url();
+  httplib::Client client("127.0.0.1", server.port());
+  client.set_url_encode(false);  // send the paths below as they are
+  const auto get = [&](const std::string& path) { return client.Get(path.c_str()); };
+
+  const auto page = get("/");
+  ASSERT_TRUE(page);
+  EXPECT_EQ(page->status, 200);
+  EXPECT_NE(page->body.find("importmap"), std::string::npos);
+  // Module scripts run only when served as JavaScript.
+  for (const char* script : {"/viewer.js", "/node_modules/three/build/three.module.js",
+                             "/node_modules/three/examples/jsm/loaders/GLTFLoader.js"}) {
+    const auto js = get(script);
+    ASSERT_TRUE(js) << script;
+    EXPECT_EQ(js->status, 200) << script;
+    EXPECT_EQ(js->get_header_value("Content-Type").rfind("text/javascript", 0), 0u) << script;
+  }
+  const auto mesh = get("/data/mesh.glb");
+  ASSERT_TRUE(mesh);
+  EXPECT_EQ(mesh->get_header_value("Content-Type"), "model/gltf-binary");
+  EXPECT_TRUE(mesh->body == testkit::read_file(glb));
+  const auto path = get("/data/path.csv");
+  ASSERT_TRUE(path);
+  EXPECT_EQ(path->body, testkit::read_file(csv));
+
+  // Nothing else: not a waypoint file that was not given, nothing outside the viewer's folder.
+  EXPECT_EQ(get("/data/waypoints.csv")->status, 404);
+  for (const char* escape : {"/../CMakeCache.txt", "/%2e%2e/%2e%2e/CMakeCache.txt", "//etc/passwd",
+                             "/node_modules/../index.html", "/..%2f..%2fCMakeCache.txt"}) {
+    const auto refused = get(escape);
+    ASSERT_TRUE(refused) << escape;
+    EXPECT_EQ(refused->status, 403) << escape;
+  }
 }

@@ -95,10 +95,11 @@ void serve_view(const ViewOptions& options, const std::function<void(const std::
     fs::path file;
     if (const auto it = data.find(url); it != data.end()) {
       file = it->second;
-    } else if (url.find("..") != std::string::npos || url.find('\\') != std::string::npos ||
-               url.find('\0') != std::string::npos) {
+    } else if (url.empty() || url[0] != '/' || url.find("..") != std::string::npos || url.find("//") != std::string::npos ||
+               url.find('\\') != std::string::npos || url.find('\0') != std::string::npos) {
+      // ".." climbs out of the folder; "//etc" would join as the absolute "/etc".
       response.status = 403;
-      response.set_content("refused: '..' in the path\n", "text/plain");
+      response.set_content("refused: only files inside the viewer's folder\n", "text/plain");
       return;
     } else {
       file = viewer / (url == "/" ? std::string("index.html") : url.substr(1));
