@@ -151,7 +151,8 @@ async function main() {
   const box = new THREE.Box3().setFromObject(gltf.scene);
   const radius = Number(params.get('radius')) || box.getSize(new THREE.Vector3()).length() / 300;
   const local = (points) => points.map((p) => p.clone().sub(originVector));
-  let summary = `${meshUrl.split('/').pop()}: ${triangles} triangles`;
+  const crs = gltf.asset.extras.crs?.name;
+  let summary = `${meshUrl.split('/').pop()}${crs ? ` (${crs})` : ''}: ${triangles} triangles`;
   if (path) {
     if (path.length < 2) throw new Error(`${params.get('path')}: fewer than two points`);
     node.add(tube(local(path), radius, PATH_COLOUR));
