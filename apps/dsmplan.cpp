@@ -99,6 +99,8 @@ int main(int argc, char** argv) {
       ->add_option("--max-edge", mesh.mesh.max_edge_length,
                    "Drop triangles with a longer x,y edge, so holes stay holes (0: 2.5 cells)")
       ->capture_default_str();
+  mesh_cmd->add_flag("--stream", mesh.stream,
+                     "Band by band into a .ply, whatever the raster's size (chosen by itself when it would not fit)");
   mesh_cmd->add_option("--stats", stats_path, "Write statistics as JSON to this file");
   mesh_cmd->add_option("--band", mesh.read.band, "Band to read")->capture_default_str();
   mesh_cmd->add_option("--crs", mesh.read.assign_crs, "CRS to assume when the raster has none");
@@ -216,6 +218,18 @@ int main(int argc, char** argv) {
   plan_cmd->add_option("--stats", plan_stats, "Write statistics as JSON to this file");
   plan_cmd->add_flag("-q,--quiet", quiet, "No progress output");
 
+  ViewOptions view;
+  CLI::App* view_cmd = app.add_subcommand(
+      "view", "Show a GLB mesh and a path in 3D in the browser: serves the three.js viewer on localhost until Ctrl-C");
+  view_cmd->add_option("MESH", view.mesh, "Mesh: .glb (dsmplan mesh|simplify -o MESH.glb)")->required();
+  view_cmd->add_option("--path", view.path, "Path CSV (dsmplan plan -o PATH.csv): x,y,z in the mesh's CRS");
+  view_cmd->add_option("--waypoints", view.waypoints, "Waypoint CSV: x,y,z in the mesh's CRS");
+  view_cmd->add_option("--port", view.port, "TCP port (0: any free one)")->capture_default_str();
+  view_cmd->add_option("--host", view.host, "Address to listen on")->capture_default_str();
+  view_cmd->add_option("--viewer-dir", view.viewer_dir,
+                       "The viewer's files (index.html, viewer.js, node_modules/three); default: web/viewer beside "
+                       "the dsmplan binary");
+
   try {
     app.parse(argc, argv);
     if (farm.active() && farm.rank() > 0) {  // a worker: makes blocks for rank 0, says nothing
@@ -282,6 +296,13 @@ int main(int argc, char** argv) {
         std::fputs((to_json(report).dump(2) + "\n").c_str(), stdout);
       else if (!quiet)
         std::fputs(to_text(report).c_str(), stdout);
+    }
+    if (*view_cmd) {
+      serve_view(view, [](const std::string& url) {
+        // Flushed: a script or test reading stdout through a pipe needs the URL now.
+        std::printf("Serving the 3D viewer at %s (Ctrl-C stops)\n", url.c_str());
+        std::fflush(stdout);
+      });
     }
   } catch (const CLI::ParseError& error) {
     return app.exit(error);

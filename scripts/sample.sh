@@ -70,3 +70,6 @@ printf 'Path (bounded mesh, 3 waypoints): %.1f m; clearance %.2f m to the mesh, 
 echo
 echo "Outputs in $out/:"
 ls -l "$out"
+echo
+echo "To see the conservative mesh and the path in 3D in a browser (serves until Ctrl-C):"
+echo "  build/dsmplan view $out/bounded_1m.glb --path $out/path.csv --waypoints data/nrw-dom1/sample_waypoints.csv"

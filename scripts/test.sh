@@ -3,6 +3,8 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 scripts/build.sh "$@"
+# The viewer's test (tests/view_test.cpp) screenshots the page with Debian's headless Chromium.
+scripts/deps.sh chromium
 dir=build
 [ "${1:-}" = "--sanitize" ] && dir=build-sanitize
 # The Khronos glTF validator for the GLB tests, pinned by tests/gltf_validator/package-lock.json,

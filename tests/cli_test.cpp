@@ -1594,3 +1594,33 @@ TEST(CliScale, PlanOnAMosaicAlongACorridor) {
   EXPECT_NE(roadmap.err.find("--roadmap"), std::string::npos) << roadmap.err;
   EXPECT_FALSE(std::filesystem::exists(dir.path("x.csv")));
 }
+
+// `dsmplan mesh --stream` on the mosaic: band by band, the XY-3 mesh of the whole raster (the
+// same vertices, the same triangles in another order).
+TEST(CliScale, MeshStreamedFromAMosaicIsTheWholeMesh) {
+  TempDir dir;
+  const std::string vrt = write_mosaic(dir);
+  const auto whole = run_cli({"mesh", testkit::data_path(kSample), "-o", dir.path("whole.ply"), "-q"});
+  const auto streamed = run_cli({"mesh", vrt, "--stream", "-o", dir.path("streamed.ply"), "--stats",
+                                 dir.path("streamed.json"), "-q"});
+  ASSERT_EQ(whole.exit_code, 0) << whole.err;
+  ASSERT_EQ(streamed.exit_code, 0) << streamed.err;
+  const dsmplan::Mesh a = dsmplan::read_mesh(dir.path("whole.ply")), b = dsmplan::read_mesh(dir.path("streamed.ply"));
+  ASSERT_EQ(a.vertices.size(), b.vertices.size());
+  EXPECT_EQ(std::memcmp(a.vertices.data(), b.vertices.data(), a.vertices.size() * sizeof(dsmplan::Vertex)), 0);
+  auto sorted = [](std::vector<dsmplan::Triangle> t) {
+    for (auto& tri : t) std::rotate(tri.begin(), std::min_element(tri.begin(), tri.end()), tri.end());
+    std::sort(t.begin(), t.end());
+    return t;
+  };
+  EXPECT_EQ(sorted(a.triangles), sorted(b.triangles));
+  const json stats = json::parse(testkit::read_file(dir.path("streamed.json")));
+  EXPECT_EQ(stats["streamed"], true);
+  EXPECT_TRUE(stats["holes"].is_null());
+  EXPECT_EQ(stats["faces"], b.triangles.size());
+  EXPECT_EQ(edges_not_shared(dir.path("streamed.ply"), testkit::nrw_crop()), 0u);
+  // A format that needs the whole mesh in memory is refused with --stream, before anything.
+  const auto glb = run_cli({"mesh", vrt, "--stream", "-o", dir.path("x.glb"), "-q"});
+  EXPECT_EQ(glb.exit_code, 1);
+  EXPECT_NE(glb.err.find("--stream"), std::string::npos) << glb.err;
+}

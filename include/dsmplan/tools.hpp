@@ -73,6 +73,10 @@ struct MeshJobOptions {
   std::optional<double> resolution;  ///< resample to this x/y cell size first; none: keep the DSM's
   Resampling resampling = Resampling::Median;
   MeshOptions mesh;
+  /// Band by band from the raster into the PLY (triangulate_xy3 over a GridSource): memory
+  /// O(width x band), any height. Chosen by itself for a raster whose mesh would not fit in
+  /// memory (without --res, to .ply); the mesh is the same either way.
+  bool stream = false;
 };
 
 struct MeshReport {
@@ -87,14 +91,16 @@ struct MeshReport {
   size_t dropped_triangles = 0;  ///< left out of a GLB as degenerate in float32 (write_mesh)
   Crs crs;
   std::vector<std::pair<std::string, double>> seconds;  ///< read, resample, triangulate, write, total
+  bool streamed = false;  ///< meshed band by band: holes were not counted (null)
 };
 
 /// DSM raster -> resampled, quantized grid -> XY-3 Delaunay mesh -> mesh file. Refuses
 /// geographic CRSs (x,y in degrees cannot carry a metric safety distance).
 MeshReport mesh_dsm(const MeshJobOptions& options, const Progress& progress = {});
-/// Keys: input, output, vertices, faces, cells, valid_cells, nodata_cells, holes, width, height,
-/// source_resolution, resolution, resampling, zstep, max_edge_length, file_bytes, dropped_triangles,
-/// crs, vertical, seconds {read, resample, triangulate, write, total}.
+/// Keys: input, output, vertices, faces, cells, valid_cells, nodata_cells, holes (null when
+/// streamed), width, height, source_resolution, resolution, resampling, zstep, max_edge_length,
+/// file_bytes, dropped_triangles, crs, vertical, seconds {read, resample, triangulate, write,
+/// total} (streamed: read, triangulate and write are one pass, under triangulate), streamed.
 Json to_json(const MeshReport& report);
 
 // ---- dsmplan simplify -----------------------------------------------------------------------
@@ -264,6 +270,29 @@ PlanReport plan_job(const PlanJobOptions& options, const Progress& progress = {}
 Json to_json(const PlanReport& report);
 /// One summary line for people.
 std::string to_text(const PlanReport& report);
+
+// ---- dsmplan view ---------------------------------------------------------------------------
+
+struct ViewOptions {
+  std::string mesh;       ///< GLB of `dsmplan mesh|simplify -o X.glb`
+  std::string path;       ///< optional path CSV (x,y,z in the mesh's CRS, as `dsmplan plan -o X.csv`)
+  std::string waypoints;  ///< optional waypoint CSV (x,y,z)
+  std::string host = "127.0.0.1";
+  int port = 8080;  ///< 0: any free port (the URL names the one taken)
+  /// The viewer's static files: index.html, viewer.js and node_modules/three (the build puts
+  /// them in build/web/viewer). Empty: default_viewer_dir().
+  std::string viewer_dir;
+};
+
+/// web/viewer beside the running executable (build/dsmplan -> build/web/viewer).
+std::string default_viewer_dir();
+
+/// The 3D viewer (web/viewer: three.js) over HTTP: serves the viewer folder at / and the given
+/// files as /data/mesh.glb, /data/path.csv, /data/waypoints.csv, nothing else (a request naming
+/// ".." is refused). Checks every file first (the mesh a GLB, the CSVs readable as x,y,z, the
+/// viewer folder complete: InputError), binds (ArgumentError("--port") when the port is taken), calls
+/// `listening` with the page's URL, then serves until the process is stopped.
+void serve_view(const ViewOptions& options, const std::function<void(const std::string& url)>& listening);
 
 // ---- MPI: the bounded mode as a task farm -------------------------------------------------
 //

@@ -10,6 +10,43 @@
 
 namespace dsmplan {
 
+namespace {
+
+// Band by band into a PLY: the raster is never held whole.
+MeshReport mesh_streamed(const MeshJobOptions& options, GridSource& dsm, const Progress& progress) {
+  MeshReport report;
+  report.input = options.input;
+  report.output = options.output;
+  report.streamed = true;
+  Stopwatch clock;
+  const Grid& frame = dsm.frame();
+  report.seconds.emplace_back("read", 0.0);
+  report.seconds.emplace_back("resample", 0.0);
+  PlyStreamWriter writer(options.output, frame.crs);
+  const MeshStreamResult result = triangulate_xy3(dsm, writer, options.mesh, progress);
+  if (result.valid_cells == 0) throw InputError(options.input, "", "no valid cell: every cell is nodata");
+  require_triangles(result.triangles, frame.width, frame.height, options.input);
+  writer.finish();
+  report.seconds.emplace_back("triangulate", clock.lap());
+  report.seconds.emplace_back("write", 0.0);
+  add_total(report.seconds);
+  report.vertices = result.vertices;
+  report.faces = result.triangles;
+  report.summary.cells = size_t(frame.width) * size_t(frame.height);
+  report.summary.valid = result.valid_cells;
+  report.summary.nodata = report.summary.cells - result.valid_cells;
+  report.width = frame.width;
+  report.height = frame.height;
+  report.source_resolution = report.resolution = frame.cell_x;
+  report.zstep = options.mesh.zstep;
+  report.max_edge_length = max_edge_length(frame, options.mesh);
+  report.file_bytes = std::filesystem::file_size(options.output);
+  report.crs = frame.crs;
+  return report;
+}
+
+}  // namespace
+
 MeshReport mesh_dsm(const MeshJobOptions& options, const Progress& progress) {
   // Everything that can be checked is checked before the long work starts.
   const MeshFormat format = options.format ? *options.format : mesh_format_for(options.output);
@@ -17,6 +54,15 @@ MeshReport mesh_dsm(const MeshJobOptions& options, const Progress& progress) {
     throw ArgumentError("--res", "must be a positive number of CRS units");
   }
 
+  if (options.stream && (options.resolution || format != MeshFormat::Ply))
+    throw ArgumentError("--stream", "writes a .ply of the raster as it is (no --res)");
+  if (!options.resolution && format == MeshFormat::Ply) {
+    const std::unique_ptr<GridSource> source = open_raster(options.input, options.read);
+    require_projected(source->frame().crs, options.input);
+    const Grid& frame = source->frame();
+    const double whole = double(frame.width) * double(frame.height) * (sizeof(float) + kMeshBytesPerCell);
+    if (options.stream || !memory_problem(whole).empty()) return mesh_streamed(options, *source, progress);
+  }
   MeshReport report;
   report.input = options.input;
   report.output = options.output;
@@ -64,7 +110,7 @@ Json to_json(const MeshReport& report) {
           {"cells", report.summary.cells},
           {"valid_cells", report.summary.valid},
           {"nodata_cells", report.summary.nodata},
-          {"holes", report.summary.holes},
+          {"holes", report.streamed ? Json(nullptr) : Json(report.summary.holes)},
           {"width", report.width},
           {"height", report.height},
           {"source_resolution", report.source_resolution},
@@ -76,7 +122,8 @@ Json to_json(const MeshReport& report) {
           {"dropped_triangles", report.dropped_triangles},
           {"crs", crs_json(report.crs)},
           {"vertical", vertical_json(report.crs)},
-          {"seconds", seconds_json(report.seconds)}};
+          {"seconds", seconds_json(report.seconds)},
+          {"streamed", report.streamed}};
 }
 
 }  // namespace dsmplan

@@ -1,0 +1,140 @@
+// dsmplan view: the three.js viewer of web/viewer and the files it shows, over HTTP on localhost,
+// with Debian's cpp-httplib. Only the viewer's folder and the named files are served.
+#include <httplib.h>
+
+#include <algorithm>
+#include <cctype>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <sstream>
+
+#include "dsmplan/tools.hpp"
+
+namespace dsmplan {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+std::string lower(std::string text) {
+  std::transform(text.begin(), text.end(), text.begin(), [](unsigned char c) { return std::tolower(c); });
+  return text;
+}
+
+// Module scripts are run only when served with a JavaScript type (HTML spec, "fetch a module
+// script"), so the type matters here, not only for politeness.
+const char* content_type(const fs::path& file) {
+  static const std::map<std::string, const char*> types{
+      {".html", "text/html; charset=utf-8"}, {".js", "text/javascript; charset=utf-8"},
+      {".mjs", "text/javascript; charset=utf-8"}, {".json", "application/json"},
+      {".css", "text/css"}, {".glb", "model/gltf-binary"}, {".csv", "text/csv; charset=utf-8"},
+      {".png", "image/png"}, {".svg", "image/svg+xml"}, {".wasm", "application/wasm"}};
+  const auto it = types.find(lower(file.extension().string()));
+  return it == types.end() ? "application/octet-stream" : it->second;
+}
+
+bool read_whole(const fs::path& file, std::string& bytes) {
+  std::ifstream in(file, std::ios::binary);
+  if (!in) return false;
+  std::ostringstream buffer;
+  buffer << in.rdbuf();
+  bytes = std::move(buffer).str();
+  return true;
+}
+
+void check_glb(const std::string& path) {
+  if (!fs::is_regular_file(path)) throw InputError(path, "", "no such file");
+  if (lower(fs::path(path).extension().string()) != ".glb")
+    throw InputError(path, "", "not a .glb (write one with dsmplan mesh|simplify -o MESH.glb)");
+  std::ifstream in(path, std::ios::binary);
+  char magic[4] = {};
+  if (!in.read(magic, 4) || std::string(magic, 4) != "glTF")
+    throw InputError(path, "", "not a GLB (binary glTF): it does not start with 'glTF'");
+}
+
+void check_csv(const std::string& path, const char* what) {
+  if (!fs::is_regular_file(path)) throw InputError(path, "", "no such file");
+  // The viewer reads the same "x,y,z" lines; a broken file is refused here with its line number.
+  if (read_waypoints_csv(path).empty()) throw InputError(path, "", std::string("no points in the ") + what);
+}
+
+}  // namespace
+
+std::string default_viewer_dir() {
+  std::error_code error;
+  const fs::path exe = fs::read_symlink("/proc/self/exe", error);
+  if (error) return "web/viewer";
+  return (exe.parent_path() / "web" / "viewer").string();
+}
+
+void serve_view(const ViewOptions& options, const std::function<void(const std::string& url)>& listening) {
+  check_glb(options.mesh);
+  if (!options.path.empty()) check_csv(options.path, "path");
+  if (!options.waypoints.empty()) check_csv(options.waypoints, "waypoints");
+  if (options.port < 0 || options.port > 65535)
+    throw ArgumentError("--port", "must be 0 (any free port) to 65535, got " + std::to_string(options.port));
+  const fs::path viewer = options.viewer_dir.empty() ? fs::path(default_viewer_dir()) : fs::path(options.viewer_dir);
+  for (const char* part : {"index.html", "viewer.js"})
+    if (!fs::is_regular_file(viewer / part))
+      throw InputError(viewer.string(), "", std::string("no ") + part + ": not the viewer's folder (--viewer-dir)");
+  if (!fs::is_regular_file(viewer / "node_modules/three/build/three.module.js"))
+    throw InputError(viewer.string(), "",
+                     "three is not installed in node_modules (scripts/build.sh installs it: npm ci from web/viewer)");
+
+  // URL path -> file: the data files under fixed names (no file name reaches a URL or the disk
+  // from a request), everything else inside the viewer's folder.
+  std::map<std::string, fs::path> data{{"/data/mesh.glb", options.mesh}};
+  if (!options.path.empty()) data["/data/path.csv"] = options.path;
+  if (!options.waypoints.empty()) data["/data/waypoints.csv"] = options.waypoints;
+
+  httplib::Server server;
+  server.Get(R"(/.*)", [&](const httplib::Request& request, httplib::Response& response) {
+    // request.path is percent-decoded already, so "%2e%2e" is caught here too.
+    const std::string& url = request.path;
+    fs::path file;
+    if (const auto it = data.find(url); it != data.end()) {
+      file = it->second;
+    } else if (url.empty() || url[0] != '/' || url.find("..") != std::string::npos || url.find("//") != std::string::npos ||
+               url.find('\\') != std::string::npos || url.find('\0') != std::string::npos) {
+      // ".." climbs out of the folder; "//etc" would join as the absolute "/etc".
+      response.status = 403;
+      response.set_content("refused: only files inside the viewer's folder\n", "text/plain");
+      return;
+    } else {
+      file = viewer / (url == "/" ? std::string("index.html") : url.substr(1));
+    }
+    std::string bytes;
+    if (!fs::is_regular_file(file) || !read_whole(file, bytes)) {
+      response.status = 404;
+      response.set_content("not found: " + url + "\n", "text/plain");
+      return;
+    }
+    // The files change between runs (a new mesh, a new path) under the same names.
+    response.set_header("Cache-Control", "no-store");
+    response.set_content(std::move(bytes), content_type(file));
+  });
+
+  // httplib's default also sets SO_REUSEPORT, with which a second server binds a port in use
+  // and the two share the requests; SO_REUSEADDR alone still allows a restart at once.
+  server.set_socket_options([](socket_t sock) {
+    int yes = 1;
+    setsockopt(sock, SOL_SOCKET, SO_REUSEADDR, &yes, sizeof yes);
+  });
+  int port = options.port;
+  if (port == 0) {
+    port = server.bind_to_any_port(options.host);
+    if (port < 0) throw ArgumentError("--host", "cannot listen on " + options.host);
+  } else if (!server.bind_to_port(options.host, port)) {
+    throw ArgumentError("--port", "cannot listen on " + options.host + ":" + std::to_string(port) +
+                                      " (in use, or not an address of this machine)");
+  }
+  std::string url = "http://" + (options.host.find(':') != std::string::npos ? "[" + options.host + "]" : options.host) +
+                    ":" + std::to_string(port) + "/?mesh=/data/mesh.glb";
+  if (!options.path.empty()) url += "&path=/data/path.csv";
+  if (!options.waypoints.empty()) url += "&waypoints=/data/waypoints.csv";
+  listening(url);
+  if (!server.listen_after_bind()) throw OutputError(url, "the server stopped");
+}
+
+}  // namespace dsmplan
