@@ -29,6 +29,15 @@ std::string lower_extension(const std::string& path) {
   return ext;
 }
 
+void take_planner_figures(const PlanResult& result, PlanReport& report) {
+  report.roadmap_nodes = result.roadmap_nodes;
+  report.roadmap_edges = result.roadmap_edges;
+  report.seconds_roadmap = result.seconds_roadmap;
+  report.seconds_query = result.seconds_query;
+  report.seconds_smooth = result.seconds_smooth;
+  report.refined_samples = result.refined_samples;
+}
+
 bool is_mesh_file(const std::string& path) {
   try {
     mesh_format_for(path);
@@ -145,12 +154,7 @@ PlanReport plan_job(const PlanJobOptions& options, const Progress& progress) {
     const CorridorResult planned = plan_corridor(*city, waypoints, options.plan, along, sub_progress(progress, 0, 0.95));
     result = planned.plan;
     report.seconds_load += planned.seconds_windows;
-    report.roadmap_nodes = result.roadmap_nodes;
-    report.roadmap_edges = result.roadmap_edges;
-    report.seconds_roadmap = result.seconds_roadmap;
-    report.seconds_query = result.seconds_query;
-    report.seconds_smooth = result.seconds_smooth;
-    report.refined_samples = result.refined_samples;
+    take_planner_figures(result, report);
     report.corridor_windows = planned.windows;
     report.corridor_largest_window_cells = planned.largest_window_cells;
     if (result.status != PlanStatus::Solved) throw InputError(options.waypoints, result.place(), result.reason);
@@ -194,12 +198,7 @@ PlanReport plan_job(const PlanJobOptions& options, const Progress& progress) {
   } else {
     result = plan_path(index, waypoints, options.plan, sub_progress(progress, 0.2, 0.9));
   }
-  report.roadmap_nodes = result.roadmap_nodes;
-  report.roadmap_edges = result.roadmap_edges;
-  report.seconds_roadmap = result.seconds_roadmap;
-  report.seconds_query = result.seconds_query;
-  report.seconds_smooth = result.seconds_smooth;
-  report.refined_samples = result.refined_samples;
+  take_planner_figures(result, report);
   if (result.status != PlanStatus::Solved) throw InputError(options.waypoints, result.place(), result.reason);
   // A mission flies straight from item to item: points on a straight run of the spline's chords
   // add items, not turns. Dropped within 1 cm (before the clearance below is measured on it).

@@ -43,16 +43,21 @@ Grid read_dsm(const std::string& path, const SimplifyJobOptions& options, double
   return dsm;
 }
 
-// The bounded mode on the DSM as it is: read window by window and written block by block, so
-// any raster or VRT mosaic fits in memory (see "out of core" in simplify.hpp). PLY is written
-// as it comes; the other formats need the whole mesh in memory.
-SimplifyReport simplify_streamed(const SimplifyJobOptions& options, MeshFormat format, const Progress& progress) {
+SimplifyReport start_report(const SimplifyJobOptions& options) {
   SimplifyReport report;
   report.input = options.input;
   report.output = options.output;
   report.method = options.method;
   report.paper = options.paper;
   report.bounded = options.bounded;
+  return report;
+}
+
+// The bounded mode on the DSM as it is: read window by window and written block by block, so
+// any raster or VRT mosaic fits in memory (see "out of core" in simplify.hpp). PLY is written
+// as it comes; the other formats need the whole mesh in memory.
+SimplifyReport simplify_streamed(const SimplifyJobOptions& options, MeshFormat format, const Progress& progress) {
+  SimplifyReport report = start_report(options);
   Stopwatch clock;
   const std::unique_ptr<GridSource> dsm = open_raster(options.input, options.read);
   const Grid& frame = dsm->frame();
@@ -144,12 +149,7 @@ SimplifyReport simplify_job(const SimplifyJobOptions& options, const Progress& p
 
   if (bounded && !mesh_input && !options.resolution) return simplify_streamed(options, format, progress);
 
-  SimplifyReport report;
-  report.input = options.input;
-  report.output = options.output;
-  report.method = options.method;
-  report.paper = options.paper;
-  report.bounded = options.bounded;
+  SimplifyReport report = start_report(options);
   Stopwatch clock;
   Grid dsm;
   Mesh input;
