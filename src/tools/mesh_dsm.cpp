@@ -60,8 +60,16 @@ MeshReport mesh_dsm(const MeshJobOptions& options, const Progress& progress) {
     const std::unique_ptr<GridSource> source = open_raster(options.input, options.read);
     require_projected(source->frame().crs, options.input);
     const Grid& frame = source->frame();
-    const double whole = double(frame.width) * double(frame.height) * (sizeof(float) + kMeshBytesPerCell);
-    if (options.stream || !memory_problem(whole).empty()) return mesh_streamed(options, *source, progress);
+    const double cells = double(frame.width) * double(frame.height);
+    const bool fits_whole = memory_problem(cells * (sizeof(float) + kMeshBytesPerCell)).empty();
+    // A band holds about 256 rows and its halo: the streamed mode's own memory. Past 2^32 cells
+    // the vertex indices may not fit: such a raster is refused by the whole-grid path's figure.
+    const double band_bytes = double(frame.width) * 320 * (sizeof(float) + kMeshBytesPerCell);
+    const bool can_stream = cells < 4294967295.0 && memory_problem(band_bytes).empty();
+    if (options.stream && !can_stream)
+      throw ArgumentError("--stream", options.input + " has " + short_number(cells) +
+                                          " cells: more than 2^32 vertices or a band beyond this machine's memory");
+    if (can_stream && (options.stream || !fits_whole)) return mesh_streamed(options, *source, progress);
   }
   MeshReport report;
   report.input = options.input;
