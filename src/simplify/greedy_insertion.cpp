@@ -5,6 +5,9 @@
 // error as the measure), so every tile starts from the very border vertices its neighbours
 // use: the seams are watertight by construction. A cell centre on a border lies on a border
 // edge, where the tile's surface is the polyline's, so the polyline's bound holds there.
+// Tiles are made in blocks read as windows of a GridSource (out of core); each tile border is
+// simplified by both tiles from its own cells, so no block needs another's results, and one
+// pass numbers the vertices at first use, carrying the ids on the seams from block to block.
 //
 // Exactness: vertices are lattice points (col, row), so orientation and in-circle tests are
 // exact integer arithmetic (__int128 for in-circle), and a candidate on an edge is recognised
