@@ -6,21 +6,16 @@
 #include <chrono>
 #include <cmath>
 #include <memory>
-#include <sstream>
 #include <string>
 
 #include "dsmplan/plan.hpp"
+#include "plan/path_parts.hpp"
 
 namespace dsmplan {
 
-namespace {
+using detail::format_number;
 
-std::string number(double value) {
-  std::ostringstream out;
-  out.precision(10);
-  out << value;
-  return out.str();
-}
+namespace {
 
 struct Window {
   Grid dsm;  // the window's cells, with the margin for obstacles
@@ -66,9 +61,9 @@ std::unique_ptr<Window> make_window(GridSource& source, const Point3& a, const P
 CorridorResult plan_corridor(GridSource& dsm, const std::vector<Point3>& waypoints, const PlanOptions& plan,
                              const CorridorOptions& options, const Progress& progress) {
   if (!(options.chunk > 0) || !std::isfinite(options.chunk))
-    throw ArgumentError("--corridor-chunk", "must be a positive length, got " + number(options.chunk));
+    throw ArgumentError("--corridor-chunk", "must be a positive length, got " + format_number(options.chunk));
   if (!(options.margin > 0) || !std::isfinite(options.margin))
-    throw ArgumentError("--corridor-margin", "must be a positive length, got " + number(options.margin));
+    throw ArgumentError("--corridor-margin", "must be a positive length, got " + format_number(options.margin));
   check_bounded_options(options.mesh);
   if (waypoints.size() < 2) throw ArgumentError("waypoints", "a path needs at least two");
   const Grid& frame = dsm.frame();
@@ -86,8 +81,8 @@ CorridorResult plan_corridor(GridSource& dsm, const std::vector<Point3>& waypoin
     if (w[0] < left || w[0] > right || w[1] < bottom || w[1] > top) {
       result.status = PlanStatus::InvalidWaypoint;
       result.waypoint = i;
-      result.reason = "outside the DSM's extent (x " + number(left) + " to " + number(right) + ", y " +
-                      number(bottom) + " to " + number(top) + ")";
+      result.reason = "outside the DSM's extent (x " + format_number(left) + " to " + format_number(right) + ", y " +
+                      format_number(bottom) + " to " + format_number(top) + ")";
       return out;
     }
   }
@@ -134,7 +129,7 @@ CorridorResult plan_corridor(GridSource& dsm, const std::vector<Point3>& waypoin
       if (!placed) {
         result.status = PlanStatus::NoPath;
         result.waypoint = leg;
-        result.reason = "no safe via point at x " + number(p[0]) + " y " + number(p[1]) +
+        result.reason = "no safe via point at x " + format_number(p[0]) + " y " + format_number(p[1]) +
                         " (where the leg's windows meet) under --max-agl";
         return out;
       }

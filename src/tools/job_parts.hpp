@@ -10,6 +10,7 @@
 
 #include "core/stopwatch.hpp"
 #include "dsmplan/core.hpp"
+#include "dsmplan/export.hpp"
 
 namespace dsmplan {
 
@@ -31,6 +32,16 @@ constexpr double kMeshBytesPerCell = 64, kPaperSimplifyBytesPerCell = 256, kBoun
 /// per axis, as resample() makes them), as a double so that a tiny --res cannot overflow.
 inline double resampled_cells(int width, int height, double cell_x, double cell_y, double resolution) {
   return std::ceil(width * cell_x / resolution) * std::ceil(height * cell_y / resolution);
+}
+
+/// True when `path` names a mesh file by its extension (what mesh_format_for() accepts).
+inline bool is_mesh_file(const std::string& path) {
+  try {
+    mesh_format_for(path);
+    return true;
+  } catch (const ArgumentError&) {
+    return false;
+  }
 }
 
 /// A number as a user would type it ("0.25", not "0.250000").

@@ -38,15 +38,6 @@ void take_planner_figures(const PlanResult& result, PlanReport& report) {
   report.refined_samples = result.refined_samples;
 }
 
-bool is_mesh_file(const std::string& path) {
-  try {
-    mesh_format_for(path);
-    return true;
-  } catch (const ArgumentError&) {
-    return false;
-  }
-}
-
 bool is_geojson(const std::string& path) {
   const std::string ext = lower_extension(path);
   return ext == "geojson" || ext == "json";

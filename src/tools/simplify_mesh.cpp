@@ -15,15 +15,6 @@ namespace dsmplan {
 
 namespace {
 
-bool is_mesh_file(const std::string& path) {
-  try {
-    mesh_format_for(path);
-    return true;
-  } catch (const ArgumentError&) {
-    return false;
-  }
-}
-
 // `bytes_per_cell`: what the job will need per cell of the (resampled) DSM, refused up front
 // when the machine has less.
 Grid read_dsm(const std::string& path, const SimplifyJobOptions& options, double bytes_per_cell,
