@@ -36,6 +36,7 @@
 #include "dsmplan/plan.hpp"
 #include "dsmplan/raster.hpp"
 #include "dsmplan/simplify.hpp"
+#include "street_point.hpp"
 
 using namespace dsmplan;
 using namespace bench;
@@ -65,39 +66,12 @@ constexpr PaperRow paper[] = {
 
 // ---- waypoints -----------------------------------------------------------------------------
 
-// A point near (x, y) on a street: of a 2 m lattice within 100 m, the point nearest (x, y) whose
-// ground is within 1 m of the lowest ground within 30 m (a street or square, not a roof) and
-// with no surface more than 1 m above it within 4 m (no wall, tree or car right beside it).
-// Ties in distance go to the first in row order: deterministic. Returns x, y and the ground.
+// A point near (x, y) on a street (scenario::street_point, tests/street_point.hpp), x, y and
+// the ground.
 Point3 street_point(const ClearanceIndex& index, double x, double y) {
-  constexpr double step = 2;
-  constexpr int search = 50, low = 15, open = 2;  // lattice steps
-  const int n = search + low, side = 2 * n + 1;
-  std::vector<double> g(static_cast<size_t>(side) * side);
-  for (int j = 0; j < side; ++j)
-    for (int i = 0; i < side; ++i)
-      g[static_cast<size_t>(j) * side + i] = index.ground(x + (i - n) * step, y + (j - n) * step);
-  auto at = [&](int i, int j) { return g[static_cast<size_t>(j) * side + i]; };
-  std::vector<std::pair<int, std::pair<int, int>>> order;
-  for (int j = -search; j <= search; ++j)
-    for (int i = -search; i <= search; ++i)
-      if (i * i + j * j <= search * search) order.push_back({i * i + j * j, {i, j}});
-  std::stable_sort(order.begin(), order.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
-  for (const auto& [r2, ij] : order) {
-    const int ci = ij.first + n, cj = ij.second + n;
-    const double z = at(ci, cj);
-    if (std::isnan(z)) continue;
-    bool ok = true;
-    for (int dj = -low; dj <= low && ok; ++dj)
-      for (int di = -low; di <= low && ok; ++di) {
-        const int d2 = di * di + dj * dj;
-        if (d2 > low * low) continue;
-        const double h = at(ci + di, cj + dj);
-        ok = !std::isnan(h) && h >= z - 1 && (d2 > open * open || h <= z + 1);
-      }
-    if (ok) return {x + ij.first * step, y + ij.second * step, z};
-  }
-  throw std::runtime_error("no street within 100 m of " + std::to_string(x) + ", " + std::to_string(y));
+  const auto p = scenario::street_point(index, x, y, [](const Point3&) { return true; });
+  if (!p) throw std::runtime_error("no street within 100 m of " + std::to_string(x) + ", " + std::to_string(y));
+  return *p;
 }
 
 // Near the corners, 60 m in: south-west, north-east, north-west, south-east.

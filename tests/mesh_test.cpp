@@ -324,37 +324,6 @@ TEST(Xy3Delaunay, EmptyGridGivesEmptyMeshAndBadOptionsThrow) {
 
 // ---- out of core: band by band ----------------------------------------------------------------
 
-namespace {
-
-// A triangle as its three vertex indices rotated to start at the smallest: the set of these is
-// the mesh without the order of its triangles.
-std::vector<std::array<uint32_t, 3>> triangle_set(const std::vector<Triangle>& triangles) {
-  std::vector<std::array<uint32_t, 3>> out;
-  for (Triangle t : triangles) {
-    std::rotate(t.begin(), std::min_element(t.begin(), t.end()), t.end());
-    out.push_back(t);
-  }
-  std::sort(out.begin(), out.end());
-  return out;
-}
-
-// Remembers the largest window read.
-class BandCounter : public GridSource {
-public:
-  explicit BandCounter(const Grid& grid) : view_(grid) {}
-  const Grid& frame() const override { return view_.frame(); }
-  void read(int col0, int row0, int w, int h, float* out) override {
-    largest_rows = std::max(largest_rows, h);
-    view_.read(col0, row0, w, h, out);
-  }
-  int largest_rows = 0;
-
-private:
-  GridView view_;
-};
-
-}  // namespace
-
 // Band by band, with windows that each hold a few dozen rows, the mesh is the whole grid's:
 // the same vertices bit for bit, the same triangles. On Delft's holes the border triangulation
 // is full of cocircular ties that a window of other points would break otherwise than the whole.
@@ -366,13 +335,13 @@ TEST(Xy3Streamed, BandsGiveTheWholeGridsMesh) {
       SCOPED_TRACE("band " + std::to_string(band));
       MeshOptions options;
       options.band_rows = band;
-      BandCounter source(holes);
+      testkit::CountingSource source(holes);
       Mesh streamed;
       MeshCollector sink(streamed);
       const MeshStreamResult result = triangulate_xy3(source, sink, options);
       ASSERT_EQ(streamed.vertices.size(), whole.vertices.size());
       EXPECT_EQ(std::memcmp(streamed.vertices.data(), whole.vertices.data(), whole.vertices.size() * sizeof(Vertex)), 0);
-      EXPECT_EQ(triangle_set(streamed.triangles), triangle_set(whole.triangles));
+      EXPECT_EQ(testkit::triangle_set(streamed.triangles), testkit::triangle_set(whole.triangles));
       EXPECT_EQ(result.triangles, whole.triangles.size());
       if (band == 7) EXPECT_LT(source.largest_rows, holes.height / 3);
     }

@@ -17,6 +17,7 @@
 #include "dsmplan/mesh.hpp"
 #include "dsmplan/raster.hpp"
 #include "dsmplan/simplify.hpp"
+#include "street_point.hpp"
 #include "testkit.hpp"
 
 using namespace dsmplan;
@@ -1168,39 +1169,17 @@ TEST(RrtConnect, OneSampleGrowsOneExtendAndOneConnectAtMost) {
 
 namespace {
 
-// A point `agl` above street level near (x, y): the point of a 2 m lattice (within 100 m)
-// nearest (x, y) whose ground is within 1 m of the lowest within 30 m (a street, not a roof)
-// and with nothing more than 1 m above it within 4 m (no wall or tree beside it); then it must
-// be `safety` clear by brute force. Deterministic: the same mesh gives the same point.
+// A point `agl` above street level near (x, y) (scenario::street_point) that is `safety` clear
+// by brute force. Deterministic: the same mesh gives the same point.
 Point3 street_waypoint(const Mesh& mesh, const ClearanceIndex& index, double x, double y, double agl, double safety) {
-  constexpr double step = 2;
-  constexpr int search = 50, low = 15, open = 2;  // in lattice steps
-  const int n = search + low, side = 2 * n + 1;
-  std::vector<double> g(static_cast<size_t>(side) * side);
-  for (int j = 0; j < side; ++j)
-    for (int i = 0; i < side; ++i) g[static_cast<size_t>(j) * side + i] = index.ground(x + (i - n) * step, y + (j - n) * step);
-  auto at = [&](int i, int j) { return g[static_cast<size_t>(j) * side + i]; };
-  std::vector<std::pair<int, std::pair<int, int>>> order;
-  for (int j = -search; j <= search; ++j)
-    for (int i = -search; i <= search; ++i)
-      if (i * i + j * j <= search * search) order.push_back({i * i + j * j, {i, j}});
-  std::stable_sort(order.begin(), order.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
-  for (const auto& [r2, ij] : order) {
-    const int ci = ij.first + n, cj = ij.second + n;
-    const double z = at(ci, cj);
-    if (std::isnan(z)) continue;
-    bool ok = true;
-    for (int dj = -low; dj <= low && ok; ++dj)
-      for (int di = -low; di <= low && ok; ++di) {
-        const int d2 = di * di + dj * dj;
-        if (d2 > low * low) continue;
-        const double h = at(ci + di, cj + dj);
-        ok = !std::isnan(h) && h >= z - 1 && (d2 > open * open || h <= z + 1);
-      }
-    if (!ok) continue;
-    const Point3 p{x + ij.first * step, y + ij.second * step, z + agl};
-    if (brute_clearance(mesh, index.origin(), p, p, safety + 1) >= safety + 0.5) return p;
-  }
+  auto lifted = [agl](Point3 p) {
+    p[2] += agl;
+    return p;
+  };
+  const auto street = scenario::street_point(index, x, y, [&](const Point3& p) {
+    return brute_clearance(mesh, index.origin(), lifted(p), lifted(p), safety + 1) >= safety + 0.5;
+  });
+  if (street) return lifted(*street);
   ADD_FAILURE() << "no street near " << x << ", " << y;
   return {x, y, 1e4};
 }
@@ -1342,26 +1321,6 @@ TEST(LowAltitude, GridLookupJoinsTheSameNodesAsAScanOverAll) {
 
 // ---- a tiled city: the corridor planner --------------------------------------------------------
 
-namespace {
-
-// Serves a grid by windows and remembers the largest one.
-class WindowCounter : public GridSource {
-public:
-  explicit WindowCounter(const Grid& grid) : view_(grid) {}
-  const Grid& frame() const override { return view_.frame(); }
-  void read(int col0, int row0, int w, int h, float* out) override {
-    largest = std::max(largest, size_t(w) * size_t(h));
-    ++reads;
-    view_.read(col0, row0, w, h, out);
-  }
-  size_t largest = 0, reads = 0;
-
-private:
-  GridView view_;
-};
-
-}  // namespace
-
 // The corridor planner never holds the whole DSM, and its path is checked against the whole
 // DSM taken as solid columns (an oracle that knows nothing of its windows or meshes): at least
 // the safety distance less half a cell diagonal (the windows' meshes are conservative), through
@@ -1376,7 +1335,7 @@ TEST(PlanCorridor, PathAcrossWindowsKeepsClearOfTheWholeDsm) {
   CorridorOptions options;
   options.chunk = 120;
   options.margin = 40;
-  WindowCounter source(dsm);
+  testkit::CountingSource source(dsm);
   const CorridorResult result = plan_corridor(source, waypoints, plan, options);
   ASSERT_EQ(result.plan.status, PlanStatus::Solved) << result.plan.place() << ": " << result.plan.reason;
   EXPECT_GE(result.windows, 4u);

@@ -1282,38 +1282,20 @@ TEST(SimplifyBounded, VerticesAreDistinctCellCentresNumberedAtFirstUse) {
 
 namespace {
 
-// A triangle as its three cells, rotated to start at the smallest: the surface without the
-// numbering, which depends on the block order.
-std::vector<std::array<size_t, 3>> cell_triangles(const Mesh& mesh, const Grid& grid) {
-  std::vector<std::array<size_t, 3>> out;
+// The triangles as cells (triangle_set): the surface without the numbering, which depends on
+// the block order.
+std::vector<Triangle> cell_triangles(const Mesh& mesh, const Grid& grid) {
+  std::vector<Triangle> cells;
   for (const Triangle& t : mesh.triangles) {
-    std::array<size_t, 3> c;
+    Triangle c;
     for (int k = 0; k < 3; ++k) {
       const CellOf cell = cell_of(grid, mesh.vertices[t[k]]);
-      c[k] = grid.index(cell.col, cell.row);
+      c[k] = static_cast<uint32_t>(grid.index(cell.col, cell.row));
     }
-    std::rotate(c.begin(), std::min_element(c.begin(), c.end()), c.end());
-    out.push_back(c);
+    cells.push_back(c);
   }
-  std::sort(out.begin(), out.end());
-  return out;
+  return testkit::triangle_set(std::move(cells));
 }
-
-// Serves a grid by windows and remembers the largest window asked for.
-class CountingSource : public GridSource {
-public:
-  explicit CountingSource(const Grid& grid) : view_(grid) {}
-  const Grid& frame() const override { return view_.frame(); }
-  void read(int col0, int row0, int w, int h, float* out) override {
-    largest = std::max(largest, static_cast<size_t>(w) * h);
-    cells_read += static_cast<size_t>(w) * h;
-    view_.read(col0, row0, w, h, out);
-  }
-  size_t largest = 0, cells_read = 0;
-
-private:
-  GridView view_;
-};
 
 class CountingSink : public MeshSink {
 public:
@@ -1346,7 +1328,7 @@ TEST(SimplifyBounded, BlocksMeetWatertightAndMakeTheSameSurface) {
     for (int block_tiles : {1, 3, 0}) {
       SCOPED_TRACE((nrw ? "nrw" : "delft") + std::string(" block_tiles ") + std::to_string(block_tiles));
       options.block_tiles = block_tiles;
-      CountingSource source(*grid);
+      testkit::CountingSource source(*grid);
       CountingSink sink;
       const BoundedStreamResult result = simplify_bounded(source, options, sink);
       const BoundedLayout layout = bounded_layout(grid->width, grid->height, options);

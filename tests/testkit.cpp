@@ -109,4 +109,10 @@ CliResult run_program(const std::string& program, const std::vector<std::string>
   return result;
 }
 
+std::vector<dsmplan::Triangle> triangle_set(std::vector<dsmplan::Triangle> triangles) {
+  for (dsmplan::Triangle& t : triangles) std::rotate(t.begin(), std::min_element(t.begin(), t.end()), t.end());
+  std::sort(triangles.begin(), triangles.end());
+  return triangles;
+}
+
 }  // namespace testkit

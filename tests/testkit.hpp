@@ -2,13 +2,14 @@
 // registers GDAL (with .aux.xml writing off), so tests may call GDAL as an oracle directly.
 #pragma once
 
+#include <algorithm>
+#include <cstddef>
 #include <filesystem>
 #include <string>
 #include <vector>
 
-namespace dsmplan {
-struct Grid;
-}
+#include "dsmplan/mesh.hpp"
+#include "dsmplan/raster.hpp"
 
 namespace testkit {
 
@@ -50,5 +51,30 @@ CliResult run_program(const std::string& program, const std::vector<std::string>
 /// Whole file as bytes.
 std::string read_file(const std::string& path);
 void write_file(const std::string& path, const std::string& bytes);
+
+/// Serves a grid by windows (a GridView) and counts what it was asked for: how the out-of-core
+/// modes are shown to hold only windows.
+class CountingSource : public dsmplan::GridSource {
+public:
+  explicit CountingSource(const dsmplan::Grid& grid) : view_(grid) {}
+  const dsmplan::Grid& frame() const override { return view_.frame(); }
+  void read(int col0, int row0, int w, int h, float* out) override {
+    const size_t cells = static_cast<size_t>(w) * static_cast<size_t>(h);
+    largest = std::max(largest, cells);
+    largest_rows = std::max(largest_rows, h);
+    cells_read += cells;
+    ++reads;
+    view_.read(col0, row0, w, h, out);
+  }
+  size_t largest = 0, cells_read = 0, reads = 0;  ///< largest window and all reads, in cells
+  int largest_rows = 0;
+
+private:
+  dsmplan::GridView view_;
+};
+
+/// The triangles with their corners rotated to start at the smallest index, sorted: a mesh's
+/// triangle set, whatever the order of its triangles.
+std::vector<dsmplan::Triangle> triangle_set(std::vector<dsmplan::Triangle> triangles);
 
 }  // namespace testkit
