@@ -8,13 +8,7 @@ dir=build
 [ "${1:-}" = "--sanitize" ] && dir=build-sanitize
 # three for the 3D viewer (dsmplan view), pinned by web/viewer/package-lock.json, into
 # $dir/web/viewer/node_modules beside the page the build copies there (only when the lock changed).
-viewer_dir="$dir/web/viewer"
-if ! cmp -s web/viewer/package-lock.json "$viewer_dir/package-lock.json" ||
-   [ ! -f "$viewer_dir/node_modules/three/build/three.module.js" ]; then
-  mkdir -p "$viewer_dir"
-  cp web/viewer/package.json web/viewer/package-lock.json "$viewer_dir/"
-  npm ci --prefix "$viewer_dir" --no-audit --no-fund --loglevel=error
-fi
+scripts/npm_pinned.sh web/viewer "$dir/web/viewer" node_modules/three/build/three.module.js
 if [ "${1:-}" = "--sanitize" ]; then
   cmake -S . -B build-sanitize -DCMAKE_BUILD_TYPE=RelWithDebInfo -DDSMPLAN_BUILD_BENCH=OFF \
     -DCMAKE_CXX_FLAGS="-fsanitize=address,undefined -fno-sanitize-recover=undefined -fno-omit-frame-pointer" >/dev/null

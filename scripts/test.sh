@@ -9,11 +9,5 @@ dir=build
 [ "${1:-}" = "--sanitize" ] && dir=build-sanitize
 # The Khronos glTF validator for the GLB tests, pinned by tests/gltf_validator/package-lock.json,
 # into $dir/npm (again only when the lock file changed).
-npm_dir="$dir/npm"
-if ! cmp -s tests/gltf_validator/package-lock.json "$npm_dir/package-lock.json" ||
-   [ ! -d "$npm_dir/node_modules/gltf-validator" ]; then
-  mkdir -p "$npm_dir"
-  cp tests/gltf_validator/package.json tests/gltf_validator/package-lock.json "$npm_dir/"
-  npm ci --prefix "$npm_dir" --no-audit --no-fund --loglevel=error
-fi
+scripts/npm_pinned.sh tests/gltf_validator "$dir/npm" node_modules/gltf-validator
 ctest --test-dir "$dir" --output-on-failure -j"$(nproc)"
