@@ -404,6 +404,38 @@ TEST(ClearanceIndex, GroundIsTheMeshHeight) {
   EXPECT_GT(covered, 2000u);
 }
 
+TEST(ClearanceIndex, GroundOfManyPointsIsGroundOfEach) {
+  // The batch form (prefetching) gives exactly what the point form gives, on the real 2 m mesh
+  // and the simplified one, for points inside, outside, on the border and not finite, in runs
+  // shorter and longer than its pipeline.
+  const Grid& grid = nrw_2m();
+  for (const Mesh* mesh : {&mesh_2m(), &mesh_bounded()}) {
+    const ClearanceIndex index(*mesh);
+    std::mt19937_64 rng(23);
+    std::uniform_real_distribution<double> ux(grid.x0 - 5, grid.x1() + 5), uy(grid.y1() - 5, grid.y0 + 5);
+    std::vector<double> x, y;
+    for (int i = 0; i < 5000; ++i) x.push_back(ux(rng)), y.push_back(uy(rng));
+    x.insert(x.end(), {NAN, grid.x0, INFINITY, grid.center_x(0), grid.x1()});
+    y.insert(y.end(), {grid.y0, NAN, grid.y0, grid.center_y(0), grid.y1()});
+    for (size_t n : {size_t{0}, size_t{1}, size_t{7}, size_t{40}, x.size()}) {
+      std::vector<double> z(n, 12345);
+      index.ground(x.data() + x.size() - n, y.data() + y.size() - n, z.data(), n);
+      size_t differ = 0, covered = 0;
+      for (size_t i = 0; i < n; ++i) {
+        const double one = index.ground(x[x.size() - n + i], y[y.size() - n + i]);
+        covered += !std::isnan(one);
+        differ += !(one == z[i] || (std::isnan(one) && std::isnan(z[i])));
+      }
+      EXPECT_EQ(differ, 0u) << n;
+      if (n == x.size()) EXPECT_GT(covered, 4000u);
+    }
+  }
+  std::vector<double> z(3, 0);
+  const double x[3] = {0, 1, 2};
+  ClearanceIndex(Mesh{}).ground(x, x, z.data(), 3);
+  EXPECT_TRUE(std::isnan(z[0]) && std::isnan(z[1]) && std::isnan(z[2]));
+}
+
 TEST(ClearanceIndex, ConcurrentQueriesAgreeWithSerial) {
   const Mesh& mesh = mesh_2m();
   const ClearanceIndex index(mesh);

@@ -131,8 +131,9 @@ ClearanceIndex::ClearanceIndex(const Mesh& mesh, const ClearanceOptions& options
     const double c[3] = {v.x, v.y, v.z};
     for (int k = 0; k < 3; ++k) lo[k] = std::min(lo[k], c[k]), hi[k] = std::max(hi[k], c[k]);
   }
-  tris_.assign(mesh.triangles.begin(), mesh.triangles.end());
-  if (tris_.empty()) return;
+  const std::vector<std::array<uint32_t, 3>>& tris = mesh.triangles;
+  triangles_ = tris.size();
+  if (tris.empty()) return;
   // Whole units: v - origin is then exact for any coordinate on the CRS's grid.
   for (int k = 0; k < 3; ++k) origin_[k] = std::round(0.5 * (lo[k] + hi[k]));
   verts_.resize(nv);
@@ -148,10 +149,10 @@ ClearanceIndex::ClearanceIndex(const Mesh& mesh, const ClearanceOptions& options
   // far below anything a drone cares about.
   margin_ = 1e-9 * (extent + std::abs(origin_[2]));
   cell_ = options.bucket_size > 0 ? options.bucket_size
-                                  : std::sqrt(32.0 * std::max(wx * wy, 1e-12) / static_cast<double>(tris_.size()));
+                                  : std::sqrt(32.0 * std::max(wx * wy, 1e-12) / static_cast<double>(tris.size()));
   if (!(cell_ > 0)) cell_ = 1;
   // Never more buckets than a few per triangle (a long thin mesh), never beyond int range.
-  const double max_buckets = std::min(4.0 * static_cast<double>(tris_.size()) + 16, 5e8);
+  const double max_buckets = std::min(4.0 * static_cast<double>(tris.size()) + 16, 5e8);
   // Bucket borders on the vertex lattice (a grid's cell centres, at a bucket size that is a
   // multiple of the cell) would list every triangle in up to nine buckets once the borders are
   // widened by the margin; shifted by an irrational-looking fraction they fall between.
@@ -165,7 +166,7 @@ ClearanceIndex::ClearanceIndex(const Mesh& mesh, const ClearanceOptions& options
 
   // Pass 1 counts the listings per triangle; pass 2 writes them. Both clip the same way, so
   // they agree; both are parallel over triangles.
-  const size_t nt = tris_.size();
+  const size_t nt = tris.size();
   if (nt >= UINT32_MAX) throw ArgumentError("mesh", "has 2^32 or more triangles");
   std::vector<size_t> per_tri(nt + 1, 0);
   const double eps = margin_;
@@ -173,7 +174,7 @@ ClearanceIndex::ClearanceIndex(const Mesh& mesh, const ClearanceOptions& options
     ClipPoint tri[3];
     double bx0 = INFINITY, bx1 = -INFINITY, by0 = INFINITY, by1 = -INFINITY, top = lowest;
     for (int k = 0; k < 3; ++k) {
-      const LocalVertex& v = verts_[tris_[t][k]];
+      const LocalVertex& v = verts_[tris[t][k]];
       tri[k] = {v.x, v.y, v.z};
       bx0 = std::min(bx0, v.x), bx1 = std::max(bx1, v.x), by0 = std::min(by0, v.y), by1 = std::max(by1, v.y);
       top = std::max(top, v.z);
@@ -209,34 +210,62 @@ ClearanceIndex::ClearanceIndex(const Mesh& mesh, const ClearanceOptions& options
   });
   // Counting sort by bucket; within a bucket triangles stay in mesh order (row-major for
   // triangulate_xy3, so neighbours in memory are neighbours in space).
-  start_.assign(buckets + 1, 0);
-  top_.assign(buckets, lowest);
-  for (uint32_t b : pair_bucket) ++start_[b + 1];
-  for (size_t b = 0; b < buckets; ++b) start_[b + 1] += start_[b];
+  buckets_.assign(buckets + 1, {0, -INFINITY});
+  for (uint32_t b : pair_bucket) ++buckets_[b + 1].start;
+  for (size_t b = 0; b < buckets; ++b) buckets_[b + 1].start += buckets_[b].start;
   items_.resize(pair_bucket.size());
-  std::vector<uint32_t> fill(start_.begin(), start_.end() - 1);
+  std::vector<uint32_t> fill(buckets);
+  for (size_t b = 0; b < buckets; ++b) fill[b] = buckets_[b].start;
   for (size_t t = 0; t < nt; ++t)
     for (size_t k = per_tri[t]; k < per_tri[t + 1]; ++k) {
       const uint32_t b = pair_bucket[k];
       const float top = round_up(pair_top[k]);
-      const LocalVertex& A = verts_[tris_[t][0]];
-      const LocalVertex& B = verts_[tris_[t][1]];
-      const LocalVertex& C = verts_[tris_[t][2]];
+      const LocalVertex& A = verts_[tris[t][0]];
+      const LocalVertex& B = verts_[tris[t][1]];
+      const LocalVertex& C = verts_[tris[t][2]];
       items_[fill[b]++] = {static_cast<uint32_t>(t),
+                           tris[t],
                            top,
                            round_down(std::min({A.x, B.x, C.x})),
                            round_up(std::max({A.x, B.x, C.x})),
                            round_down(std::min({A.y, B.y, C.y})),
                            round_up(std::max({A.y, B.y, C.y}))};
-      top_[b] = std::max(top_[b], pair_top[k]);
+      buckets_[b].top = std::max(buckets_[b].top, top);
     }
   // Highest first: a query stops reading a bucket at the first triangle that is low enough,
   // so the street under a segment passing beside a roof is never read.
   tbb::parallel_for(tbb::blocked_range<size_t>(0, buckets), [&](const tbb::blocked_range<size_t>& range) {
     for (size_t b = range.begin(); b != range.end(); ++b)
-      std::sort(items_.begin() + start_[b], items_.begin() + start_[b + 1],
+      std::sort(items_.begin() + buckets_[b].start, items_.begin() + buckets_[b + 1].start,
                 [](const Listing& x, const Listing& y) { return x.top != y.top ? x.top > y.top : x.tri < y.tri; });
   });
+  // The coarse level of the height pyramid: one small array that stays in cache.
+  block_cols_ = (cols_ + block - 1) / block;
+  block_rows_ = (rows_ + block - 1) / block;
+  block_top_.assign(static_cast<size_t>(block_cols_) * block_rows_, -INFINITY);
+  for (int r = 0; r < rows_; ++r)
+    for (int c = 0; c < cols_; ++c) {
+      float& top = block_top_[static_cast<size_t>(r / block) * block_cols_ + c / block];
+      top = std::max(top, buckets_[static_cast<size_t>(r) * cols_ + c].top);
+    }
+}
+
+double ClearanceIndex::highest(int r0, int r1, int c0, int c1) const {
+  float top = -INFINITY;
+  for (int R = r0 / block; R <= r1 / block; ++R)
+    for (int C = c0 / block; C <= c1 / block; ++C) {
+      const int br0 = std::max(r0, R * block), br1 = std::min(r1, R * block + block - 1);
+      const int bc0 = std::max(c0, C * block), bc1 = std::min(c1, C * block + block - 1);
+      const float whole = block_top_[static_cast<size_t>(R) * block_cols_ + C];
+      if (whole <= top) continue;
+      if (br1 - br0 == block - 1 && bc1 - bc0 == block - 1) {
+        top = whole;
+        continue;
+      }
+      for (int r = br0; r <= br1; ++r)
+        for (int c = bc0; c <= bc1; ++c) top = std::max(top, buckets_[static_cast<size_t>(r) * cols_ + c].top);
+    }
+  return top;
 }
 
 template <bool Measure>
@@ -266,76 +295,101 @@ double ClearanceIndex::visit(const Point3& p, const Point3& q, double d) const {
   // Direct-mapped, so a collision only costs a second measurement.
   uint32_t seen[64];
   std::fill(std::begin(seen), std::end(seen), UINT32_MAX);
-  for (int r = r0; r <= r1; ++r) {
-    const double reach = std::min(best, reach_cap) + slack;
-    const double band_lo = gy0_ + r * cell_ - reach, band_hi = gy0_ + (r + 1) * cell_ + reach;
-    double ta = 0, tb = 1;
-    if (iy == 0) {
-      if (py < band_lo || py > band_hi) continue;
-    } else {
-      double a = (band_lo - py) * iy, b = (band_hi - py) * iy;
-      if (a > b) std::swap(a, b);
-      ta = std::max(ta, a), tb = std::min(tb, b);
-      if (ta > tb) continue;
-    }
+  // The rows (band_lo/hi: of buckets or blocks, widened by the reach) give the segment's
+  // parameter range within them, Liang-Barsky along y.
+  auto band = [&](double band_lo, double band_hi, double& ta, double& tb) {
+    ta = 0, tb = 1;
+    if (iy == 0) return py >= band_lo && py <= band_hi;
+    double a = (band_lo - py) * iy, b = (band_hi - py) * iy;
+    if (a > b) std::swap(a, b);
+    ta = std::max(ta, a), tb = std::min(tb, b);
+    return ta <= tb;
+  };
+  const double coarse = block * cell_;
+  for (int R = r0 / block; R <= r1 / block; ++R) {
+    double ta, tb;
+    const double reach_row = std::min(best, reach_cap) + slack;
+    if (!band(gy0_ + R * coarse - reach_row, gy0_ + (R + 1) * coarse + reach_row, ta, tb)) continue;
     const double xa = px + ta * dx, xb = px + tb * dx;
-    const double xlo = std::min(xa, xb) - reach, xhi = std::max(xa, xb) + reach;
-    if (xhi < gx0_ || xlo > gx0_ + cols_ * cell_) continue;
-    const int c0 = clamp_index((xlo - gx0_) / cell_, cols_), c1 = clamp_index((xhi - gx0_) / cell_, cols_);
-    for (int c = c0; c <= c1; ++c) {
-      const size_t bucket = static_cast<size_t>(r) * cols_ + c;
-      const uint32_t begin = start_[bucket], end = start_[bucket + 1];
-      if (begin == end) continue;
-      const double reach_b = std::min(best, reach_cap) + slack;
-      const double x0 = gx0_ + c * cell_, y0 = gy0_ + r * cell_;
-      double t0 = 0, t1 = 1;
-      if (!clip_xy(px, py, ix, iy, x0 - reach_b, x0 + cell_ + reach_b, y0 - reach_b, y0 + cell_ + reach_b, t0, t1))
+    const double xlo = std::min(xa, xb) - reach_row, xhi = std::max(xa, xb) + reach_row;
+    const int C0 = clamp_index((xlo - gx0_) / coarse, block_cols_), C1 = clamp_index((xhi - gx0_) / coarse, block_cols_);
+    for (int C = C0; C <= C1; ++C) {
+      // A block whose highest point is at least the reach below the part of the segment near
+      // it holds nothing within reach: its buckets are not read at all.
+      const double reach_block = std::min(best, reach_cap) + slack;
+      const double bx0 = gx0_ + C * coarse, by0 = gy0_ + R * coarse;
+      double s0 = 0, s1 = 1;
+      if (!clip_xy(px, py, ix, iy, bx0 - reach_block, bx0 + coarse + reach_block, by0 - reach_block,
+                   by0 + coarse + reach_block, s0, s1))
         continue;
-      // z is linear along the segment: its least value on the clipped part is at an end.
-      if (std::min(pz + t0 * dz, pz + t1 * dz) - top_[bucket] >= reach_b) continue;
-      const double zlow = std::min(pz + t0 * dz, pz + t1 * dz);
-      for (uint32_t k = begin; k < end; ++k) {
-        // The triangle's part in this bucket is what the bucket answers for (a point of it
-        // nearest the segment lies in some bucket it is listed in); the rest are lower still.
-        if (zlow - items_[k].top >= std::min(best, reach_cap) + slack) break;
-        const Listing& item = items_[k];
-        const uint32_t id = item.tri;
-        if (seen[id & 63] == id) continue;
-        seen[id & 63] = id;
-        const double reach_t = std::min(best, reach_cap) + slack;
-        double u0 = 0, u1 = 1;
-        if (!clip_xy(px, py, ix, iy, item.x0 - reach_t, item.x1 + reach_t, item.y0 - reach_t, item.y1 + reach_t, u0,
-                     u1))
-          continue;
-        const auto& tri = tris_[id];
-        const LocalVertex& A = verts_[tri[0]];
-        const LocalVertex& B = verts_[tri[1]];
-        const LocalVertex& C = verts_[tri[2]];
-        const double za = pz + u0 * dz, zb = pz + u1 * dz;
-        if (std::min(za, zb) - std::max({A.z, B.z, C.z}) >= reach_t) continue;
-        // Both ends of the nearby part on one side of the plane, at least d from it.
-        const double abx = B.x - A.x, aby = B.y - A.y, abz = B.z - A.z;
-        const double acx = C.x - A.x, acy = C.y - A.y, acz = C.z - A.z;
-        const double nx = aby * acz - abz * acy, ny = abz * acx - abx * acz, nz = abx * acy - aby * acx;
-        const double nn = nx * nx + ny * ny + nz * nz;
-        if (nn > 0) {
-          const double s0 = nx * (px + u0 * dx - A.x) + ny * (py + u0 * dy - A.y) + nz * (za - A.z);
-          const double s1 = nx * (px + u1 * dx - A.x) + ny * (py + u1 * dy - A.y) + nz * (zb - A.z);
-          if ((s0 > 0) == (s1 > 0) && s0 != 0 && s1 != 0) {
-            const double s = std::min(std::abs(s0), std::abs(s1));
-            if (s * s >= reach_t * reach_t * nn) continue;
+      if (std::min(pz + s0 * dz, pz + s1 * dz) - block_top_[static_cast<size_t>(R) * block_cols_ + C] >= reach_block)
+        continue;
+      for (int r = std::max(r0, R * block); r <= std::min(r1, R * block + block - 1); ++r) {
+        const double reach = std::min(best, reach_cap) + slack;
+        if (!band(gy0_ + r * cell_ - reach, gy0_ + (r + 1) * cell_ + reach, ta, tb)) continue;
+        const double fxa = px + ta * dx, fxb = px + tb * dx;
+        const double fxlo = std::min(fxa, fxb) - reach, fxhi = std::max(fxa, fxb) + reach;
+        if (fxhi < gx0_ || fxlo > gx0_ + cols_ * cell_) continue;
+        const int c0 = std::max(clamp_index((fxlo - gx0_) / cell_, cols_), C * block);
+        const int c1 = std::min(clamp_index((fxhi - gx0_) / cell_, cols_), C * block + block - 1);
+        for (int c = c0; c <= c1; ++c) {
+          const size_t bucket = static_cast<size_t>(r) * cols_ + c;
+          const uint32_t begin = buckets_[bucket].start, end = buckets_[bucket + 1].start;
+          if (begin == end) continue;
+          const double reach_b = std::min(best, reach_cap) + slack;
+          const double x0 = gx0_ + c * cell_, y0 = gy0_ + r * cell_;
+          double t0 = 0, t1 = 1;
+          if (!clip_xy(px, py, ix, iy, x0 - reach_b, x0 + cell_ + reach_b, y0 - reach_b, y0 + cell_ + reach_b, t0,
+                       t1))
+            continue;
+          // z is linear along the segment: its least value on the clipped part is at an end.
+          const double zlow = std::min(pz + t0 * dz, pz + t1 * dz);
+          if (zlow - buckets_[bucket].top >= reach_b) continue;
+          for (uint32_t k = begin; k < end; ++k) {
+            // The triangle's part in this bucket is what the bucket answers for (a point of it
+            // nearest the segment lies in some bucket it is listed in); the rest are lower still.
+            if (zlow - items_[k].top >= std::min(best, reach_cap) + slack) break;
+            const Listing& item = items_[k];
+            const uint32_t id = item.tri;
+            if (seen[id & 63] == id) continue;
+            seen[id & 63] = id;
+            const double reach_t = std::min(best, reach_cap) + slack;
+            double u0 = 0, u1 = 1;
+            if (!clip_xy(px, py, ix, iy, item.x0 - reach_t, item.x1 + reach_t, item.y0 - reach_t, item.y1 + reach_t,
+                         u0, u1))
+              continue;
+            const auto& tri = item.corners;
+            const LocalVertex& A = verts_[tri[0]];
+            const LocalVertex& B = verts_[tri[1]];
+            const LocalVertex& C = verts_[tri[2]];
+            const double za = pz + u0 * dz, zb = pz + u1 * dz;
+            if (std::min(za, zb) - std::max({A.z, B.z, C.z}) >= reach_t) continue;
+            // Both ends of the nearby part on one side of the plane, at least d from it.
+            const double abx = B.x - A.x, aby = B.y - A.y, abz = B.z - A.z;
+            const double acx = C.x - A.x, acy = C.y - A.y, acz = C.z - A.z;
+            const double nx = aby * acz - abz * acy, ny = abz * acx - abx * acz, nz = abx * acy - aby * acx;
+            const double nn = nx * nx + ny * ny + nz * nz;
+            if (nn > 0) {
+              const double s0 = nx * (px + u0 * dx - A.x) + ny * (py + u0 * dy - A.y) + nz * (za - A.z);
+              const double s1 = nx * (px + u1 * dx - A.x) + ny * (py + u1 * dy - A.y) + nz * (zb - A.z);
+              if ((s0 > 0) == (s1 > 0) && s0 != 0 && s1 != 0) {
+                const double s = std::min(std::abs(s0), std::abs(s1));
+                if (s * s >= reach_t * reach_t * nn) continue;
+              }
+            }
+            const double d2 =
+                segment_triangle_squared_distance(P, Q, {A.x, A.y, A.z}, {B.x, B.y, B.z}, {C.x, C.y, C.z});
+            if constexpr (Measure) {
+              if (d2 < best * best) {
+                best = std::sqrt(d2);
+                if (best == 0) return 0;
+              }
+            } else {
+              // The distance itself, not its square, is compared: then segment_clear(p, q, d) is
+              // exactly clearance(p, q, cap) >= d, touching included.
+              if (d2 < d2_fixed * 1.0000000000000004 && std::sqrt(d2) < d) return 0;
+            }
           }
-        }
-        const double d2 = segment_triangle_squared_distance(P, Q, {A.x, A.y, A.z}, {B.x, B.y, B.z}, {C.x, C.y, C.z});
-        if constexpr (Measure) {
-          if (d2 < best * best) {
-            best = std::sqrt(d2);
-            if (best == 0) return 0;
-          }
-        } else {
-          // The distance itself, not its square, is compared: then segment_clear(p, q, d) is
-          // exactly clearance(p, q, cap) >= d, touching included.
-          if (d2 < d2_fixed * 1.0000000000000004 && std::sqrt(d2) < d) return 0;
         }
       }
     }
@@ -353,18 +407,18 @@ void check_query(const Point3& p, const Point3& q, double d, const char* name) {
 
 bool ClearanceIndex::segment_clear(const Point3& p, const Point3& q, double d) const {
   check_query(p, q, d, "distance");
-  if (tris_.empty() || d == 0) return true;
+  if (triangles_ == 0 || d == 0) return true;
   return visit<false>(p, q, d) > 0;
 }
 
 double ClearanceIndex::clearance(const Point3& p, const Point3& q, double max_d) const {
   check_query(p, q, max_d, "max_d");
-  if (tris_.empty() || max_d == 0) return max_d;
+  if (triangles_ == 0 || max_d == 0) return max_d;
   return visit<true>(p, q, max_d);
 }
 
 double ClearanceIndex::clearance_bound(const Point3& p, double max_d) const {
-  if (tris_.empty()) return max_d;
+  if (triangles_ == 0) return max_d;
   const double X = p[0] - origin_[0], Y = p[1] - origin_[1], Z = p[2] - origin_[2];
   // Every mesh point within R of p horizontally lies in a bucket meeting the square of side 2R
   // around it, so no higher than those buckets' highest point H: it is at least min(R, Z - H)
@@ -373,33 +427,29 @@ double ClearanceIndex::clearance_bound(const Point3& p, double max_d) const {
   for (double R = max_d; R > cell_ * 0.5 && best < R; R *= 0.5) {
     const int c0 = clamp_index((X - R - gx0_) / cell_, cols_), c1 = clamp_index((X + R - gx0_) / cell_, cols_);
     const int r0 = clamp_index((Y - R - gy0_) / cell_, rows_), r1 = clamp_index((Y + R - gy0_) / cell_, rows_);
-    double H = -INFINITY;
-    for (int r = r0; r <= r1; ++r) {
-      const double* row = top_.data() + static_cast<size_t>(r) * cols_;
-      for (int c = c0; c <= c1; ++c) H = std::max(H, row[c]);
-    }
+    const double H = highest(r0, r1, c0, c1);
     best = std::max(best, std::min(R, Z - H - margin_));
   }
   return std::min(max_d, best);
 }
 
-double ClearanceIndex::ground(double x, double y) const {
-  if (tris_.empty() || !std::isfinite(x) || !std::isfinite(y)) return NAN;
-  const double X = x - origin_[0], Y = y - origin_[1];
+size_t ClearanceIndex::bucket_at(double X, double Y) const {
   const double u = (X - gx0_) / cell_, v = (Y - gy0_) / cell_;
   // A point on the grid's far edge (or a rounding hair beyond) belongs to the last bucket.
   const double tol = margin_ / cell_;
-  if (!(u >= -tol && u <= cols_ + tol && v >= -tol && v <= rows_ + tol)) return NAN;
-  const size_t bucket =
-      static_cast<size_t>(clamp_index(std::floor(v), rows_)) * cols_ + clamp_index(std::floor(u), cols_);
+  if (!(u >= -tol && u <= cols_ + tol && v >= -tol && v <= rows_ + tol)) return SIZE_MAX;
+  return static_cast<size_t>(clamp_index(std::floor(v), rows_)) * cols_ + clamp_index(std::floor(u), cols_);
+}
+
+double ClearanceIndex::ground_in(size_t bucket, double X, double Y) const {
   double top = NAN;
-  for (uint32_t k = start_[bucket]; k < start_[bucket + 1]; ++k) {
+  for (uint32_t k = buckets_[bucket].start; k < buckets_[bucket + 1].start; ++k) {
     const Listing& item = items_[k];
     // Listed highest first: nothing further down can be higher than what was found.
     if (item.top + origin_[2] < top) break;
     // The box is rounded outwards; the margin covers the inside test's tolerance below.
     if (X < item.x0 - margin_ || X > item.x1 + margin_ || Y < item.y0 - margin_ || Y > item.y1 + margin_) continue;
-    const auto& tri = tris_[item.tri];
+    const auto& tri = item.corners;
     const LocalVertex& A = verts_[tri[0]];
     const LocalVertex& B = verts_[tri[1]];
     const LocalVertex& C = verts_[tri[2]];
@@ -417,6 +467,54 @@ double ClearanceIndex::ground(double x, double y) const {
     if (!(z <= top)) top = z;
   }
   return top;
+}
+
+double ClearanceIndex::ground(double x, double y) const {
+  if (triangles_ == 0 || !std::isfinite(x) || !std::isfinite(y)) return NAN;
+  const double X = x - origin_[0], Y = y - origin_[1];
+  const size_t bucket = bucket_at(X, Y);
+  return bucket == SIZE_MAX ? NAN : ground_in(bucket, X, Y);
+}
+
+void ClearanceIndex::ground(const double* x, const double* y, double* z, size_t n) const {
+  if (triangles_ == 0) {
+    std::fill(z, z + n, NAN);
+    return;
+  }
+  // A point's reads depend on each other: its bucket, the bucket's list, the corners of the
+  // triangles listed. Each is issued `lag` points ahead of the next, so while one point is
+  // computed the reads of the next 3 lag points are under way (software prefetching; scattered
+  // points otherwise wait for each miss in turn).
+  constexpr size_t lag = 6, ring = 4 * lag;
+  size_t bucket[ring];
+  auto at = [&](size_t i) -> size_t& { return bucket[i % ring]; };
+  for (size_t i = 0; i < n + 3 * lag; ++i) {
+    if (i < n) {
+      at(i) = std::isfinite(x[i]) && std::isfinite(y[i]) ? bucket_at(x[i] - origin_[0], y[i] - origin_[1]) : SIZE_MAX;
+      if (at(i) != SIZE_MAX) __builtin_prefetch(&buckets_[at(i)]);
+    }
+    if (i >= lag && i - lag < n && at(i - lag) != SIZE_MAX) {
+      const Listing* first = items_.data() + buckets_[at(i - lag)].start;
+      __builtin_prefetch(first);
+      __builtin_prefetch(reinterpret_cast<const char*>(first) + 64);
+    }
+    if (i >= 2 * lag && i - 2 * lag < n && at(i - 2 * lag) != SIZE_MAX) {
+      // The corners of the first triangles whose boxes hold the point: usually the answer.
+      const size_t j = i - 2 * lag, b = at(j);
+      const double X = x[j] - origin_[0], Y = y[j] - origin_[1];
+      int found = 0;
+      for (uint32_t k = buckets_[b].start; k < buckets_[b + 1].start && found < 2; ++k) {
+        const Listing& item = items_[k];
+        if (X < item.x0 - margin_ || X > item.x1 + margin_ || Y < item.y0 - margin_ || Y > item.y1 + margin_) continue;
+        for (uint32_t v : item.corners) __builtin_prefetch(&verts_[v]);
+        ++found;
+      }
+    }
+    if (i >= 3 * lag) {
+      const size_t j = i - 3 * lag;
+      z[j] = at(j) == SIZE_MAX ? NAN : ground_in(at(j), x[j] - origin_[0], y[j] - origin_[1]);
+    }
+  }
 }
 
 }  // namespace dsmplan

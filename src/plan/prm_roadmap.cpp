@@ -52,11 +52,18 @@ Roadmap build_roadmap(const ClearanceIndex& index, const PlanOptions& options, c
     std::vector<double> room(n, -1);  // a lower bound of each kept sample's clearance, -1 dropped
     const double cap = options.safety + options.max_edge;
     tbb::parallel_for(tbb::blocked_range<size_t>(0, n), [&](const tbb::blocked_range<size_t>& r) {
+      // The ground under a range of samples in one call, which overlaps their memory reads.
+      std::vector<double> xy(3 * r.size());
+      double *x = xy.data(), *y = x + r.size(), *g = y + r.size();
       for (size_t i = r.begin(); i < r.end(); ++i) {
-        const double x = e.xmin + halton(i + 1, 2) * wx, y = e.ymin + halton(i + 1, 3) * wy;
-        const double g = index.ground(x, y);
-        if (std::isnan(g)) continue;
-        candidates[i] = {x, y, g + halton(i + 1, 5) * options.max_agl};
+        x[i - r.begin()] = e.xmin + halton(i + 1, 2) * wx;
+        y[i - r.begin()] = e.ymin + halton(i + 1, 3) * wy;
+      }
+      index.ground(x, y, g, r.size());
+      for (size_t i = r.begin(); i < r.end(); ++i) {
+        const size_t k = i - r.begin();
+        if (std::isnan(g[k])) continue;
+        candidates[i] = {x[k], y[k], g[k] + halton(i + 1, 5) * options.max_agl};
         if (index.point_clear(candidates[i], options.safety))
           room[i] = std::max(options.safety, index.clearance_bound(candidates[i], cap));
         else
@@ -98,12 +105,14 @@ Roadmap build_roadmap(const ClearanceIndex& index, const PlanOptions& options, c
     for (size_t c = 1; c < cell_start.size(); ++c) cell_start[c] += cell_start[c - 1];
     struct Member {
       Point3 p;
+      double room;
       uint32_t id;
     };
     std::vector<Member> members(m);
     {
       std::vector<uint32_t> fill(cell_start.begin(), cell_start.end() - 1);
-      for (size_t i = 0; i < m; ++i) members[fill[node_cell[i]]++] = {map.nodes[i], static_cast<uint32_t>(i)};
+      for (size_t i = 0; i < m; ++i)
+        members[fill[node_cell[i]]++] = {map.nodes[i], node_room[i], static_cast<uint32_t>(i)};
     }
 
     const double reach2 = cell * cell;
@@ -111,29 +120,40 @@ Roadmap build_roadmap(const ClearanceIndex& index, const PlanOptions& options, c
     const double certificate_slack = 1e-9 * (1 + cap);
     std::vector<std::vector<uint32_t>> up(m);  // neighbours j > i of node i, ascending
     tbb::parallel_for(tbb::blocked_range<size_t>(0, m, 64), [&](const tbb::blocked_range<size_t>& r) {
-      std::vector<uint32_t> candidates_j;
-      for (size_t i = r.begin(); i < r.end(); ++i) {
-        const Point3& p = map.nodes[i];
+      struct Near {
+        uint32_t id;
+        double room, length2;
+        bool operator<(const Near& o) const { return id < o.id; }
+      };
+      std::vector<Near> near;
+      // Nodes in cell order: the next node reads the cells this one has just read.
+      for (size_t member = r.begin(); member < r.end(); ++member) {
+        const size_t i = members[member].id;
+        const Point3& p = members[member].p;
         const int64_t cx = coord(p, 0), cy = coord(p, 1), cz = coord(p, 2);
-        candidates_j.clear();
+        near.clear();
         for (int64_t z = std::max<int64_t>(cz - 1, 0); z <= std::min(cz + 1, nz - 1); ++z)
           for (int64_t y = std::max<int64_t>(cy - 1, 0); y <= std::min(cy + 1, ny - 1); ++y) {
             // The three cells of a row along x are consecutive: one run.
             const size_t first = key(std::max<int64_t>(cx - 1, 0), y, z), last = key(std::min(cx + 1, nx - 1), y, z);
-            for (uint32_t k = cell_start[first]; k < cell_start[last + 1]; ++k)
-              if (members[k].id > i && squared_distance(p, members[k].p) < reach2) candidates_j.push_back(members[k].id);
+            for (uint32_t k = cell_start[first]; k < cell_start[last + 1]; ++k) {
+              const Member& q = members[k];
+              const double length2 = squared_distance(p, q.p);
+              // One branch, rarely taken: "q.id > i" alone would be a coin toss to predict.
+              if ((length2 < reach2) & (q.id > i)) near.push_back({q.id, q.room, length2});
+            }
           }
-        std::sort(candidates_j.begin(), candidates_j.end());
-        for (uint32_t j : candidates_j) {
+        std::sort(near.begin(), near.end());
+        up[i].reserve(near.size());
+        for (const Near& q : near) {
           // Free-space balls (Quinlan & Khatib, "Elastic bands", ICRA 1993): no mesh point lies
           // within room[i] of p or room[j] of q, so every point of [p, q] is at least
           // (room[i] + room[j] - |pq|) / 2 from the mesh. When that is the safety distance the
           // exact check can only agree: the same edges, most of them high above the roofs
           // without reading a triangle.
-          const double length = std::sqrt(squared_distance(p, map.nodes[j]));
-          if (node_room[i] + node_room[j] - length >= 2 * options.safety + certificate_slack ||
-              index.segment_clear(p, map.nodes[j], options.safety))
-            up[i].push_back(j);
+          if (node_room[i] + q.room - std::sqrt(q.length2) >= 2 * options.safety + certificate_slack ||
+              index.segment_clear(p, map.nodes[q.id], options.safety))
+            up[i].push_back(q.id);
         }
       }
     });
