@@ -65,7 +65,7 @@
 //     ClearanceOptions::bucket_size overrides it (enlarged when it would make more than four
 //     buckets a triangle).
 //   - Thread-safe: every query is const and allocates nothing; share one index among threads.
-//   - Memory: 24 bytes a vertex, 36 a listing (a listing carries its triangle's corners, so a
+//   - Memory: 24 bytes a vertex, 32 a listing (a listing carries its triangle's corners, so a
 //     query reads the vertices without a second miss), 8 a bucket; the mesh's own triangle
 //     list is not kept: 135 MB for the NRW tile at 1 m.
 //
@@ -174,8 +174,7 @@ private:
   double cell_ = 1, gx0_ = 0, gy0_ = 0;  ///< bucket (0,0) starts at local (gx0_, gy0_)
   int cols_ = 0, rows_ = 0;
   struct Listing {
-    uint32_t tri;
-    std::array<uint32_t, 3> corners;  ///< its vertices: no second read to find them
+    std::array<uint32_t, 3> corners;  ///< the triangle's vertices: no second read to find them
     float top;             ///< highest point of the triangle inside the bucket, rounded up
     float x0, x1, y0, y1;  ///< the triangle's x,y bounding box, rounded outwards
   };

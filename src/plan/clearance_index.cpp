@@ -223,8 +223,7 @@ ClearanceIndex::ClearanceIndex(const Mesh& mesh, const ClearanceOptions& options
       const LocalVertex& A = verts_[tris[t][0]];
       const LocalVertex& B = verts_[tris[t][1]];
       const LocalVertex& C = verts_[tris[t][2]];
-      items_[fill[b]++] = {static_cast<uint32_t>(t),
-                           tris[t],
+      items_[fill[b]++] = {tris[t],
                            top,
                            round_down(std::min({A.x, B.x, C.x})),
                            round_up(std::max({A.x, B.x, C.x})),
@@ -237,7 +236,7 @@ ClearanceIndex::ClearanceIndex(const Mesh& mesh, const ClearanceOptions& options
   tbb::parallel_for(tbb::blocked_range<size_t>(0, buckets), [&](const tbb::blocked_range<size_t>& range) {
     for (size_t b = range.begin(); b != range.end(); ++b)
       std::sort(items_.begin() + buckets_[b].start, items_.begin() + buckets_[b + 1].start,
-                [](const Listing& x, const Listing& y) { return x.top != y.top ? x.top > y.top : x.tri < y.tri; });
+                [](const Listing& x, const Listing& y) { return x.top != y.top ? x.top > y.top : x.corners < y.corners; });
   });
   // The coarse level of the height pyramid: one small array that stays in cache.
   block_cols_ = (cols_ + block - 1) / block;
@@ -293,8 +292,9 @@ double ClearanceIndex::visit(const Point3& p, const Point3& q, double d) const {
   const double ix = std::abs(dx) < still ? 0 : 1 / dx, iy = std::abs(dy) < still ? 0 : 1 / dy;
   // Triangles already measured: one listed in several buckets near the segment is read once.
   // Direct-mapped, so a collision only costs a second measurement.
-  uint32_t seen[64];
-  std::fill(std::begin(seen), std::end(seen), UINT32_MAX);
+  // Keyed by the corners: a triangle listed twice (or the same corners twice) is the same.
+  std::array<uint32_t, 3> seen[64];
+  std::fill(std::begin(seen), std::end(seen), std::array<uint32_t, 3>{UINT32_MAX, UINT32_MAX, UINT32_MAX});
   // The rows (band_lo/hi: of buckets or blocks, widened by the reach) give the segment's
   // parameter range within them, Liang-Barsky along y.
   auto band = [&](double band_lo, double band_hi, double& ta, double& tb) {
@@ -350,15 +350,15 @@ double ClearanceIndex::visit(const Point3& p, const Point3& q, double d) const {
             // nearest the segment lies in some bucket it is listed in); the rest are lower still.
             if (zlow - items_[k].top >= std::min(best, reach_cap) + slack) break;
             const Listing& item = items_[k];
-            const uint32_t id = item.tri;
-            if (seen[id & 63] == id) continue;
-            seen[id & 63] = id;
+            const auto& tri = item.corners;
+            const uint32_t slot = (tri[0] ^ (tri[1] * 0x9E3779B1u) ^ (tri[2] * 0x85EBCA77u)) >> 26;
+            if (seen[slot] == tri) continue;
+            seen[slot] = tri;
             const double reach_t = std::min(best, reach_cap) + slack;
             double u0 = 0, u1 = 1;
             if (!clip_xy(px, py, ix, iy, item.x0 - reach_t, item.x1 + reach_t, item.y0 - reach_t, item.y1 + reach_t,
                          u0, u1))
               continue;
-            const auto& tri = item.corners;
             const LocalVertex& A = verts_[tri[0]];
             const LocalVertex& B = verts_[tri[1]];
             const LocalVertex& C = verts_[tri[2]];
