@@ -427,8 +427,20 @@ double ClearanceIndex::clearance_bound(const Point3& p, double max_d) const {
   for (double R = max_d; R > cell_ * 0.5 && best < R; R *= 0.5) {
     const int c0 = clamp_index((X - R - gx0_) / cell_, cols_), c1 = clamp_index((X + R - gx0_) / cell_, cols_);
     const int r0 = clamp_index((Y - R - gy0_) / cell_, rows_), r1 = clamp_index((Y + R - gy0_) / cell_, rows_);
-    const double H = highest(r0, r1, c0, c1);
-    best = std::max(best, std::min(R, Z - H - margin_));
+    // The blocks inside the square and those meeting it bound its highest point from below and
+    // above, from a few reads of the small block array; the buckets along the square's border
+    // are read only when the two bounds leave the answer open.
+    float inside = -INFINITY, meeting = -INFINITY;
+    for (int br = r0 / block; br <= r1 / block; ++br)
+      for (int bc = c0 / block; bc <= c1 / block; ++bc) {
+        const float top = block_top_[static_cast<size_t>(br) * block_cols_ + bc];
+        meeting = std::max(meeting, top);
+        if (br * block >= r0 && br * block + block - 1 <= r1 && bc * block >= c0 && bc * block + block - 1 <= c1)
+          inside = std::max(inside, top);
+      }
+    const double at_most = std::min(R, Z - inside - margin_), at_least = std::min(R, Z - meeting - margin_);
+    if (at_most <= best) continue;
+    best = std::max(best, at_least < at_most ? std::min(R, Z - highest(r0, r1, c0, c1) - margin_) : at_least);
   }
   return std::min(max_d, best);
 }
