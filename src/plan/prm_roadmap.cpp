@@ -52,7 +52,7 @@ Roadmap build_roadmap(const ClearanceIndex& index, const PlanOptions& options, c
     std::vector<Point3> candidates(n);
     std::vector<double> room(n, -1);  // a lower bound of each kept sample's clearance, -1 dropped
     const double cap = options.safety + options.max_edge;
-    tbb::parallel_for(tbb::blocked_range<size_t>(0, n), [&](const tbb::blocked_range<size_t>& r) {
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 512), [&](const tbb::blocked_range<size_t>& r) {
       // The ground under a range of samples in one call, which overlaps their memory reads.
       std::vector<double> xy(3 * r.size());
       double *x = xy.data(), *y = x + r.size(), *g = y + r.size();
