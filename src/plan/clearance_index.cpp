@@ -293,8 +293,9 @@ double ClearanceIndex::visit(const Point3& p, const Point3& q, double d) const {
   // Triangles already measured: one listed in several buckets near the segment is read once.
   // Direct-mapped, so a collision only costs a second measurement.
   // Keyed by the corners: a triangle listed twice (or the same corners twice) is the same.
+  // Cleared at the first triangle read: most queries decide from the heights alone.
   std::array<uint32_t, 3> seen[64];
-  std::fill(std::begin(seen), std::end(seen), std::array<uint32_t, 3>{UINT32_MAX, UINT32_MAX, UINT32_MAX});
+  bool seen_cleared = false;
   // The rows (band_lo/hi: of buckets or blocks, widened by the reach) give the segment's
   // parameter range within them, Liang-Barsky along y.
   auto band = [&](double band_lo, double band_hi, double& ta, double& tb) {
@@ -351,6 +352,10 @@ double ClearanceIndex::visit(const Point3& p, const Point3& q, double d) const {
             if (zlow - items_[k].top >= std::min(best, reach_cap) + slack) break;
             const Listing& item = items_[k];
             const auto& tri = item.corners;
+            if (!seen_cleared) {
+              std::fill(std::begin(seen), std::end(seen), std::array<uint32_t, 3>{UINT32_MAX, UINT32_MAX, UINT32_MAX});
+              seen_cleared = true;
+            }
             const uint32_t slot = (tri[0] ^ (tri[1] * 0x9E3779B1u) ^ (tri[2] * 0x85EBCA77u)) >> 26;
             if (seen[slot] == tri) continue;
             seen[slot] = tri;
