@@ -382,6 +382,20 @@ double ClearanceIndex::visit(const Point3& p, const Point3& q, double d) const {
                 if (s * s >= reach_t * reach_t * nn) continue;
               }
             }
+            {
+              // A ball around the triangle: the segment's distance to its centroid less the
+              // farthest corner's is a lower bound, a tenth of the exact distance's cost.
+              const double gx = (A.x + B.x + C.x) / 3, gy = (A.y + B.y + C.y) / 3, gz = (A.z + B.z + C.z) / 3;
+              auto far2 = [&](const LocalVertex& v) {
+                return (v.x - gx) * (v.x - gx) + (v.y - gy) * (v.y - gy) + (v.z - gz) * (v.z - gz);
+              };
+              const double radius = std::sqrt(std::max({far2(A), far2(B), far2(C)}));
+              const double wx = gx - px, wy = gy - py, wz = gz - pz;
+              const double along = std::clamp((wx * dx + wy * dy + wz * dz) / std::max(dx * dx + dy * dy + dz * dz, 1e-300), 0.0, 1.0);
+              const double ex = wx - along * dx, ey = wy - along * dy, ez = wz - along * dz;
+              const double reach_ball = reach_t + radius;
+              if (ex * ex + ey * ey + ez * ez >= reach_ball * reach_ball * (1 + 1e-12)) continue;
+            }
             const double d2 =
                 segment_triangle_squared_distance(P, Q, {A.x, A.y, A.z}, {B.x, B.y, B.z}, {C.x, C.y, C.z});
             if constexpr (Measure) {
