@@ -212,10 +212,7 @@ int main() {
     build = std::min(build, seconds_since(start));
     index = std::move(built);
   }
-  const double megabytes =
-      (mesh.vertices.size() * 24.0 + mesh.triangles.size() * 12.0 + index->bucket_listings() * 24.0 +
-       double(index->bucket_columns()) * index->bucket_rows() * 12.0) /
-      1e6;
+  const double megabytes = static_cast<double>(index->memory_bytes()) / 1e6;
   std::printf("index: bucket %.2f m, %d x %d buckets, %zu listings (%.2f per triangle), %.0f MB, build %.3f s\n\n",
               index->bucket_size(), index->bucket_columns(), index->bucket_rows(), index->bucket_listings(),
               double(index->bucket_listings()) / mesh.triangles.size(), megabytes, build);

@@ -404,6 +404,18 @@ TEST(ClearanceIndex, GroundIsTheMeshHeight) {
   EXPECT_GT(covered, 2000u);
 }
 
+TEST(ClearanceIndex, MemoryCountsEveryVertexListingAndBucket) {
+  // What the header promises: 24 bytes a vertex, 32 a listing, 8 a bucket, and nothing a
+  // triangle beyond its listings; the blocks are a sixteenth of the buckets.
+  const Mesh& mesh = mesh_2m();
+  const ClearanceIndex index(mesh);
+  const double buckets = static_cast<double>(index.bucket_columns()) * index.bucket_rows();
+  const double expected = 24.0 * mesh.vertices.size() + 32.0 * index.bucket_listings() + 8.0 * (buckets + 1);
+  EXPECT_GE(static_cast<double>(index.memory_bytes()), expected);
+  EXPECT_LE(static_cast<double>(index.memory_bytes()), expected + 4.0 * (buckets / 16 + index.bucket_columns() + index.bucket_rows() + 1));
+  EXPECT_GT(index.bucket_listings(), mesh.triangles.size());
+}
+
 TEST(ClearanceIndex, GroundOfManyPointsIsGroundOfEach) {
   // The batch form (prefetching) gives exactly what the point form gives, on the real 2 m mesh
   // and the simplified one, for points inside, outside, on the border and not finite, in runs

@@ -53,21 +53,23 @@
 //     NRW 1 m tile (1,996,002 triangles, one thread of the 2-core machine), random 20-35 m
 //     segments with both ends 2-120 m above ground, d = 2 m, segment_clear() per second:
 //                                         build    2-120 m   2-10 m   10-30 m   30-120 m
-//       this index (4 m buckets)          0.53 s   3.4 M     0.36 M   1.8 M     12.2 M
-//       BVH (median split, 4 a leaf)      1.42 s   1.2 M     0.12 M   0.66 M    13.9 M
-//       brute force (all triangles)       -        5.5 a second
+//       this index (4 m buckets)          0.56 s   4.7 M     0.43 M   2.6 M     22.7 M
+//       BVH (median split, 4 a leaf)      1.43 s   1.3 M     0.12 M   0.69 M    14.7 M
+//       brute force (all triangles)       -        6.0 a second
 //     (97 % of those segments are clear, 44 % of the 2-10 m ones; the BVH and brute force
-//     agree with the index on every one.) Two threads (TBB): 5.9 M/s, 0.57 M/s at 2-10 m.
+//     agree with the index on every one.) Two threads (TBB): 8.5 M/s, 0.79 M/s at 2-10 m.
+//     The blocks took the 30-120 m band from 12.9 M to 23 M a second; each triangle's ball
+//     (centroid, farthest corner), tested before its exact distance, the rest of the gain.
 //   - Bucket size: by default sqrt(32 * footprint area / triangles), 32 triangles a bucket on
 //     average (4 m at 1 m cells: 1.54 listings a triangle). The benchmark's sweep: 1 m buckets
-//     are 3x slower over all heights (3.7 listings a triangle); 2-8 m stay within 30 % of the
-//     best on every band; 16 m loses 35 % near the ground.
+//     are 25 % slower over all heights (3.7 listings a triangle); 2-8 m stay within 10 % of the
+//     best on every band; 16 m loses 30 % near the ground.
 //     ClearanceOptions::bucket_size overrides it (enlarged when it would make more than four
 //     buckets a triangle).
 //   - Thread-safe: every query is const and allocates nothing; share one index among threads.
-//   - Memory: 24 bytes a vertex, 32 a listing (a listing carries its triangle's corners, so a
-//     query reads the vertices without a second miss), 8 a bucket; the mesh's own triangle
-//     list is not kept: 135 MB for the NRW tile at 1 m.
+//   - Memory (memory_bytes()): 24 bytes a vertex, 32 a listing (it carries its triangle's
+//     corners, so a query reads the vertices without a second miss), 8 a bucket; the mesh's
+//     own triangle list is not kept: 123 MB for the NRW tile at 1 m.
 //
 // Errors: ArgumentError for a negative or NaN distance, a non-finite query point, or a mesh
 // with a triangle index out of range or a non-finite vertex. See core.hpp.
@@ -157,6 +159,11 @@ public:
   int bucket_rows() const { return rows_; }
   size_t triangles() const { return triangles_; }
   size_t bucket_listings() const { return items_.size(); }  ///< sum of triangles over buckets
+  /// Bytes the index holds: its vertices, listings, buckets and blocks.
+  size_t memory_bytes() const {
+    return verts_.capacity() * sizeof(LocalVertex) + items_.capacity() * sizeof(Listing) +
+           buckets_.capacity() * sizeof(Bucket) + block_top_.capacity() * sizeof(float);
+  }
 
 private:
   struct LocalVertex {
