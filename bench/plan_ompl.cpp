@@ -48,19 +48,20 @@
 // than OMPL's PRM with the faster exact checker, at equal samples and edges; dsmplan's 3-leg
 // query <= 10 ms. Results also go to out/bench/plan_ompl.log in OMPL's benchmark log format.
 //
-// Measured (2-core AMD EPYC VM, load about 3.7 from other jobs, best of 3; every OMPL roadmap
-// had dsmplan's samples and edges, every query solved):
+// Measured (2-core AMD EPYC VM, load about 1.3, best of 5 alternating; every OMPL roadmap had
+// dsmplan's samples and edges, every query solved; three runs gave 5.5x, 5.6x and 5.5x):
 //   mesh     OMPL checker     roadmap s dsmplan / OMPL   query ms dsmplan / OMPL
-//   1 m      ClearanceIndex   0.062 / 0.14  (2.3x)       2.5 / 8.4
-//   1 m      Embree 3         0.062 / 0.24  (3.9x)       2.5 / 9.3
-//   0.64 m   ClearanceIndex   0.089 / 0.17  (1.9x)       2.4 / 7.2
-//   0.64 m   Embree 3         0.089 / 0.30  (3.3x)       2.4 / 7.4
-// Bar 1 fails, bar 2 passes. dsmplan's roadmap proves 83 % of the candidate pairs clear from
-// its samples' clearance bounds without an exact check (plan.hpp, "Edges"); OMPL checks every
-// pair with the same checker. What is left of dsmplan's time is sampling (Halton +
-// ClearanceIndex::ground(), bound by memory latency: about 1.3 us a cold call), the pairs, and
-// the uncertified checks near roofs; the printed phase times below re-do the phases without
-// the certificates, on one thread, for comparison with OMPL's profile.
+//   1 m      ClearanceIndex   0.020 / 0.12  (5.9x)       2.3 / 7.9
+//   1 m      Embree 3         0.020 / 0.19  (9.6x)       2.3 / 6.8
+//   0.64 m   ClearanceIndex   0.022 / 0.12  (5.5x)       2.2 / 6.7
+//   0.64 m   Embree 3         0.022 / 0.23  (10.4x)      2.2 / 7.0
+// Both bars pass. dsmplan's roadmap proves 83 % of the candidate pairs clear from its samples'
+// clearance bounds without an exact check (plan.hpp, "Edges"); OMPL checks every pair with the
+// same checker. Every speed-up of the checker (the index's blocks and triangle balls) speeds
+// OMPL's side as much: it took OMPL from 0.20 s to 0.12 s here. What is left of dsmplan's time
+// is the uncertified checks near the ground and roofs (about half), the sampling (ground(),
+// batched with prefetching, about a quarter) and the pairs; the printed phase times below re-do
+// the phases without the certificates, on one thread, for comparison with OMPL's profile.
 #include <gdal_utils.h>
 #include <ompl/base/MotionValidator.h>
 #include <ompl/base/ProblemDefinition.h>
