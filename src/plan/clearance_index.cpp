@@ -235,8 +235,9 @@ ClearanceIndex::ClearanceIndex(const Mesh& mesh, const ClearanceOptions& options
   // so the street under a segment passing beside a roof is never read.
   tbb::parallel_for(tbb::blocked_range<size_t>(0, buckets), [&](const tbb::blocked_range<size_t>& range) {
     for (size_t b = range.begin(); b != range.end(); ++b)
-      std::sort(items_.begin() + buckets_[b].start, items_.begin() + buckets_[b + 1].start,
-                [](const Listing& x, const Listing& y) { return x.top != y.top ? x.top > y.top : x.corners < y.corners; });
+      std::sort(
+          items_.begin() + buckets_[b].start, items_.begin() + buckets_[b + 1].start,
+          [](const Listing& x, const Listing& y) { return x.top != y.top ? x.top > y.top : x.corners < y.corners; });
   });
   // The coarse level of the height pyramid: one small array that stays in cache.
   block_cols_ = (cols_ + block - 1) / block;
@@ -313,7 +314,8 @@ double ClearanceIndex::visit(const Point3& p, const Point3& q, double d) const {
     if (!band(gy0_ + R * coarse - reach_row, gy0_ + (R + 1) * coarse + reach_row, ta, tb)) continue;
     const double xa = px + ta * dx, xb = px + tb * dx;
     const double xlo = std::min(xa, xb) - reach_row, xhi = std::max(xa, xb) + reach_row;
-    const int C0 = clamp_index((xlo - gx0_) / coarse, block_cols_), C1 = clamp_index((xhi - gx0_) / coarse, block_cols_);
+    const int C0 = clamp_index((xlo - gx0_) / coarse, block_cols_),
+              C1 = clamp_index((xhi - gx0_) / coarse, block_cols_);
     for (int C = C0; C <= C1; ++C) {
       // A block whose highest point is at least the reach below the part of the segment near
       // it holds nothing within reach: its buckets are not read at all.
@@ -340,8 +342,7 @@ double ClearanceIndex::visit(const Point3& p, const Point3& q, double d) const {
           const double reach_b = std::min(best, reach_cap) + slack;
           const double x0 = gx0_ + c * cell_, y0 = gy0_ + r * cell_;
           double t0 = 0, t1 = 1;
-          if (!clip_xy(px, py, ix, iy, x0 - reach_b, x0 + cell_ + reach_b, y0 - reach_b, y0 + cell_ + reach_b, t0,
-                       t1))
+          if (!clip_xy(px, py, ix, iy, x0 - reach_b, x0 + cell_ + reach_b, y0 - reach_b, y0 + cell_ + reach_b, t0, t1))
             continue;
           // z is linear along the segment: its least value on the clipped part is at an end.
           const double zlow = std::min(pz + t0 * dz, pz + t1 * dz);
@@ -361,8 +362,8 @@ double ClearanceIndex::visit(const Point3& p, const Point3& q, double d) const {
             seen[slot] = tri;
             const double reach_t = std::min(best, reach_cap) + slack;
             double u0 = 0, u1 = 1;
-            if (!clip_xy(px, py, ix, iy, item.x0 - reach_t, item.x1 + reach_t, item.y0 - reach_t, item.y1 + reach_t,
-                         u0, u1))
+            if (!clip_xy(px, py, ix, iy, item.x0 - reach_t, item.x1 + reach_t, item.y0 - reach_t, item.y1 + reach_t, u0,
+                         u1))
               continue;
             const LocalVertex& A = verts_[tri[0]];
             const LocalVertex& B = verts_[tri[1]];
@@ -391,7 +392,8 @@ double ClearanceIndex::visit(const Point3& p, const Point3& q, double d) const {
               };
               const double radius = std::sqrt(std::max({far2(A), far2(B), far2(C)}));
               const double wx = gx - px, wy = gy - py, wz = gz - pz;
-              const double along = std::clamp((wx * dx + wy * dy + wz * dz) / std::max(dx * dx + dy * dy + dz * dz, 1e-300), 0.0, 1.0);
+              const double along =
+                  std::clamp((wx * dx + wy * dy + wz * dz) / std::max(dx * dx + dy * dy + dz * dz, 1e-300), 0.0, 1.0);
               const double ex = wx - along * dx, ey = wy - along * dy, ez = wz - along * dz;
               const double reach_ball = reach_t + radius;
               if (ex * ex + ey * ey + ez * ez >= reach_ball * reach_ball * (1 + 1e-12)) continue;
