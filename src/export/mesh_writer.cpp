@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "core/atomic_file.hpp"
+#include "core/text.hpp"
 #include "dsmplan/export.hpp"
 #include "export/glb_writer.hpp"
 
@@ -126,11 +127,6 @@ void write_text(const Mesh& mesh, AtomicFile& file, MeshFormat format, const Pro
 
 namespace {
 
-std::string lower(std::string text) {
-  std::transform(text.begin(), text.end(), text.begin(), [](unsigned char c) { return std::tolower(c); });
-  return text;
-}
-
 constexpr MeshFormat kFormats[] = {MeshFormat::Ply, MeshFormat::Obj, MeshFormat::Off, MeshFormat::Glb};
 
 }  // namespace
@@ -150,7 +146,7 @@ const char* to_string(MeshFormat format) {
 }
 
 MeshFormat mesh_format_for(const std::string& path) {
-  const std::string extension = lower(std::filesystem::path(path).extension().string());
+  const std::string extension = lower_case(std::filesystem::path(path).extension().string());
   for (MeshFormat format : kFormats)
     if (extension == std::string(".") + to_string(format)) return format;
   throw ArgumentError(path, "unknown mesh format '" + extension + "' (use .ply, .obj, .off or .glb, or --of)");
@@ -158,7 +154,7 @@ MeshFormat mesh_format_for(const std::string& path) {
 
 MeshFormat parse_mesh_format(const std::string& name, const std::string& option) {
   for (MeshFormat format : kFormats)
-    if (lower(name) == to_string(format)) return format;
+    if (lower_case(name) == to_string(format)) return format;
   throw ArgumentError(option, "unknown mesh format '" + name + "' (use ply, obj, off or glb)");
 }
 

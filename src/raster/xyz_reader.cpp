@@ -13,6 +13,7 @@
 #include <string_view>
 #include <vector>
 
+#include "core/text.hpp"
 #include "dsmplan/raster.hpp"
 
 namespace dsmplan {
@@ -143,9 +144,7 @@ PointCloud read_xyz(const std::string& path, const Progress& progress) {
 }
 
 PointCloud read_points(const std::string& path, const Progress& progress) {
-  std::string extension = std::filesystem::path(path).extension().string();
-  std::transform(extension.begin(), extension.end(), extension.begin(),
-                 [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  const std::string extension = lower_case(std::filesystem::path(path).extension().string());
   // .laz goes to read_las too: its header check explains that compressed points need decompressing.
   if (extension == ".las" || extension == ".laz") return read_las(path, progress);
   if (extension == ".xyz" || extension == ".txt" || extension == ".csv") return read_xyz(path, progress);

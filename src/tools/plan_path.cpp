@@ -15,6 +15,7 @@
 #include "dsmplan/tools.hpp"
 #include "tools/report_json.hpp"
 #include "tools/job_parts.hpp"
+#include "core/text.hpp"
 
 namespace dsmplan {
 
@@ -24,9 +25,7 @@ std::string lower_extension(const std::string& path) {
   const size_t dot = path.find_last_of('.');
   const size_t slash = path.find_last_of('/');
   if (dot == std::string::npos || (slash != std::string::npos && dot < slash)) return "";
-  std::string ext = path.substr(dot + 1);
-  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
-  return ext;
+  return lower_case(path.substr(dot + 1));
 }
 
 void take_planner_figures(const PlanResult& result, PlanReport& report) {
@@ -76,8 +75,7 @@ void verify_against_dsm(const std::vector<Point3>& path, const Mesh& mesh, const
 
 PlanReport plan_job(const PlanJobOptions& options, const Progress& progress) {
   // The format: --of, else the extension (as GDAL's newer command line chooses).
-  std::string out_ext = options.format.empty() ? lower_extension(options.output) : options.format;
-  std::transform(out_ext.begin(), out_ext.end(), out_ext.begin(), [](unsigned char c) { return std::tolower(c); });
+  std::string out_ext = lower_case(options.format.empty() ? lower_extension(options.output) : options.format);
   if (out_ext == "json") out_ext = "geojson";
   const bool geojson_out = out_ext == "geojson";
   // Missions and KML state heights above mean sea level (EGM96); GeoJSON above the ellipsoid.

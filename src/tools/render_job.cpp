@@ -5,6 +5,7 @@
 #include <filesystem>
 #include <limits>
 
+#include "core/text.hpp"
 #include "dsmplan/export.hpp"
 #include "dsmplan/plan.hpp"
 #include "dsmplan/tools.hpp"
@@ -36,9 +37,7 @@ void check_mesh_fits(const Mesh& mesh, const std::string& path, const Grid& dsm)
 
 RenderReport render_job(const RenderJobOptions& options, const Progress& progress) {
   // Everything that can be checked is checked before the long work starts.
-  std::string extension = std::filesystem::path(options.output).extension().string();
-  std::transform(extension.begin(), extension.end(), extension.begin(),
-                 [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  const std::string extension = lower_case(std::filesystem::path(options.output).extension().string());
   if (extension != ".png") throw ArgumentError(options.output, "the picture is written as PNG: name it .png");
   if (options.resolution && !(*options.resolution > 0 && std::isfinite(*options.resolution))) {
     throw ArgumentError("--res", "must be a positive number of CRS units");

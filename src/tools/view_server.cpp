@@ -10,17 +10,13 @@
 #include <sstream>
 
 #include "dsmplan/tools.hpp"
+#include "core/text.hpp"
 
 namespace dsmplan {
 
 namespace fs = std::filesystem;
 
 namespace {
-
-std::string lower(std::string text) {
-  std::transform(text.begin(), text.end(), text.begin(), [](unsigned char c) { return std::tolower(c); });
-  return text;
-}
 
 // Module scripts are run only when served with a JavaScript type (HTML spec, "fetch a module
 // script"), so the type matters here, not only for politeness.
@@ -30,7 +26,7 @@ const char* content_type(const fs::path& file) {
       {".mjs", "text/javascript; charset=utf-8"}, {".json", "application/json"},
       {".css", "text/css"}, {".glb", "model/gltf-binary"}, {".csv", "text/csv; charset=utf-8"},
       {".png", "image/png"}, {".svg", "image/svg+xml"}, {".wasm", "application/wasm"}};
-  const auto it = types.find(lower(file.extension().string()));
+  const auto it = types.find(lower_case(file.extension().string()));
   return it == types.end() ? "application/octet-stream" : it->second;
 }
 
@@ -45,7 +41,7 @@ bool read_whole(const fs::path& file, std::string& bytes) {
 
 void check_glb(const std::string& path) {
   if (!fs::is_regular_file(path)) throw InputError(path, "", "no such file");
-  if (lower(fs::path(path).extension().string()) != ".glb")
+  if (lower_case(fs::path(path).extension().string()) != ".glb")
     throw InputError(path, "", "not a .glb (write one with dsmplan mesh|simplify -o MESH.glb)");
   std::ifstream in(path, std::ios::binary);
   char magic[4] = {};
