@@ -120,6 +120,21 @@ TEST(ReadRaster, VrtMosaicOfTwoTilesEqualsTheTile) {
   EXPECT_EQ(mosaic.crs.epsg, 25832);
 }
 
+TEST(ReadWindow, IsTheWindowGdalCutsOut) {
+  // A window read from the file (GDAL) and from the grid in memory (GridView) is what
+  // gdal_translate -srcwin writes: the same cells, corner, cell size and CRS.
+  testkit::TempDir dir;
+  translate(sample, dir.path("window.tif"), {"-srcwin", "230", "17", "100", "60"});
+  const Grid cut = read_raster(dir.path("window.tif"));
+  const std::unique_ptr<GridSource> file = open_raster(sample);
+  GridView memory(nrw());
+  for (GridSource* source : {file.get(), static_cast<GridSource*>(&memory)}) {
+    const Grid window = read_window(*source, 230, 17, 100, 60);
+    expect_same_cells(window, cut);
+    EXPECT_EQ(window.crs.epsg, 25832);
+  }
+}
+
 TEST(ReadRaster, EsriAsciiGridWithPrj) {
   testkit::TempDir dir;
   translate(sample, dir.path("dsm.asc"), {"-of", "AAIGrid", "-co", "DECIMAL_PRECISION=3"});

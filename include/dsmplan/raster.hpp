@@ -69,6 +69,10 @@ public:
   virtual void read(int col0, int row0, int w, int h, float* out) = 0;
 };
 
+/// The window [col0, col0 + w) x [row0, row0 + h) of `source` as a Grid of its own: the frame's
+/// cell size and CRS, its corner where the window lies. Preconditions and errors as read().
+Grid read_window(GridSource& source, int col0, int row0, int w, int h);
+
 /// A Grid in memory as a GridSource. It refers to `grid`, which must outlive it.
 class GridView : public GridSource {
 public:

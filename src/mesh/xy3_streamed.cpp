@@ -26,9 +26,7 @@ MeshStreamResult triangulate_xy3(GridSource& dsm, MeshSink& sink, const MeshOpti
   for (int r0 = 0; r0 < frame.height; r0 += band) {
     const int r1 = std::min(frame.height, r0 + band);
     const int w0 = std::max(0, r0 - halo), w1 = std::min(frame.height, r1 + halo);
-    Grid window(frame.width, w1 - w0, frame.x0, frame.y0 - w0 * frame.cell_y, frame.cell_x, frame.cell_y);
-    window.crs = frame.crs;
-    dsm.read(0, w0, window.width, window.height, window.z.data());
+    const Grid window = read_window(dsm, 0, w0, frame.width, w1 - w0);
     for (int row = static_cast<int>(valid_before.size()) - 1; row < w1; ++row) {
       const float* z = window.z.data() + window.index(0, row - w0);
       valid_before.push_back(valid_before.back() +

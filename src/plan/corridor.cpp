@@ -40,10 +40,7 @@ std::unique_ptr<Window> make_window(GridSource& source, const Point3& a, const P
   const int c0 = clamp_col(area[0] - pad), c1 = clamp_col(area[2] + pad);
   const int r0 = clamp_row(area[3] + pad), r1 = clamp_row(area[1] - pad);
   auto window = std::make_unique<Window>();
-  window->dsm = Grid(c1 - c0 + 1, r1 - r0 + 1, frame.x0 + c0 * frame.cell_x, frame.y0 - r0 * frame.cell_y,
-                     frame.cell_x, frame.cell_y);
-  window->dsm.crs = frame.crs;
-  source.read(c0, r0, window->dsm.width, window->dsm.height, window->dsm.z.data());
+  window->dsm = read_window(source, c0, r0, c1 - c0 + 1, r1 - r0 + 1);
   BoundedSimplifyOptions mesh_options = options.mesh;
   mesh_options.conservative = true;  // a path safe on the mesh is then safe on the data
   GridView view(window->dsm);

@@ -69,6 +69,14 @@ GridView::GridView(const Grid& grid) : grid_(grid) {
   frame_.crs = grid.crs;
 }
 
+Grid read_window(GridSource& source, int col0, int row0, int w, int h) {
+  const Grid& frame = source.frame();
+  Grid window(w, h, frame.x0 + col0 * frame.cell_x, frame.y0 - row0 * frame.cell_y, frame.cell_x, frame.cell_y);
+  window.crs = frame.crs;
+  source.read(col0, row0, w, h, window.z.data());
+  return window;
+}
+
 void GridView::read(int col0, int row0, int w, int h, float* out) {
   for (int row = 0; row < h; ++row) {
     const float* from = grid_.z.data() + grid_.index(col0, row0 + row);
