@@ -191,6 +191,7 @@ private:
   };
   std::vector<Bucket> buckets_;  ///< one more than there are buckets, for the last one's end
   std::vector<Listing> items_;
+  bool box_holds(const Listing& item, double X, double Y) const;  ///< local point in its x,y box
   static constexpr int block = 4;  ///< buckets a side of a block, the pyramid's coarse level
   int block_cols_ = 0, block_rows_ = 0;
   std::vector<float> block_top_;  ///< highest point of each block of block x block buckets

@@ -474,14 +474,18 @@ size_t ClearanceIndex::bucket_at(double X, double Y) const {
   return static_cast<size_t>(clamp_index(std::floor(v), rows_)) * cols_ + clamp_index(std::floor(u), cols_);
 }
 
+bool ClearanceIndex::box_holds(const Listing& item, double X, double Y) const {
+  // The box is rounded outwards; the margin covers ground_in()'s tolerance of the inside test.
+  return X >= item.x0 - margin_ && X <= item.x1 + margin_ && Y >= item.y0 - margin_ && Y <= item.y1 + margin_;
+}
+
 double ClearanceIndex::ground_in(size_t bucket, double X, double Y) const {
   double top = NAN;
   for (uint32_t k = buckets_[bucket].start; k < buckets_[bucket + 1].start; ++k) {
     const Listing& item = items_[k];
     // Listed highest first: nothing further down can be higher than what was found.
     if (item.top + origin_[2] < top) break;
-    // The box is rounded outwards; the margin covers the inside test's tolerance below.
-    if (X < item.x0 - margin_ || X > item.x1 + margin_ || Y < item.y0 - margin_ || Y > item.y1 + margin_) continue;
+    if (!box_holds(item, X, Y)) continue;
     const auto& tri = item.corners;
     const LocalVertex& A = verts_[tri[0]];
     const LocalVertex& B = verts_[tri[1]];
@@ -540,7 +544,7 @@ void ClearanceIndex::ground(const double* x, const double* y, double* z, size_t 
       int found = 0;
       for (uint32_t k = buckets_[b].start; k < buckets_[b + 1].start && found < 2; ++k) {
         const Listing& item = items_[k];
-        if (X < item.x0 - margin_ || X > item.x1 + margin_ || Y < item.y0 - margin_ || Y > item.y1 + margin_) continue;
+        if (!box_holds(item, X, Y)) continue;
         for (uint32_t v : item.corners) __builtin_prefetch(&verts_[v]);
         ++found;
       }
