@@ -74,6 +74,8 @@ int main(int argc, char** argv) {
   grid_cmd->add_option("--fusion", fusion, "Height per cell: median or max")->capture_default_str();
   grid_cmd->add_option("--drop-classes", drop_classes, "ASPRS classes to drop (default 7 18: noise)")->delimiter(',');
   grid_cmd->add_flag("--keep-all-classes", keep_all_classes, "Keep every class, noise included");
+  grid_cmd->add_option("--classes", grid.grid.keep_classes, "Keep only these ASPRS classes (e.g. 2: ground, a DTM)")
+      ->delimiter(',');
   grid_cmd->add_option("--crs", grid.crs, "CRS of the points (overrides the files'; needed when they have none)");
   grid_cmd->add_option("--fill-holes", grid.fill_distance,
                        "Fill holes up to this distance (CRS units) from data, by GDAL's inverse-distance FillNodata");
@@ -169,6 +171,25 @@ int main(int argc, char** argv) {
   render_cmd->add_option("--crs", render.read.assign_crs, "CRS to assume when the raster has none");
   render_cmd->add_flag("-q,--quiet", quiet, "No progress output");
 
+  ProfileJobOptions profile;
+  CLI::App* profile_cmd = app.add_subcommand(
+      "profile", "Draw a path's height profile over the DSM below it, the terrain and the ceiling, as a PNG");
+  profile_cmd->add_option("DSM", profile.dsm, "Raster file (the DSM the path was planned over)")->required();
+  profile_cmd->add_option("--path", profile.path, "Path CSV (dsmplan plan -o PATH.csv): x,y,z in the DSM's CRS")
+      ->required();
+  profile_cmd->add_option("-o,--output", profile.output, "Picture: .png")->required();
+  profile_cmd->add_option("--dtm", profile.dtm,
+                          "Terrain raster (the DSM's CRS, any resolution): a line, and the ceiling's ground");
+  profile_cmd->add_option("--waypoints", profile.waypoints, "Waypoint CSV: numbered markers on the path");
+  profile_cmd->add_option("--safety", profile.profile.safety, "Half-height of the band around the path")
+      ->capture_default_str();
+  profile_cmd->add_option("--max-agl", profile.profile.max_agl, "Ceiling above the ground (the DTM, else the DSM)")
+      ->capture_default_str();
+  profile_cmd->add_option("--title", profile.profile.title, "Title (default: the path's and the DSM's file names)");
+  profile_cmd->add_option("--width", profile.profile.width, "Picture width, pixels")->capture_default_str();
+  profile_cmd->add_option("--height", profile.profile.height, "Picture height, pixels")->capture_default_str();
+  profile_cmd->add_flag("-q,--quiet", quiet, "No progress output and no summary line");
+
   PlanJobOptions plan;
   std::string plan_stats;
   CLI::App* plan_cmd = app.add_subcommand(
@@ -195,7 +216,8 @@ int main(int argc, char** argv) {
   plan_cmd->add_option("--spacing", plan.plan.spacing, "Relative sample distance: samples = volume / spacing^3")
       ->capture_default_str();
   plan_cmd->add_option("--max-edge", plan.plan.max_edge, "Longest roadmap edge")->capture_default_str();
-  plan_cmd->add_option("--max-agl", plan.plan.max_agl, "Top of the flight volume above the surface")
+  plan_cmd->add_option("--max-agl", plan.plan.max_agl,
+                       "Ceiling, metres above the ground (the DTM, else the DSM's cells, else the mesh) for every point of the path")
       ->capture_default_str();
   plan_cmd->add_option("--threads", plan.plan.threads, "Threads (0: every core)")->capture_default_str();
   std::string planner = "prm";
@@ -210,7 +232,9 @@ int main(int argc, char** argv) {
   plan_cmd->add_flag("--json", plan_json, "Print the statistics as JSON instead of the summary line");
   plan_cmd->add_option("--roadmap", plan.roadmap,
                        "Roadmap file: reused when it exists (same mesh and options), else built and saved");
-  plan_cmd->add_option("--dsm", plan.dsm, "Raw DSM: report the path's clearance to its cells as solid columns");
+  plan_cmd->add_option("--dsm", plan.dsm,
+                       "Raw DSM: the path keeps --safety from its cells as solid columns (holes as high as their rim)");
+  plan_cmd->add_option("--dtm", plan.dtm, "Terrain raster (the mesh's CRS, any resolution): the ground --max-agl counts from");
   plan_cmd->add_option("--vertical-crs", plan.vertical.vertical_crs,
                        "Vertical CRS of the mesh's heights when the file does not say (e.g. EPSG:7837)");
   plan_cmd->add_flag("--allow-approximate-vertical", plan.vertical.allow_approximate_vertical,
@@ -243,8 +267,10 @@ int main(int argc, char** argv) {
     }
     if (*grid_cmd) {
       grid.grid.fusion = parse_fusion(fusion);
-      if (keep_all_classes) {
-        grid.grid.drop_classes.clear();
+      if (keep_all_classes && !grid.grid.keep_classes.empty())
+        throw ArgumentError("--classes", "keeps only the classes listed, --keep-all-classes every class: give one");
+      if (keep_all_classes || (!grid.grid.keep_classes.empty() && drop_classes.empty())) {
+        grid.grid.drop_classes.clear();  // --classes alone: exactly the classes listed, noise too if listed
       } else if (!drop_classes.empty()) {
         grid.grid.drop_classes = drop_classes;
       }
@@ -282,6 +308,10 @@ int main(int argc, char** argv) {
       if (!window.empty()) render.render.window = parse_window(window);
       render.render.edges = !no_edges;
       render_job(render, terminal_progress(quiet));
+    }
+    if (*profile_cmd) {
+      const ProfileReport report = profile_job(profile, terminal_progress(quiet));
+      if (!quiet) std::fputs(to_text(report).c_str(), stdout);
     }
     if (*plan_cmd) {
       if (planner != "prm" && planner != "rrtconnect")

@@ -27,6 +27,7 @@
 #include <string>
 #include <vector>
 
+#include "dsmplan/plan.hpp"
 #include "dsmplan/export.hpp"
 #include "dsmplan/raster.hpp"
 #include "testkit.hpp"
@@ -831,6 +832,73 @@ TEST(CliBadInput, RenderBrokenMeshNamesIt) {
                        mesh, {"does not exist"});
 }
 
+// ---- dsmplan profile ---------------------------------------------------------------------------
+
+TEST(CliProfile, SamplePathGivesAPictureOfTheRequestedSizeAndASummary) {
+  const std::string input = testkit::data_path(kSample);
+  TempDir in, out;
+  // Over the sample (x 356300-356800, y 5699250-5699750, roofs up to 168 m) at 170-180 m.
+  const std::string path = in.path("path.csv");
+  testkit::write_file(path, "x,y,z\n356320,5699270,170\n356560,5699500,180\n356780,5699730,175\n");
+  const std::string png = out.path("profile.png");
+  const auto result = run_cli({"profile", input, "--path", path, "--waypoints", path, "-o", png, "--width", "800",
+                               "--height", "360", "--max-agl", "100", "--safety", "3"});
+  ASSERT_EQ(result.exit_code, 0) << result.err;
+  EXPECT_EQ(result.err, "");
+  EXPECT_EQ(png_size(png), std::make_pair(800u, 360u));
+  // The summary: the path's length (two straight legs: Pythagoras here), and the ceiling.
+  const double length = std::hypot(240, 230) + std::hypot(220, 230);
+  char expected[64];
+  std::snprintf(expected, sizeof expected, "path %.1f m long", length);
+  EXPECT_NE(result.out.find(expected), std::string::npos) << result.out;
+  EXPECT_NE(result.out.find("ceiling DSM + 100 m kept"), std::string::npos) << result.out;
+  EXPECT_NE(result.out.find(kProgress), std::string::npos) << result.out;
+  // Quiet: nothing printed; the default size.
+  const auto quiet = run_cli({"profile", input, "--path", path, "-o", out.path("quiet.png"), "-q"});
+  ASSERT_EQ(quiet.exit_code, 0) << quiet.err;
+  EXPECT_EQ(quiet.out, "");
+  EXPECT_EQ(png_size(out.path("quiet.png")), std::make_pair(1200u, 500u));
+}
+
+TEST(CliBadInput, ProfileRefusesAPathOutsideTheDsmAndForeignTerrain) {
+  const std::string input = testkit::data_path(kSample);
+  TempDir in, out;
+  const std::string outside = in.path("outside.csv");
+  testkit::write_file(outside, "x,y,z\n356320,5699270,170\n356900,5699500,180\n");
+  expect_clean_failure(run_cli({"profile", input, "--path", outside, "-o", out.path("p.png"), "-q"}), out,
+                       outside + ": point 2", {"outside the DSM"});
+  const std::string path = in.path("path.csv");
+  testkit::write_file(path, "x,y,z\n356320,5699270,170\n356560,5699500,180\n");
+  expect_clean_failure(run_cli({"profile", input, "--path", path, "-o", out.path("p.jpg"), "-q"}), out,
+                       out.path("p.jpg"), {"PNG"});
+  // Terrain from points: the same place in another CRS (WGS 84 / UTM 32N), and far away.
+  std::string points;
+  for (int i = 0; i < 20; ++i)
+    for (int j = 0; j < 20; ++j)
+      points += std::to_string(356300 + 25 * i + 12) + " " + std::to_string(5699250 + 25 * j + 12) + " 110\n";
+  testkit::write_file(in.path("dtm.xyz"), points);
+  ASSERT_EQ(run_cli({"grid", in.path("dtm.xyz"), "--crs", "EPSG:32632", "--res", "25", "-o", in.path("utm.tif"), "-q"})
+                .exit_code,
+            0);
+  expect_clean_failure(
+      run_cli({"profile", input, "--path", path, "--dtm", in.path("utm.tif"), "-o", out.path("p.png"), "-q"}), out,
+      in.path("utm.tif"), {"EPSG:32632"});
+  testkit::write_file(in.path("far.xyz"), "400000 5600000 50\n400010 5600010 50\n");
+  ASSERT_EQ(run_cli({"grid", in.path("far.xyz"), "--crs", "EPSG:25832", "--res", "5", "-o", in.path("far.tif"), "-q"})
+                .exit_code,
+            0);
+  expect_clean_failure(
+      run_cli({"profile", input, "--path", path, "--dtm", in.path("far.tif"), "-o", out.path("p.png"), "-q"}), out,
+      in.path("far.tif"), {"does not overlap"});
+  // The same terrain in the DSM's CRS is taken.
+  ASSERT_EQ(run_cli({"grid", in.path("dtm.xyz"), "--crs", "EPSG:25832", "--res", "25", "-o", in.path("dtm.tif"), "-q"})
+                .exit_code,
+            0);
+  const auto taken = run_cli({"profile", input, "--path", path, "--dtm", in.path("dtm.tif"), "-o", out.path("t.png")});
+  ASSERT_EQ(taken.exit_code, 0) << taken.err;
+  EXPECT_NE(taken.out.find("above the DTM"), std::string::npos) << taken.out;
+}
+
 // ---- dsmplan plan ----------------------------------------------------------------------------
 //
 // Waypoints are put 35 m above the highest DSM cell within 15 m (read through GDAL here), so
@@ -923,9 +991,12 @@ TEST(CliPlan, ThreeWaypointsGiveAPathCsvAndStats) {
   std::sort(keys.begin(), keys.end());
   std::vector<std::string> expected{"path_length_m", "min_clearance_m", "roadmap_nodes",  "roadmap_edges",
                                     "seconds_load",  "seconds_roadmap", "seconds_query",  "seconds_smooth",
-                                    "planner",       "roadmap_reused", "refined_samples"};
+                                    "planner",       "roadmap_reused", "refined_samples", "max_agl_m",
+                                    "ground"};
   std::sort(expected.begin(), expected.end());
   EXPECT_EQ(keys, expected);
+  EXPECT_EQ(s["ground"], "mesh floor");
+  EXPECT_LE(s["max_agl_m"].get<double>(), 120 + 0.05);
   EXPECT_NEAR(s["path_length_m"].get<double>(), length, 1e-6);
   EXPECT_GE(length, straight - 1e-6);
   EXPECT_GE(s["min_clearance_m"].get<double>(), 2.0);
@@ -1108,30 +1179,39 @@ TEST(CliPlan, DsmClearanceIsReportedWithTheDsm) {
   PlanFixture f;
   f.write_waypoints(f.corners());
   TempDir out;
-  const auto result = run_cli({"plan", f.mesh, "--waypoints", f.waypoints, "-o", out.path("p.csv"), "--dsm",
+  // The conservative mesh of the DSM itself: its columns lie within half a cell diagonal of it.
+  const std::string safe = out.path("safe.ply");
+  ASSERT_EQ(run_cli({"simplify", testkit::data_path(kSample), "--max-error", "0.4", "--conservative", "-o", safe, "-q"})
+                .exit_code,
+            0);
+  const auto result = run_cli({"plan", safe, "--waypoints", f.waypoints, "-o", out.path("p.csv"), "--dsm",
                                testkit::data_path(kSample), "--stats", out.path("s.json"), "-q"});
   ASSERT_EQ(result.exit_code, 0) << result.err;
   const json s = json::parse(testkit::read_file(out.path("s.json")));
   ASSERT_TRUE(s.contains("min_clearance_dsm_m"));
-  // Columns reach half a cell (1 m at 2 m cells... here the DSM's own 1 m) past the mesh's vertices.
-  EXPECT_GT(s["min_clearance_dsm_m"].get<double>(), 0);
-  EXPECT_LE(s["min_clearance_dsm_m"].get<double>(), s["min_clearance_m"].get<double>() + 1.5);
+  EXPECT_EQ(s["mesh_max_below_dsm_m"].get<double>(), 0);
+  EXPECT_NEAR(s["safety_margin_m"].get<double>(), std::sqrt(0.5), 1e-9);
+  EXPECT_GE(s["min_clearance_m"].get<double>(), 2 + std::sqrt(0.5) - 1e-9);
+  // The guarantee: the written path keeps --safety from the columns, with nothing subtracted
+  // (1 cm for the rounding of what is written).
+  EXPECT_EQ(s["dsm_tolerance_m"].get<double>(), 0.01);
+  EXPECT_GE(s["min_clearance_dsm_m"].get<double>(), 2 - 0.01);
+  const auto path = read_path_csv(out.path("p.csv"));
+  const dsmplan::Grid dsm = dsmplan::read_raster(testkit::data_path(kSample));
+  for (size_t k = 1; k < path.size(); ++k)
+    EXPECT_GE(dsmplan::column_clearance(dsm, path[k - 1], path[k], 3), 2 - 0.01) << k;
+  EXPECT_EQ(s["ground"], "dsm");
 }
 
 TEST(CliBadInput, PlanPathThroughATowerOfTheDsmIsNeverWritten) {
   PlanFixture f;
   f.write_waypoints(f.corners());
   TempDir out;
-  const std::string path = out.path("p.csv");
-  const auto planned = run_cli({"plan", f.mesh, "--waypoints", f.waypoints, "-o", path, "--dsm",
-                                testkit::data_path(kSample), "--stats", out.path("s.json"), "-q"});
-  ASSERT_EQ(planned.exit_code, 0) << planned.err;
-  const json s = json::parse(testkit::read_file(out.path("s.json")));
-  // The 2 m mesh is the median of 2 x 2 cells: below the 1 m DSM in places, so the tolerance
-  // is more than half a cell diagonal of the DSM.
-  EXPECT_GT(s["mesh_max_below_dsm_m"].get<double>(), 0);
-  EXPECT_NEAR(s["dsm_tolerance_m"].get<double>(), std::hypot(std::sqrt(0.5), s["mesh_max_below_dsm_m"].get<double>()), 1e-9);
-  EXPECT_GE(s["min_clearance_dsm_m"].get<double>(), 2 - s["dsm_tolerance_m"].get<double>());
+  const std::string safe = out.path("safe.ply"), path = out.path("p.csv");
+  ASSERT_EQ(run_cli({"simplify", testkit::data_path(kSample), "--max-error", "0.4", "--conservative", "-o", safe, "-q"})
+                .exit_code,
+            0);
+  ASSERT_EQ(run_cli({"plan", safe, "--waypoints", f.waypoints, "-o", path, "-q"}).exit_code, 0);
 
   // A 3 x 3 m tower in the DSM (not in the mesh) where the path's middle segment passes.
   const auto points = read_path_csv(path);
@@ -1144,10 +1224,19 @@ TEST(CliBadInput, PlanPathThroughATowerOfTheDsmIsNeverWritten) {
     for (int c = col - 1; c <= col + 1; ++c) dsm.z[dsm.index(c, r)] = static_cast<float>(top);
   const std::string towered = f.in.path("tower.tif");
   dsmplan::write_geotiff(dsm, towered);
+  // The mesh does not hold the tower: the safety distance on it is widened by as much as the
+  // tower rises above it. The run keeps 2 m from the tower's column, or stops with one line
+  // that says why; it never writes the path through it.
   TempDir none;
-  expect_clean_failure(run_cli({"plan", f.mesh, "--waypoints", f.waypoints, "-o", none.path("p.csv"), "--dsm",
-                                towered, "-q"}),
-                       none, towered, {"do not match"});
+  const auto run = run_cli({"plan", safe, "--waypoints", f.waypoints, "-o", none.path("p.csv"), "--dsm", towered, "-q"});
+  if (run.exit_code == 0) {
+    const auto around = read_path_csv(none.path("p.csv"));
+    for (size_t k = 1; k < around.size(); ++k)
+      EXPECT_GE(dsmplan::column_clearance(dsm, around[k - 1], around[k], 3), 2 - 0.01) << k;
+  } else {
+    expect_clean_failure(run, none, f.waypoints, {"widened by", "columns"});
+  }
+  EXPECT_EQ(dsmplan::column_clearance(dsm, a, b, 3), 0);  // the unguarded path went through it
 }
 
 TEST(CliBadInput, PlanMalformedGeoJsonWaypointsNameThePlace) {

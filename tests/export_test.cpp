@@ -616,6 +616,272 @@ TEST(Png, FailedWritesLeaveNothingAndBadImagesAreRefused) {
   EXPECT_TRUE(dir.files().empty());
 }
 
+// ---- the height profile of a path ------------------------------------------------------------
+//
+// Oracles: the test builds the ground, the building and the path, so it knows every height; the
+// picture's axes are found in the picture itself (its 1-pixel dark frame) and the height axis is
+// fixed by the test, so a pixel's row says its height without any of the drawing code.
+
+namespace {
+
+// Flat 10 m ground, 200 x 20 cells of 1 m, one 30 m building over columns 80-119 (x 1080-1120).
+Grid flat_town() {
+  Grid grid(200, 20, 1000, 2000, 1, 1);
+  for (int r = 0; r < grid.height; ++r)
+    for (int c = 0; c < grid.width; ++c) grid.z[grid.index(c, r)] = c >= 80 && c < 120 ? 30.0f : 10.0f;
+  return grid;
+}
+
+// The plot's pixel rectangle [left, right) x [top, bottom), found from its dark frame: the
+// longest dark runs of any row (the frame's top and bottom) and of any column (its sides).
+struct Plot {
+  int left = -1, top = -1, right = -1, bottom = -1;
+};
+bool dark(const Image& image, int x, int y) { return brightness(image, x, y) < 150; }
+Plot find_plot(const Image& image) {
+  Plot plot;
+  std::vector<int> rows, cols;
+  for (int y = 0; y < image.height; ++y) {
+    int run = 0, longest = 0;
+    for (int x = 0; x < image.width; ++x) longest = std::max(longest, run = dark(image, x, y) ? run + 1 : 0);
+    if (longest > image.width / 2) rows.push_back(y);
+  }
+  for (int x = 0; x < image.width; ++x) {
+    int run = 0, longest = 0;
+    for (int y = 0; y < image.height; ++y) longest = std::max(longest, run = dark(image, x, y) ? run + 1 : 0);
+    if (longest > image.height / 3) cols.push_back(x);
+  }
+  if (rows.size() != 2 || cols.size() != 2) return plot;  // a frame is two rows and two columns
+  plot.top = rows[0] + 1, plot.bottom = rows[1], plot.left = cols[0] + 1, plot.right = cols[1];
+  return plot;
+}
+
+bool magenta(const uint8_t* p) { return p[0] > 230 && p[1] < 40 && p[2] > 230; }
+bool red(const uint8_t* p) { return p[0] > 180 && p[1] < 80 && p[2] < 80; }
+bool grey(const uint8_t* p) {  // the silhouette: neutral, darker than half-way from white
+  return std::abs(p[0] - p[1]) < 8 && std::abs(p[1] - p[2]) < 8 && p[0] < 212 && p[0] > 120;
+}
+bool brown(const uint8_t* p) { return p[0] > 110 && p[0] < 170 && p[1] > 60 && p[1] < 110 && p[2] < 60; }
+
+// Mean row (pixel centres) of the pixels of a column that pass `is`, or NaN when none does,
+// between rows y0 and y1.
+template <class Is>
+double mean_row(const Image& image, int x, int y0, int y1, Is is) {
+  double sum = 0;
+  int n = 0;
+  for (int y = y0; y < y1; ++y)
+    if (is(pixel(image, x, y))) sum += y + 0.5, ++n;
+  return n ? sum / n : NAN;
+}
+
+}  // namespace
+
+TEST(Profile, StepsAreTheCellsUnderThePathExactly) {
+  const Grid town = flat_town();
+  // Along row 10, from x 1010 to 1190 at 45 m: 70 m of ground, 40 m of building, 70 m of ground.
+  const std::vector<Point3> path{{1010, 1989.5, 45}, {1100, 1989.5, 45}, {1190, 1989.5, 45}};
+  const PathProfile profile = profile_path(path, town, nullptr);
+  EXPECT_DOUBLE_EQ(profile.length, 180);
+  ASSERT_EQ(profile.dsm.size(), 3u);
+  EXPECT_EQ(profile.dsm[0].from, 0);
+  EXPECT_EQ(profile.dsm[0].to, 70);
+  EXPECT_EQ(profile.dsm[0].z, 10.0f);
+  EXPECT_EQ(profile.dsm[1].from, 70);
+  EXPECT_EQ(profile.dsm[1].to, 110);
+  EXPECT_EQ(profile.dsm[1].z, 30.0f);
+  EXPECT_EQ(profile.dsm[2].to, 180);
+  EXPECT_DOUBLE_EQ(profile.min_above_dsm, 15);
+  EXPECT_DOUBLE_EQ(profile.max_above_ground, 35);  // no DTM: the DSM is the ground
+
+  // A diagonal path over the real sample, against a brute-force sampling of the cell under it:
+  // every one of 20000 points along the path lies over the height of the step holding it.
+  const Grid& grid = nrw_grid();
+  const std::vector<Point3> diagonal{{grid.x0 + 3.3, grid.y0 - 7.1, 150}, {grid.x0 + 250, grid.y0 - 190.7, 160},
+                                     {grid.x0 + 250, grid.y0 - 400, 155}, {grid.x0 + 480.2, grid.y0 - 260.9, 170}};
+  const PathProfile real = profile_path(diagonal, grid, nullptr);
+  ASSERT_FALSE(real.dsm.empty());
+  EXPECT_EQ(real.dsm.front().from, 0);
+  EXPECT_DOUBLE_EQ(real.dsm.back().to, real.length);
+  for (size_t i = 1; i < real.dsm.size(); ++i) ASSERT_EQ(real.dsm[i].from, real.dsm[i - 1].to);
+  double least = INFINITY;
+  size_t step = 0;
+  for (int k = 0; k <= 20000; ++k) {
+    const double d = real.length * k / 20000;
+    size_t seg = 0;
+    while (seg + 2 < real.distance.size() && real.distance[seg + 1] < d) ++seg;
+    const double t = (d - real.distance[seg]) / (real.distance[seg + 1] - real.distance[seg]);
+    const Point3 &a = diagonal[seg], &b = diagonal[seg + 1];
+    const double x = a[0] + t * (b[0] - a[0]), y = a[1] + t * (b[1] - a[1]), z = a[2] + t * (b[2] - a[2]);
+    const double cx = (x - grid.x0) / grid.cell_x, cy = (grid.y0 - y) / grid.cell_y;
+    if (std::abs(cx - std::round(cx)) < 1e-6 || std::abs(cy - std::round(cy)) < 1e-6) continue;  // on a boundary
+    const float below = grid.at(static_cast<int>(cx), static_cast<int>(cy));
+    least = std::min(least, z - below);
+    while (step + 1 < real.dsm.size() && real.dsm[step].to <= d) ++step;
+    if (d > real.dsm[step].from + 1e-6 && d < real.dsm[step].to - 1e-6)
+      ASSERT_EQ(real.dsm[step].z, below) << "at " << d << " m";
+  }
+  // The exact least height is at most the sampled one, and not far below it (the samples are 3 cm apart).
+  EXPECT_LE(real.min_above_dsm, least + 1e-9);
+  EXPECT_GT(real.min_above_dsm, least - 0.1);
+
+  EXPECT_THROW(profile_path({{1010, 1989.5, 45}}, town, nullptr), ArgumentError);
+  EXPECT_THROW(profile_path({{1010, 1989.5, 45}, {NAN, 1989.5, 45}}, town, nullptr), ArgumentError);
+}
+
+TEST(Profile, PathSilhouetteAndCeilingSitAtTheirHeights) {
+  const Grid town = flat_town();
+  const std::vector<Point3> path{{1010, 1989.5, 45}, {1100, 1989.5, 45}, {1190, 1989.5, 45}};
+  ProfileOptions options;
+  options.width = 900, options.height = 420;
+  options.title = "flat town";
+  options.safety = 2, options.max_agl = 60;  // the ceiling: 70 m over the ground, 90 m over the roof
+  options.z_min = 0, options.z_max = 100;
+  options.waypoints = {{1100, 1989.5, 45}};
+  const Image image = render_profile(path, town, nullptr, options);
+  ASSERT_EQ(image.width, 900);
+  ASSERT_EQ(image.height, 420);
+  const Plot plot = find_plot(image);
+  ASSERT_GT(plot.left, 0) << "no frame found";
+  ASSERT_GT(plot.right - plot.left, 500);
+  ASSERT_GT(plot.bottom - plot.top, 150);
+  const double metres_per_row = 100.0 / (plot.bottom - plot.top);
+  auto height = [&](double row) { return 100 - (row - plot.top) / (plot.bottom - plot.top) * 100; };
+  auto distance = [&](int x) { return (x + 0.5 - plot.left) / (plot.right - plot.left) * 180; };
+  auto row_of = [&](double z) { return plot.top + (100 - z) / 100 * (plot.bottom - plot.top); };
+  const int wx = plot.left + (plot.right - plot.left) / 2;  // the waypoint's column: 90 m
+
+  int path_columns = 0, ceiling_columns = 0, columns = 0;
+  for (int x = plot.left; x < plot.right; ++x) {
+    const double d = distance(x);
+    if (d < 3 || d > 177 || std::abs(x - wx) < 12) continue;  // the ends, the waypoint's disc
+    ++columns;
+    // The path: magenta around 45 m, within a pixel.
+    const double path_row = mean_row(image, x, plot.top, plot.bottom, magenta);
+    if (!std::isnan(path_row)) {
+      ++path_columns;
+      EXPECT_NEAR(height(path_row), 45, metres_per_row) << "column " << x;
+    }
+    // The silhouette: grey from the bottom up to 30 m over the building, 10 m elsewhere.
+    if (std::abs(d - 70) > 2 && std::abs(d - 110) > 2) {
+      const bool roof = d > 70 && d < 110;
+      int y = plot.bottom - 1;
+      while (y >= plot.top && grey(pixel(image, x, y))) --y;
+      ASSERT_LT(y, plot.bottom - 1) << "no silhouette at column " << x;
+      EXPECT_NEAR(height(y + 1.5), roof ? 30 : 10, metres_per_row) << "column " << x;
+      // The ceiling: red dashes at ground + max_agl.
+      const double ceiling_row = mean_row(image, x, plot.top, plot.bottom, red);
+      if (!std::isnan(ceiling_row)) {
+        ++ceiling_columns;
+        EXPECT_NEAR(height(ceiling_row), roof ? 90 : 70, metres_per_row) << "column " << x;
+      }
+    }
+  }
+  EXPECT_GT(path_columns, columns * 9 / 10);
+  EXPECT_GT(ceiling_columns, columns / 3);  // dashed: most columns have a dash
+  // The safety band: translucent magenta 2 m above the path (between the line and 47 m).
+  const uint8_t* band = pixel(image, plot.left + 100, static_cast<int>(row_of(46.5)));
+  EXPECT_TRUE(band[0] > 230 && band[1] > 120 && band[1] < 230 && band[2] > 230) << int(band[1]);
+  // The waypoint: a yellow disc on the path at 90 m.
+  const uint8_t* disc = pixel(image, wx, static_cast<int>(row_of(45)));
+  EXPECT_TRUE(disc[0] > 200 && disc[1] > 170 && disc[2] < 60) << "the waypoint's disc is yellow";
+  // Nothing of the plot outside the frame but the waypoint: no magenta or red above it, none
+  // left or right of it.
+  for (int y = 0; y < plot.top - 1; ++y)
+    for (int x = 0; x < image.width; ++x)
+      if (std::abs(x - wx) > 20) EXPECT_FALSE(magenta(pixel(image, x, y)) || red(pixel(image, x, y))) << x << "," << y;
+
+  // The legend below the plot: its swatches (grey, red, magenta) with text beside them.
+  int legend_top = -1;
+  for (int y = plot.bottom + 1; y < image.height && legend_top < 0; ++y)
+    for (int x = 0; x < image.width; ++x)
+      if (magenta(pixel(image, x, y)) || red(pixel(image, x, y)) || grey(pixel(image, x, y))) {
+        legend_top = y;
+        break;
+      }
+  ASSERT_GT(legend_top, plot.bottom + 20) << "no legend under the plot's labels";
+  size_t swatches[3] = {0, 0, 0}, text = 0;
+  for (int y = legend_top - 4; y < image.height; ++y)
+    for (int x = 0; x < image.width; ++x) {
+      const uint8_t* p = pixel(image, x, y);
+      swatches[0] += grey(p), swatches[1] += red(p), swatches[2] += magenta(p);
+      text += dark(image, x, y);
+    }
+  EXPECT_GT(swatches[0], 100u);
+  EXPECT_GT(swatches[1], 20u);
+  EXPECT_GT(swatches[2], 40u);
+  EXPECT_GT(text, 300u);  // "DSM under the path", "ceiling: DSM + 60 m", "path", ...
+}
+
+TEST(Profile, TerrainIsTheCeilingsGroundAndItsGapsStayGaps) {
+  const Grid town = flat_town();
+  // A 5 m DTM at 8 m, with no data over x 1140-1160.
+  Grid dtm(44, 8, 995, 2010, 5, 5);
+  for (int r = 0; r < dtm.height; ++r)
+    for (int c = 0; c < dtm.width; ++c) {
+      const double x = dtm.center_x(c);
+      dtm.z[dtm.index(c, r)] = x > 1140 && x < 1160 ? Grid::nodata : 8.0f;
+    }
+  const std::vector<Point3> path{{1010, 1989.5, 45}, {1190, 1989.5, 45}};
+  ProfileOptions options;
+  options.width = 900, options.height = 420;
+  options.max_agl = 60;  // 68 m everywhere, the building too
+  options.z_min = 0, options.z_max = 100;
+  const Image image = render_profile(path, town, &dtm, options);
+  const Plot plot = find_plot(image);
+  ASSERT_GT(plot.left, 0) << "no frame found";
+  const double metres_per_row = 100.0 / (plot.bottom - plot.top);
+  auto height = [&](double row) { return 100 - (row - plot.top) / (plot.bottom - plot.top) * 100; };
+  int brown_columns = 0, gap_columns = 0;
+  for (int x = plot.left; x < plot.right; ++x) {
+    const double d = (x + 0.5 - plot.left) / (plot.right - plot.left) * 180;
+    if (d < 3 || d > 177) continue;
+    const double terrain = mean_row(image, x, plot.top, plot.bottom, brown);
+    const bool gap = d > 130 + 2 && d < 150 - 2, near_gap = d > 130 - 2 && d < 150 + 2;
+    if (gap) {
+      ++gap_columns;
+      EXPECT_TRUE(std::isnan(terrain)) << "terrain drawn over its gap at column " << x;
+      EXPECT_TRUE(std::isnan(mean_row(image, x, plot.top, plot.bottom, red))) << "ceiling over the gap at " << x;
+    } else if (!near_gap) {
+      ASSERT_FALSE(std::isnan(terrain)) << "no terrain at column " << x;
+      ++brown_columns;
+      EXPECT_NEAR(height(terrain), 8, metres_per_row) << "column " << x;
+      const double ceiling = mean_row(image, x, plot.top, plot.bottom, red);
+      if (!std::isnan(ceiling)) EXPECT_NEAR(height(ceiling), 68, metres_per_row) << "column " << x;
+    }
+  }
+  EXPECT_GT(brown_columns, 400);
+  EXPECT_GT(gap_columns, 50);
+  const PathProfile profile = profile_path(path, town, &dtm);
+  EXPECT_DOUBLE_EQ(profile.max_above_ground, 37);  // 45 m over the 8 m terrain
+  EXPECT_DOUBLE_EQ(profile.min_above_dsm, 15);
+
+  // The fitted axis holds everything: the ceiling shows without a fixed axis.
+  options.z_min = options.z_max = NAN;
+  const Image fitted = render_profile(path, town, &dtm, options);
+  const Plot fitted_plot = find_plot(fitted);
+  ASSERT_GT(fitted_plot.left, 0);
+  EXPECT_FALSE(std::isnan(mean_row(fitted, fitted_plot.left + 20, fitted_plot.top, fitted_plot.bottom, red)) &&
+               std::isnan(mean_row(fitted, fitted_plot.left + 30, fitted_plot.top, fitted_plot.bottom, red)));
+}
+
+TEST(Profile, BadOptionsAreArgumentErrors) {
+  const Grid town = flat_town();
+  const std::vector<Point3> path{{1010, 1989.5, 45}, {1190, 1989.5, 45}};
+  auto with = [&](auto change) {
+    ProfileOptions options;
+    change(options);
+    return options;
+  };
+  EXPECT_THROW(render_profile(path, town, nullptr, with([](ProfileOptions& o) { o.width = 100; })), ArgumentError);
+  EXPECT_THROW(render_profile(path, town, nullptr, with([](ProfileOptions& o) { o.height = 40000; })), ArgumentError);
+  EXPECT_THROW(render_profile(path, town, nullptr, with([](ProfileOptions& o) { o.safety = -1; })), ArgumentError);
+  EXPECT_THROW(render_profile(path, town, nullptr, with([](ProfileOptions& o) { o.max_agl = 0; })), ArgumentError);
+  EXPECT_THROW(render_profile(path, town, nullptr, with([](ProfileOptions& o) { o.z_min = 5; })), ArgumentError);
+  EXPECT_THROW(render_profile({{1010, 1989.5, 45}, {1010, 1989.5, 60}}, town, nullptr, ProfileOptions{}),
+               ArgumentError);  // no x,y length
+  EXPECT_NO_THROW(render_profile(path, town, nullptr, ProfileOptions{}));
+}
+
 // ---- WGS 84 through PROJ, and paths as text -----------------------------------------------
 //
 // Oracles: GDAL's own coordinate transformation (OGRCoordinateTransformation, traditional GIS

@@ -405,12 +405,14 @@ TEST(ClearanceIndex, GroundIsTheMeshHeight) {
 }
 
 TEST(ClearanceIndex, MemoryCountsEveryVertexListingAndBucket) {
-  // What the header promises: 24 bytes a vertex, 32 a listing, 8 a bucket, and nothing a
-  // triangle beyond its listings; the blocks are a sixteenth of the buckets.
+  // What the header promises: 24 bytes a vertex, 32 a listing, 8 a bucket, 4 a cell of the
+  // floor, and nothing a triangle beyond its listings; the blocks are a sixteenth of the buckets.
   const Mesh& mesh = mesh_2m();
   const ClearanceIndex index(mesh);
   const double buckets = static_cast<double>(index.bucket_columns()) * index.bucket_rows();
-  const double expected = 24.0 * mesh.vertices.size() + 32.0 * index.bucket_listings() + 8.0 * (buckets + 1);
+  const double expected = 24.0 * mesh.vertices.size() + 32.0 * index.bucket_listings() + 8.0 * (buckets + 1) +
+                          4.0 * static_cast<double>(index.floor().grid().cells());
+  EXPECT_GT(index.floor().grid().cells(), 0u);
   EXPECT_GE(static_cast<double>(index.memory_bytes()), expected);
   const double blocks = buckets / 16 + index.bucket_columns() + index.bucket_rows() + 1;  // partial ones included
   EXPECT_LE(static_cast<double>(index.memory_bytes()), expected + 4.0 * blocks);
@@ -1351,9 +1353,10 @@ TEST(LowAltitude, GridLookupJoinsTheSameNodesAsAScanOverAll) {
       }
       std::sort(near.begin(), near.end());
       for (const auto& c : near)
-        if (links.size() < static_cast<size_t>(connections) && index.segment_clear(w, map.nodes[c.second], 2))
+        if (links.size() < static_cast<size_t>(connections) && index.segment_clear(w, map.nodes[c.second], 2) &&
+            index.floor().below_ceiling(w, map.nodes[c.second], options.max_agl))
           links.push_back(c);
-      EXPECT_EQ(detail::roadmap_links(w, map, grid, index, options), links) << k;
+      EXPECT_EQ(detail::roadmap_links(w, map, grid, detail::FlightSpace(index, options), options), links) << k;
       ++compared;
       with_links += !links.empty();
     }

@@ -19,7 +19,12 @@
 #include <utility>
 #include <vector>
 
+#include <gdal.h>
+
+#include <filesystem>
+
 #include "dsmplan/raster.hpp"
+#include "dsmplan/tools.hpp"
 #include "testkit.hpp"
 
 using dsmplan::Fusion;
@@ -377,6 +382,115 @@ TEST(DelftGrid, DroppingBuildingsAndWaterMatchesBruteForce) {
   EXPECT_GT(valid_cells(all), valid_cells(grid));
 }
 
+// ---- a DTM: --classes 2, the ground ---------------------------------------------------------
+
+namespace {
+
+// A single-band GeoTIFF as GDAL reads it (the oracle's reader, not dsmplan's): geotransform and
+// heights, its nodata value as NaN.
+struct TiffGrid {
+  int width = 0, height = 0;
+  double gt[6] = {};
+  std::vector<float> z;
+  float at(int col, int row) const { return z[static_cast<size_t>(row) * width + col]; }
+};
+
+TiffGrid read_tiff(const std::string& path) {
+  TiffGrid grid;
+  GDALDatasetH dataset = GDALOpen(path.c_str(), GA_ReadOnly);
+  EXPECT_NE(dataset, nullptr) << path;
+  if (!dataset) return grid;
+  grid.width = GDALGetRasterXSize(dataset);
+  grid.height = GDALGetRasterYSize(dataset);
+  GDALGetGeoTransform(dataset, grid.gt);
+  GDALRasterBandH band = GDALGetRasterBand(dataset, 1);
+  int has_nodata = 0;
+  const double nodata = GDALGetRasterNoDataValue(band, &has_nodata);
+  grid.z.resize(static_cast<size_t>(grid.width) * grid.height);
+  EXPECT_EQ(GDALRasterIO(band, GF_Read, 0, 0, grid.width, grid.height, grid.z.data(), grid.width, grid.height,
+                         GDT_Float32, 0, 0),
+            CE_None);
+  GDALClose(dataset);
+  if (has_nodata)
+    for (float& v : grid.z)
+      if (v == static_cast<float>(nodata)) v = NAN;
+  return grid;
+}
+
+}  // namespace
+
+TEST(DelftGrid, ClassesTwoIsTheGroundMedianAndNeverAboveTheMaxDsm) {
+  testkit::TempDir dir;
+  const std::string dtm_path = dir.path("dtm.tif"), dsm_path = dir.path("dsm.tif");
+  const auto dtm_run = testkit::run_cli({"grid", kDelft1, kDelft2, "--crs", "EPSG:28992", "--res", "0.5", "--classes",
+                                         "2", "-o", dtm_path, "-q"});
+  ASSERT_EQ(dtm_run.exit_code, 0) << dtm_run.err;
+  const auto dsm_run = testkit::run_cli({"grid", kDelft1, kDelft2, "--crs", "EPSG:28992", "--res", "0.5", "--fusion",
+                                         "max", "--keep-all-classes", "-o", dsm_path, "-q"});
+  ASSERT_EQ(dsm_run.exit_code, 0) << dsm_run.err;
+  const TiffGrid dtm = read_tiff(dtm_path), dsm = read_tiff(dsm_path);
+  ASSERT_GT(dtm.width, 0);
+  ASSERT_GT(dsm.width, 0);
+
+  // Brute force: the class-2 points (read by dsmplan's LAS reader, whose records the tests above
+  // check byte by byte), cells and medians computed here.
+  const double res = 0.5;
+  std::vector<std::array<double, 3>> ground;
+  for (const PointCloud& cloud : delft_clouds())
+    for (size_t i = 0; i < cloud.size(); ++i)
+      if (cloud.classification[i] == 2) ground.push_back({cloud.x[i], cloud.y[i], cloud.z[i]});
+  ASSERT_GT(ground.size(), 250000u);  // 195,988 + 87,130 ground returns
+  double min_x = INFINITY, max_y = -INFINITY;
+  for (const auto& p : ground) min_x = std::min(min_x, p[0]), max_y = std::max(max_y, p[1]);
+  const double x0 = std::floor(min_x / res) * res, y0 = std::ceil(max_y / res) * res;
+  EXPECT_EQ(dtm.gt[0], x0);
+  EXPECT_EQ(dtm.gt[3], y0);
+  EXPECT_EQ(dtm.gt[1], res);
+  EXPECT_EQ(dtm.gt[5], -res);
+  std::map<std::pair<long, long>, std::vector<double>> cells;
+  for (const auto& p : ground)
+    cells[{static_cast<long>(std::floor((p[0] - x0) / res)), static_cast<long>(std::floor((y0 - p[1]) / res))}]
+        .push_back(p[2]);
+  size_t mismatches = 0, outside = 0, valid = 0;
+  std::string first;
+  for (auto& [cell, z] : cells) {
+    const auto [col, row] = cell;
+    if (col < 0 || row < 0 || col >= dtm.width || row >= dtm.height) {
+      ++outside;
+      continue;
+    }
+    std::sort(z.begin(), z.end());
+    const size_t n = z.size();
+    const float median = static_cast<float>(n % 2 ? z[n / 2] : (z[n / 2 - 1] + z[n / 2]) / 2);
+    if (dtm.at(int(col), int(row)) != median && mismatches++ == 0)
+      first = "cell " + std::to_string(col) + "," + std::to_string(row) + ": " +
+              std::to_string(dtm.at(int(col), int(row))) + " vs " + std::to_string(median);
+  }
+  for (float z : dtm.z) valid += !std::isnan(z);
+  EXPECT_EQ(outside, 0u);
+  EXPECT_EQ(mismatches, 0u) << first;
+  EXPECT_EQ(valid, cells.size()) << "a DTM cell is valid exactly where ground points fall";
+
+  // The ground under the highest return of every class: never above it, well below on roofs.
+  const double dc = (dtm.gt[0] - dsm.gt[0]) / res, dr = (dsm.gt[3] - dtm.gt[3]) / res;
+  ASSERT_EQ(dc, std::round(dc));
+  ASSERT_EQ(dr, std::round(dr));
+  size_t compared = 0, above = 0, far_below = 0;
+  for (int row = 0; row < dtm.height; ++row)
+    for (int col = 0; col < dtm.width; ++col) {
+      const int c = col + int(dc), r = row + int(dr);
+      ASSERT_TRUE(c >= 0 && r >= 0 && c < dsm.width && r < dsm.height) << "the DSM covers every ground point";
+      const float g = dtm.at(col, row), top = dsm.at(c, r);
+      if (std::isnan(g) || std::isnan(top)) continue;
+      ++compared;
+      above += g > top;
+      far_below += g < top - 3;
+    }
+  EXPECT_EQ(above, 0u);
+  EXPECT_GT(compared, 100000u);
+  EXPECT_GT(far_below, 100u) << "trees and buildings stand above the ground";
+}
+
 // ---- synthetic LAS: every version and point format ----------------------------------------
 
 TEST(SyntheticLas, EveryVersionAndPointFormatReadsBack) {
@@ -613,6 +727,105 @@ TEST(PointGrid, RejectsBadResolutionsAndEmptyInput) {
 TEST(PointGrid, CancelStopsTheGridding) {
   const PointCloud cloud = cloud_of({{0.5, 0.5, 1, 2}});
   EXPECT_THROW(dsmplan::grid_points({cloud}, {}, [](double) { return false; }), dsmplan::Cancelled);
+}
+
+TEST(PointGrid, ClassesKeepOnlyTheListedAndContradictionsAreRefused) {
+  const PointCloud cloud = cloud_of({{0.5, 0.5, 1, 2}, {0.5, 0.5, 9, 6}, {1.5, 0.5, 30, 6}, {2.5, 0.5, 2, 2},
+                                     {2.5, 0.5, 4, 9}, {3.5, 0.5, -7, 7}});
+  GridPointsOptions options;
+  options.keep_classes = {2};
+  Grid grid = dsmplan::grid_points({cloud}, options);
+  ASSERT_EQ(grid.width, 3);  // x 0.5 .. 2.5: the building and noise cells east of it are gone
+  EXPECT_EQ(grid.at(0, 0), 1.0f);
+  EXPECT_TRUE(std::isnan(grid.at(1, 0)));
+  EXPECT_EQ(grid.at(2, 0), 2.0f);
+  options.keep_classes = {2, 9};
+  grid = dsmplan::grid_points({cloud}, options);
+  EXPECT_EQ(grid.at(2, 0), 3.0f);  // median of 2 and 4
+  // A noise class asked for by name: the default drop list has to go first.
+  options.keep_classes = {7};
+  EXPECT_THROW(dsmplan::grid_points({cloud}, options), dsmplan::ArgumentError);
+  options.drop_classes = {};
+  grid = dsmplan::grid_points({cloud}, options);
+  ASSERT_EQ(grid.width, 1);
+  EXPECT_EQ(grid.at(0, 0), -7.0f);
+  options.keep_classes = {2};
+  options.drop_classes = {2};
+  try {
+    dsmplan::grid_points({cloud}, options);
+    ADD_FAILURE() << "class 2 both kept and dropped";
+  } catch (const dsmplan::ArgumentError& error) {
+    EXPECT_NE(std::string(error.what()).find("both kept"), std::string::npos) << error.what();
+  }
+  options.drop_classes = {};
+  options.keep_classes = {300};
+  EXPECT_THROW(dsmplan::grid_points({cloud}, options), dsmplan::ArgumentError);
+  options.keep_classes = {3};
+  try {
+    dsmplan::grid_points({cloud}, options);
+    ADD_FAILURE() << "no class-3 point";
+  } catch (const dsmplan::InputError& error) {
+    EXPECT_NE(std::string(error.what()).find("no point of classes 3"), std::string::npos) << error.what();
+  }
+
+  // The command line: one line for each contradiction, no output left.
+  testkit::TempDir dir;
+  const std::string xyz = dir.path("points.xyz");
+  testkit::write_file(xyz, "0.5 0.5 1 2\n0.5 0.5 9 6\n2.5 0.5 2 2\n");
+  for (const std::vector<std::string>& extra :
+       {std::vector<std::string>{"--keep-all-classes"}, std::vector<std::string>{"--drop-classes", "6,2"}}) {
+    std::vector<std::string> args{"grid", xyz, "--crs", "EPSG:28992", "--res", "1", "--classes", "2", "-o",
+                                  dir.path("out.tif"), "-q"};
+    args.insert(args.end(), extra.begin(), extra.end());
+    const auto result = testkit::run_cli(args);
+    EXPECT_NE(result.exit_code, 0) << extra[0];
+    EXPECT_EQ(std::count(result.err.begin(), result.err.end(), '\n'), 1) << result.err;
+    EXPECT_NE(result.err.find("--classes"), std::string::npos) << result.err;
+    EXPECT_FALSE(std::filesystem::exists(dir.path("out.tif")));
+  }
+  // No contradiction: --drop-classes of another class is redundant, not refused.
+  const auto fine = testkit::run_cli({"grid", xyz, "--crs", "EPSG:28992", "--res", "1", "--classes", "2",
+                                      "--drop-classes", "7", "-o", dir.path("out.tif"), "-q"});
+  EXPECT_EQ(fine.exit_code, 0) << fine.err;
+  const TiffGrid written = read_tiff(dir.path("out.tif"));
+  ASSERT_EQ(written.width, 3);
+  EXPECT_EQ(written.at(0, 0), 1.0f);
+  EXPECT_EQ(written.at(2, 0), 2.0f);
+}
+
+TEST(PointGrid, PointsInFeetAreRefusedNamingTheUnit) {
+  // The same XYZ taken as NAD83 / Virginia North (ftUS) by --crs, and by a LAS's GeoTIFF keys.
+  testkit::TempDir dir;
+  const std::string xyz = dir.path("points_ft.xyz");
+  testkit::write_file(xyz, "11800000 7000000 300 2\n11800003 7000003 301 2\n");
+  const auto result = testkit::run_cli(
+      {"grid", xyz, "--crs", "EPSG:2283", "--res", "3", "-o", dir.path("dsm.tif"), "-q"});
+  EXPECT_NE(result.exit_code, 0);
+  EXPECT_EQ(std::count(result.err.begin(), result.err.end(), '\n'), 1) << result.err;
+  for (const char* phrase : {"points_ft.xyz", "US survey foot", "0.3048006 m", "metres"})
+    EXPECT_NE(result.err.find(phrase), std::string::npos) << phrase << " in " << result.err;
+  EXPECT_FALSE(std::filesystem::exists(dir.path("dsm.tif")));
+  // In metres (UTM 18N) the same file grids.
+  EXPECT_EQ(testkit::run_cli({"grid", xyz, "--crs", "EPSG:32618", "--res", "3", "-o", dir.path("dsm.tif"), "-q"})
+                .exit_code,
+            0);
+
+  LasSpec spec;
+  spec.offset[0] = 11800000, spec.offset[1] = 7000000;
+  spec.points = {{11800000, 7000000, 300, 2}, {11800003, 7000003, 301, 2}};
+  spec.geokeys = {1, 1, 0, 2, 1024, 0, 1, 1, 3072, 0, 1, 2283};  // projected: EPSG:2283
+  testkit::write_file(dir.path("points_ft.las"), las_bytes(spec));
+  dsmplan::GridOptions options;
+  options.inputs = {dir.path("points_ft.las")};
+  options.output = dir.path("dsm_las.tif");
+  options.grid.resolution = 3;
+  try {
+    dsmplan::grid_to_geotiff(options);
+    ADD_FAILURE() << "a LAS in feet was gridded";
+  } catch (const dsmplan::InputError& error) {
+    EXPECT_NE(std::string(error.what()).find("US survey foot"), std::string::npos) << error.what();
+    EXPECT_NE(std::string(error.what()).find("pdal translate"), std::string::npos) << error.what();
+  }
 }
 
 // ---- bad input ----------------------------------------------------------------------------

@@ -7,11 +7,15 @@
 #include <gdal_priv.h>
 #include <gdal_utils.h>
 #include <gtest/gtest.h>
+#include <ogr_spatialref.h>
 
 #include <algorithm>
 #include <cmath>
+#include <filesystem>
+#include <functional>
 #include <numeric>
 
+#include "dsmplan/tools.hpp"
 #include "testkit.hpp"
 
 using namespace dsmplan;
@@ -362,4 +366,180 @@ TEST(ReadRaster, SouthUpAndMaskedRastersReadAsTheTile) {
   const Grid read = read_raster(dir.path("masked.tif"));
   EXPECT_GT(summarize(read).nodata, 1000u);
   expect_same_cells(read, expected);
+}
+
+// ---- units: dsmplan measures in metres ------------------------------------------------------
+//
+// Each raster is placed around a longitude/latitude chosen here, by transforming that point
+// into the raster's CRS (OGR, the inverse of what dsmplan does); the UTM zone dsmplan must
+// suggest is worked out by hand from the chosen longitude: floor((lon + 180) / 6) + 1.
+
+namespace {
+
+// (x, y) in `crs` of WGS 84 (lon, lat).
+std::pair<double, double> from_lonlat(const std::string& crs, double lon, double lat) {
+  OGRSpatialReference wgs84, target;
+  wgs84.SetWellKnownGeogCS("WGS84");
+  EXPECT_EQ(target.SetFromUserInput(crs.c_str()), OGRERR_NONE) << crs;
+  if (target.IsCompound()) target.StripVertical();
+  wgs84.SetAxisMappingStrategy(OAMS_TRADITIONAL_GIS_ORDER);
+  target.SetAxisMappingStrategy(OAMS_TRADITIONAL_GIS_ORDER);
+  std::unique_ptr<OGRCoordinateTransformation> transform(OGRCreateCoordinateTransformation(&wgs84, &target));
+  double x = lon, y = lat;
+  EXPECT_TRUE(transform && transform->Transform(1, &x, &y)) << crs;
+  return {x, y};
+}
+
+// A 20 x 20 Float32 GeoTIFF of `cell`-sized cells centred on (lon, lat), in `crs` (written as
+// WKT; compound CRSs too), heights 100 + col, with `unit_type` as the band's unit when given.
+std::string unit_raster(const testkit::TempDir& dir, const std::string& name, const std::string& crs, double lon,
+                        double lat, double cell, const char* unit_type = nullptr) {
+  const auto [cx, cy] = from_lonlat(crs, lon, lat);
+  const std::string path = dir.path(name);
+  GDALDatasetH dataset = GDALCreate(GDALGetDriverByName("GTiff"), path.c_str(), 20, 20, 1, GDT_Float32, nullptr);
+  double gt[6] = {cx - 10 * cell, cell, 0, cy + 10 * cell, 0, -cell};
+  GDALSetGeoTransform(dataset, gt);
+  OGRSpatialReference srs;
+  srs.SetFromUserInput(crs.c_str());
+  GDALSetSpatialRef(dataset, OGRSpatialReference::ToHandle(&srs));
+  GDALRasterBandH band = GDALGetRasterBand(dataset, 1);
+  if (unit_type) GDALSetRasterUnitType(band, unit_type);
+  std::vector<float> heights(400);
+  for (size_t i = 0; i < heights.size(); ++i) heights[i] = 100.0f + static_cast<float>(i % 20);
+  EXPECT_EQ(GDALRasterIO(band, GF_Write, 0, 0, 20, 20, heights.data(), 20, 20, GDT_Float32, 0, 0), CE_None);
+  GDALClose(dataset);
+  return path;
+}
+
+// The one-line InputError of `run`, or "" when it did not throw one.
+std::string input_error(const std::function<void()>& run) {
+  try {
+    run();
+  } catch (const InputError& error) {
+    return error.what();
+  }
+  return "";
+}
+
+void expect_phrases(const std::string& message, std::initializer_list<const char*> phrases) {
+  EXPECT_FALSE(message.empty()) << "accepted";
+  EXPECT_EQ(message.find('\n'), std::string::npos) << message;
+  for (const char* phrase : phrases) EXPECT_NE(message.find(phrase), std::string::npos) << phrase << " in: " << message;
+}
+
+MeshJobOptions mesh_job(const std::string& input, const testkit::TempDir& dir) {
+  MeshJobOptions job;
+  job.input = input;
+  job.output = dir.path("out.ply");
+  return job;
+}
+
+}  // namespace
+
+TEST(Units, CrsInUsSurveyFeetIsRefusedNamingTheUnitAndTheUtmZoneOfItsCentre) {
+  testkit::TempDir dir;
+  // Northern Virginia, lon -77.5: zone floor(102.5 / 6) + 1 = 18.
+  const std::string feet = unit_raster(dir, "dsm_ft.tif", "EPSG:2283", -77.5, 38.9, 3.0);
+  const std::initializer_list<const char*> phrases = {"dsm_ft.tif", "NAD83 / Virginia North (ftUS)", "horizontal unit",
+                                                      "US survey foot (0.3048006 m)", "gdalwarp -t_srs EPSG:32618"};
+  expect_phrases(input_error([&] { read_raster(feet); }), phrases);
+  expect_phrases(input_error([&] { open_raster(feet); }), phrases);
+  expect_phrases(input_error([&] { mesh_dsm(mesh_job(feet, dir)); }), phrases);
+  EXPECT_FALSE(std::filesystem::exists(dir.path("out.ply")));
+
+  // A raster without CRS given EPSG:2283 by --crs: the same refusal.
+  ReadRasterOptions assign;
+  assign.assign_crs = "EPSG:2283";
+  {
+    GDALDatasetH dataset =
+        GDALCreate(GDALGetDriverByName("GTiff"), dir.path("nocrs.tif").c_str(), 4, 4, 1, GDT_Float32, nullptr);
+    const auto [cx, cy] = from_lonlat("EPSG:2283", -77.5, 38.9);
+    double gt[6] = {cx, 3, 0, cy, 0, -3};
+    GDALSetGeoTransform(dataset, gt);
+    GDALClose(dataset);
+  }
+  expect_phrases(input_error([&] { read_raster(dir.path("nocrs.tif"), assign); }), {"US survey foot", "EPSG:32618"});
+
+  // info describes it, units and all.
+  InfoOptions info;
+  info.input = feet;
+  const RasterReport report = describe_raster(info);
+  EXPECT_EQ(report.crs.epsg, 2283);
+  EXPECT_EQ(report.crs.linear_unit, "US survey foot");
+  EXPECT_NEAR(report.crs.linear_unit_m, 1200.0 / 3937.0, 1e-12);
+  EXPECT_NE(to_text(report).find("US survey foot (0.3048006 m)"), std::string::npos) << to_text(report);
+  EXPECT_NEAR(to_json(report)["units"]["horizontal_m"].get<double>(), 1200.0 / 3937.0, 1e-12);
+
+  // The same place in metres (UTM 18N) is read, and says metres.
+  const Grid metres = read_raster(unit_raster(dir, "dsm_m.tif", "EPSG:32618", -77.5, 38.9, 1.0));
+  EXPECT_EQ(metres.crs.linear_unit_m, 1.0);
+  EXPECT_EQ(metres.crs.linear_unit, "metre");
+  // International feet: NAD83(2011) / Oregon GIC Lambert (ft), lon -121: zone 10.
+  const std::string intl = unit_raster(dir, "oregon_ft.tif", "EPSG:6557", -121.0, 44.0, 3.0);
+  expect_phrases(input_error([&] { read_raster(intl); }), {"oregon_ft.tif", "(0.3048 m)", "EPSG:32610"});
+}
+
+TEST(Units, HeightsInFeetAreRefusedByTheBandUnitTypeOrTheCompoundCrs) {
+  testkit::TempDir dir;
+  // Essen, lon 7.0: zone floor(187 / 6) + 1 = 32.
+  for (auto [unit, metres] : {std::pair{"ft", "(0.3048 m)"}, {"foot", "(0.3048 m)"}, {"US survey foot", "(0.3048006 m)"},
+                              {"ftUS", "(0.3048006 m)"}, {"us-ft", "(0.3048006 m)"}, {"Feet", "(0.3048 m)"}}) {
+    SCOPED_TRACE(unit);
+    const std::string path = unit_raster(dir, "dsm_vft.tif", "EPSG:25832", 7.0, 51.4, 1.0, unit);
+    expect_phrases(input_error([&] { read_raster(path); }),
+                   {"dsm_vft.tif", "heights are in", unit, metres, "gdal_calc.py"});
+    SimplifyJobOptions simplify;
+    simplify.input = path;
+    simplify.output = dir.path("out.ply");
+    simplify.method = SimplifyMethod::Bounded;
+    simplify.bounded.max_error = 0.5;
+    expect_phrases(input_error([&] { simplify_job(simplify); }), {"dsm_vft.tif", unit});
+  }
+  // Metres, however spelt, are read; so is a band without unit.
+  for (const char* unit : {"m", "metre", "Meters", "metres", ""}) {
+    const Grid grid = read_raster(unit_raster(dir, "dsm.tif", "EPSG:25832", 7.0, 51.4, 1.0, unit));
+    EXPECT_EQ(grid.crs.vertical_unit_m, *unit ? 1.0 : 0.0) << unit;
+  }
+  // A unit that is no length is not taken as metres either.
+  expect_phrases(input_error([&] { read_raster(unit_raster(dir, "odd.tif", "EPSG:25832", 7.0, 51.4, 1.0, "banana")); }),
+                 {"odd.tif", "'banana'", "not a length unit"});
+
+  // NAD83 / UTM zone 18N + NAVD88 height (ftUS), lon -77.5: refused, with the metre version of
+  // the same vertical CRS (NAVD88 height, EPSG:5703) in the example; + NAVD88 height is read.
+  const std::string compound = unit_raster(dir, "navd88_ft.tif", "EPSG:26918+6360", -77.5, 38.9, 1.0);
+  expect_phrases(input_error([&] { read_raster(compound); }),
+                 {"navd88_ft.tif", "US survey foot (0.3048006 m)", "NAVD88 height (ftUS)", "EPSG:32618+5703"});
+  const Grid navd88 = read_raster(unit_raster(dir, "navd88_m.tif", "EPSG:26918+5703", -77.5, 38.9, 1.0));
+  EXPECT_EQ(navd88.crs.vertical_unit_m, 1.0);
+  EXPECT_EQ(navd88.crs.linear_unit_m, 1.0);
+  // The band cannot make feet metres under a CRS in feet, nor feet metres the other way round.
+  expect_phrases(input_error([&] {
+                   read_raster(unit_raster(dir, "both.tif", "EPSG:26918+5703", -77.5, 38.9, 1.0, "ft"));
+                 }),
+                 {"both.tif", "ft (0.3048 m)"});
+}
+
+TEST(Units, GeographicRasterIsRefusedSuggestingTheUtmZoneOfItsCentre) {
+  testkit::TempDir dir;
+  struct Place {
+    const char* name;
+    double lon, lat;
+    const char* epsg;  // by hand: floor((lon + 180) / 6) + 1, 326zz north, 327zz south
+  };
+  for (const Place& place : {Place{"virginia", -77.5, 38.9, "EPSG:32618"}, Place{"essen", 6.9, 51.4, "EPSG:32632"},
+                             Place{"sydney", 151.2, -33.9, "EPSG:32756"}, Place{"quito", -78.5, -0.2, "EPSG:32717"}}) {
+    SCOPED_TRACE(place.name);
+    const std::string path = unit_raster(dir, std::string(place.name) + ".tif", "EPSG:4326", place.lon, place.lat, 1e-5);
+    // Reading describes degrees (info, render take them); the tools refuse them.
+    EXPECT_TRUE(read_raster(path).crs.geographic);
+    expect_phrases(input_error([&] { mesh_dsm(mesh_job(path, dir)); }),
+                   {place.name, "geographic", (std::string("gdalwarp -t_srs ") + place.epsg).c_str()});
+  }
+  // The zone boundary at 78 degrees West: zone 17 west of it, 18 from it on.
+  Crs wgs84;
+  wgs84.definition = "EPSG:4326";
+  resolve_crs(wgs84);
+  EXPECT_EQ(utm_epsg_at(wgs84, -78.0001, 38), "EPSG:32617");
+  EXPECT_EQ(utm_epsg_at(wgs84, -78.0, 38), "EPSG:32618");
+  EXPECT_EQ(utm_epsg_at(wgs84, 179.99, -10), "EPSG:32760");
 }

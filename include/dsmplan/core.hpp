@@ -84,6 +84,11 @@ struct Crs {
   std::string vertical_name;  ///< vertical datum/CRS name, empty when not known
   std::string vertical_unit;  ///< e.g. "metre", empty when not known
   bool geographic = false;    ///< x,y are angles (longitude, latitude), not lengths
+  /// Units, as the CRS (and a raster band's unit type) declare them; dsmplan measures in
+  /// metres and refuses anything else (see metric_problem() in raster.hpp). Filled by the I/O layer.
+  std::string linear_unit;     ///< horizontal unit, e.g. "metre", "US survey foot"; empty when not known
+  double linear_unit_m = 0;    ///< metres per horizontal unit (1 for metres); 0 unknown or geographic
+  double vertical_unit_m = 0;  ///< metres per vertical unit of `vertical_unit`; 0 unknown
 
   bool known() const { return !definition.empty() || !wkt.empty(); }
 };

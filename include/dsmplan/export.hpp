@@ -200,6 +200,67 @@ Image render_view(const Grid& dsm, const Mesh* mesh, const RenderOptions& option
 /// gap < 0.
 Image side_by_side(const std::vector<Image>& panels, int gap = 8);
 
+// ---- the height profile of a path (src/export/profile.cpp) --------------------------------
+
+/// A stretch along the path under which one raster cell lies: distances from the path's start
+/// (x,y length, CRS units) and that cell's height (NaN: nodata, or outside the raster).
+struct ProfileStep {
+  double from = 0, to = 0;
+  float z = NAN;
+};
+
+/// What lies under a path, exactly: the path's x,y projection is cut at every cell boundary of
+/// the raster it crosses, so each step is one cell (neighbouring pieces over the same height
+/// merged). Heights above a cell are taken at both ends of each piece: the path is straight
+/// between its points, so they are the least and greatest over the piece, exactly.
+struct PathProfile {
+  double length = 0;              ///< x,y length of the path
+  std::vector<double> distance;   ///< per path point, its distance from the start
+  std::vector<ProfileStep> dsm;   ///< the DSM cells under the path, in order
+  std::vector<ProfileStep> dtm;   ///< the DTM's, when there is one (its own cells)
+  /// Least path height above the DSM cell below (negative: inside it), and where; NaN when no
+  /// valid DSM cell is under the path.
+  double min_above_dsm = NAN, min_above_dsm_at = NAN;
+  /// Greatest path height above the ground (the DTM where it has data, else, without a DTM, the
+  /// DSM cell below), and where; NaN when there is no ground under the path.
+  double max_above_ground = NAN, max_above_ground_at = NAN;
+};
+
+/// The profile of `path` (x, y, z in the rasters' CRS) over `dsm` and `dtm` (may be null; its
+/// own cell size and extent). ArgumentError("path") for fewer than two points or a point that is
+/// not finite. O(points + cells crossed).
+PathProfile profile_path(const std::vector<Point3>& path, const Grid& dsm, const Grid* dtm);
+
+struct ProfileOptions {
+  int width = 1200, height = 500;  ///< pixels
+  std::string title;               ///< above the plot (ASCII; empty: none)
+  double safety = 2;               ///< the band around the path: +-safety (0: no band)
+  double max_agl = 120;            ///< the ceiling: ground + max_agl
+  std::vector<Point3> waypoints;   ///< numbered markers on the path (may be empty)
+  /// The height axis, bottom and top (CRS height units); NaN: fitted to everything drawn.
+  double z_min = NAN, z_max = NAN;
+};
+
+/// A picture of the path's height profile: distance along the path (x axis, 0 to the path's
+/// length, exactly the plot's width) against height (y axis), with
+///   - the DSM under the path (profile_path().dsm) as a filled grey silhouette (buildings as steps),
+///   - the DTM (when given) as a brown step line, gaps where it has no data,
+///   - the ceiling, ground + max_agl (ground: the DTM, else the DSM below), a red dashed line,
+///   - the safety band, path height +-safety, translucent magenta, and the path, thick magenta
+///     (#ff00ff),
+///   - each waypoint as a numbered yellow disc on the path where the path passes nearest it (3D),
+///   - a light grid, axes with tick labels in metres, axis titles, the title, and a legend
+///     below the plot naming each element present.
+/// The plot area is framed by a 1-pixel dark box just outside it; inside, distance d and height
+/// z sit at x = left + d / length * plot width, y = bottom - (z - z_min) / (z_max - z_min) *
+/// plot height (pixel edges). Everything but the waypoints is clipped to the plot area. The
+/// fitted height axis spans every drawn height with a margin, rounded out to whole ticks.
+/// Throws ArgumentError for: a size under 240 x 160 or over 30000 a side or 2^26 pixels
+/// ("--width"/"--height"); safety < 0 or not finite ("--safety"); max_agl not positive and
+/// finite ("--max-agl"); z_min >= z_max or only one given ("height axis"); a path as
+/// profile_path() refuses, or with no x,y length ("path"). O(pixels + points + cells crossed).
+Image render_profile(const std::vector<Point3>& path, const Grid& dsm, const Grid* dtm, const ProfileOptions& options);
+
 /// Writes an 8-bit RGB PNG (libpng, default compression). Atomic like the mesh writers;
 /// OutputError on failure, ArgumentError when the image is empty or its array has the wrong size.
 void write_png(const Image& image, const std::string& path);

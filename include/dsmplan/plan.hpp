@@ -80,10 +80,12 @@
 #include <cstddef>
 #include <cstdint>
 #include <functional>
+#include <memory>
 #include <string>
 #include <vector>
 
 #include "dsmplan/core.hpp"
+#include "dsmplan/ground.hpp"
 #include "dsmplan/mesh.hpp"
 #include "dsmplan/raster.hpp"
 #include "dsmplan/simplify.hpp"
@@ -158,11 +160,15 @@ public:
   int bucket_columns() const { return cols_; }
   int bucket_rows() const { return rows_; }
   size_t triangles() const { return triangles_; }
+  /// The mesh's floor (GroundGrid::floor_of() on cells of a quarter bucket): the ground a
+  /// ceiling counts from when a plan has no DSM or DTM.
+  const GroundGrid& floor() const { return floor_; }
   size_t bucket_listings() const { return items_.size(); }  ///< sum of triangles over buckets
   /// Bytes the index holds: its vertices, listings, buckets and blocks.
   size_t memory_bytes() const {
     return verts_.capacity() * sizeof(LocalVertex) + items_.capacity() * sizeof(Listing) +
-           buckets_.capacity() * sizeof(Bucket) + block_top_.capacity() * sizeof(float);
+           buckets_.capacity() * sizeof(Bucket) + block_top_.capacity() * sizeof(float) +
+           floor_.grid().z.capacity() * sizeof(float);
   }
 
 private:
@@ -198,6 +204,7 @@ private:
   /// The highest point in buckets [r0, r1] x [c0, c1], whole blocks read from block_top_.
   double highest(int r0, int r1, int c0, int c1) const;
   double zmin_ = 0, zmax_ = 0;  ///< lowest and highest vertex
+  GroundGrid floor_;
   double margin_ = 0;           ///< conservative slack of the quick rejects
 };
 
@@ -206,13 +213,20 @@ private:
 // A probabilistic roadmap (Kavraki, Svestka, Latombe, Overmars 1996) as the paper's Section 5
 // builds it, then A* (Hart, Nilsson, Raphael 1968) and shortcut smoothing.
 //   - Flight volume: the mesh's x,y bounding box; at (x, y) from the surface (ground()) up to
-//     max_agl above it. Samples are the Halton sequence (Halton 1960) in bases 2, 3, 5, from
-//     index 1, mapped to x, y and the height above ground; a sample where no triangle covers
-//     (x, y) or closer than `safety` to the mesh is dropped. Their number before dropping is
+//     the ceiling, max_agl above the ground of PlanOptions::ground (ground.hpp: the terrain, the
+//     DSM's cells, or the mesh's floor). Samples are the Halton sequence (Halton 1960) in bases
+//     2, 3, 5, from index 1, mapped to x, y and the fraction of the way from surface to ceiling;
+//     a sample where no triangle covers (x, y), where the ceiling is below the surface, or
+//     closer than `safety` to the mesh is dropped. Their number before dropping is
 //     round(area * max_agl / spacing^3), so `spacing` is the mean distance between samples.
-//     Quasi-random, not random: the roadmap is a function of the mesh and the options alone.
-//   - Edges: every pair of samples closer than max_edge whose straight segment is clear by
-//     `safety` (ClearanceIndex::segment_clear, exact). Candidates come from a uniform 3D grid
+//     Quasi-random, not random: the roadmap is a function of the mesh, ground and options alone.
+//   - Validity, in OMPL's sense, is one checker that every planner here asks (FlightSpace,
+//     src/plan/path_parts.hpp): a straight motion is valid when it keeps `safety` from every
+//     triangle and no point of it is higher than max_agl above the ground (measured exactly,
+//     GroundGrid::below_ceiling()). So the ceiling holds for every edge, connection, shortcut
+//     and spline chord, not only for the samples.
+//   - Edges: every pair of samples closer than max_edge whose straight segment is valid (clear by
+//     `safety`, ClearanceIndex::segment_clear, exact; under the ceiling). Candidates come from a uniform 3D grid
 //     of max_edge cells; the segments are checked in parallel (TBB), and the result (nodes,
 //     edges, their order) is the same for every number of threads. Most pairs need no check:
 //     each sample carries a lower bound r of its clearance (ClearanceIndex::clearance_bound,
@@ -288,7 +302,7 @@ struct PlanOptions {
   double safety = 2;       ///< least distance to the mesh, CRS units (the paper's 2 m)
   double spacing = 20;     ///< relative sample distance: samples = volume / spacing^3
   double max_edge = 34.5;  ///< longest roadmap edge, CRS units
-  double max_agl = 120;    ///< top of the flight volume above the surface
+  double max_agl = 120;    ///< the ceiling: no point of a path higher above the ground (see `ground`)
   int connections = 10;    ///< roadmap samples each waypoint is joined to, at most
   bool smooth = true;      ///< shortcut smoothing
   bool spline = true;      ///< then corner rounding by a quadratic B-spline, each chord re-checked
@@ -303,6 +317,10 @@ struct PlanOptions {
   /// Query-time refinement where the roadmap fails a leg (see "Refinement" above): at most
   /// this many rounds; 0 turns it off (the roadmap alone, as the paper's planner).
   int refine_rounds = 8;
+  /// The ground max_agl counts from (ground.hpp): the DTM, or the DSM's cells; null: the
+  /// mesh's floor (ClearanceIndex::floor()). Every point of every path keeps
+  /// height above it <= max_agl, not only the samples.
+  std::shared_ptr<const GroundGrid> ground;
 };
 
 /// Throws ArgumentError naming the option ("--safety", "--spacing", "--max-edge", "--max-agl",
@@ -371,6 +389,31 @@ PlanResult plan_path(const ClearanceIndex& index, const std::vector<Point3>& way
 /// Time O(cells within the distance found of the segment's box; doubling search from 2 cells).
 double column_clearance(const Grid& dsm, const Point3& p, const Point3& q, double max_d);
 
+// ---- holding a mesh plan to the DSM's columns ---------------------------------------------
+//
+// With the DSM known, dsmplan guarantees more than clearance to its mesh: every point of the
+// path keeps `safety` from the DSM's columns themselves, at any cell size and with nothing
+// subtracted. `columns` is the DSM with its holes filled from their rim (fill_holes_from_rim(),
+// RimHeight::highest): unknown space is as high as the highest cell around it, so no path
+// passes through a hole lower than the hole's rim. The planner is run on the mesh plus
+// hole_columns() (exact boxes) with the safety distance widened by column_margin() (of the
+// valid cells), and the written path is
+// measured against the columns with column_clearance() (src/tools/plan_path.cpp).
+// Without a DSM (`plan MESH` alone) the guarantee is the mesh's: clearance to its triangles.
+
+/// The widening of the safety distance on `mesh` under which clearance to the mesh bounds
+/// clearance to the columns of `dsm`'s valid cells (its holes are hole_columns()' part): the
+/// smaller of the most a column rises above the mesh (certify_columns(); only when the mesh
+/// covers every column) and sqrt((cell diagonal / 2)^2 + E^2) with E the mesh's certified depth
+/// below the cell centres. 0.71 m for a conservative mesh of a 1 m DSM. O(cells + triangles x
+/// edge length in cells).
+double column_margin(const Mesh& mesh, const Grid& dsm);
+
+/// The columns of the cells that are nodata in `dsm` but have a height in `columns` (its holes
+/// filled), as triangles in `dsm`'s CRS: each cell's top, and walls down to 1 m below the
+/// lowest column on the sides that face no other such cell. Empty when `dsm` has no hole. O(cells).
+Mesh hole_columns(const Grid& dsm, const Grid& columns);
+
 // ---- a tiled city: planning along a corridor ---------------------------------------------
 //
 // A DSM too large to mesh whole (a VRT mosaic of a city) is planned over piece by piece, never
@@ -393,6 +436,8 @@ struct CorridorOptions {
   /// Applied to each piece's path before it is measured and joined (the tool drops the points
   /// on straight runs for missions); empty: none.
   std::function<std::vector<Point3>(const std::vector<Point3>&)> finish_piece;
+  /// The ground --max-agl counts from (a DTM); null: each window's DSM cells.
+  std::shared_ptr<const GroundGrid> terrain;
 };
 
 struct CorridorResult {
@@ -401,7 +446,9 @@ struct CorridorResult {
   size_t largest_window_cells = 0;
   VerticalError mesh_error;       ///< the windows' meshes against the DSM, merged (certified per tile)
   double min_clearance_m = 0;     ///< least clearance of the path to its windows' meshes
-  double min_clearance_dsm_m = 0; ///< least clearance to the DSM columns
+  double min_clearance_dsm_m = 0; ///< least clearance to the DSM columns (holes as high as their rim)
+  double max_agl_m = -INFINITY;   ///< greatest height of the path above the ground (exact)
+  double safety_margin_m = 0;     ///< the largest widening of the safety distance on a window's mesh (column_margin())
   double seconds_windows = 0;     ///< reading and meshing the windows
 };
 
@@ -454,7 +501,7 @@ Roadmap read_roadmap(const std::string& path, RoadmapHeader* header);
 // iteration. The leg is the path through both trees once they meet.
 //   - Samples: uniform (std::mt19937_64 from options.seed and the leg's number, mapped to
 //     [0, 1) by its top 53 bits, so the same on every platform) in the PRM's flight volume: the
-//     mesh's x,y bounding box, from the surface up to max_agl above it; a sample over a hole
+//     mesh's x,y bounding box, from the surface up to the ceiling; a sample over a hole
 //     (ground() NaN) is skipped and counts towards rrt_max_samples.
 //   - Steps: at most max_edge (the range; up to rounding, about 1e-9 m at UTM coordinates)
 //     from the tree's nearest node (exact nearest, ties to the older node, by a uniform 3D grid

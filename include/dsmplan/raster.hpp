@@ -170,16 +170,42 @@ struct GridPointsOptions {
   double resolution = 1.0;  ///< cell size, CRS units, > 0
   Fusion fusion = Fusion::Median;
   std::vector<int> drop_classes = {7, 18};  ///< ASPRS low/high noise by default
+  /// When not empty: only points of these ASPRS classes are gridded (e.g. {2}, ground: a DTM).
+  /// A class both kept and dropped is an ArgumentError (clear drop_classes to keep noise classes).
+  std::vector<int> keep_classes;
 };
 
 /// Grids point clouds (all in one CRS) into one DSM. The grid is aligned to multiples of the
 /// resolution and just covers the kept points; a point on a cell's west/north edge belongs to
 /// that cell (up to floating-point rounding of x/resolution). At most 2^31-1 cells. Cells
 /// without points are nodata (filling holes is a separate, explicit step). Throws ArgumentError
-/// for resolution <= 0, InputError when no point is left after filtering.
+/// for resolution <= 0, a class outside 0-255 or in both keep_classes and drop_classes,
+/// InputError when no point is left after filtering.
 /// O(points log points-per-cell).
 Grid grid_points(const std::vector<PointCloud>& clouds, const GridPointsOptions& options,
                  const Progress& progress = {});
+
+// ---- the DSM as solid columns --------------------------------------------------------------
+//
+// What dsmplan guarantees a path against (plan.hpp) is the DSM read literally: every valid cell
+// a box over its whole square, from below up to its height. Nodata is unknown space.
+
+/// Which height of its rim a nodata region takes: `highest` for obstacles (no path passes
+/// through a hole lower than the hole's rim), `lowest` for the ground a ceiling counts from.
+enum class RimHeight { highest, lowest };
+
+/// Gives every 4-connected nodata region of `grid` the highest (or lowest) height of the valid
+/// cells touching it, diagonals included. A grid without a valid cell stays as it is. Returns
+/// the number of regions filled. O(cells).
+size_t fill_holes_from_rim(Grid& grid, RimHeight rule);
+
+/// The heights at the corners of the DSM's cells: a Grid of (width + 1) x (height + 1) "cells"
+/// centred on the DSM's cell corners (its x0, y0 half a cell west and north), each the highest
+/// valid cell meeting at that corner (NaN where none does). A surface on or above the
+/// piecewise-linear interpolation of these corners over every cell encloses the DSM's columns;
+/// simplify_bounded(column_envelope(dsm), conservative) builds such a surface, and
+/// certify_columns() (simplify.hpp) measures any mesh against the columns exactly. O(cells).
+Grid column_envelope(const Grid& dsm);
 
 // ---- GDAL I/O (the only part of this module that needs GDAL/PROJ) -------------------------
 
@@ -187,6 +213,8 @@ struct ReadRasterOptions {
   int band = 1;
   std::string assign_crs;  ///< CRS to use when the raster has none ("EPSG:25832", WKT, ...)
   bool allow_no_crs = false;
+  /// Describe x, y or heights in a unit other than the metre instead of refusing them (`info`).
+  bool allow_other_units = false;
   /// Memory the caller will need per cell of this raster beyond the cell's 4-byte height (e.g.
   /// for the mesh it will make of it): the total is checked against the machine before reading.
   double extra_bytes_per_cell = 0;
@@ -195,8 +223,11 @@ struct ReadRasterOptions {
 /// Reads one band of any GDAL raster. Declared nodata becomes NaN. Throws InputError when the
 /// file is missing or not a raster, has no cells or no valid cell, has a rotated geotransform,
 /// has NaN (not declared nodata) or infinite heights (naming the first cell and its
-/// coordinates), has no CRS and none is assigned, or would need more memory than the machine has
-/// (4 bytes a cell, 5 with a mask band, plus options.extra_bytes_per_cell), before reading. O(cells).
+/// coordinates), has no CRS and none is assigned, has x, y or heights in a unit other than the
+/// metre (metric_problem(), units only; unless options.allow_other_units), or would need more
+/// memory than the machine has (4 bytes a cell, 5 with a mask band, plus
+/// options.extra_bytes_per_cell), before reading. The vertical unit is the compound CRS's, or
+/// the band's unit type (GDALGetRasterUnitType) when the CRS has none or it is not metres. O(cells).
 Grid read_raster(const std::string& path, const ReadRasterOptions& options = {}, const Progress& progress = {});
 
 /// Opens one band of any GDAL raster for reading by windows (GridSource), with the checks of
@@ -208,6 +239,33 @@ std::unique_ptr<GridSource> open_raster(const std::string& path, const ReadRaste
 /// Fills `crs.name`, `crs.epsg`, `crs.wkt` and the vertical fields from `crs.definition`
 /// (PROJ via GDAL's OGRSpatialReference). Throws ArgumentError when it cannot be parsed.
 void resolve_crs(Crs& crs);
+
+// ---- units: dsmplan measures in metres ----------------------------------------------------
+
+/// Metres per `unit`, a unit's name or abbreviation as CRSs and raster bands spell it ("metre",
+/// "m", "ft", "foot", "US survey foot", "ftUS", "us-ft", ... and every linear unit of PROJ's
+/// database; case, '_' and '-' do not matter); 0 when it names no known length unit.
+double unit_metres(const std::string& unit);
+
+/// Fills what `crs` does not say yet of its units from its WKT (or definition) and names:
+/// geographic, linear_unit, linear_unit_m (and the vertical ones of a compound CRS), and
+/// vertical_unit_m from vertical_unit. For a Crs read from a mesh header (name, EPSG, WKT).
+void resolve_units(Crs& crs);
+
+/// "EPSG:326zz" (north) or "EPSG:327zz" (south): the WGS 84 / UTM zone holding the point (x, y)
+/// of `crs`, zone = floor((longitude + 180) / 6) + 1. Empty when it cannot be transformed.
+std::string utm_epsg_at(const Crs& crs, double x, double y);
+
+/// Why dsmplan cannot measure in `crs`: x, y must be metres of a projected CRS, heights metres
+/// (or of unknown unit). Empty when they are; otherwise one line for InputError(path, "", ...)
+/// naming the unit and a way out, e.g. "CRS 'NAD83 / Virginia North (ftUS)' has horizontal unit
+/// US survey foot (0.3048006 m): dsmplan measures in metres; reproject first, e.g. gdalwarp
+/// -t_srs EPSG:32618 dsm_ft.tif dsm_m.tif". The example's UTM zone is that of (centre_x,
+/// centre_y), the data's centre in `crs`; the example suits `path` by its extension (gdalwarp
+/// for rasters, PDAL for point clouds, remaking a mesh from its DSM). `units_only`: a geographic
+/// CRS passes (its degrees are the caller's to refuse). Never converts: refusing is the choice.
+std::string metric_problem(const Crs& crs, const std::string& path, double centre_x, double centre_y,
+                           bool units_only = false);
 
 /// Writes a Float32 GeoTIFF (DEFLATE, tiled, nodata -9999). Atomic: temp file + rename.
 void write_geotiff(const Grid& grid, const std::string& path, const Progress& progress = {});

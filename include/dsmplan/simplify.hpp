@@ -229,6 +229,23 @@ BoundedStreamResult simplify_bounded(GridSource& dsm, const BoundedSimplifyOptio
 /// be in the same CRS. O(cells + triangles).
 VerticalError certify(const Mesh& mesh, const Grid& dsm, const Progress& progress = {});
 
+/// How a mesh lies against the DSM taken as solid columns (each valid cell a box over its
+/// whole square, up to its height), the reading plan.hpp's guarantees are stated in.
+struct ColumnError {
+  /// The most any column rises above the mesh, anywhere over its square (0: the mesh encloses
+  /// every column it covers). Exact: see src/simplify/certify_columns.cpp.
+  double max_below = 0;
+  /// Corners of valid cells that no triangle covers: those columns are not enclosed at all.
+  size_t uncovered_corners = 0;
+};
+
+/// Measures `mesh` against the columns of `dsm` (same CRS): at every cell corner, wherever an
+/// edge of the mesh crosses a cell's border, and at every vertex, which is where mesh minus
+/// column height is least. A mesh made by simplify_bounded() of column_envelope(dsm) with
+/// conservative on is at or above every corner; this says whether it is above every column
+/// everywhere (max_below 0) or by how much it is not. O(cells + triangles x edge length in cells).
+ColumnError certify_columns(const Mesh& mesh, const Grid& dsm, const Progress& progress = {});
+
 /// Throws InputError(file, place, problem) unless `mesh` is 2.5D: every index in range, every
 /// triangle counter-clockwise from above with positive area, no two vertices at the same x,y,
 /// every edge in at most two triangles, in opposite directions (the surface does not fold).

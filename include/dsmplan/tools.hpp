@@ -44,7 +44,9 @@ struct RasterReport {
 
 RasterReport describe_raster(const InfoOptions& options);
 /// Keys: file, width, height, resolution [x,y], extent {xmin,ymin,xmax,ymax}, crs {name,epsg,wkt},
-/// vertical {name,unit}, cells, valid_cells, nodata_cells, holes, height_range [min,max].
+/// vertical {name,unit}, units {horizontal, horizontal_m, vertical, vertical_m} (unit names and
+/// metres per unit, null when not known; info shows a CRS in feet, the other tools refuse it),
+/// cells, valid_cells, nodata_cells, holes, height_range [min,max].
 Json to_json(const RasterReport& report);
 /// The same for people, one "Label: value" line each.
 std::string to_text(const RasterReport& report);
@@ -189,6 +191,38 @@ RenderReport render_job(const RenderJobOptions& options, const Progress& progres
 /// Keys: output, width, height, panels.
 Json to_json(const RenderReport& report);
 
+// ---- dsmplan profile ------------------------------------------------------------------------
+
+struct ProfileJobOptions {
+  std::string dsm;        ///< DSM raster: the silhouette under the path
+  std::string path;       ///< path CSV (x,y,z as `dsmplan plan` writes them), in the DSM's CRS
+  std::string output;     ///< .png
+  std::string dtm;        ///< terrain raster (optional): the ground of the ceiling, a brown line
+  std::string waypoints;  ///< waypoint CSV (optional): numbered markers on the path
+  ProfileOptions profile;  ///< size, title (empty: "PATH over DSM"), safety, max_agl
+};
+
+struct ProfileReport {
+  std::string output;
+  int width = 0, height = 0;
+  double length = 0;                        ///< the path's x,y length
+  double min_above_dsm = NAN, min_above_dsm_at = NAN;        ///< least height above the DSM cell below, where
+  double max_above_ground = NAN, max_above_ground_at = NAN;  ///< greatest above the ground, where
+  bool ground_is_dtm = false;
+  double max_agl = 0;  ///< the ceiling above the ground
+};
+
+/// The height profile of a path (render_profile()) as a PNG, written atomically. Refused before
+/// anything is written: an output not named .png (ArgumentError); a path with fewer than two
+/// points or a point outside the DSM's extent, a DSM in degrees, a DTM whose EPSG code differs
+/// from the DSM's or that does not overlap the DSM (InputError naming the file). Only the DSM's
+/// and DTM's windows around the path are read, so the DSM may be a city's VRT mosaic.
+ProfileReport profile_job(const ProfileJobOptions& options, const Progress& progress = {});
+/// One line: "PROFILE.png: path 659.2 m long, least 3.82 m above the DSM below it (at 587.9 m),
+/// at most 25.60 m above the DSM (at 294.8 m), ceiling DSM + 30 m kept with 4.40 m to spare"
+/// ("EXCEEDED by X m" when the path rises above the ceiling).
+std::string to_text(const ProfileReport& report);
+
 // ---- dsmplan plan ---------------------------------------------------------------------------
 
 /// Waypoints from a CSV file: one "x,y,z" line each, in the mesh's CRS (blanks around the
@@ -220,7 +254,13 @@ struct PlanJobOptions {
   /// Roadmap file (PRM): read when it exists (read_roadmap(): refused when made for another mesh
   /// or other options), else built and written there for the next query.
   std::string roadmap;
-  std::string dsm;          ///< raw DSM: when given, the path's clearance to its columns is reported
+  /// Raw DSM: when given, every point of the path keeps `safety` from its columns (each valid
+  /// cell a box over its square; holes as high as their rim), planned with the safety widened
+  /// by how far the mesh lies inside them (certify_columns()) and measured on the written path.
+  std::string dsm;
+  /// Terrain (any GDAL raster in the mesh's CRS, any resolution): the ground --max-agl counts
+  /// from. Without it: the DSM's cells, else the mesh's floor (ground.hpp).
+  std::string dtm;
   VerticalOptions vertical;  ///< heights for GeoJSON, missions, KML: --vertical-crs, --allow-approximate-vertical
   /// When `mesh` is a DSM (a raster or VRT mosaic, not a mesh file): planned along a corridor,
   /// window by window (plan_corridor()), on conservative bounded meshes made on the fly.
@@ -240,6 +280,12 @@ struct PlanReport {
   /// the path is held to, sqrt((cell diagonal / 2)^2 + max_below^2): the path is written only
   /// when min_clearance_dsm_m >= safety - tolerance and > 0.
   double mesh_max_below_dsm_m = NAN, dsm_tolerance_m = NAN;
+  /// With a DSM: the most a column rises above the mesh anywhere (certify_columns()), and the
+  /// margin the safety distance was widened by on the mesh to hold against the columns.
+  double column_max_above_mesh_m = NAN, safety_margin_m = NAN;
+  /// Greatest height of the written path above the ground in use (exact), and which ground.
+  double max_agl_m = NAN;
+  std::string ground;
   size_t roadmap_nodes = 0, roadmap_edges = 0;
   bool roadmap_reused = false;  ///< the roadmap came from the --roadmap file
   size_t refined_samples = 0;   ///< samples the query added where the roadmap failed a leg (plan.hpp, "Refinement")

@@ -163,6 +163,9 @@ ClearanceIndex::ClearanceIndex(const Mesh& mesh, const ClearanceOptions& options
   gx0_ = lo[0] - origin_[0] - shift * cell_;
   gy0_ = lo[1] - origin_[1] - shift * cell_;
   const size_t buckets = static_cast<size_t>(cols_) * static_cast<size_t>(rows_);
+  // The floor a ceiling counts from without a DSM: a quarter bucket (the mesh's own cell size
+  // at the automatic bucket size), coarser only where that would exceed 5e7 cells.
+  floor_ = GroundGrid::floor_of(mesh, std::max(cell_ / 4, std::sqrt(std::max(wx * wy, 1e-12) / 5e7)));
 
   // Pass 1 counts the listings per triangle; pass 2 writes them. Both clip the same way, so
   // they agree; both are parallel over triangles.

@@ -18,16 +18,18 @@ using detail::format_number;
 namespace {
 
 struct Window {
-  Grid dsm;  // the window's cells, with the margin for obstacles
+  Grid dsm;  // the window's cells, with the margin for obstacles, holes filled from their rim
   Mesh mesh;
   std::unique_ptr<ClearanceIndex> index;
   VerticalError error;
+  double margin = 0;  // the safety distance's widening on the mesh (column_margin())
+  PlanOptions plan;   // the run's, the safety widened by `margin`, the window's ground
 };
 
 // The flight area (x,y box of the piece's ends, widened by margin, clipped to the DSM's cell
 // centres) and its mesh, made of the area widened by `pad` more.
 std::unique_ptr<Window> make_window(GridSource& source, const Point3& a, const Point3& b, double margin, double pad,
-                                    const CorridorOptions& options) {
+                                    const PlanOptions& plan, const CorridorOptions& options) {
   const Grid& frame = source.frame();
   const double left = frame.center_x(0), right = frame.center_x(frame.width - 1);
   const double top = frame.center_y(0), bottom = frame.center_y(frame.height - 1);
@@ -41,12 +43,20 @@ std::unique_ptr<Window> make_window(GridSource& source, const Point3& a, const P
   const int r0 = clamp_row(area[3] + pad), r1 = clamp_row(area[1] - pad);
   auto window = std::make_unique<Window>();
   window->dsm = read_window(source, c0, r0, c1 - c0 + 1, r1 - r0 + 1);
+  window->plan = plan;
+  window->plan.ground = options.terrain ? options.terrain : std::make_shared<GroundGrid>(window->dsm);
+  // Holes are unknown space, as high as their rim (as far as the window shows it), meshed as
+  // columns like any other; the mesh is conservative (never below a cell centre).
+  fill_holes_from_rim(window->dsm, RimHeight::highest);
   BoundedSimplifyOptions mesh_options = options.mesh;
-  mesh_options.conservative = true;  // a path safe on the mesh is then safe on the data
+  mesh_options.conservative = true;
   GridView view(window->dsm);
   window->mesh.crs = frame.crs;
   MeshCollector collector(window->mesh);
   window->error = simplify_bounded(view, mesh_options, collector).error;
+  // Clearance to this mesh, widened so, bounds clearance to the columns (column_margin()).
+  window->margin = column_margin(window->mesh, window->dsm);
+  window->plan.safety += window->margin;
   ClearanceOptions clearance;
   clearance.flight_area = area;
   window->index = std::make_unique<ClearanceIndex>(window->mesh, clearance);
@@ -105,7 +115,7 @@ CorridorResult plan_corridor(GridSource& dsm, const std::vector<Point3>& waypoin
   const double pad = plan.safety + 2 * std::max(frame.cell_x, frame.cell_y);
   auto window_for = [&](size_t k) {
     const auto start = std::chrono::steady_clock::now();
-    auto window = make_window(dsm, stops[k], stops[k + 1], options.margin, pad, options);
+    auto window = make_window(dsm, stops[k], stops[k + 1], options.margin, pad, plan, options);
     out.seconds_windows += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     return window;
   };
@@ -114,14 +124,15 @@ CorridorResult plan_corridor(GridSource& dsm, const std::vector<Point3>& waypoin
     if (k + 1 < pieces) next = window_for(k + 1);
     const size_t leg = leg_of_piece[k];
     if (via[k + 1]) {
-      // The lowest whole-metre height above safety over both surfaces that both meshes clear.
+      // The lowest whole-metre height above safety over both surfaces that both windows allow.
       Point3& p = stops[k + 1];
       const double g0 = current->index->ground(p[0], p[1]), g1 = next->index->ground(p[0], p[1]);
-      const double ceiling = std::min(g0, g1) + plan.max_agl;
+      const detail::FlightSpace here(*current->index, current->plan), there(*next->index, next->plan);
+      const double ceiling = std::min(here.ceiling_at(p[0], p[1]), there.ceiling_at(p[0], p[1]));
       bool placed = false;
       for (double z = std::max(g0, g1) + plan.safety; !placed && z <= ceiling; z += 1) {
         p[2] = z;
-        placed = current->index->point_clear(p, plan.safety) && next->index->point_clear(p, plan.safety);
+        placed = here.state_valid(p) && there.state_valid(p);
       }
       if (!placed) {
         result.status = PlanStatus::NoPath;
@@ -131,7 +142,7 @@ CorridorResult plan_corridor(GridSource& dsm, const std::vector<Point3>& waypoin
         return out;
       }
     }
-    PlanResult piece = plan_path(*current->index, {stops[k], stops[k + 1]}, plan,
+    PlanResult piece = plan_path(*current->index, {stops[k], stops[k + 1]}, current->plan,
                                  sub_progress(progress, double(k) / pieces, double(k + 1) / pieces));
     result.roadmap_nodes += piece.roadmap_nodes;
     result.roadmap_edges += piece.roadmap_edges;
@@ -155,12 +166,14 @@ CorridorResult plan_corridor(GridSource& dsm, const std::vector<Point3>& waypoin
       out.min_clearance_m = std::min(out.min_clearance_m, current->index->clearance(piece.path[s - 1], piece.path[s], cap));
       out.min_clearance_dsm_m =
           std::min(out.min_clearance_dsm_m, column_clearance(current->dsm, piece.path[s - 1], piece.path[s], cap));
+      out.max_agl_m = std::max(out.max_agl_m, current->plan.ground->max_height_above(piece.path[s - 1], piece.path[s]));
     }
     const size_t skip = result.path.empty() ? 0 : 1;  // the joint is the previous piece's end
     result.path.insert(result.path.end(), piece.path.begin() + skip, piece.path.end());
     result.raw_path.insert(result.raw_path.end(), piece.raw_path.begin() + (result.raw_path.empty() ? 0 : 1),
                            piece.raw_path.end());
     out.mesh_error.merge(current->error);
+    out.safety_margin_m = std::max(out.safety_margin_m, current->margin);
     out.largest_window_cells = std::max(out.largest_window_cells, current->dsm.cells());
     ++out.windows;
     current = std::move(next);

@@ -35,7 +35,9 @@ void check_waypoint_list(const std::vector<Point3>& waypoints) {
 namespace {
 
 // Why waypoint `w` cannot be flown to, or empty when it can.
-std::string waypoint_problem(const Point3& w, const ClearanceIndex& index, double safety) {
+std::string waypoint_problem(const Point3& w, const FlightSpace& space) {
+  const ClearanceIndex& index = space.index();
+  const double safety = space.safety();
   const ClearanceIndex::Footprint& e = index.footprint();
   if (!(w[0] >= e.xmin && w[0] <= e.xmax && w[1] >= e.ymin && w[1] <= e.ymax))
     return "outside the mesh's extent (x " + format_number(e.xmin) + " to " + format_number(e.xmax) + ", y " +
@@ -46,16 +48,22 @@ std::string waypoint_problem(const Point3& w, const ClearanceIndex& index, doubl
   if (!index.point_clear(w, safety))
     return "closer than the safety distance " + format_number(safety) + " to the mesh (clearance " +
            format_number(index.clearance(w, w, safety)) + ")";
+  if (!space.below_ceiling(w)) {
+    const double above = space.ground().height_above(w);
+    return std::isinf(above) ? "outside the ground's extent (no ground below it to count --max-agl from)"
+                             : "above the ceiling: " + format_number(above) + " m above the ground, --max-agl " +
+                                   format_number(space.max_agl());
+  }
   return {};
 }
 
 // From each point, straight on to the farthest later point the segment to which is clear
 // (the next point always is: it is a checked edge).
-std::vector<Point3> shortcut(const std::vector<Point3>& leg, const ClearanceIndex& index, double safety) {
+std::vector<Point3> shortcut(const std::vector<Point3>& leg, const FlightSpace& space) {
   std::vector<Point3> out{leg.front()};
   for (size_t i = 0; i + 1 < leg.size();) {
     size_t j = leg.size() - 1;
-    while (j > i + 1 && !index.segment_clear(leg[i], leg[j], safety)) --j;
+    while (j > i + 1 && !space.motion_valid(leg[i], leg[j])) --j;
     out.push_back(leg[j]);
     i = j;
   }
@@ -73,7 +81,7 @@ Point3 lerp(const Point3& a, const Point3& b, double t) {
 // kept sharp after that. The curve lies in the triangle of its ends and the corner and is
 // convex, so it is no longer than the two straight pieces it replaces, and its chords are
 // shorter still: rounding never makes the path longer.
-std::vector<Point3> round_corners(const std::vector<Point3>& polygon, const ClearanceIndex& index, double safety) {
+std::vector<Point3> round_corners(const std::vector<Point3>& polygon, const FlightSpace& space) {
   if (polygon.size() < 3) return polygon;
   constexpr double kChord = 2.0;  // CRS units: chords of about 2 m follow the curve within cm
   constexpr int kTries = 4;       // cuts of 1/2, 1/4, 1/8, 1/16 of the shorter segment share
@@ -97,8 +105,8 @@ std::vector<Point3> round_corners(const std::vector<Point3>& polygon, const Clea
       }
       // The straight piece up to the curve lies on a checked segment; the chords are new.
       bool clear = true;
-      for (size_t i = 1; i < points.size() && clear; ++i) clear = index.segment_clear(points[i - 1], points[i], safety);
-      if (clear && index.segment_clear(entry, p0, safety)) curve = std::move(points);
+      for (size_t i = 1; i < points.size() && clear; ++i) clear = space.motion_valid(points[i - 1], points[i]);
+      if (clear && space.motion_valid(entry, p0)) curve = std::move(points);
     }
     if (curve.empty()) {
       out.push_back(c);
@@ -115,10 +123,9 @@ std::vector<Point3> round_corners(const std::vector<Point3>& polygon, const Clea
 
 }  // namespace
 
-bool first_invalid_waypoint(const std::vector<Point3>& waypoints, const ClearanceIndex& index, double safety,
-                            PlanResult& result) {
+bool first_invalid_waypoint(const std::vector<Point3>& waypoints, const FlightSpace& space, PlanResult& result) {
   for (size_t i = 0; i < waypoints.size(); ++i) {
-    std::string problem = waypoint_problem(waypoints[i], index, safety);
+    std::string problem = waypoint_problem(waypoints[i], space);
     if (problem.empty()) continue;
     result.status = PlanStatus::InvalidWaypoint;
     result.waypoint = i;
@@ -128,22 +135,22 @@ bool first_invalid_waypoint(const std::vector<Point3>& waypoints, const Clearanc
   return false;
 }
 
-void finish_path(const std::vector<std::vector<Point3>>& legs, const ClearanceIndex& index,
-                 const PlanOptions& options, PlanResult& result) {
+void finish_path(const std::vector<std::vector<Point3>>& legs, const FlightSpace& space, const PlanOptions& options,
+                 PlanResult& result) {
   result.path.clear();
   result.raw_path.clear();
   for (size_t i = 0; i < legs.size(); ++i) {
     std::vector<Point3> smooth = legs[i];
-    if (options.smooth) smooth = shortcut(smooth, index, options.safety);
-    if (options.spline) smooth = round_corners(smooth, index, options.safety);
+    if (options.smooth) smooth = shortcut(smooth, space);
+    if (options.spline) smooth = round_corners(smooth, space);
     for (size_t k = i ? 1 : 0; k < legs[i].size(); ++k) result.raw_path.push_back(legs[i][k]);
     for (size_t k = i ? 1 : 0; k < smooth.size(); ++k) result.path.push_back(smooth[k]);
   }
   // Every segment was checked on its way in; this says so once more, cheaply, because a path
   // that is not clear must never leave the library.
   for (size_t k = 1; k < result.path.size(); ++k)
-    if (!index.segment_clear(result.path[k - 1], result.path[k], options.safety))
-      throw std::logic_error("planner produced a segment closer than the safety distance");
+    if (!space.motion_valid(result.path[k - 1], result.path[k]))
+      throw std::logic_error("planner produced a segment closer than the safety distance or above the ceiling");
   result.status = PlanStatus::Solved;
 }
 

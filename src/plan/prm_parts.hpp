@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "dsmplan/plan.hpp"
+#include "path_parts.hpp"
 
 namespace dsmplan::detail {
 
@@ -76,7 +77,7 @@ private:
 /// max_edge, so only the 27 cubes around w are read, not every node; the answer is the same
 /// as a scan over all nodes (tests/plan_test.cpp checks it against one).
 inline std::vector<std::pair<double, uint32_t>> roadmap_links(const Point3& w, const Roadmap& map,
-                                                              const PointGrid& grid, const ClearanceIndex& index,
+                                                              const PointGrid& grid, const FlightSpace& space,
                                                               const PlanOptions& options) {
   std::vector<std::pair<double, uint32_t>> near;
   grid.around(w, [&](uint32_t i) {
@@ -88,7 +89,7 @@ inline std::vector<std::pair<double, uint32_t>> roadmap_links(const Point3& w, c
   std::vector<std::pair<double, uint32_t>> links;
   for (const auto& candidate : near) {
     if (links.size() >= static_cast<size_t>(options.connections)) break;
-    if (index.segment_clear(w, map.nodes[candidate.second], options.safety)) links.push_back(candidate);
+    if (space.motion_valid(w, map.nodes[candidate.second])) links.push_back(candidate);
   }
   return links;
 }

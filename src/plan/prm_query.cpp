@@ -105,8 +105,10 @@ constexpr int kMaxWiden = 5;                    // the region: at most 2^5 max_e
 // Node numbers: the roadmap's, then the added samples in the order they were added.
 class Refinement {
 public:
-  Refinement(const Roadmap& map, const PointGrid& base_grid, const ClearanceIndex& index, const PlanOptions& options)
-      : map_(map), base_grid_(base_grid), index_(index), o_(options), nb_(static_cast<uint32_t>(map.nodes.size())) {
+  Refinement(const Roadmap& map, const PointGrid& base_grid, const detail::FlightSpace& space, const PlanOptions& options)
+      : map_(map), base_grid_(base_grid), space_(space), index_(space.index()), o_(options),
+        nb_(static_cast<uint32_t>(map.nodes.size())) {
+    const ClearanceIndex& index = index_;
     const ClearanceIndex::Footprint& e = index.footprint();
     wx_ = e.xmax - e.xmin, wy_ = e.ymax - e.ymin;
     count_[0] = std::round(wx_ * wy_ * o_.max_agl / std::pow(o_.spacing, 3));
@@ -159,7 +161,7 @@ private:
   bool clear(uint32_t u, uint32_t v, const Point3& p, const Point3& q) {
     const uint64_t key = u < v ? (uint64_t{u} << 32 | v) : (uint64_t{v} << 32 | u);
     auto [it, fresh] = cache_.try_emplace(key, false);
-    if (fresh) it->second = u < v ? index_.segment_clear(p, q, o_.safety) : index_.segment_clear(q, p, o_.safety);
+    if (fresh) it->second = u < v ? space_.motion_valid(p, q) : space_.motion_valid(q, p);
     return it->second;
   }
   int cached(uint32_t u, uint32_t v) const {  // 1 clear, 0 blocked, -1 not measured yet
@@ -368,10 +370,9 @@ private:
           const int cj = std::min(rows - 1, static_cast<int>((y - e.ymin) / c));
           if (!region[static_cast<size_t>(cj) * cols + ci]) continue;
           taken[off] = 1;  // decided once: a sample of this index is the same point every time
-          const double g = index_.ground(x, y);
-          if (std::isnan(g)) continue;
-          const Point3 p{x, y, g + detail::halton(i, 5) * o_.max_agl};
-          if (index_.point_clear(p, o_.safety)) found[k].emplace_back(i, p);
+          Point3 p;
+          if (space_.place(x, y, index_.ground(x, y), detail::halton(i, 5), p) && index_.point_clear(p, o_.safety))
+            found[k].emplace_back(i, p);
         }
       });
     });
@@ -387,6 +388,7 @@ private:
 
   const Roadmap& map_;
   const PointGrid& base_grid_;
+  const detail::FlightSpace& space_;
   const ClearanceIndex& index_;
   const PlanOptions& o_;
   const uint32_t nb_;
@@ -411,22 +413,23 @@ PlanResult query_roadmap(const Roadmap& map, const ClearanceIndex& index, const 
   result.roadmap_nodes = map.nodes.size();
   result.roadmap_edges = map.edges();
   Stopwatch clock;
-  if (detail::first_invalid_waypoint(waypoints, index, options.safety, result)) return result;
+  const detail::FlightSpace space(index, options);
+  if (detail::first_invalid_waypoint(waypoints, space, result)) return result;
   const PointGrid grid(map.nodes, all_nodes(map.nodes.size()), options.max_edge);
   std::vector<std::vector<std::pair<double, uint32_t>>> links(waypoints.size());
   std::vector<std::vector<Point3>> legs;
-  for (size_t i = 0; i < waypoints.size(); ++i) links[i] = detail::roadmap_links(waypoints[i], map, grid, index, options);
+  for (size_t i = 0; i < waypoints.size(); ++i) links[i] = detail::roadmap_links(waypoints[i], map, grid, space, options);
   std::unique_ptr<Refinement> refinement;  // made when a leg first needs it
   for (size_t i = 0; i + 1 < waypoints.size(); ++i) {
     const Point3 &a = waypoints[i], &b = waypoints[i + 1];
     std::vector<Point3> leg;
-    if (distance(a, b) < options.max_edge && index.segment_clear(a, b, options.safety)) {
+    if (distance(a, b) < options.max_edge && space.motion_valid(a, b)) {
       leg = {a, b};
     } else {
       leg = astar(map, a, b, links[i], links[i + 1]);
     }
     if (leg.empty() && options.refine_rounds > 0) {
-      if (!refinement) refinement = std::make_unique<Refinement>(map, grid, index, options);
+      if (!refinement) refinement = std::make_unique<Refinement>(map, grid, space, options);
       leg = refinement->solve(a, i, b, i + 1);
     }
     if (refinement) {
@@ -442,12 +445,7 @@ PlanResult query_roadmap(const Roadmap& map, const ClearanceIndex& index, const 
         refined = " nor after " + std::to_string(refinement->rounds()) + " refinement rounds (" +
                   std::to_string(refinement->added()) + " samples added, spacing down to " +
                   format_number(refinement->finest_spacing()) + ")";
-      // Samples fill surface .. surface + max_agl: a waypoint above that needs a higher volume, not denser samples.
-      const bool above = lonely != SIZE_MAX && waypoints[lonely][2] > index.ground(waypoints[lonely][0],
-                                                                                  waypoints[lonely][1]) + options.max_agl;
-      const std::string hint = above ? "it is above the flight volume (the surface + --max-agl " +
-                                           format_number(options.max_agl) + "): lower it or raise --max-agl"
-                                     : "a smaller --spacing may give one";
+      const std::string hint = "a smaller --spacing may give one";
       result.reason = lonely != SIZE_MAX ? "no roadmap sample within --max-edge " + format_number(options.max_edge) +
                                                " has a clear straight segment to waypoint " +
                                                std::to_string(lonely + 1) + refined + "; " + hint
@@ -460,7 +458,7 @@ PlanResult query_roadmap(const Roadmap& map, const ClearanceIndex& index, const 
     legs.push_back(std::move(leg));
   }
   result.seconds_query = clock.lap();
-  detail::finish_path(legs, index, options, result);
+  detail::finish_path(legs, space, options, result);
   result.seconds_smooth = clock.lap();
   return result;
 }
@@ -470,7 +468,8 @@ PlanResult plan_path(const ClearanceIndex& index, const std::vector<Point3>& way
   if (options.planner == PlannerKind::rrt_connect) return plan_rrt_connect(index, waypoints, options, progress);
   check_plan_options(options);
   detail::check_waypoint_list(waypoints);
-  if (PlanResult invalid; detail::first_invalid_waypoint(waypoints, index, options.safety, invalid)) return invalid;
+  if (PlanResult invalid; detail::first_invalid_waypoint(waypoints, detail::FlightSpace(index, options), invalid))
+    return invalid;
   Stopwatch clock;
   const Roadmap map = build_roadmap(index, options, sub_progress(progress, 0, 0.95));
   const double seconds_roadmap = clock.lap();

@@ -167,6 +167,7 @@ enum class Growth { trapped, advanced, reached };
 
 // What one leg's search needs to know of the world.
 struct Space {
+  const detail::FlightSpace& flight;
   const ClearanceIndex& index;
   double range, safety;
 
@@ -175,7 +176,7 @@ struct Space {
   // refuse most blocked steps before the segment query (which would refuse them too).
   bool admissible(const Point3& p) const {
     const double g = index.ground(p[0], p[1]);
-    return !std::isnan(g) && p[2] >= g && index.point_clear(p, safety);
+    return !std::isnan(g) && p[2] >= g && flight.state_valid(p);
   }
 
   // EXTEND (Kuffner & LaValle, Fig. 2): from the tree's nearest node, a step of at most
@@ -190,7 +191,7 @@ struct Space {
     }
     const bool arrives = d <= range;
     const Point3 to = arrives ? target : lerp(from, target, range / d);
-    if (!admissible(to) || !index.segment_clear(from, to, safety)) return Growth::trapped;
+    if (!admissible(to) || !flight.motion_valid(from, to)) return Growth::trapped;
     added = tree.add(to, near);
     return arrives ? Growth::reached : Growth::advanced;
   }
@@ -206,17 +207,15 @@ struct Space {
   }
 };
 
-// Uniform in the flight volume: the footprint, from the surface up to max_agl above it; false
-// for a draw over a hole (no surface below).
-bool draw_sample(std::mt19937_64& rng, const ClearanceIndex& index, double max_agl, Point3& sample) {
+// Uniform in the flight volume: the footprint, from the surface up to the ceiling; false for a
+// draw over a hole (no surface below) or where the ceiling leaves no room.
+bool draw_sample(std::mt19937_64& rng, const detail::FlightSpace& flight, Point3& sample) {
+  const ClearanceIndex& index = flight.index();
   const ClearanceIndex::Footprint& e = index.footprint();
   const double x = e.xmin + unit(rng) * (e.xmax - e.xmin);
   const double y = e.ymin + unit(rng) * (e.ymax - e.ymin);
-  const double h = unit(rng) * max_agl;  // drawn before the test: every draw uses three numbers
-  const double g = index.ground(x, y);
-  if (std::isnan(g)) return false;
-  sample = {x, y, g + h};
-  return true;
+  const double h = unit(rng);  // drawn before the test: every draw uses three numbers
+  return flight.place(x, y, index.ground(x, y), h, sample);
 }
 
 }  // namespace
@@ -228,13 +227,14 @@ PlanResult plan_rrt_connect(const ClearanceIndex& index, const std::vector<Point
     throw ArgumentError("rrt_max_samples", "must be at least 1, got " + std::to_string(options.rrt_max_samples));
   detail::check_waypoint_list(waypoints);
   PlanResult result;
-  if (detail::first_invalid_waypoint(waypoints, index, options.safety, result)) return result;
+  const detail::FlightSpace flight(index, options);
+  if (detail::first_invalid_waypoint(waypoints, flight, result)) return result;
 
   const ClearanceIndex::Footprint& e = index.footprint();
   // Cells of the step length, but at most about 64 across the footprint: a small --max-edge
   // must not make a far query read thousands of empty rings.
   const double cell = std::max(options.max_edge, std::max(e.xmax - e.xmin, e.ymax - e.ymin) / 64);
-  const Space space{index, options.max_edge, options.safety};
+  const Space space{flight, index, options.max_edge, options.safety};
   const size_t leg_count = waypoints.size() - 1;
   Stopwatch clock;
   std::vector<std::vector<Point3>> legs;
@@ -253,7 +253,7 @@ PlanResult plan_rrt_connect(const ClearanceIndex& index, const std::vector<Point
         report(progress, (static_cast<double>(leg) + static_cast<double>(drawn) / options.rrt_max_samples) /
                              static_cast<double>(leg_count));
       Point3 sample;
-      if (!draw_sample(rng, index, options.max_agl, sample)) continue;
+      if (!draw_sample(rng, flight, sample)) continue;
       uint32_t added = 0, met = 0;
       if (space.extend(*grow, sample, added) != Growth::trapped &&
           space.connect(*other, grow->nodes[added], met) == Growth::reached) {
@@ -282,7 +282,7 @@ PlanResult plan_rrt_connect(const ClearanceIndex& index, const std::vector<Point
     legs.push_back(std::move(path));
   }
   result.seconds_query = clock.lap();
-  detail::finish_path(legs, index, options, result);
+  detail::finish_path(legs, flight, options, result);
   result.seconds_smooth = clock.lap();
   report(progress, 1);
   return result;

@@ -6,8 +6,14 @@
 #include <gdal_priv.h>
 #include <ogr_spatialref.h>
 
+#include <proj.h>
+
 #include <algorithm>
+#include <cctype>
 #include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <map>
 #include <memory>
 #include <mutex>
 #include <sstream>
@@ -88,16 +94,230 @@ void describe(const OGRSpatialReference& srs, Crs& crs) {
     }
   }
 
+  // Units: metres per horizontal unit of a projected CRS (a geographic one has none: degrees).
+  if (crs.geographic) {
+    const char* angular = nullptr;
+    horizontal.GetAngularUnits(&angular);
+    crs.linear_unit = angular ? angular : "degree";
+    crs.linear_unit_m = 0;
+  } else if (horizontal.IsProjected() || horizontal.IsLocal()) {
+    const char* unit = nullptr;
+    crs.linear_unit_m = horizontal.GetLinearUnits(&unit);
+    crs.linear_unit = unit ? unit : "";
+  }
+
   if (srs.IsCompound() || srs.IsVertical()) {
     const char* vertical = srs.GetAttrValue("VERT_CS");
     if (vertical) crs.vertical_name = vertical;
     const char* unit = nullptr;
-    srs.GetTargetLinearUnits("VERT_CS", &unit);
-    if (unit) crs.vertical_unit = unit;
+    const double metres = srs.GetTargetLinearUnits("VERT_CS", &unit);
+    if (unit) {
+      crs.vertical_unit = unit;
+      crs.vertical_unit_m = metres;
+    }
   }
 }
 
+// "us survey foot" for "US_survey_foot", "US-survey foot", "  US survey  foot ".
+std::string unit_key(const std::string& name) {
+  std::string key;
+  for (char c : name) {
+    const char lower = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+    if (lower == '_' || lower == '-' || std::isspace(static_cast<unsigned char>(lower))) {
+      if (!key.empty() && key.back() != ' ') key += ' ';
+    } else {
+      key += lower;
+    }
+  }
+  while (!key.empty() && key.back() == ' ') key.pop_back();
+  return key;
+}
+
+// Linear units by unit_key(): the spellings raster bands use, then every linear unit of PROJ's
+// database by name and PROJ short name ("metre", "m", "foot", "ft", "US survey foot", "us-ft", ...).
+const std::map<std::string, double>& unit_table() {
+  static const std::map<std::string, double> table = [] {
+    constexpr double us_foot = 1200.0 / 3937.0;
+    std::map<std::string, double> units{
+        {"m", 1},           {"metre", 1},        {"metres", 1},      {"meter", 1},       {"meters", 1},
+        {"ft", 0.3048},     {"foot", 0.3048},    {"feet", 0.3048},   {"international foot", 0.3048},
+        {"ftus", us_foot},  {"us ft", us_foot},  {"ft us", us_foot}, {"us foot", us_foot}, {"us feet", us_foot},
+        {"foot us", us_foot}, {"us survey foot", us_foot}, {"us survey feet", us_foot}, {"survey foot", us_foot},
+        {"cm", 0.01},       {"centimetre", 0.01}, {"centimeter", 0.01}, {"centimetres", 0.01}, {"centimeters", 0.01},
+        {"mm", 0.001},      {"millimetre", 0.001}, {"millimeter", 0.001}, {"millimetres", 0.001},
+        {"millimeters", 0.001}, {"dm", 0.1},     {"km", 1000},       {"kilometre", 1000}, {"kilometer", 1000}};
+    PJ_CONTEXT* ctx = proj_context_create();
+    int count = 0;
+    PROJ_UNIT_INFO** list = proj_get_units_from_database(ctx, nullptr, "linear", false, &count);
+    for (int i = 0; list && i < count; ++i) {
+      if (!(list[i]->conv_factor > 0)) continue;
+      units.emplace(unit_key(list[i]->name), list[i]->conv_factor);
+      if (list[i]->proj_short_name) units.emplace(unit_key(list[i]->proj_short_name), list[i]->conv_factor);
+    }
+    proj_unit_list_destroy(list);
+    proj_context_destroy(ctx);
+    return units;
+  }();
+  return table;
+}
+
+std::string metres_text(double metres) {
+  char text[32];
+  std::snprintf(text, sizeof text, "%.7g m", metres);
+  return text;
+}
+
+bool is_metre(double metres) { return std::abs(metres - 1) < 1e-9; }
+
+// "dsm_m.tif" for "dsm_ft.tif": where an example command would write the input in metres.
+std::string metric_name(const std::string& path, const std::string& extension) {
+  std::string stem = std::filesystem::path(path).stem().string();
+  for (const char* suffix : {"_ftus", "_ftUS", "_feet", "_ft", "-ft"}) {
+    const std::string s = suffix;
+    if (stem.size() > s.size() && stem.compare(stem.size() - s.size(), s.size(), s) == 0) {
+      stem.erase(stem.size() - s.size());
+      break;
+    }
+  }
+  return stem + "_m" + extension;
+}
+
+enum class DataKind { Raster, Points, Mesh };
+
+DataKind kind_of(const std::string& path) {
+  std::string extension = std::filesystem::path(path).extension().string();
+  for (char& c : extension) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  if (extension == ".las" || extension == ".laz" || extension == ".xyz" || extension == ".txt" || extension == ".csv")
+    return DataKind::Points;
+  if (extension == ".ply" || extension == ".obj" || extension == ".off" || extension == ".glb") return DataKind::Mesh;
+  return DataKind::Raster;
+}
+
+// The EPSG code of a vertical CRS in metres for the same heights as `vertical_name` when PROJ's
+// database has one by name ("NAVD88 height (ftUS)" -> "NAVD88 height", EPSG:5703), else 0.
+int metre_vertical_crs(const std::string& vertical_name) {
+  const size_t open = vertical_name.rfind(" (");
+  if (open == std::string::npos) return 0;
+  const std::string base = vertical_name.substr(0, open);
+  PJ_CONTEXT* ctx = proj_context_create();
+  PROJ_CRS_LIST_PARAMETERS* params = proj_get_crs_list_parameters_create();
+  PJ_TYPE types[] = {PJ_TYPE_VERTICAL_CRS};
+  params->types = types;
+  params->typesCount = 1;
+  int count = 0, code = 0;
+  PROJ_CRS_INFO** list = proj_get_crs_info_list_from_database(ctx, "EPSG", params, &count);
+  for (int i = 0; list && i < count && !code; ++i) {
+    if (list[i]->deprecated) continue;
+    const std::string name = list[i]->name;
+    if (name == base || name == base + " (m)") code = std::atoi(list[i]->code);
+  }
+  proj_crs_info_list_destroy(list);
+  proj_get_crs_list_parameters_destroy(params);
+  proj_context_destroy(ctx);
+  return code;
+}
+
 }  // namespace
+
+double unit_metres(const std::string& unit) {
+  const auto& table = unit_table();
+  const auto found = table.find(unit_key(unit));
+  return found == table.end() ? 0 : found->second;
+}
+
+void resolve_units(Crs& crs) {
+  init_gdal();
+  if (crs.linear_unit_m == 0 && !crs.geographic && (!crs.wkt.empty() || !crs.definition.empty())) {
+    OGRSpatialReference srs;
+    if (srs.SetFromUserInput(crs.wkt.empty() ? crs.definition.c_str() : crs.wkt.c_str()) == OGRERR_NONE) {
+      Crs described;
+      describe(srs, described);
+      crs.geographic = described.geographic;
+      crs.linear_unit = described.linear_unit;
+      crs.linear_unit_m = described.linear_unit_m;
+      if (crs.vertical_unit.empty()) crs.vertical_unit = described.vertical_unit;
+      if (crs.vertical_name.empty()) crs.vertical_name = described.vertical_name;
+    }
+  }
+  if (crs.vertical_unit_m == 0 && !crs.vertical_unit.empty()) crs.vertical_unit_m = unit_metres(crs.vertical_unit);
+}
+
+std::string utm_epsg_at(const Crs& crs, double x, double y) {
+  init_gdal();
+  OGRSpatialReference source, wgs84;
+  const std::string& text = crs.wkt.empty() ? crs.definition : crs.wkt;
+  if (text.empty() || source.SetFromUserInput(text.c_str()) != OGRERR_NONE) return "";
+  if (source.IsCompound()) source.StripVertical();
+  wgs84.SetWellKnownGeogCS("WGS84");
+  source.SetAxisMappingStrategy(OAMS_TRADITIONAL_GIS_ORDER);  // x, y as the data has them
+  wgs84.SetAxisMappingStrategy(OAMS_TRADITIONAL_GIS_ORDER);   // longitude, latitude
+  std::unique_ptr<OGRCoordinateTransformation> to_wgs84(OGRCreateCoordinateTransformation(&source, &wgs84));
+  double lon = x, lat = y;
+  if (!to_wgs84 || !to_wgs84->Transform(1, &lon, &lat) || !std::isfinite(lon) || !(std::abs(lat) <= 90)) return "";
+  lon = std::remainder(lon, 360.0);  // -180 .. 180
+  const int zone = std::clamp(static_cast<int>(std::floor((lon + 180) / 6)) + 1, 1, 60);
+  return "EPSG:" + std::to_string(lat >= 0 ? 32600 + zone : 32700 + zone);
+}
+
+std::string metric_problem(const Crs& given, const std::string& path, double centre_x, double centre_y,
+                           bool units_only) {
+  Crs crs = given;
+  resolve_units(crs);
+  const bool horizontal_wrong = crs.geographic ? !units_only : crs.linear_unit_m > 0 && !is_metre(crs.linear_unit_m);
+  const bool vertical_wrong = !crs.vertical_unit.empty() && !is_metre(crs.vertical_unit_m);
+  if (!horizontal_wrong && !vertical_wrong) return "";
+
+  const std::string name = crs.name.empty() ? std::string("unnamed") : crs.name;
+  std::string utm = utm_epsg_at(crs, centre_x, centre_y);
+  const bool known_utm = !utm.empty();
+  if (!known_utm) utm = "EPSG:<UTM zone of the data>";
+  const DataKind kind = kind_of(path);
+  // An example that makes x, y (and, with a vertical CRS in metres, heights) metres.
+  auto reproject = [&](const std::string& target) {
+    switch (kind) {
+      case DataKind::Points:
+        return "pdal translate " + path + " " + metric_name(path, ".las") +
+               " -f filters.reprojection --filters.reprojection.out_srs=" + target;
+      case DataKind::Mesh:
+        return "make the mesh again from its DSM reprojected with gdalwarp -t_srs " + target;
+      case DataKind::Raster:
+        break;
+    }
+    return "gdalwarp -t_srs " + target + " " + path + " " + metric_name(path, ".tif");
+  };
+
+  if (horizontal_wrong && crs.geographic)
+    return "CRS '" + name + "' is geographic (degrees); reproject to a projected CRS in metres first, e.g. " +
+           reproject(utm);
+  if (horizontal_wrong)
+    return "CRS '" + name + "' has horizontal unit " + crs.linear_unit + " (" + metres_text(crs.linear_unit_m) +
+           "): dsmplan measures in metres; reproject first, e.g. " + reproject(utm);
+
+  // Heights in another unit: from the vertical axis of a compound CRS, or the band's unit type.
+  if (crs.vertical_unit_m == 0)
+    return "vertical unit '" + crs.vertical_unit +
+           "' is not a length unit dsmplan knows: dsmplan measures heights in metres; declare them as metres "
+           "(e.g. gdal_edit.py -units m " + path + ") only if they are";
+  const std::string unit = crs.vertical_unit + " (" + metres_text(crs.vertical_unit_m) + ")";
+  const std::string measures = ": dsmplan measures heights in metres; ";
+  if (!crs.vertical_name.empty()) {
+    const int vertical = metre_vertical_crs(crs.vertical_name);
+    // A compound target converts the heights too (gdalwarp, PDAL apply the vertical transformation).
+    std::string target = known_utm ? utm : "EPSG:<projected CRS in metres>";
+    target += vertical ? "+" + std::to_string(vertical) : "+<vertical CRS in metres>";
+    return "heights are in " + unit + " (vertical CRS '" + crs.vertical_name + "')" + measures +
+           "reproject first, e.g. " + reproject(target);
+  }
+  char factor[32];
+  std::snprintf(factor, sizeof factor, "%.10g", crs.vertical_unit_m);
+  if (kind == DataKind::Raster) {
+    const std::string out = metric_name(path, ".tif");
+    return "heights are in " + unit + measures + "convert them first, e.g. gdal_calc.py -A " + path +
+           " --calc=\"A*" + factor + "\" --outfile=" + out + " && gdal_edit.py -units m " + out;
+  }
+  if (kind == DataKind::Mesh) return "heights are in " + unit + measures + "make the mesh again from a DSM in metres";
+  return "heights are in " + unit + measures + "convert them to metres first (multiply by " + factor + ")";
+}
 
 void resolve_crs(Crs& crs) {
   init_gdal();
@@ -152,8 +372,23 @@ public:
       throw InputError(path, "", "raster has no CRS; assign one with --crs (e.g. --crs EPSG:25832)");
     }
     band_ = dataset_->GetRasterBand(options.band);
-    if (frame_.crs.vertical_unit.empty() && band_->GetUnitType() && *band_->GetUnitType()) {
-      frame_.crs.vertical_unit = band_->GetUnitType();
+    // The band's unit type names the heights' unit when the CRS does not, and stands against a
+    // CRS in metres when it says otherwise (either way the heights are not known to be metres).
+    const char* band_unit = band_->GetUnitType();
+    if (band_unit && *band_unit) {
+      const double band_metres = unit_metres(band_unit);
+      if (frame_.crs.vertical_unit.empty() || std::abs(band_metres - 1) > 1e-9) {
+        frame_.crs.vertical_unit = band_unit;
+        frame_.crs.vertical_unit_m = band_metres;
+      }
+    }
+    // dsmplan measures in metres: x, y or heights in feet are refused here, before any cell is
+    // read, naming the unit (degrees are the tools' to refuse: `info` and `render` take them).
+    if (!options.allow_other_units) {
+      const std::string problem =
+          metric_problem(frame_.crs, path, frame_.x0 + width * frame_.cell_x / 2,
+                         frame_.y0 - height * frame_.cell_y / 2, /*units_only=*/true);
+      if (!problem.empty()) throw InputError(path, "", problem);
     }
     read_mask_ = !(band_->GetMaskFlags() & (GMF_ALL_VALID | GMF_NODATA));
     int has_nodata = 0;

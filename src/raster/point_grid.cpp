@@ -56,11 +56,25 @@ Grid grid_points(const std::vector<PointCloud>& clouds, const GridPointsOptions&
   const double res = options.resolution;
   if (!(res > 0) || !std::isfinite(res))
     throw ArgumentError("--res", "the resolution must be a positive number, got " + number(res));
+  // dropped[c]: points of class c are left out (not kept by keep_classes, or dropped).
   std::array<bool, 256> dropped{};
+  std::string kept_list;
+  if (!options.keep_classes.empty()) {
+    dropped.fill(true);
+    for (int cls : options.keep_classes) {
+      if (cls < 0 || cls > 255) throw ArgumentError("--classes", "class " + std::to_string(cls) + " is not in 0-255");
+      if (dropped[cls]) kept_list += (kept_list.empty() ? "" : ", ") + std::to_string(cls);
+      dropped[cls] = false;
+    }
+  }
   std::string dropped_list;
   for (int cls : options.drop_classes) {
     if (cls < 0 || cls > 255)
       throw ArgumentError("--drop-classes", "class " + std::to_string(cls) + " is not in 0-255");
+    if (!options.keep_classes.empty() &&
+        std::find(options.keep_classes.begin(), options.keep_classes.end(), cls) != options.keep_classes.end())
+      throw ArgumentError("--classes", "class " + std::to_string(cls) +
+                                           " is both kept (--classes) and dropped (--drop-classes); give it to one");
     dropped[cls] = true;
     dropped_list += (dropped_list.empty() ? "" : ", ") + std::to_string(cls);
   }
@@ -104,9 +118,11 @@ Grid grid_points(const std::vector<PointCloud>& clouds, const GridPointsOptions&
   });
   if (kept == 0)
     throw InputError("", "",
-                     total == 0 ? "the point clouds hold no points"
-                                : "no points left after dropping classes " + dropped_list + " (all " +
-                                      std::to_string(total) + " points had them)");
+                     total == 0                ? "the point clouds hold no points"
+                     : !kept_list.empty()      ? "no point of classes " + kept_list + " (--classes) among the " +
+                                                     std::to_string(total) + " points"
+                                               : "no points left after dropping classes " + dropped_list + " (all " +
+                                                     std::to_string(total) + " points had them)");
   if (kept >= std::numeric_limits<uint32_t>::max())
     throw ArgumentError("points", std::to_string(kept) + " points are more than one grid can take; grid them in tiles");
 

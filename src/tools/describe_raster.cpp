@@ -6,9 +6,32 @@
 
 namespace dsmplan {
 
+namespace {
+
+// "US survey foot (0.3048006 m)", "metre", "degree", "furlong (not a length dsmplan knows)".
+std::string unit_text(const std::string& unit, double metres) {
+  if (metres == 1 || unit == "degree") return unit;
+  if (!(metres > 0)) return unit + " (not a length unit dsmplan knows)";
+  char text[48];
+  std::snprintf(text, sizeof text, " (%.7g m)", metres);
+  return unit + text;
+}
+
+// What `info --json` adds to "crs" and "vertical": metres per unit (null when not known).
+Json units_json(const Crs& crs) {
+  auto metres = [](double m) { return m > 0 ? Json(m) : Json(nullptr); };
+  return {{"horizontal", crs.linear_unit.empty() ? Json(nullptr) : Json(crs.linear_unit)},
+          {"horizontal_m", metres(crs.linear_unit_m)},
+          {"vertical", crs.vertical_unit.empty() ? Json(nullptr) : Json(crs.vertical_unit)},
+          {"vertical_m", metres(crs.vertical_unit_m)}};
+}
+
+}  // namespace
+
 RasterReport describe_raster(const InfoOptions& options) {
   ReadRasterOptions read = options.read;
-  read.allow_no_crs = true;  // info describes what is there, CRS or not
+  read.allow_no_crs = true;       // info describes what is there, CRS or not,
+  read.allow_other_units = true;  // and in whatever unit
   const Grid grid = read_raster(options.input, read);
   RasterReport report;
   report.input = options.input;
@@ -34,6 +57,7 @@ Json to_json(const RasterReport& report) {
           {"extent", {{"xmin", report.xmin}, {"ymin", report.ymin}, {"xmax", report.xmax}, {"ymax", report.ymax}}},
           {"crs", crs_json(report.crs)},
           {"vertical", vertical_json(report.crs)},
+          {"units", units_json(report.crs)},
           {"cells", summary.cells},
           {"valid_cells", summary.valid},
           {"nodata_cells", summary.nodata},
@@ -46,8 +70,10 @@ std::string to_text(const RasterReport& report) {
   const GridSummary& summary = report.summary;
   std::string crs_text = crs.name.empty() ? "none" : crs.name;
   if (crs.epsg) crs_text += " (EPSG:" + std::to_string(crs.epsg) + ")";
-  const std::string vertical = (crs.vertical_name.empty() ? "datum unknown" : crs.vertical_name) +
-                               (crs.vertical_unit.empty() ? ", unit unknown" : ", unit " + crs.vertical_unit);
+  if (!crs.linear_unit.empty()) crs_text += ", unit " + unit_text(crs.linear_unit, crs.linear_unit_m);
+  const std::string vertical =
+      (crs.vertical_name.empty() ? "datum unknown" : crs.vertical_name) +
+      (crs.vertical_unit.empty() ? ", unit unknown" : ", unit " + unit_text(crs.vertical_unit, crs.vertical_unit_m));
   char text[2048];
   std::snprintf(text, sizeof text,
                 "File:        %s\n"

@@ -1,5 +1,5 @@
 // dsmplan grid: point clouds to a GeoTIFF DSM, median height per cell (Adolf & Hirschmueller,
-// Section 2), holes kept unless filling is asked for.
+// Section 2), holes kept unless filling is asked for; with --classes 2 (ground) a DTM.
 #include <filesystem>
 
 #include "dsmplan/tools.hpp"
@@ -26,6 +26,11 @@ GridSummary grid_to_geotiff(const GridOptions& options, const Progress& progress
     } else if (!cloud.crs.known()) {
       throw InputError(options.inputs[i], "", "has no CRS; give one with --crs (e.g. --crs EPSG:28992)");
     }
+    // x, y and heights in feet would make a DSM that every later stage takes as metres.
+    resolve_crs(cloud.crs);
+    const std::string problem = metric_problem(cloud.crs, options.inputs[i], (cloud.min_x + cloud.max_x) / 2,
+                                               (cloud.min_y + cloud.max_y) / 2, /*units_only=*/true);
+    if (!problem.empty()) throw InputError(options.inputs[i], "", problem);
   }
   Grid grid = grid_points(clouds, options.grid, sub_progress(progress, 0.6, 0.8));
   resolve_crs(grid.crs);

@@ -58,7 +58,7 @@ MeshReport mesh_dsm(const MeshJobOptions& options, const Progress& progress) {
     throw ArgumentError("--stream", "writes a .ply of the raster as it is (no --res)");
   if (!options.resolution && format == MeshFormat::Ply) {
     const std::unique_ptr<GridSource> source = open_raster(options.input, options.read);
-    require_projected(source->frame().crs, options.input);
+    require_projected(source->frame().crs, options.input, centre_of(source->frame()));
     const Grid& frame = source->frame();
     const double cells = double(frame.width) * double(frame.height);
     const bool fits_whole = memory_problem(cells * (sizeof(float) + kMeshBytesPerCell)).empty();
@@ -79,7 +79,7 @@ MeshReport mesh_dsm(const MeshJobOptions& options, const Progress& progress) {
   ReadRasterOptions read = options.read;
   if (!options.resolution) read.extra_bytes_per_cell = kMeshBytesPerCell;
   Grid dsm = read_raster(options.input, read, sub_progress(progress, 0, 0.3));
-  require_projected(dsm.crs, options.input);
+  require_projected(dsm.crs, options.input, centre_of(dsm));
   report.seconds.emplace_back("read", clock.lap());
   report.source_resolution = dsm.cell_x;
   if (options.resolution && (*options.resolution != dsm.cell_x || *options.resolution != dsm.cell_y)) {

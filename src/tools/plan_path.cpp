@@ -42,33 +42,58 @@ bool is_geojson(const std::string& path) {
   return ext == "geojson" || ext == "json";
 }
 
-// The path against the raw DSM taken as solid columns, before anything is written. On a mesh
-// with 0 <= dsm - mesh <= E_below at every DSM cell centre (certify()), a column's point above
-// the mesh lies within sqrt((cell diagonal / 2)^2 + E_below^2) of a point under the mesh (the
-// cell centre's vertical, E_below lower), so the straight line from it to the path crosses the
-// mesh within that distance: clearance to the columns >= clearance to the mesh - tolerance.
-// A path closer than safety - tolerance (or touching a column at all) means mesh and DSM do not
-// belong together, or a bug: it is refused.
-void verify_against_dsm(const std::vector<Point3>& path, const Mesh& mesh, const Grid& dsm,
-                        const PlanJobOptions& options, double cap, PlanReport& report) {
-  const VerticalError error = certify(mesh, dsm);
-  report.mesh_max_below_dsm_m = error.max_below;
-  report.dsm_tolerance_m = std::hypot(0.5 * std::hypot(dsm.cell_x, dsm.cell_y), error.max_below);
-  report.min_clearance_dsm_m = cap;
-  size_t worst = 0;
+std::string format_number(double v) {
+  char buffer[32];
+  std::snprintf(buffer, sizeof buffer, "%.2f", v);
+  return buffer;
+}
+
+// A raster that must share the mesh's CRS and lie under the flight: InputError naming it otherwise.
+Grid read_companion(const std::string& path, const char* what, const Crs& mesh_crs, double xmin, double ymin,
+                    double xmax, double ymax) {
+  Grid grid = read_raster(path);
+  if (grid.crs.epsg && mesh_crs.epsg && grid.crs.epsg != mesh_crs.epsg)
+    throw InputError(path, "", std::string("the ") + what + "'s CRS is EPSG:" + std::to_string(grid.crs.epsg) +
+                                   ", the mesh's EPSG:" + std::to_string(mesh_crs.epsg));
+  if (!(grid.x1() > xmin && grid.x0 < xmax && grid.y0 > ymin && grid.y1() < ymax))
+    throw InputError(path, "", std::string("the ") + what + " (x " + format_number(grid.x0) + " to " +
+                                   format_number(grid.x1()) + ", y " + format_number(grid.y1()) + " to " +
+                                   format_number(grid.y0) + ") does not overlap the mesh (x " + format_number(xmin) +
+                                   " to " + format_number(xmax) + ", y " + format_number(ymin) + " to " +
+                                   format_number(ymax) + ")");
+  return grid;
+}
+
+// The written path held to both limits once more, measured on its own: clearance to the DSM's
+// columns (holes as high as their rim) at least the safety distance, less 1 cm for the
+// rounding of what is written; height above the ground at most max_agl, plus 5 cm. A path
+// planned as above always passes: failing is a bug, and nothing is written.
+void verify_limits(const std::vector<Point3>& path, const Grid* columns, const GroundGrid& ground,
+                   const PlanJobOptions& options, double cap, PlanReport& report, const std::string& place) {
+  report.max_agl_m = -INFINITY;
+  size_t worst_agl = 0, worst_columns = 0;
   for (size_t k = 1; k < path.size(); ++k) {
-    const double d = column_clearance(dsm, path[k - 1], path[k], cap);
-    if (d < report.min_clearance_dsm_m) report.min_clearance_dsm_m = d, worst = k;
+    const double above = ground.max_height_above(path[k - 1], path[k]);
+    if (above > report.max_agl_m) report.max_agl_m = above, worst_agl = k;
   }
-  const double required = options.plan.safety - report.dsm_tolerance_m;
-  if (report.min_clearance_dsm_m > 0 && report.min_clearance_dsm_m >= required) return;
-  char why[320];
-  std::snprintf(why, sizeof why,
-                "the path passes %.2f m from the DSM's columns (segment %zu), closer than the safety distance "
-                "%.2f m less the tolerance %.2f m (half a cell diagonal and the mesh's %.2f m below the DSM): "
-                "mesh and DSM do not match; nothing written",
-                report.min_clearance_dsm_m, worst, options.plan.safety, report.dsm_tolerance_m, error.max_below);
-  throw InputError(options.dsm, "", why);
+  if (columns) {
+    report.min_clearance_dsm_m = cap;
+    for (size_t k = 1; k < path.size(); ++k) {
+      const double d = column_clearance(*columns, path[k - 1], path[k], cap);
+      if (d < report.min_clearance_dsm_m) report.min_clearance_dsm_m = d, worst_columns = k;
+    }
+    report.dsm_tolerance_m = 0.01;
+    if (!(report.min_clearance_dsm_m >= options.plan.safety - report.dsm_tolerance_m))
+      throw InputError(place, "",
+                       "the path passes " + format_number(report.min_clearance_dsm_m) + " m from the DSM's columns (segment " +
+                           std::to_string(worst_columns) + "), closer than --safety " + format_number(options.plan.safety) +
+                           ": a bug, please report it; nothing written");
+  }
+  if (!(report.max_agl_m <= options.plan.max_agl + 0.05))
+    throw InputError(place, "",
+                     "the path rises " + format_number(report.max_agl_m) + " m above the ground (segment " +
+                         std::to_string(worst_agl) + "), above --max-agl " + format_number(options.plan.max_agl) +
+                         ": a bug, please report it; nothing written");
 }
 
 }  // namespace
@@ -118,7 +143,7 @@ PlanReport plan_job(const PlanJobOptions& options, const Progress& progress) {
     mesh = read_mesh(options.mesh, sub_progress(progress, 0, 0.2));
     if (mesh.triangles.empty()) throw InputError(options.mesh, "", "the mesh has no triangles");
   }
-  require_projected(mesh.crs, options.mesh);
+  require_projected(mesh.crs, options.mesh, corridor ? centre_of(city->frame()) : centre_of(mesh));
   std::optional<Wgs84Transform> wgs84;
   if (geo_in || geojson_out) {
     wgs84.emplace(mesh.crs, HeightReference::Ellipsoid, options.vertical);
@@ -136,6 +161,12 @@ PlanReport plan_job(const PlanJobOptions& options, const Progress& progress) {
   PlanResult result;
   if (corridor) {
     CorridorOptions along = options.corridor;
+    if (!options.dtm.empty()) {
+      const Grid& frame = city->frame();
+      along.terrain = std::make_shared<GroundGrid>(
+          read_companion(options.dtm, "DTM", mesh.crs, frame.x0, frame.y1(), frame.x1(), frame.y0));
+    }
+    report.ground = options.dtm.empty() ? "dsm" : "dtm";
     // A mission flies straight from item to item (see below): dropped before measuring.
     if (out_ext == "plan" || out_ext == "waypoints")
       along.finish_piece = [](const std::vector<Point3>& path) { return drop_straight_points(path, 0.01); };
@@ -150,45 +181,76 @@ PlanReport plan_job(const PlanJobOptions& options, const Progress& progress) {
     report.path_points = result.path.size();
     report.path_length_m = path_length(result.path);
     report.min_clearance_m = planned.min_clearance_m;
-    // The windows' meshes are conservative (never below the DSM): the same rule as --dsm below.
+    // The windows' meshes enclose the columns (plan_corridor()): held to the same limits as --dsm below.
     report.min_clearance_dsm_m = planned.min_clearance_dsm_m;
     report.mesh_max_below_dsm_m = planned.mesh_error.max_below;
-    const Grid& frame = city->frame();
-    report.dsm_tolerance_m = std::hypot(std::hypot(frame.cell_x, frame.cell_y) / 2, planned.mesh_error.max_below);
-    if (!(report.min_clearance_dsm_m > 0) || report.min_clearance_dsm_m < options.plan.safety - report.dsm_tolerance_m)
-      throw InputError(options.mesh, "", "the path comes within " + std::to_string(report.min_clearance_dsm_m) +
-                                             " m of the DSM's columns, less than the safety distance allows; nothing written");
+    report.safety_margin_m = planned.safety_margin_m;
+    report.dsm_tolerance_m = 0.01;
+    report.max_agl_m = planned.max_agl_m;
+    if (!(report.min_clearance_dsm_m >= options.plan.safety - report.dsm_tolerance_m))
+      throw InputError(options.mesh, "", "the path comes within " + format_number(report.min_clearance_dsm_m) +
+                                             " m of the DSM's columns, less than --safety; a bug, please report it; nothing written");
+    if (!(report.max_agl_m <= options.plan.max_agl + 0.05))
+      throw InputError(options.mesh, "", "the path rises " + format_number(report.max_agl_m) +
+                                             " m above the ground, above --max-agl; a bug, please report it; nothing written");
   } else {
-  Grid dsm;
+  PlanOptions plan = options.plan;
+  // The DSM's columns, holes as high as their rim: what the path must keep `safety` from
+  // (plan.hpp, "holding a mesh plan to the DSM's columns").
+  Grid columns;
+  double xmin = INFINITY, ymin = INFINITY, xmax = -INFINITY, ymax = -INFINITY;
+  for (const Vertex& v : mesh.vertices)
+    xmin = std::min(xmin, v.x), ymin = std::min(ymin, v.y), xmax = std::max(xmax, v.x), ymax = std::max(ymax, v.y);
   if (!options.dsm.empty()) {
-    dsm = read_raster(options.dsm);
-    if (dsm.crs.epsg && mesh.crs.epsg && dsm.crs.epsg != mesh.crs.epsg)
-      throw InputError(options.dsm, "", "its CRS is EPSG:" + std::to_string(dsm.crs.epsg) + ", the mesh's EPSG:" +
-                                            std::to_string(mesh.crs.epsg));
+    Grid dsm = read_companion(options.dsm, "DSM", mesh.crs, xmin, ymin, xmax, ymax);
+    columns = dsm;
+    fill_holes_from_rim(columns, RimHeight::highest);
+    // The valid cells' columns against the mesh; the holes' are added to it whole below.
+    report.mesh_max_below_dsm_m = certify(mesh, dsm).max_below;
+    report.column_max_above_mesh_m = certify_columns(mesh, dsm).max_below;
+    report.safety_margin_m = column_margin(mesh, dsm);
+    plan.safety += report.safety_margin_m;
+    // The holes' columns join the obstacles: a mesh has voids there.
+    const Mesh holes = hole_columns(dsm, columns);
+    const uint32_t offset = static_cast<uint32_t>(mesh.vertices.size());
+    mesh.vertices.insert(mesh.vertices.end(), holes.vertices.begin(), holes.vertices.end());
+    for (Triangle t : holes.triangles) mesh.triangles.push_back({t[0] + offset, t[1] + offset, t[2] + offset});
+    plan.ground = std::make_shared<GroundGrid>(std::move(dsm));
   }
   const ClearanceIndex index(mesh);
+  if (!options.dtm.empty())
+    plan.ground = std::make_shared<GroundGrid>(
+        read_companion(options.dtm, "DTM", mesh.crs, xmin, ymin, xmax, ymax));
+  report.ground = !options.dtm.empty() ? "dtm" : !options.dsm.empty() ? "dsm" : "mesh floor";
   report.seconds_load = clock.lap();
 
-  // A roadmap file is reused when it exists (and fits this mesh and these options), else made.
+  // A roadmap file is reused when it exists (and fits this mesh, ground and options), else made.
   if (!options.roadmap.empty()) {
-    const uint64_t fingerprint = mesh_fingerprint(mesh);
+    const uint64_t fingerprint = mesh_fingerprint(mesh) ^ (plan.ground ? plan.ground->fingerprint() : 0);
     Roadmap map;
     if (std::ifstream(options.roadmap).good()) {
-      map = read_roadmap(options.roadmap, fingerprint, options.plan);
+      map = read_roadmap(options.roadmap, fingerprint, plan);
       report.roadmap_reused = true;
     } else {
-      map = build_roadmap(index, options.plan, sub_progress(progress, 0.2, 0.9));
-      write_roadmap(options.roadmap, map, fingerprint, options.plan);
+      map = build_roadmap(index, plan, sub_progress(progress, 0.2, 0.9));
+      write_roadmap(options.roadmap, map, fingerprint, plan);
     }
     const double seconds_roadmap = clock.lap();
-    result = query_roadmap(map, index, waypoints, options.plan);
+    result = query_roadmap(map, index, waypoints, plan);
     result.seconds_roadmap = report.roadmap_reused ? 0 : seconds_roadmap;
     report.seconds_load += report.roadmap_reused ? seconds_roadmap : 0;
   } else {
-    result = plan_path(index, waypoints, options.plan, sub_progress(progress, 0.2, 0.9));
+    result = plan_path(index, waypoints, plan, sub_progress(progress, 0.2, 0.9));
   }
   take_planner_figures(result, report);
-  if (result.status != PlanStatus::Solved) throw InputError(options.waypoints, result.place(), result.reason);
+  if (result.status != PlanStatus::Solved) {
+    std::string why = result.reason;
+    if (report.safety_margin_m > 0)
+      why += " (on the mesh the safety distance is --safety " + format_number(options.plan.safety) + " widened by " +
+             format_number(report.safety_margin_m) + " m, as far as the DSM's columns may lie inside this mesh; a " +
+             "conservative mesh of the DSM itself needs half a cell diagonal)";
+    throw InputError(options.waypoints, result.place(), why);
+  }
   // A mission flies straight from item to item: points on a straight run of the spline's chords
   // add items, not turns. Dropped within 1 cm (before the clearance below is measured on it).
   if (out_ext == "plan" || out_ext == "waypoints") result.path = drop_straight_points(result.path, 0.01);
@@ -200,7 +262,8 @@ PlanReport plan_job(const PlanJobOptions& options, const Progress& progress) {
   report.min_clearance_m = cap;
   for (size_t k = 1; k < result.path.size(); ++k)
     report.min_clearance_m = std::min(report.min_clearance_m, index.clearance(result.path[k - 1], result.path[k], cap));
-  if (!options.dsm.empty()) verify_against_dsm(result.path, mesh, dsm, options, cap, report);
+  verify_limits(result.path, options.dsm.empty() ? nullptr : &columns, plan.ground ? *plan.ground : index.floor(), options,
+                cap, report, options.dsm.empty() ? options.mesh : options.dsm);
   }
   dsmplan::report(progress, 0.95);
 
@@ -247,7 +310,11 @@ Json to_json(const PlanReport& r) {
     j["min_clearance_dsm_m"] = r.min_clearance_dsm_m;
     j["dsm_tolerance_m"] = r.dsm_tolerance_m;
     j["mesh_max_below_dsm_m"] = r.mesh_max_below_dsm_m;
+    j["column_max_above_mesh_m"] = r.column_max_above_mesh_m;
+    j["safety_margin_m"] = r.safety_margin_m;
   }
+  j["max_agl_m"] = r.max_agl_m;
+  j["ground"] = r.ground;
   j["roadmap_reused"] = r.roadmap_reused;
   j["refined_samples"] = r.refined_samples;
   j["planner"] = r.planner;

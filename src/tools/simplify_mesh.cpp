@@ -22,7 +22,7 @@ Grid read_dsm(const std::string& path, const SimplifyJobOptions& options, double
   ReadRasterOptions read = options.read;
   if (!options.resolution) read.extra_bytes_per_cell = bytes_per_cell;
   Grid dsm = read_raster(path, read, progress);
-  require_projected(dsm.crs, path);
+  require_projected(dsm.crs, path, centre_of(dsm));
   report.source_resolution = dsm.cell_x;
   if (options.resolution && (*options.resolution != dsm.cell_x || *options.resolution != dsm.cell_y)) {
     require_memory(path, "--res " + short_number(*options.resolution),
@@ -52,7 +52,7 @@ SimplifyReport simplify_streamed(const SimplifyJobOptions& options, MeshFormat f
   Stopwatch clock;
   const std::unique_ptr<GridSource> dsm = open_raster(options.input, options.read);
   const Grid& frame = dsm->frame();
-  require_projected(frame.crs, options.input);
+  require_projected(frame.crs, options.input, centre_of(frame));
   report.source_resolution = report.resolution = frame.cell_x;
   report.crs = frame.crs;
   report.seconds.emplace_back("read", clock.lap());
@@ -147,6 +147,7 @@ SimplifyReport simplify_job(const SimplifyJobOptions& options, const Progress& p
   if (mesh_input) {
     input = read_mesh(options.input, sub_progress(progress, 0, 0.1));
     check_2_5d(input, options.input);
+    require_projected(input.crs, options.input, centre_of(input));
     dsm = read_dsm(options.dsm, options, kPaperSimplifyBytesPerCell, report, sub_progress(progress, 0.1, 0.2));
     if (input.crs.epsg && dsm.crs.epsg && input.crs.epsg != dsm.crs.epsg) {
       throw InputError(options.input, "",

@@ -9,6 +9,7 @@ the one lie is a real file. Rasters are VRTs over tiny raw float32 files (GDAL r
 VRT can declare any size for free); meshes and the roadmap are made by dsmplan itself from a
 40 m x 40 m synthetic block with one building, then damaged where a case needs it.
 """
+import json
 import math
 import os
 import shutil
@@ -118,13 +119,14 @@ def xyz_fixtures():
 # ---- rasters --------------------------------------------------------------------------------
 
 X0, Y0, W, H = 356300.0, 5699790.0, 40, 40
+FEET_X0, FEET_Y0 = 11800000.0, 7000000.0  # EPSG:2283, US survey feet
 
 
 def raw(values):
     return struct.pack("<%df" % len(values), *values)
 
 
-def vrt(name, width, height, gt, srs="EPSG:25832", source=None, nodata=None):
+def vrt(name, width, height, gt, srs="EPSG:25832", source=None, nodata=None, unit=None):
     band_open = '  <VRTRasterBand dataType="Float32" band="1"%s>\n' % (
         ' subClass="VRTRawRasterBand"' if source else "")
     text = '<VRTDataset rasterXSize="%d" rasterYSize="%d">\n' % (width, height)
@@ -134,6 +136,8 @@ def vrt(name, width, height, gt, srs="EPSG:25832", source=None, nodata=None):
     text += band_open
     if nodata is not None:
         text += "    <NoDataValue>%s</NoDataValue>\n" % nodata
+    if unit is not None:
+        text += "    <UnitType>%s</UnitType>\n" % unit
     if source:
         text += ('    <SourceFilename relativetoVRT="1">%s</SourceFilename>\n'
                  "    <ImageOffset>0</ImageOffset><PixelOffset>4</PixelOffset>"
@@ -153,6 +157,9 @@ def raster_fixtures():
     vrt("block.vrt", W, H, north_up, source="block.bin")
     out("block_taller.bin", raw(block(75.0)))
     vrt("block_taller.vrt", W, H, north_up, source="block_taller.bin")
+    # Terrain for plan --dtm: the block's cells in another CRS, and in the right CRS 10 km away.
+    vrt("dtm_other_crs.vrt", W, H, north_up, source="block.bin", srs="EPSG:32632")
+    vrt("dtm_elsewhere.vrt", W, H, (X0 + 10000, 1, 0, Y0, 0, -1), source="block.bin")
 
     small = [50.0 + i for i in range(16)]
     nan_cells = list(small)
@@ -173,6 +180,14 @@ def raster_fixtures():
     vrt("raster_zero_cell.vrt", 4, 4, (X0, 0, 0, Y0, 0, -1), source="raster_4x4.bin")
     vrt("raster_no_crs.vrt", 4, 4, north_up, srs=None, source="raster_4x4.bin")
     vrt("raster_geographic.vrt", 4, 4, (6.9, 0.00001, 0, 51.4, 0, -0.00001), srs="EPSG:4326",
+        source="raster_4x4.bin")
+    # Units other than the metre. NAD83 / Virginia North (ftUS): x 11,800,000 ftUS is 96.6 km east
+    # of the projection's 78.5 W, y 7,000,000 ftUS 133.6 km north of its 37.67 N: about 77.39 W,
+    # 38.87 N, UTM zone 18. The block's heights in feet (band unit type), and NAD83 / UTM zone 18N
+    # + NAVD88 height (ftUS) near the same place.
+    vrt("raster_feet.vrt", 4, 4, (FEET_X0, 3, 0, FEET_Y0, 0, -3), srs="EPSG:2283", source="raster_4x4.bin")
+    vrt("raster_feet_vertical.vrt", W, H, north_up, source="block.bin", unit="ft")
+    vrt("raster_navd88_ft.vrt", 4, 4, (543300.0, 1, 0, 4306000.0, 0, -1), srs="EPSG:26918+6360",
         source="raster_4x4.bin")
     # 10^6 x 10^6 cells with no source: GDAL would serve zeros, 4 TB of them.
     vrt("raster_huge.vrt", 1_000_000, 1_000_000, north_up)
@@ -243,6 +258,22 @@ def plan_fixtures(dsmplan):
     out("mesh_nan_vertex.off", b"OFF\n3 1 0\n356300 5699750 50\n356310 5699750 nan\n356300 5699760 50\n3 0 1 2\n")
 
 
+def unit_fixtures(dsmplan):
+    """Meshes in feet, as their header comments say (only a WKT: the units are read from it), and
+    with heights in feet. dsmplan describes the CRS (info); it will not mesh it."""
+    info = subprocess.run([dsmplan, "info", os.path.join(HERE, "raster_feet.vrt"), "--json"], check=True,
+                          stdout=subprocess.PIPE).stdout
+    wkt = json.loads(info)["crs"]["wkt"]
+    out("mesh_feet.obj", ("# crs_name NAD83 / Virginia North (ftUS)\n# crs_wkt %s\n# vertical unknown\n"
+                          "v %.1f %.1f 300\nv %.1f %.1f 300\nv %.1f %.1f 330\nf 1 2 3\n" % (
+                              wkt, FEET_X0, FEET_Y0 - 120, FEET_X0 + 120, FEET_Y0 - 120, FEET_X0, FEET_Y0)).encode())
+    ply = open(os.path.join(HERE, "block.ply"), "rb").read()
+    end = ply.index(b"end_header\n")
+    header = ply[:end].decode()
+    vertical = [line for line in header.split("\n") if line.startswith("comment vertical ")][0]
+    out("mesh_feet_vertical.ply", header.replace(vertical, "comment vertical unknown (ft)").encode() + ply[end:])
+
+
 def waypoint_fixtures():
     head = "x,y,z\n"
     a, b = "356303,5699787,56\n", "356337,5699753,56\n"
@@ -274,6 +305,7 @@ def main():
     raster_fixtures()
     waypoint_fixtures()
     plan_fixtures(os.path.abspath(sys.argv[1]))
+    unit_fixtures(os.path.abspath(sys.argv[1]))
 
 
 if __name__ == "__main__":

@@ -1,0 +1,62 @@
+// dsmplan/ground.hpp: the ground a ceiling is counted from (dsmplan plan --max-agl), part of
+// stage 4 (plan.hpp).
+//
+// A GroundGrid is a height raster read as the ground directly below: a point's height above
+// ground is its z less the height of the cell whose square holds it. Which raster:
+//   - the terrain, `dsmplan plan --dtm DTM` (any resolution, the DSM's CRS);
+//   - else the DSM itself (`--dsm`, or a DSM planned over directly): above roofs over roofs;
+//   - else, planning on a mesh alone, the mesh's floor: each cell the lowest the mesh comes over
+//     it, bounded from below (floor_of()), so a height above it is never understated.
+// Nodata is unknown ground: each hole takes the lowest height of its rim (fill_holes_from_rim,
+// RimHeight::lowest), so a height above it is never understated either. Beyond the raster the
+// ground is unknown and every height above it is infinite: nothing flies there.
+//
+// max_height_above(p, q) is exact, not sampled: the ground is constant over each cell, so the
+// greatest height of a straight segment above it is reached where the segment enters or leaves
+// a cell; the segment is walked cell by cell (Amanatides & Woo, "A Fast Voxel Traversal
+// Algorithm for Ray Tracing", Eurographics 1987). Where it passes exactly through a corner, the
+// two cells touching it only there are measured too. Cost O(cells crossed); below_ceiling()
+// first bounds the segment by the lowest ground of the 8 x 8 blocks under its x,y box, which
+// settles most segments of a roadmap without the walk.
+#pragma once
+
+#include <cstdint>
+
+#include "dsmplan/core.hpp"
+#include "dsmplan/mesh.hpp"
+#include "dsmplan/raster.hpp"
+
+namespace dsmplan {
+
+class GroundGrid {
+public:
+  GroundGrid() = default;  ///< no ground: every height above it is infinite
+  /// `ground`'s holes take the lowest height of their rim; a grid without a valid cell is no
+  /// ground. O(cells).
+  explicit GroundGrid(Grid ground);
+  /// A lower bound of `mesh`'s surface on cells of side `cell` over the mesh's x,y box: each
+  /// cell the least, over the triangles whose x,y box meets it, of the larger of the
+  /// triangle's lowest corner and its plane's lowest value over that meeting rectangle.
+  /// ArgumentError for cell <= 0 or not finite. O(triangles x cells each box meets).
+  static GroundGrid floor_of(const Mesh& mesh, double cell);
+
+  bool empty() const { return grid_.cells() == 0; }
+  const Grid& grid() const { return grid_; }
+  /// p's z less the ground of the cell below; +infinity beyond the raster or over no ground.
+  double height_above(const Point3& p) const;
+  /// The greatest height above ground of any point of the segment [p, q] (exact; see the top).
+  double max_height_above(const Point3& p, const Point3& q) const;
+  /// max_height_above(p, q) <= ceiling, settled by the block bound when it can be.
+  bool below_ceiling(const Point3& p, const Point3& q, double ceiling) const;
+  /// A hash of the raster's georeference and heights (roadmap files record what they were built over).
+  uint64_t fingerprint() const;
+
+private:
+  double cell_ground(int col, int row) const { return grid_.z[grid_.index(col, row)]; }
+  Grid grid_;
+  static constexpr int block = 8;
+  int block_cols_ = 0, block_rows_ = 0;
+  std::vector<float> block_low_;  ///< lowest ground of each block x block cells
+};
+
+}  // namespace dsmplan

@@ -1,0 +1,148 @@
+// The ground a ceiling counts from, and the exact greatest height of a segment above it: a
+// cell-by-cell walk of the segment (Amanatides & Woo, "A Fast Voxel Traversal Algorithm for Ray
+// Tracing", Eurographics 1987) over ground that is constant on each cell. See ground.hpp.
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+
+#include "dsmplan/ground.hpp"
+
+namespace dsmplan {
+
+GroundGrid::GroundGrid(Grid ground) : grid_(std::move(ground)) {
+  fill_holes_from_rim(grid_, RimHeight::lowest);
+  if (std::none_of(grid_.z.begin(), grid_.z.end(), [](float z) { return !std::isnan(z); })) {
+    grid_ = Grid();
+    return;
+  }
+  block_cols_ = (grid_.width + block - 1) / block;
+  block_rows_ = (grid_.height + block - 1) / block;
+  block_low_.assign(static_cast<size_t>(block_cols_) * block_rows_, INFINITY);
+  for (int row = 0; row < grid_.height; ++row)
+    for (int col = 0; col < grid_.width; ++col) {
+      float& low = block_low_[static_cast<size_t>(row / block) * block_cols_ + col / block];
+      low = std::min(low, grid_.at(col, row));  // NaN (a grid with no rim at all) never lowers it
+    }
+}
+
+GroundGrid GroundGrid::floor_of(const Mesh& mesh, double cell) {
+  if (!(cell > 0) || !std::isfinite(cell)) throw ArgumentError("cell", "must be a positive number");
+  if (mesh.triangles.empty()) return {};
+  double xmin = INFINITY, ymin = INFINITY, xmax = -INFINITY, ymax = -INFINITY;
+  for (const Triangle& t : mesh.triangles)
+    for (uint32_t i : t) {
+      const Vertex& v = mesh.vertices[i];
+      xmin = std::min(xmin, v.x), xmax = std::max(xmax, v.x), ymin = std::min(ymin, v.y), ymax = std::max(ymax, v.y);
+    }
+  const double wcells = std::floor((xmax - xmin) / cell) + 1, hcells = std::floor((ymax - ymin) / cell) + 1;
+  if (!(wcells * hcells <= 4e8)) throw ArgumentError("cell", "gives more than 4e8 cells over the mesh");
+  Grid floor(static_cast<int>(wcells), static_cast<int>(hcells), xmin, ymax, cell, cell);
+  floor.crs = mesh.crs;
+  std::vector<double> low(floor.cells(), INFINITY);
+  for (const Triangle& t : mesh.triangles) {
+    const Vertex &a = mesh.vertices[t[0]], &b = mesh.vertices[t[1]], &c = mesh.vertices[t[2]];
+    const double lowest = std::min({a.z, b.z, c.z});
+    // The plane z = a.z + gx (x - a.x) + gy (y - a.y), when the triangle has one.
+    const double ux = b.x - a.x, uy = b.y - a.y, vx = c.x - a.x, vy = c.y - a.y;
+    const double det = ux * vy - uy * vx;
+    const bool planar = std::abs(det) > 1e-12 * (ux * ux + uy * uy + vx * vx + vy * vy);
+    const double gx = planar ? ((b.z - a.z) * vy - (c.z - a.z) * uy) / det : 0;
+    const double gy = planar ? ((c.z - a.z) * ux - (b.z - a.z) * vx) / det : 0;
+    const double bx0 = std::min({a.x, b.x, c.x}), bx1 = std::max({a.x, b.x, c.x});
+    const double by0 = std::min({a.y, b.y, c.y}), by1 = std::max({a.y, b.y, c.y});
+    const int c0 = std::max(0, static_cast<int>(std::floor((bx0 - xmin) / cell)));
+    const int c1 = std::min(floor.width - 1, static_cast<int>(std::floor((bx1 - xmin) / cell)));
+    const int r0 = std::max(0, static_cast<int>(std::floor((ymax - by1) / cell)));
+    const int r1 = std::min(floor.height - 1, static_cast<int>(std::floor((ymax - by0) / cell)));
+    for (int row = r0; row <= r1; ++row)
+      for (int col = c0; col <= c1; ++col) {
+        double value = lowest;
+        if (planar) {
+          // The plane is linear: over the rectangle where the cell meets the box, least at a corner.
+          const double x0 = std::max(bx0, xmin + col * cell), x1 = std::min(bx1, xmin + (col + 1) * cell);
+          const double y1 = std::min(by1, ymax - row * cell), y0 = std::max(by0, ymax - (row + 1) * cell);
+          const double plane = a.z + std::min(gx * (x0 - a.x), gx * (x1 - a.x)) + std::min(gy * (y0 - a.y), gy * (y1 - a.y));
+          value = std::max(value, plane);
+        }
+        double& slot = low[floor.index(col, row)];
+        slot = std::min(slot, value);
+      }
+  }
+  for (size_t i = 0; i < low.size(); ++i) {
+    if (low[i] == INFINITY) continue;  // no triangle: a hole, filled from its rim below
+    float f = static_cast<float>(low[i]);
+    if (f > low[i]) f = std::nextafter(f, -INFINITY);  // rounded down: still a lower bound
+    floor.z[i] = f;
+  }
+  return GroundGrid(std::move(floor));
+}
+
+double GroundGrid::height_above(const Point3& p) const {
+  if (empty()) return INFINITY;
+  const double u = (p[0] - grid_.x0) / grid_.cell_x, v = (grid_.y0 - p[1]) / grid_.cell_y;
+  if (!(u >= 0 && v >= 0 && u <= grid_.width && v <= grid_.height)) return INFINITY;
+  const int col = std::min(static_cast<int>(u), grid_.width - 1), row = std::min(static_cast<int>(v), grid_.height - 1);
+  return p[2] - cell_ground(col, row);
+}
+
+double GroundGrid::max_height_above(const Point3& p, const Point3& q) const {
+  if (empty()) return INFINITY;
+  const double pu = (p[0] - grid_.x0) / grid_.cell_x, pv = (grid_.y0 - p[1]) / grid_.cell_y;
+  const double qu = (q[0] - grid_.x0) / grid_.cell_x, qv = (grid_.y0 - q[1]) / grid_.cell_y;
+  const double du = qu - pu, dv = qv - pv, dz = q[2] - p[2];
+  auto inside = [&](double u, double v) { return u >= 0 && v >= 0 && u <= grid_.width && v <= grid_.height; };
+  if (!inside(pu, pv) || !inside(qu, qv)) return INFINITY;  // the grid is convex: both ends inside, all inside
+  auto z_at = [&](double t) { return p[2] + t * dz; };
+  int col = std::min(static_cast<int>(pu), grid_.width - 1), row = std::min(static_cast<int>(pv), grid_.height - 1);
+  const int step_c = du > 0 ? 1 : -1, step_r = dv > 0 ? 1 : -1;
+  // Parameter where the segment leaves the current cell across a column (row) line.
+  auto next_u = [&] { return du == 0 ? INFINITY : ((du > 0 ? col + 1 : col) - pu) / du; };
+  auto next_v = [&] { return dv == 0 ? INFINITY : ((dv > 0 ? row + 1 : row) - pv) / dv; };
+  double best = -INFINITY, t = 0;
+  const double steps = std::abs(du) + std::abs(dv) + 4;  // a bound on the cells crossed
+  for (double n = 0; n < steps; ++n) {
+    const double tu = next_u(), tv = next_v(), t_next = std::min({tu, tv, 1.0});
+    best = std::max(best, std::max(z_at(t), z_at(t_next)) - cell_ground(col, row));
+    if (t_next >= 1) break;
+    const int col_next = tu <= tv ? col + step_c : col, row_next = tv <= tu ? row + step_r : row;
+    if (col_next < 0 || row_next < 0 || col_next >= grid_.width || row_next >= grid_.height) break;  // left at the border
+    if (tu == tv) {  // through a corner: the two cells touching the segment only there
+      best = std::max(best, z_at(t_next) - cell_ground(col_next, row));
+      best = std::max(best, z_at(t_next) - cell_ground(col, row_next));
+    }
+    col = col_next, row = row_next, t = t_next;
+  }
+  return best;
+}
+
+bool GroundGrid::below_ceiling(const Point3& p, const Point3& q, double ceiling) const {
+  if (empty()) return false;
+  const double u0 = (std::min(p[0], q[0]) - grid_.x0) / grid_.cell_x, u1 = (std::max(p[0], q[0]) - grid_.x0) / grid_.cell_x;
+  const double v0 = (grid_.y0 - std::max(p[1], q[1])) / grid_.cell_y, v1 = (grid_.y0 - std::min(p[1], q[1])) / grid_.cell_y;
+  if (u0 >= 0 && v0 >= 0 && u1 <= grid_.width && v1 <= grid_.height) {
+    const int b0 = static_cast<int>(u0) / block, b1 = std::min(static_cast<int>(u1), grid_.width - 1) / block;
+    const int a0 = static_cast<int>(v0) / block, a1 = std::min(static_cast<int>(v1), grid_.height - 1) / block;
+    float low = INFINITY;
+    for (int r = a0; r <= a1; ++r)
+      for (int c = b0; c <= b1; ++c) low = std::min(low, block_low_[static_cast<size_t>(r) * block_cols_ + c]);
+    if (std::max(p[2], q[2]) - low <= ceiling) return true;
+  }
+  return max_height_above(p, q) <= ceiling;
+}
+
+uint64_t GroundGrid::fingerprint() const {
+  // FNV-1a over the georeference and the heights' bits.
+  uint64_t h = 1469598103934665603ull;
+  auto mix = [&](const void* data, size_t bytes) {
+    const auto* b = static_cast<const unsigned char*>(data);
+    for (size_t i = 0; i < bytes; ++i) h = (h ^ b[i]) * 1099511628211ull;
+  };
+  const double frame[4] = {grid_.x0, grid_.y0, grid_.cell_x, grid_.cell_y};
+  const int size[2] = {grid_.width, grid_.height};
+  mix(frame, sizeof frame);
+  mix(size, sizeof size);
+  if (!grid_.z.empty()) mix(grid_.z.data(), grid_.z.size() * sizeof(float));
+  return h;
+}
+
+}  // namespace dsmplan

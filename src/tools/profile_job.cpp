@@ -1,0 +1,153 @@
+// dsmplan profile: a planned path's height profile (render_profile(), src/export/profile.cpp) as
+// a PNG, and one line saying how close it comes to the DSM below and to the ceiling above.
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+
+#include "core/text.hpp"
+#include "dsmplan/export.hpp"
+#include "dsmplan/tools.hpp"
+#include "tools/job_parts.hpp"
+
+namespace dsmplan {
+
+namespace {
+
+std::string file_name(const std::string& path) { return std::filesystem::path(path).filename().string(); }
+
+std::string extent(const Grid& frame) {
+  char text[160];
+  std::snprintf(text, sizeof text, "%.10g,%.10g,%.10g,%.10g", frame.x0, frame.y1(), frame.x1(), frame.y0);
+  return text;
+}
+
+// The cells [c0, c1) x [r0, r1) of `frame` that hold the box, one more on each side, clipped;
+// false when none do.
+bool cells_around(const Grid& frame, double xmin, double ymin, double xmax, double ymax, int& c0, int& r0, int& c1,
+                  int& r1) {
+  auto col = [&](double x) { return std::floor((x - frame.x0) / frame.cell_x); };
+  auto row = [&](double y) { return std::floor((frame.y0 - y) / frame.cell_y); };
+  const double a = std::max(0.0, col(xmin) - 1), b = std::min(double(frame.width), col(xmax) + 2);
+  const double c = std::max(0.0, row(ymax) - 1), d = std::min(double(frame.height), row(ymin) + 2);
+  if (!(a < b && c < d)) return false;
+  c0 = static_cast<int>(a), c1 = static_cast<int>(b), r0 = static_cast<int>(c), r1 = static_cast<int>(d);
+  return true;
+}
+
+}  // namespace
+
+ProfileReport profile_job(const ProfileJobOptions& options, const Progress& progress) {
+  const std::string extension = lower_case(std::filesystem::path(options.output).extension().string());
+  if (extension != ".png") throw ArgumentError(options.output, "the picture is written as PNG: name it .png");
+  // The picture's options before any file is read (render_profile() checks them again).
+  const ProfileOptions& picture = options.profile;
+  if (picture.width < 240 || picture.height < 160 || picture.width > 30000 || picture.height > 30000)
+    throw ArgumentError(picture.width < 240 || picture.width > 30000 ? "--width" : "--height",
+                        "the picture must be 240 x 160 to 30000 x 30000 pixels");
+  if (!(picture.safety >= 0 && std::isfinite(picture.safety)))
+    throw ArgumentError("--safety", "must be >= 0 and finite");
+  if (!(picture.max_agl > 0 && std::isfinite(picture.max_agl)))
+    throw ArgumentError("--max-agl", "must be positive and finite");
+
+  const std::vector<Point3> path = read_waypoints_csv(options.path);
+  if (path.size() < 2) throw InputError(options.path, "", "a path needs at least two points");
+  const std::vector<Point3> waypoints =
+      options.waypoints.empty() ? std::vector<Point3>{} : read_waypoints_csv(options.waypoints);
+
+  // Only the windows around the path are read: the DSM may be a whole city's mosaic.
+  const std::unique_ptr<GridSource> dsm_source = open_raster(options.dsm);
+  const Grid& frame = dsm_source->frame();
+  require_projected(frame.crs, options.dsm, centre_of(frame));
+  double xmin = INFINITY, ymin = INFINITY, xmax = -INFINITY, ymax = -INFINITY;
+  for (size_t i = 0; i < path.size(); ++i) {
+    const Point3& p = path[i];
+    if (!(p[0] >= frame.x0 && p[0] <= frame.x1() && p[1] >= frame.y1() && p[1] <= frame.y0)) {
+      char where[96];
+      std::snprintf(where, sizeof where, "%.10g,%.10g", p[0], p[1]);
+      throw InputError(
+          options.path, "point " + std::to_string(i + 1),
+          std::string(where) + " lies outside the DSM (" + extent(frame) + "); is the path in the DSM's CRS?");
+    }
+    xmin = std::min(xmin, p[0]), xmax = std::max(xmax, p[0]), ymin = std::min(ymin, p[1]), ymax = std::max(ymax, p[1]);
+  }
+  std::unique_ptr<GridSource> dtm_source;
+  int d0 = 0, e0 = 0, d1 = 0, e1 = 0;
+  if (!options.dtm.empty()) {
+    dtm_source = open_raster(options.dtm);
+    const Grid& terrain = dtm_source->frame();
+    if (terrain.crs.epsg && frame.crs.epsg && terrain.crs.epsg != frame.crs.epsg) {
+      throw InputError(options.dtm, "",
+                       "its CRS is EPSG:" + std::to_string(terrain.crs.epsg) + ", the DSM's is EPSG:" +
+                           std::to_string(frame.crs.epsg) + "; reproject it to the DSM's first (gdalwarp -t_srs)");
+    }
+    if (!(terrain.x0 < frame.x1() && terrain.x1() > frame.x0 && terrain.y1() < frame.y0 && terrain.y0 > frame.y1())) {
+      throw InputError(options.dtm, "",
+                       "does not overlap the DSM: it covers " + extent(terrain) + ", the DSM " + extent(frame));
+    }
+    if (!cells_around(terrain, xmin, ymin, xmax, ymax, d0, e0, d1, e1)) {
+      throw InputError(options.dtm, "", "has no cell under the path (it covers " + extent(terrain) + ")");
+    }
+  }
+  report(progress, 0.05);
+
+  int c0 = 0, r0 = 0, c1 = 0, r1 = 0;
+  cells_around(frame, xmin, ymin, xmax, ymax, c0, r0, c1, r1);  // the path is inside: never empty
+  require_memory(options.dsm, "", 4.0 * (c1 - c0) * (r1 - r0));
+  const Grid dsm = read_window(*dsm_source, c0, r0, c1 - c0, r1 - r0);
+  report(progress, 0.45);
+  Grid dtm;
+  if (dtm_source) {
+    require_memory(options.dtm, "", 4.0 * (d1 - d0) * (e1 - e0));
+    dtm = read_window(*dtm_source, d0, e0, d1 - d0, e1 - e0);
+  }
+  report(progress, 0.8);
+
+  ProfileOptions drawing = picture;
+  drawing.waypoints = waypoints;
+  if (drawing.title.empty())
+    drawing.title = "Height profile: " + file_name(options.path) + " over " + file_name(options.dsm);
+  const Grid* terrain = dtm_source ? &dtm : nullptr;
+  const Image image = render_profile(path, dsm, terrain, drawing);
+  const PathProfile profile = profile_path(path, dsm, terrain);
+  write_png(image, options.output);
+  report(progress, 1);
+
+  ProfileReport result;
+  result.output = options.output;
+  result.width = image.width;
+  result.height = image.height;
+  result.length = profile.length;
+  result.min_above_dsm = profile.min_above_dsm;
+  result.min_above_dsm_at = profile.min_above_dsm_at;
+  result.max_above_ground = profile.max_above_ground;
+  result.max_above_ground_at = profile.max_above_ground_at;
+  result.ground_is_dtm = terrain != nullptr;
+  result.max_agl = picture.max_agl;
+  return result;
+}
+
+std::string to_text(const ProfileReport& r) {
+  const char* ground = r.ground_is_dtm ? "DTM" : "DSM";
+  char below[128], above[160];
+  if (std::isfinite(r.min_above_dsm)) {
+    std::snprintf(below, sizeof below, "least %.2f m above the DSM below it (at %.1f m)", r.min_above_dsm,
+                  r.min_above_dsm_at);
+  } else {
+    std::snprintf(below, sizeof below, "no DSM data under it");
+  }
+  if (std::isfinite(r.max_above_ground)) {
+    const double spare = r.max_agl - r.max_above_ground;
+    std::snprintf(above, sizeof above, "at most %.2f m above the %s (at %.1f m), ceiling %s + %g m %s %.2f m%s",
+                  r.max_above_ground, ground, r.max_above_ground_at, ground, r.max_agl,
+                  spare >= 0 ? "kept with" : "EXCEEDED by", std::abs(spare), spare >= 0 ? " to spare" : "");
+  } else {
+    std::snprintf(above, sizeof above, "no %s data under it: ceiling %s + %g m not known there", ground, ground,
+                  r.max_agl);
+  }
+  char line[512];
+  std::snprintf(line, sizeof line, "%s: path %.1f m long, %s, %s\n", r.output.c_str(), r.length, below, above);
+  return line;
+}
+
+}  // namespace dsmplan
