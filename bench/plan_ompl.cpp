@@ -126,8 +126,9 @@ std::vector<Point3> halton_candidates(const ClearanceIndex& index, const PlanOpt
   std::vector<Point3> out(n);
   for (size_t i = 0; i < n; ++i) {
     const double x = e.xmin + halton(i + 1, 2) * wx, y = e.ymin + halton(i + 1, 3) * wy;
-    const double g = index.ground(x, y);
-    out[i] = {x, y, std::isnan(g) ? NAN : g + halton(i + 1, 5) * o.max_agl};
+    // From the surface to the ceiling over the mesh's floor, as build_roadmap() places them.
+    const double g = index.ground(x, y), top = o.max_agl - index.floor().height_above({x, y, 0});
+    out[i] = {x, y, std::isnan(g) || !(top > g) ? NAN : g + halton(i + 1, 5) * (top - g)};
   }
   return out;
 }
@@ -283,7 +284,8 @@ public:
     const auto start = profile_.on ? Clock::now() : Clock::time_point{};
     const Point3 p = to_point(s);
     const double g = index_.ground(p[0], p[1]);
-    const bool ok = !std::isnan(g) && p[2] >= g && checker_.point_clear(p);
+    const bool ok = !std::isnan(g) && p[2] >= g && index_.floor().height_above(p) <= plan_options.max_agl &&
+                    checker_.point_clear(p);
     if (profile_.on) profile_.valid_s += since(start);
     return ok;
   }
@@ -297,11 +299,13 @@ private:
 // Exact: the whole straight motion, not states along it at a resolution.
 class Motion : public ob::MotionValidator {
 public:
-  Motion(const ob::SpaceInformationPtr& si, const Checker& checker, Profile& profile)
-      : ob::MotionValidator(si), checker_(checker), profile_(profile) {}
+  Motion(const ob::SpaceInformationPtr& si, const ClearanceIndex& index, const Checker& checker, Profile& profile)
+      : ob::MotionValidator(si), index_(index), checker_(checker), profile_(profile) {}
   bool checkMotion(const ob::State* s1, const ob::State* s2) const override {
     const auto start = profile_.on ? Clock::now() : Clock::time_point{};
-    const bool ok = checker_.segment_clear(to_point(s1), to_point(s2));
+    // The ceiling over the whole motion, as dsmplan's roadmap keeps it (plan.hpp, FlightSpace).
+    const bool ok = index_.floor().below_ceiling(to_point(s1), to_point(s2), plan_options.max_agl) &&
+                    checker_.segment_clear(to_point(s1), to_point(s2));
     if (profile_.on) profile_.motion_s += since(start), ++profile_.motions;
     (ok ? valid_ : invalid_)++;
     return ok;
@@ -315,6 +319,7 @@ public:
   }
 
 private:
+  const ClearanceIndex& index_;
   const Checker& checker_;
   Profile& profile_;
 };
@@ -425,7 +430,7 @@ OmplRun run_ompl(const ClearanceIndex& index, const Mesh& mesh, const Checker& c
   Profile profile;
   auto si = std::make_shared<ob::SpaceInformation>(space);
   si->setStateValidityChecker(std::make_shared<Validity>(si, index, checker, profile));
-  si->setMotionValidator(std::make_shared<Motion>(si, checker, profile));
+  si->setMotionValidator(std::make_shared<Motion>(si, index, checker, profile));
   si->setup();
   auto pdef = std::make_shared<ob::ProblemDefinition>(si);  // PRM takes its path-length objective from it
 
@@ -617,7 +622,9 @@ MeshRow run_mesh(const std::string& name, double cell, const Mesh& mesh) {
     row.pairs = found.size();
     start = std::chrono::steady_clock::now();
     size_t clear = 0;
-    for (const auto& [i, j] : found) clear += index.segment_clear(map.nodes[i], map.nodes[j], plan_options.safety);
+    for (const auto& [i, j] : found)
+      clear += index.floor().below_ceiling(map.nodes[i], map.nodes[j], plan_options.max_agl) &&
+               index.segment_clear(map.nodes[i], map.nodes[j], plan_options.safety);
     row.checks_s = seconds_since(start);
     if (clear != map.edges()) std::printf("  re-done phases give %zu edges, not %zu\n", clear, map.edges());
   }

@@ -849,7 +849,7 @@ TEST(CliProfile, SamplePathGivesAPictureOfTheRequestedSizeAndASummary) {
   // The summary: the path's length (two straight legs: Pythagoras here), and the ceiling.
   const double length = std::hypot(240, 230) + std::hypot(220, 230);
   char expected[64];
-  std::snprintf(expected, sizeof expected, "path %.1f m long", length);
+  std::snprintf(expected, sizeof expected, "path %.1f m along the ground", length);
   EXPECT_NE(result.out.find(expected), std::string::npos) << result.out;
   EXPECT_NE(result.out.find("ceiling DSM + 100 m kept"), std::string::npos) << result.out;
   EXPECT_NE(result.out.find(kProgress), std::string::npos) << result.out;

@@ -48,6 +48,10 @@ public:
   double max_height_above(const Point3& p, const Point3& q) const;
   /// max_height_above(p, q) <= ceiling, settled by the block bound when it can be.
   bool below_ceiling(const Point3& p, const Point3& q, double ceiling) const;
+  /// A lower bound of the ground within the x,y square of half-side r around (x, y), from the
+  /// blocks it meets: -infinity where the square leaves the raster. A segment inside the square
+  /// is below the ceiling when its higher end is at most ceiling above this. O((r / block)^2).
+  double lowest_near(double x, double y, double r) const;
   /// A hash of the raster's georeference and heights (roadmap files record what they were built over).
   uint64_t fingerprint() const;
 

@@ -281,12 +281,11 @@ private:
 //          that adds nothing stops.
 //          Then NoPath, the reason naming the rounds, the samples added and the finest spacing.
 //     Deterministic: samples are tested in parallel and kept in index order, the searches are
-//     sequential with ties broken by node number. Measured on the NRW 1 m tile, 25 street
-//     waypoints 5 m above ground spread over the tile, 108 legs of 0.2-1.3 km: at max_agl 30 and
-//     20 the roadmap solves every leg (3,296 and 2,042 samples; 0.4 ms a leg);
-//     at 15 all 108 (the roadmap alone: none of bench_table3's 3 legs), 21 ms a leg on average,
-//     1.5 s the worst; at 10 all 108, 1.7 s a leg on average, 5 s the worst (2 cores, busy).
-// Every segment of a returned path satisfies segment_clear(p, q, safety) (checked once more
+//     sequential with ties broken by node number. Times: bench/README.md (bench_table3). Since
+//     the ceiling holds over every edge, not only at the samples, a low ceiling leaves fewer
+//     edges, and refinement works harder for the same legs (at max_agl 15 on the NRW tile about
+//     twenty times as long as when edges could rise above it).
+// Every segment of a returned path satisfies segment_clear(p, q, safety) and the ceiling (checked once more
 // before it is returned; tests/plan_test.cpp re-verifies it by brute force over all triangles).
 // Measured on the NRW 1 m tile (1,996,002 triangles, 2 cores), defaults, 3 waypoints 30 m above
 // the ground at opposite corners and the middle: 14,510 samples kept, 124,018 edges, roadmap

@@ -130,6 +130,19 @@ bool GroundGrid::below_ceiling(const Point3& p, const Point3& q, double ceiling)
   return max_height_above(p, q) <= ceiling;
 }
 
+double GroundGrid::lowest_near(double x, double y, double r) const {
+  if (empty()) return -INFINITY;
+  const double u0 = (x - r - grid_.x0) / grid_.cell_x, u1 = (x + r - grid_.x0) / grid_.cell_x;
+  const double v0 = (grid_.y0 - y - r) / grid_.cell_y, v1 = (grid_.y0 - y + r) / grid_.cell_y;
+  if (!(u0 >= 0 && v0 >= 0 && u1 <= grid_.width && v1 <= grid_.height)) return -INFINITY;
+  const int b0 = static_cast<int>(u0) / block, b1 = std::min(static_cast<int>(u1), grid_.width - 1) / block;
+  const int a0 = static_cast<int>(v0) / block, a1 = std::min(static_cast<int>(v1), grid_.height - 1) / block;
+  float low = INFINITY;
+  for (int row = a0; row <= a1; ++row)
+    for (int col = b0; col <= b1; ++col) low = std::min(low, block_low_[static_cast<size_t>(row) * block_cols_ + col]);
+  return low;
+}
+
 uint64_t GroundGrid::fingerprint() const {
   // FNV-1a over the georeference and the heights' bits.
   uint64_t h = 1469598103934665603ull;

@@ -78,6 +78,13 @@ Roadmap build_roadmap(const ClearanceIndex& index, const PlanOptions& options, c
         map.nodes.push_back(candidates[i]);
         node_room.push_back(room[i]);
       }
+    // The ceiling's certificate of each node: the lowest ground within max_edge of it. Every
+    // edge of the node lies over that square, so one whose higher end is at most max_agl above
+    // it is under the ceiling without a walk.
+    std::vector<double> node_low(map.nodes.size());
+    tbb::parallel_for(size_t{0}, map.nodes.size(), [&](size_t i) {
+      node_low[i] = space.ground().lowest_near(map.nodes[i][0], map.nodes[i][1], options.max_edge);
+    });
     report(progress, 0.2);
 
     // A uniform grid of max_edge cells: the neighbours within max_edge of a node lie in the 27
@@ -168,7 +175,7 @@ Roadmap build_roadmap(const ClearanceIndex& index, const PlanOptions& options, c
           // exact check can only agree: the same edges, most of them high above the roofs
           // without reading a triangle.
           // The ceiling is measured on every edge: the balls say nothing of it.
-          if (space.below_ceiling(p, map.nodes[q.id]) &&
+          if ((std::max(p[2], map.nodes[q.id][2]) - node_low[i] <= options.max_agl || space.below_ceiling(p, map.nodes[q.id])) &&
               (node_room[i] + q.room - std::sqrt(q.length2) >= 2 * options.safety + certificate_slack ||
                index.segment_clear(p, map.nodes[q.id], options.safety)))
             edges.push_back(q.id);

@@ -104,7 +104,7 @@ Roadmap read_roadmap(const std::string& path, uint64_t fingerprint, const PlanOp
   RoadmapHeader header;
   Roadmap map = read_roadmap(path, &header);
   if (header.mesh_fingerprint != fingerprint)
-    throw InputError(path, "", "the roadmap was built for another mesh (fingerprints differ); build it again");
+    throw InputError(path, "", "the roadmap was built for another mesh or another ground (--dsm, --dtm) (fingerprints differ); build it again");
   const double built[4] = {header.safety, header.spacing, header.max_edge, header.max_agl};
   const double asked[4] = {options.safety, options.spacing, options.max_edge, options.max_agl};
   const char* names[4] = {"--safety", "--spacing", "--max-edge", "--max-agl"};

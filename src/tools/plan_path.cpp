@@ -195,6 +195,7 @@ PlanReport plan_job(const PlanJobOptions& options, const Progress& progress) {
                                              " m above the ground, above --max-agl; a bug, please report it; nothing written");
   } else {
   PlanOptions plan = options.plan;
+  double half_diagonal = INFINITY;
   // The DSM's columns, holes as high as their rim: what the path must keep `safety` from
   // (plan.hpp, "holding a mesh plan to the DSM's columns").
   Grid columns;
@@ -209,6 +210,7 @@ PlanReport plan_job(const PlanJobOptions& options, const Progress& progress) {
     report.mesh_max_below_dsm_m = certify(mesh, dsm).max_below;
     report.column_max_above_mesh_m = certify_columns(mesh, dsm).max_below;
     report.safety_margin_m = column_margin(mesh, dsm);
+    half_diagonal = std::hypot(dsm.cell_x, dsm.cell_y) / 2;
     plan.safety += report.safety_margin_m;
     // The holes' columns join the obstacles: a mesh has voids there.
     const Mesh holes = hole_columns(dsm, columns);
@@ -245,7 +247,8 @@ PlanReport plan_job(const PlanJobOptions& options, const Progress& progress) {
   take_planner_figures(result, report);
   if (result.status != PlanStatus::Solved) {
     std::string why = result.reason;
-    if (report.safety_margin_m > 0)
+    // Worth a word only when the mesh does not fit its DSM (more than a conservative mesh needs).
+    if (report.safety_margin_m > half_diagonal + 1e-9)
       why += " (on the mesh the safety distance is --safety " + format_number(options.plan.safety) + " widened by " +
              format_number(report.safety_margin_m) + " m, as far as the DSM's columns may lie inside this mesh; a " +
              "conservative mesh of the DSM itself needs half a cell diagonal)";
@@ -340,6 +343,12 @@ std::string to_text(const PlanReport& r) {
                 r.planner == "prm" ? "roadmap" : "trees", r.roadmap_nodes, r.roadmap_edges, r.seconds_roadmap,
                 r.roadmap_reused ? ", reused" : "", r.seconds_query, r.seconds_smooth);
   std::string text = buffer;
+  if (std::isfinite(r.max_agl_m)) {
+    char ceiling[160];
+    std::snprintf(ceiling, sizeof ceiling, "at most %.2f m above the ground (%s) anywhere on the path\n", r.max_agl_m,
+                  r.ground.c_str());
+    text += ceiling;
+  }
   if (!r.transformation.empty()) text += "heights and coordinates to WGS 84 by: " + r.transformation + "\n";
   return text;
 }

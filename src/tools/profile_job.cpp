@@ -146,7 +146,7 @@ std::string to_text(const ProfileReport& r) {
                   r.max_agl);
   }
   char line[512];
-  std::snprintf(line, sizeof line, "%s: path %.1f m long, %s, %s\n", r.output.c_str(), r.length, below, above);
+  std::snprintf(line, sizeof line, "%s: path %.1f m along the ground, %s, %s\n", r.output.c_str(), r.length, below, above);
   return line;
 }
 
