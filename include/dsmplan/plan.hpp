@@ -405,8 +405,10 @@ double column_clearance(const Grid& dsm, const Point3& p, const Point3& q, doubl
 /// smaller of the most a column rises above the mesh (certify_columns(); only when the mesh
 /// covers every column) and sqrt((cell diagonal / 2)^2 + E^2) with E the mesh's certified depth
 /// below the cell centres. 0.71 m for a conservative mesh of a 1 m DSM. O(cells + triangles x
-/// edge length in cells).
-double column_margin(const Mesh& mesh, const Grid& dsm);
+/// edge length in cells). The two measurements it rests on go to `columns_above` and
+/// `below_centres` when they are not null.
+double column_margin(const Mesh& mesh, const Grid& dsm, ColumnError* columns_above = nullptr,
+                     VerticalError* below_centres = nullptr);
 
 /// The columns of the cells that are nodata in `dsm` but have a height in `columns` (its holes
 /// filled), as triangles in `dsm`'s CRS: each cell's top, and walls down to 1 m below the

@@ -16,10 +16,12 @@
 
 namespace dsmplan {
 
-double column_margin(const Mesh& mesh, const Grid& dsm) {
+double column_margin(const Mesh& mesh, const Grid& dsm, ColumnError* columns_above, VerticalError* below_centres) {
   const Grid& columns = dsm;
   const ColumnError above = certify_columns(mesh, columns);
   const VerticalError below = certify(mesh, columns);
+  if (columns_above) *columns_above = above;
+  if (below_centres) *below_centres = below;
   const double half_diagonal = std::hypot(std::hypot(columns.cell_x, columns.cell_y) / 2, below.max_below);
   return above.uncovered_corners == 0 ? std::min(above.max_below, half_diagonal) : half_diagonal;
 }

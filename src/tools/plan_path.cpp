@@ -64,6 +64,18 @@ Grid read_companion(const std::string& path, const char* what, const Crs& mesh_c
   return grid;
 }
 
+// InputError naming the first waypoint above the ceiling (in the planner's words), before any work.
+void refuse_above_ceiling(const std::vector<Point3>& waypoints, const GroundGrid& ground, const PlanJobOptions& options) {
+  for (size_t i = 0; i < waypoints.size(); ++i) {
+    const double above = ground.height_above(waypoints[i]);
+    if (above <= options.plan.max_agl) continue;
+    throw InputError(options.waypoints, "waypoint " + std::to_string(i + 1),
+                     std::isinf(above) ? "outside the ground's extent (no ground below it to count --max-agl from)"
+                                       : "above the ceiling: " + format_number(above) + " m above the ground, --max-agl " +
+                                             format_number(options.plan.max_agl));
+  }
+}
+
 // The written path held to both limits once more, measured on its own: clearance to the DSM's
 // columns (holes as high as their rim) at least the safety distance, less 1 cm for the
 // rounding of what is written; height above the ground at most max_agl, plus 5 cm. A path
@@ -206,10 +218,15 @@ PlanReport plan_job(const PlanJobOptions& options, const Progress& progress) {
     Grid dsm = read_companion(options.dsm, "DSM", mesh.crs, xmin, ymin, xmax, ymax);
     columns = dsm;
     fill_holes_from_rim(columns, RimHeight::highest);
+    // A waypoint above the ceiling is refused now, before the work on the mesh.
+    plan.ground = std::make_shared<GroundGrid>(dsm);
+    if (options.dtm.empty()) refuse_above_ceiling(waypoints, *plan.ground, options);
     // The valid cells' columns against the mesh; the holes' are added to it whole below.
-    report.mesh_max_below_dsm_m = certify(mesh, dsm).max_below;
-    report.column_max_above_mesh_m = certify_columns(mesh, dsm).max_below;
-    report.safety_margin_m = column_margin(mesh, dsm);
+    ColumnError above;
+    VerticalError below;
+    report.safety_margin_m = column_margin(mesh, dsm, &above, &below);
+    report.mesh_max_below_dsm_m = below.max_below;
+    report.column_max_above_mesh_m = above.max_below;
     half_diagonal = std::hypot(dsm.cell_x, dsm.cell_y) / 2;
     plan.safety += report.safety_margin_m;
     // The holes' columns join the obstacles: a mesh has voids there.
@@ -217,12 +234,12 @@ PlanReport plan_job(const PlanJobOptions& options, const Progress& progress) {
     const uint32_t offset = static_cast<uint32_t>(mesh.vertices.size());
     mesh.vertices.insert(mesh.vertices.end(), holes.vertices.begin(), holes.vertices.end());
     for (Triangle t : holes.triangles) mesh.triangles.push_back({t[0] + offset, t[1] + offset, t[2] + offset});
-    plan.ground = std::make_shared<GroundGrid>(std::move(dsm));
+  }
+  if (!options.dtm.empty()) {
+    plan.ground = std::make_shared<GroundGrid>(read_companion(options.dtm, "DTM", mesh.crs, xmin, ymin, xmax, ymax));
+    refuse_above_ceiling(waypoints, *plan.ground, options);
   }
   const ClearanceIndex index(mesh);
-  if (!options.dtm.empty())
-    plan.ground = std::make_shared<GroundGrid>(
-        read_companion(options.dtm, "DTM", mesh.crs, xmin, ymin, xmax, ymax));
   report.ground = !options.dtm.empty() ? "dtm" : !options.dsm.empty() ? "dsm" : "mesh floor";
   report.seconds_load = clock.lap();
 
