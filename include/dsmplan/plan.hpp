@@ -277,7 +277,8 @@ private:
 //          widen the region to 2, 4, ... 32 times max_edge around the frontier (a street
 //          network at 10 m above ground is crossed that way). Bounds: refine_rounds rounds a
 //          leg, a level needing more than 4 million Halton indices is not used, at most 1
-//          million added samples a query; a round at the finest level over the widest region
+//          million added samples a query, 1e8 candidate edges looked at by a leg's searches (a
+//          count, not a clock); a round at the finest level over the widest region
 //          that adds nothing stops.
 //          Then NoPath, the reason naming the rounds, the samples added and the finest spacing.
 //     Deterministic: samples are tested in parallel and kept in index order, the searches are

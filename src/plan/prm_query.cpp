@@ -94,6 +94,11 @@ std::vector<Point3> astar(const Roadmap& map, const Point3& a, const Point3& b,
 constexpr int kMaxLevel = 3;                   // finest spacing: spacing / 2^3
 constexpr double kMaxHaltonIndex = 4.0e6;      // a level needs at most this many Halton indices
 constexpr size_t kMaxRefinedSamples = 1000000;  // added samples a query, at most
+// Candidate edges the lazy searches of a leg may look at, at most: an impossible leg over a
+// million samples would otherwise be searched round after round for many minutes (a Delft leg
+// under a 15 m ceiling: over 10 minutes; 1e8 is about 50 s there). The hardest leg
+// bench_table3 solves looks at 7e6. A count, not a clock: the same answer on every machine.
+constexpr size_t kMaxSearchWork = 100000000;
 constexpr int kMaxWiden = 5;                    // the region: at most 2^5 max_edge around the frontier
 
 // The roadmap with the samples a query adds to it, connected lazily. Level l (1..kMaxLevel)
@@ -122,6 +127,7 @@ public:
   }
 
   size_t added() const { return nodes_.size(); }
+  bool out_of_work() const { return work_ >= kMaxSearchWork; }
   int rounds() const { return rounds_; }
   double finest_spacing() const { return o_.spacing / (1 << finest_); }
 
@@ -130,7 +136,7 @@ public:
   std::vector<Point3> solve(const Point3& a, size_t ia, const Point3& b, size_t ib) {
     Search s = search(a, ia, &b, ib, SIZE_MAX);
     for (int round = 1; s.path.empty() && round <= o_.refine_rounds; ++round) {
-      if (levels_ == 0 || nodes_.size() >= kMaxRefinedSamples) break;
+      if (levels_ == 0 || nodes_.size() >= kMaxRefinedSamples || out_of_work()) break;
       // The smaller component: s.closed is all of a's; b's is explored up to that size.
       Search t = search(b, ib, nullptr, 0, s.closed.size() + 1);
       const bool from_b = t.closed.size() <= s.closed.size();
@@ -287,8 +293,10 @@ private:
       }
       if (b && goal_cost[v] >= 0) push(v, e.g, G, goal_cost[v], cached(v, wb));
       candidates(v, [&](uint32_t x, bool known) {
+        ++work_;
         push(v, e.g, x, distance(point(v), point(x)), known ? 1 : cached(v, x));
       });
+      if (out_of_work()) break;
     }
     if (b && closed[G]) {
       for (uint32_t v = G; v != UINT32_MAX; v = parent[v]) result.path.push_back(pt(v));
@@ -395,6 +403,7 @@ private:
   double wx_ = 0, wy_ = 0;
   double count_[kMaxLevel + 1] = {};
   int levels_ = 0, finest_ = 0, rounds_ = 0;
+  size_t work_ = 0;  // candidate edges looked at by the searches of this query
   std::vector<Point3> nodes_;
   std::vector<uint8_t> level_;
   std::vector<std::vector<uint32_t>> level_ids_;
@@ -444,7 +453,8 @@ PlanResult query_roadmap(const Roadmap& map, const ClearanceIndex& index, const 
       if (refinement)
         refined = " nor after " + std::to_string(refinement->rounds()) + " refinement rounds (" +
                   std::to_string(refinement->added()) + " samples added, spacing down to " +
-                  format_number(refinement->finest_spacing()) + ")";
+                  format_number(refinement->finest_spacing()) +
+                  (refinement->out_of_work() ? ", stopped at its bound of 1e8 candidate edges searched" : "") + ")";
       const std::string hint = "a smaller --spacing may give one";
       result.reason = lonely != SIZE_MAX ? "no roadmap sample within --max-edge " + format_number(options.max_edge) +
                                                " has a clear straight segment to waypoint " +
