@@ -12,17 +12,14 @@
 #include <string>
 
 #include "dsmplan/plan.hpp"
+#include "core/text.hpp"
 #include "plan/path_parts.hpp"
 
 namespace dsmplan {
 
 namespace detail {
 
-std::string format_number(double v) {
-  char buffer[32];
-  std::snprintf(buffer, sizeof buffer, "%.2f", v);
-  return buffer;
-}
+std::string format_number(double v) { return two_decimals(v); }
 
 void check_waypoint_list(const std::vector<Point3>& waypoints) {
   if (waypoints.size() < 2)

@@ -42,12 +42,6 @@ bool is_geojson(const std::string& path) {
   return ext == "geojson" || ext == "json";
 }
 
-std::string format_number(double v) {
-  char buffer[32];
-  std::snprintf(buffer, sizeof buffer, "%.2f", v);
-  return buffer;
-}
-
 // A raster that must share the mesh's CRS and lie under the flight: InputError naming it otherwise.
 Grid read_companion(const std::string& path, const char* what, const Crs& mesh_crs, double xmin, double ymin,
                     double xmax, double ymax) {
@@ -56,11 +50,11 @@ Grid read_companion(const std::string& path, const char* what, const Crs& mesh_c
     throw InputError(path, "", std::string("the ") + what + "'s CRS is EPSG:" + std::to_string(grid.crs.epsg) +
                                    ", the mesh's EPSG:" + std::to_string(mesh_crs.epsg));
   if (!(grid.x1() > xmin && grid.x0 < xmax && grid.y0 > ymin && grid.y1() < ymax))
-    throw InputError(path, "", std::string("the ") + what + " (x " + format_number(grid.x0) + " to " +
-                                   format_number(grid.x1()) + ", y " + format_number(grid.y1()) + " to " +
-                                   format_number(grid.y0) + ") does not overlap the mesh (x " + format_number(xmin) +
-                                   " to " + format_number(xmax) + ", y " + format_number(ymin) + " to " +
-                                   format_number(ymax) + ")");
+    throw InputError(path, "", std::string("the ") + what + " (x " + two_decimals(grid.x0) + " to " +
+                                   two_decimals(grid.x1()) + ", y " + two_decimals(grid.y1()) + " to " +
+                                   two_decimals(grid.y0) + ") does not overlap the mesh (x " + two_decimals(xmin) +
+                                   " to " + two_decimals(xmax) + ", y " + two_decimals(ymin) + " to " +
+                                   two_decimals(ymax) + ")");
   return grid;
 }
 
@@ -71,8 +65,8 @@ void refuse_above_ceiling(const std::vector<Point3>& waypoints, const GroundGrid
     if (above <= options.plan.max_agl) continue;
     throw InputError(options.waypoints, "waypoint " + std::to_string(i + 1),
                      std::isinf(above) ? "outside the ground's extent (no ground below it to count --max-agl from)"
-                                       : "above the ceiling: " + format_number(above) + " m above the ground, --max-agl " +
-                                             format_number(options.plan.max_agl));
+                                       : "above the ceiling: " + two_decimals(above) + " m above the ground, --max-agl " +
+                                             two_decimals(options.plan.max_agl));
   }
 }
 
@@ -97,14 +91,14 @@ void verify_limits(const std::vector<Point3>& path, const Grid* columns, const G
     report.dsm_tolerance_m = 0.01;
     if (!(report.min_clearance_dsm_m >= options.plan.safety - report.dsm_tolerance_m))
       throw InputError(place, "",
-                       "the path passes " + format_number(report.min_clearance_dsm_m) + " m from the DSM's columns (segment " +
-                           std::to_string(worst_columns) + "), closer than --safety " + format_number(options.plan.safety) +
+                       "the path passes " + two_decimals(report.min_clearance_dsm_m) + " m from the DSM's columns (segment " +
+                           std::to_string(worst_columns) + "), closer than --safety " + two_decimals(options.plan.safety) +
                            ": a bug, please report it; nothing written");
   }
   if (!(report.max_agl_m <= options.plan.max_agl + 0.05))
     throw InputError(place, "",
-                     "the path rises " + format_number(report.max_agl_m) + " m above the ground (segment " +
-                         std::to_string(worst_agl) + "), above --max-agl " + format_number(options.plan.max_agl) +
+                     "the path rises " + two_decimals(report.max_agl_m) + " m above the ground (segment " +
+                         std::to_string(worst_agl) + "), above --max-agl " + two_decimals(options.plan.max_agl) +
                          ": a bug, please report it; nothing written");
 }
 
@@ -200,10 +194,10 @@ PlanReport plan_job(const PlanJobOptions& options, const Progress& progress) {
     report.dsm_tolerance_m = 0.01;
     report.max_agl_m = planned.max_agl_m;
     if (!(report.min_clearance_dsm_m >= options.plan.safety - report.dsm_tolerance_m))
-      throw InputError(options.mesh, "", "the path comes within " + format_number(report.min_clearance_dsm_m) +
+      throw InputError(options.mesh, "", "the path comes within " + two_decimals(report.min_clearance_dsm_m) +
                                              " m of the DSM's columns, less than --safety; a bug, please report it; nothing written");
     if (!(report.max_agl_m <= options.plan.max_agl + 0.05))
-      throw InputError(options.mesh, "", "the path rises " + format_number(report.max_agl_m) +
+      throw InputError(options.mesh, "", "the path rises " + two_decimals(report.max_agl_m) +
                                              " m above the ground, above --max-agl; a bug, please report it; nothing written");
   } else {
   PlanOptions plan = options.plan;
@@ -266,8 +260,8 @@ PlanReport plan_job(const PlanJobOptions& options, const Progress& progress) {
     std::string why = result.reason;
     // Worth a word only when the mesh does not fit its DSM (more than a conservative mesh needs).
     if (report.safety_margin_m > half_diagonal + 1e-9)
-      why += " (on the mesh the safety distance is --safety " + format_number(options.plan.safety) + " widened by " +
-             format_number(report.safety_margin_m) + " m, as far as the DSM's columns may lie inside this mesh; a " +
+      why += " (on the mesh the safety distance is --safety " + two_decimals(options.plan.safety) + " widened by " +
+             two_decimals(report.safety_margin_m) + " m, as far as the DSM's columns may lie inside this mesh; a " +
              "conservative mesh of the DSM itself needs half a cell diagonal)";
     throw InputError(options.waypoints, result.place(), why);
   }
