@@ -219,6 +219,10 @@ int main(int argc, char** argv) {
   plan_cmd->add_option("--max-agl", plan.plan.max_agl,
                        "Ceiling, metres above the ground (the DTM, else the DSM's cells, else the mesh) for every point of the path")
       ->capture_default_str();
+  plan_cmd->add_option("--refine-rounds", plan.plan.refine_rounds,
+                       "Where the roadmap fails a leg: a lattice search, then at most this many rounds of denser "
+                       "samples (0: neither)")
+      ->capture_default_str();
   plan_cmd->add_option("--threads", plan.plan.threads, "Threads (0: every core)")->capture_default_str();
   std::string planner = "prm";
   // Checked below, not by CLI::IsMember: CLI11 adds a second line ("Run with --help") to its errors.

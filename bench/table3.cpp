@@ -198,7 +198,7 @@ struct LowRow {
   bool refine = true;
   int legs_solved = 0, legs = 0;
   double roadmap = never, query = never, length = 0;  // query: all legs, with smoothing
-  size_t nodes = 0, refined = 0;
+  size_t nodes = 0, refined = 0, lattice = 0;
   int rounds = 0;
 };
 
@@ -219,18 +219,20 @@ LowRow low_row(const std::string& name, const ClearanceIndex& index, const std::
     // Leg by leg, so a failing leg does not hide the others.
     double query = 0, length = 0;
     int solved = 0, rounds = 0;
-    size_t refined = 0;
+    size_t refined = 0, lattice = 0;
     for (size_t k = 0; k + 1 < waypoints.size(); ++k) {
       start = std::chrono::steady_clock::now();
       const PlanResult r = query_roadmap(map, index, {waypoints[k], waypoints[k + 1]}, options);
       query += seconds_since(start);
       if (r.status == PlanStatus::Solved) ++solved, length += path_length(r.path);
       refined += r.refined_samples;
+      lattice += r.lattice_nodes;
       rounds += r.refine_rounds;
     }
     row.query = std::min(row.query, query);
     row.legs_solved = solved, row.legs = static_cast<int>(waypoints.size()) - 1;
     row.length = length, row.refined = refined, row.rounds = rounds;
+    row.lattice = lattice;
     if (query > 2) break;  // slow: once is enough
   }
   return row;
@@ -243,14 +245,15 @@ void print_low(const std::vector<LowRow>& rows) {
       runs);
   std::printf(
       "| mesh | max_agl m | refinement | legs solved | roadmap s | query s (all legs) | total s | roadmap nodes | "
-      "samples added | rounds | path m |\n|---|---|---|---|---|---|---|---|---|---|---|\n");
+      "lattice nodes | samples added | rounds | path m |\n|---|---|---|---|---|---|---|---|---|---|---|---|\n");
   for (const LowRow& r : rows)
-    std::printf("| %s | %.0f | %s | %d/%d | %.3f | %.3f | %.3f | %s | %s | %d | %.0f |\n", r.mesh.c_str(), r.agl,
+    std::printf("| %s | %.0f | %s | %d/%d | %.3f | %.3f | %.3f | %s | %s | %s | %d | %.0f |\n", r.mesh.c_str(), r.agl,
                 r.refine ? "on" : "off", r.legs_solved, r.legs, r.roadmap, r.query, r.roadmap + r.query,
-                grouped(r.nodes).c_str(), grouped(r.refined).c_str(), r.rounds, r.length);
+                grouped(r.nodes).c_str(), grouped(r.lattice).c_str(), grouped(r.refined).c_str(), r.rounds, r.length);
 }
 
-int run() {
+// only_low: section 2 alone (bench_table3 --low), for working on the very-low-altitude planner.
+int run(bool only_low) {
   const auto start = std::chrono::steady_clock::now();
   std::printf("machine: %ld cores (nproc), %s, load average %s at the start\n", sysconf(_SC_NPROCESSORS_ONLN),
               cpu_model().c_str(), load_average().c_str());
@@ -276,7 +279,9 @@ int run() {
   std::vector<Row> rows;
   bool ok = true;
   Mesh bounded_1m;
+  if (only_low) bounded_1m = simplify_bounded(dsm, bounded);
   for (int res : {1, 2, 3, 4}) {
+    if (only_low) break;
     const Grid grid = res == 1 ? Grid{} : resample(dsm, res, Resampling::Median);
     const Grid& g = res == 1 ? dsm : grid;
     const Mesh original = res == 1 ? Mesh{} : triangulate_xy3(g);
@@ -288,7 +293,7 @@ int run() {
     if (res == 1) bounded_1m = std::move(b);
   }
   for (const Row& r : rows) ok = ok && r.status == PlanStatus::Solved;
-  print_table3(rows);
+  if (!only_low) print_table3(rows);
 
   std::vector<LowRow> low;
   for (const auto& [name, mesh] : {std::pair<const char*, const Mesh*>{"original 1 m", &xy3_1m},
@@ -309,9 +314,14 @@ int run() {
 
 }  // namespace
 
-int main() {
+int main(int argc, char** argv) {
+  const bool only_low = argc == 2 && std::string(argv[1]) == "--low";
+  if (argc > 2 || (argc == 2 && !only_low)) {
+    std::fprintf(stderr, "usage: bench_table3 [--low]\n");
+    return 2;
+  }
   try {
-    return run();
+    return run(only_low);
   } catch (const std::exception& error) {
     std::fflush(stdout);
     std::fprintf(stderr, "bench_table3: %s\n", error.what());

@@ -6,6 +6,7 @@ import re,statistics,glob
 def rows(path):
     out={}
     sec=None
+    head=None  # the low table's columns, by name (the table gained columns over time)
     for line in open(path):
         if line.startswith('Table 3 on'): sec='t3'
         elif line.startswith('Very low altitude'): sec='low'
@@ -13,8 +14,9 @@ def rows(path):
         c=[x.strip() for x in line.strip().strip('|').split('|')]
         if sec=='t3' and len(c)==13 and c[0] not in ('res m',):
             out[('t3',c[0],c[1],'index')]=float(c[4]); out[('t3',c[0],c[1],'load')]=float(c[6]); out[('t3',c[0],c[1],'roadmap')]=float(c[7]); out[('t3',c[0],c[1],'planning')]=float(c[8])
-        if sec=='low' and len(c)==11 and c[0]!='mesh':
-            out[('low',c[0],c[1],c[2],'total')]=float(c[6]); out[('low',c[0],c[1],c[2],'solved')]=c[3]
+        if sec=='low' and c[0]=='mesh': head={name:i for i,name in enumerate(c)}
+        elif sec=='low' and head:
+            out[('low',c[0],c[1],c[2],'total')]=float(c[head['total s']]); out[('low',c[0],c[1],c[2],'solved')]=c[head['legs solved']]
     return out
 import sys
 out=sys.argv[1] if len(sys.argv)>1 else 'out/bench/pairs'

@@ -1033,9 +1033,9 @@ TEST(CliBadInput, PlanWaypointsOutsideUnderOrTooClose) {
   f.write_waypoints({w[0]});
   expect_clean_failure(plan({}), out, f.waypoints, {"at least two"});
 
-  // A roadmap too sparse to join anything: the leg is named.
+  // A roadmap too sparse to join anything, and no refinement: the leg is named.
   f.write_waypoints(w);
-  expect_clean_failure(plan({"--spacing", "200", "--max-edge", "10"}), out, "waypoints 1 to 2", {"no "});
+  expect_clean_failure(plan({"--spacing", "200", "--max-edge", "10", "--refine-rounds", "0"}), out, "waypoints 1 to 2", {"no "});
 }
 
 TEST(CliBadInput, PlanMalformedWaypointFileNamesTheLine) {

@@ -8,6 +8,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <iomanip>
 #include <cmath>
 #include <random>
 
@@ -250,30 +251,45 @@ TEST(PlanLimits, HolesTakeTheHighestOrLowestOfTheirRim) {
 }
 
 TEST(PlanLimits, GroundWalkIsTheHighestPointAboveEveryCellCrossed) {
-  Grid g(40, 30, 356000.5, 5699030.25, 0.5, 0.75);
-  std::mt19937_64 rng(11);
-  std::uniform_real_distribution<double> unit(0, 1);
-  for (float& z : g.z) z = static_cast<float>(40 * unit(rng));
-  const GroundGrid ground(g);
-  for (int i = 0; i < 3000; ++i) {
-    auto point = [&] {
-      return Point3{g.x0 + unit(rng) * g.width * g.cell_x, g.y1() + unit(rng) * g.height * g.cell_y, 60 * unit(rng)};
-    };
-    Point3 p = point(), q = point();
-    if (i % 10 == 0) q[0] = p[0];  // along a column of cells
-    if (i % 10 == 1) q[1] = p[1];
-    if (i % 10 == 2) q = {p[0] + 2 * g.cell_x, p[1] - 2 * g.cell_y, q[2]};  // through corners, where rounding lets it
-    const double expected = height_above_ground(g, p, q);
-    if (std::isinf(expected)) {  // leaves the raster
-      EXPECT_EQ(ground.max_height_above(p, q), INFINITY) << i;
-      EXPECT_FALSE(ground.below_ceiling(p, q, 1e300)) << i;
-      continue;
+  // Rough ground (every block needs its cells walked) and smooth ground over more blocks (most
+  // settled by their lowest cell): below_ceiling() against the exact walk either way.
+  for (int seed = 11; seed < 16; ++seed)
+  for (bool smooth : {false, true}) {
+    Grid g = smooth ? Grid(130, 90, 356000.5, 5699030.25, 0.5, 0.75) : Grid(40, 30, 356000.5, 5699030.25, 0.5, 0.75);
+    std::mt19937_64 rng(seed);
+    std::uniform_real_distribution<double> unit(0, 1);
+    for (int r = 0; r < g.height; ++r)
+      for (int c = 0; c < g.width; ++c)
+        g.z[g.index(c, r)] = static_cast<float>(smooth ? 10 + 8 * std::sin(c / 17.0) + 0.05 * r + 0.3 * unit(rng) : 40 * unit(rng));
+    const GroundGrid ground(g);
+    for (int i = 0; i < 3000; ++i) {
+      auto point = [&] {
+        return Point3{g.x0 + unit(rng) * g.width * g.cell_x, g.y1() + unit(rng) * g.height * g.cell_y, 60 * unit(rng)};
+      };
+      Point3 p = point(), q = point();
+      if (i % 10 == 0) q[0] = p[0];  // along a column of cells
+      if (i % 10 == 1) q[1] = p[1];
+      if (i % 10 == 2) q = {p[0] + 2 * g.cell_x, p[1] - 2 * g.cell_y, q[2]};  // through corners, where rounding lets it
+      if (i % 10 == 3) q = {p[0] + 16 * g.cell_x, p[1] - 16 * g.cell_y, q[2]};
+      if (i % 10 == 4) {  // from a cell's corner diagonally: through every corner on the way, blocks' edges too
+        const int c = static_cast<int>(rng() % g.width), r = static_cast<int>(rng() % g.height), m = 1 + static_cast<int>(rng() % 24);
+        const int sx = rng() % 2 ? 1 : -1, sy = rng() % 2 ? 1 : -1;
+        p = {g.x0 + c * g.cell_x, g.y0 - r * g.cell_y, p[2]};
+        q = {p[0] + sx * m * g.cell_x, p[1] + sy * m * g.cell_y, q[2]};
+      }
+      const double expected = height_above_ground(g, p, q);
+      if (std::isinf(expected)) {  // leaves the raster
+        EXPECT_EQ(ground.max_height_above(p, q), INFINITY) << i;
+        EXPECT_FALSE(ground.below_ceiling(p, q, 1e300)) << i;
+        continue;
+      }
+      ASSERT_NEAR(ground.max_height_above(p, q), expected, 1e-9) << i;
+      EXPECT_EQ(ground.below_ceiling(p, q, expected + 1e-6), true) << i;
+      EXPECT_EQ(ground.below_ceiling(p, q, expected - 1e-6), false) << i << " smooth " << smooth << std::setprecision(17) << " p " << p[0] << " " << p[1] << " " << p[2] << " q " << q[0] << " " << q[1] << " " << q[2];
+      EXPECT_EQ(ground.below_ceiling(p, q, expected + 3), true) << i;  // what the blocks' lowest cells settle
     }
-    ASSERT_NEAR(ground.max_height_above(p, q), expected, 1e-9) << i;
-    EXPECT_EQ(ground.below_ceiling(p, q, expected + 1e-6), true);
-    EXPECT_EQ(ground.below_ceiling(p, q, expected - 1e-6), false);
+    EXPECT_EQ(ground.height_above({g.x0 - 1, g.y0 - 1, 0}), INFINITY);  // beyond the raster: nothing flies there
   }
-  EXPECT_EQ(ground.height_above({g.x0 - 1, g.y0 - 1, 0}), INFINITY);  // beyond the raster: nothing flies there
 }
 
 TEST(PlanLimits, ColumnsAboveTheMeshAreMeasuredExactly) {

@@ -12,7 +12,11 @@
 #include <chrono>
 #include <cmath>
 #include <cstring>
+#include <map>
+#include <queue>
 #include <random>
+#include <set>
+#include <tuple>
 
 #include "dsmplan/mesh.hpp"
 #include "dsmplan/raster.hpp"
@@ -960,6 +964,7 @@ TEST(PlanPath, NoPathNamesTheLeg) {
   PlanOptions sparse;
   sparse.spacing = 200;  // a handful of samples
   sparse.max_edge = 10;  // that cannot reach each other
+  sparse.refine_rounds = 0;  // and no refinement to help
   const PlanResult r = plan_path(index, waypoints, sparse);
   EXPECT_EQ(r.status, PlanStatus::NoPath);
   EXPECT_EQ(r.waypoint, 0u);
@@ -1273,8 +1278,8 @@ TEST(LowAltitude, RefinementSolvesWhatTheRoadmapAloneCannot) {
       // rounds, along the streets).
       EXPECT_EQ(alone.status, PlanStatus::NoPath);
       EXPECT_EQ(alone.refined_samples, 0u);
-      EXPECT_GT(refined.refined_samples, 0u);
-      EXPECT_GT(refined.refine_rounds, 0);
+      EXPECT_EQ(alone.lattice_nodes, 0u);
+      EXPECT_GT(refined.refined_samples + refined.lattice_nodes, 0u);
     }
     // The roadmap itself is untouched by queries (multi-query): the same for both.
     EXPECT_EQ(alone.roadmap_nodes, refined.roadmap_nodes);
@@ -1295,8 +1300,9 @@ TEST(LowAltitude, RefinementIsTheSameOnOneAndTwoThreads) {
   const Roadmap map = build_roadmap(index, options);
   const PlanResult reused = query_roadmap(map, index, waypoints, options);
   ASSERT_EQ(one.status, PlanStatus::Solved) << one.reason;
-  EXPECT_GT(one.refined_samples, 0u);
+  EXPECT_GT(one.refined_samples + one.lattice_nodes, 0u);
   EXPECT_EQ(one.refined_samples, two.refined_samples);
+  EXPECT_EQ(one.lattice_nodes, two.lattice_nodes);
   EXPECT_EQ(one.raw_path, two.raw_path);
   EXPECT_EQ(one.path, two.path);
   EXPECT_EQ(reused.path, two.path);
@@ -1316,6 +1322,126 @@ TEST(LowAltitude, RefinementIsBoundedAndSaysWhy) {
   EXPECT_EQ(r.reason.find('\n'), std::string::npos);
   options.refine_rounds = -1;
   EXPECT_THROW(plan_path(index, waypoints, options), ArgumentError);
+}
+
+// A 120 m square of ground at z = 0 with two walls 30 m tall across it, each with a 20 m gap at
+// opposite ends (or, closed, without it): under a 15 m ceiling a leg from the south to the north
+// must snake east through the first gap and west through the second.
+Mesh maze(bool closed) {
+  Mesh mesh;
+  const double x = 356000, y = 5699000;
+  auto box = [&](double x0, double y0, double x1, double y1, double z1) {
+    const auto v = static_cast<uint32_t>(mesh.vertices.size());
+    for (double z : {0.0, z1})
+      mesh.vertices.insert(mesh.vertices.end(), {{x + x0, y + y0, z}, {x + x1, y + y0, z}, {x + x1, y + y1, z}, {x + x0, y + y1, z}});
+    mesh.triangles.push_back({v + 4, v + 5, v + 6});
+    mesh.triangles.push_back({v + 4, v + 6, v + 7});
+    for (uint32_t k = 0; k < 4 && z1 > 0; ++k) {
+      const uint32_t a = v + k, b = v + (k + 1) % 4;
+      mesh.triangles.push_back({a, b, b + 4});
+      mesh.triangles.push_back({a, b + 4, a + 4});
+    }
+  };
+  box(0, 0, 120, 120, 0);
+  box(0, 40, 100, 41, 30);
+  box(closed ? 0 : 20, 80, 120, 81, 30);
+  return mesh;
+}
+
+// The independent answer: an eager Dijkstra over the same lattice (anchored at a, side h, 26
+// neighbours, a node valid when over the maze's ground, 0 <= z <= ceiling and brute-force
+// clear, an edge when
+// brute-force clear; the goal reached from a node within 2h of b by a clear segment): the
+// least lattice cost to b, or infinity.
+double lattice_oracle(const Mesh& mesh, const Point3& origin, const Point3& a, const Point3& b, double h,
+                      double safety, double ceiling) {
+  const int span = 40;  // the maze fits in +-40 steps of 5 m
+  auto id = [&](int i, int j, int k) { return ((i + span) * (2 * span + 1) + (j + span)) * (2 * span + 1) + (k + span); };
+  auto at = [&](int i, int j, int k) { return Point3{a[0] + i * h, a[1] + j * h, a[2] + k * h}; };
+  auto segment_ok = [&](const Point3& p, const Point3& q) {
+    return std::max(p[2], q[2]) <= ceiling && brute_clearance(mesh, origin, p, q, safety + 1) >= safety;
+  };
+  std::map<int, double> cost;
+  std::set<int> done;
+  std::map<int, int> valid;
+  auto node_ok = [&](int i, int j, int k) {
+    auto [it, fresh] = valid.try_emplace(id(i, j, k), 0);
+    if (fresh) {
+      const Point3 p = at(i, j, k);
+      const bool over = p[0] >= 356000 && p[0] <= 356120 && p[1] >= 5699000 && p[1] <= 5699120;
+      it->second = over && p[2] >= 0 && segment_ok(p, p);
+    }
+    return it->second == 1;
+  };
+  using Item = std::tuple<double, int, int, int>;
+  std::priority_queue<Item, std::vector<Item>, std::greater<>> open;
+  open.emplace(0, 0, 0, 0);
+  double best = INFINITY;
+  while (!open.empty()) {
+    const auto [g, i, j, k] = open.top();
+    open.pop();
+    if (g >= best) break;
+    if (!done.insert(id(i, j, k)).second) continue;
+    const Point3 p = at(i, j, k);
+    if (dist(p, b) <= 2 * h && segment_ok(p, b)) best = std::min(best, g + dist(p, b));
+    for (int di = -1; di <= 1; ++di)
+      for (int dj = -1; dj <= 1; ++dj)
+        for (int dk = -1; dk <= 1; ++dk) {
+          const int ni = i + di, nj = j + dj, nk = k + dk;
+          if (std::max({std::abs(ni), std::abs(nj), std::abs(nk)}) > span || done.count(id(ni, nj, nk))) continue;
+          if (!node_ok(ni, nj, nk) || !segment_ok(p, at(ni, nj, nk))) continue;
+          const double c = g + h * std::sqrt(double(di * di + dj * dj + dk * dk));
+          auto [it, fresh] = cost.try_emplace(id(ni, nj, nk), c);
+          if (fresh || c < it->second) it->second = c, open.emplace(c, ni, nj, nk);
+        }
+  }
+  return best;
+}
+
+TEST(LowAltitude, LatticeSearchFindsWhatAnEagerSearchFindsAtMostTwiceAsLong) {
+  for (bool closed : {false, true}) {
+    const Mesh mesh = maze(closed);
+    const ClearanceIndex index(mesh);
+    PlanOptions options;
+    options.max_agl = 15;
+    const detail::FlightSpace space(index, options);
+    const Point3 a{356010, 5699020, 5}, b{356012, 5699101, 6};
+    const double h = 5;
+    const detail::LatticeResult found = detail::lattice_path(space, a, b, h, 1000000);
+    const double oracle = lattice_oracle(mesh, index.origin(), a, b, h, options.safety, options.max_agl);
+    EXPECT_FALSE(found.out_of_work);
+    EXPECT_GT(found.nodes, 50u);
+    if (closed) {
+      EXPECT_TRUE(std::isinf(oracle));
+      EXPECT_TRUE(found.path.empty());
+      continue;
+    }
+    ASSERT_TRUE(std::isfinite(oracle));
+    ASSERT_GE(found.path.size(), 4u);  // at least two bends
+    EXPECT_EQ(found.path.front(), a);
+    EXPECT_EQ(found.path.back(), b);
+    double length = 0;
+    for (size_t k = 1; k < found.path.size(); ++k) {
+      const Point3 &p = found.path[k - 1], &q = found.path[k];
+      length += dist(p, q);
+      EXPECT_GE(brute_clearance(mesh, index.origin(), p, q, options.safety + 1), options.safety) << k;
+      EXPECT_LE(std::max(p[2], q[2]), options.max_agl) << k;  // the ground is z = 0 everywhere
+      EXPECT_GE(std::min(p[2], q[2]), 0) << k;
+    }
+    // Through both gaps: the path goes east of the first wall's end and west of the second's.
+    double east = -INFINITY, west = INFINITY;
+    for (const Point3& p : found.path) east = std::max(east, p[0] - 356000), west = std::min(west, p[0] - 356000);
+    EXPECT_GT(east, 100);
+    EXPECT_LT(west, 20);
+    // Weighted A* (weight 2) over the same lattice, then pulled tight: at most twice the least.
+    EXPECT_LE(length, 2 * oracle + 1e-9);
+    EXPECT_GE(length, dist(a, b));
+    // The bound of nodes is kept, and says so.
+    const detail::LatticeResult bounded = detail::lattice_path(space, a, b, h, 40);
+    EXPECT_TRUE(bounded.out_of_work);
+    EXPECT_TRUE(bounded.path.empty());
+    EXPECT_LE(bounded.nodes, 40u + 26u);
+  }
 }
 
 TEST(LowAltitude, GridLookupJoinsTheSameNodesAsAScanOverAll) {

@@ -15,9 +15,11 @@
 // greatest height of a straight segment above it is reached where the segment enters or leaves
 // a cell; the segment is walked cell by cell (Amanatides & Woo, "A Fast Voxel Traversal
 // Algorithm for Ray Tracing", Eurographics 1987). Where it passes exactly through a corner, the
-// two cells touching it only there are measured too. Cost O(cells crossed); below_ceiling()
-// first bounds the segment by the lowest ground of the 8 x 8 blocks under its x,y box, which
-// settles most segments of a roadmap without the walk.
+// two cells touching it only there are measured too, and so are the cells its ends touch and,
+// along a line between cells, the cells on both sides: each cell counts as its closed square. Cost O(cells crossed). below_ceiling()
+// walks the 8 x 8 blocks the segment crosses instead, settles each by its lowest ground when
+// it can, and walks the cells of the others only (and the whole segment where it passes
+// exactly through a block's corner): O(blocks crossed) for most segments.
 #pragma once
 
 #include <cstdint>
@@ -42,7 +44,8 @@ public:
 
   bool empty() const { return grid_.cells() == 0; }
   const Grid& grid() const { return grid_; }
-  /// p's z less the ground of the cell below; +infinity beyond the raster or over no ground.
+  /// p's z less the ground of the cell below (on a side or corner of cells, the lowest of the
+  /// cells it touches); +infinity beyond the raster or over no ground.
   double height_above(const Point3& p) const;
   /// The greatest height above ground of any point of the segment [p, q] (exact; see the top).
   double max_height_above(const Point3& p, const Point3& q) const;
@@ -57,6 +60,13 @@ public:
 
 private:
   double cell_ground(int col, int row) const { return grid_.z[grid_.index(col, row)]; }
+  struct Walk {  ///< a segment in cell units
+    Walk(const GroundGrid& g, const Point3& p, const Point3& q);
+    double pu, pv, du, dv, pz, dz;
+    bool inside;
+  };
+  double walk(const Walk& w, double t0, double t1, int col, int row, double stop) const;
+  double touching(double u, double v, double z) const;
   Grid grid_;
   static constexpr int block = 8;
   int block_cols_ = 0, block_rows_ = 0;

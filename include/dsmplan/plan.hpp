@@ -263,7 +263,17 @@ private:
 //          be reached by; that edge is measured (segment_clear, exact, cached) only when the
 //          entry comes first, so the search finds the shortest path over clear edges while
 //          measuring few of them. Roadmap edges are known clear.
-//       1. Failing that, round r: the component of each waypoint is explored (the smaller one
+//       1. Failing that, a lattice search (lattice_search.cpp): A* over the regular lattice
+//          anchored at the leg's first waypoint, each node joined to its 26 neighbours,
+//          nodes tested as samples are (and not under the surface), edges measured lazily as
+//          in 0; the heuristic weighted by 2 (a path at most twice the lattice's shortest
+//          before smoothing, found visiting far fewer nodes), the path pulled tight over up to
+//          8 nodes. Lattices of spacing / 2, / 4, / 8 in turn (sides at most max_edge / sqrt(3):
+//          no step longer than a roadmap edge), at most 2 million nodes each
+//          (about 200 MB).
+//          Under a low ceiling the free space is a thin layer over the streets; a lattice at
+//          the streets' scale follows it where random samples would have to become very dense.
+//       2. Failing that, round r: the component of each waypoint is explored (the smaller one
 //          only as far as the other's size), and around the smaller one's frontier (its
 //          waypoint and its nodes with an unjoined node within their joining radius) new
 //          samples are placed: the roadmap's Halton sequence continued at spacing / 2^l,
@@ -273,7 +283,7 @@ private:
 //          to that of spacing / 2^l), so an index is one point whichever round adds it. A
 //          level-l sample is joined (lazily) to samples within max_edge / 2^l (of two levels,
 //          the smaller radius), a roadmap node to a sample through the sample's radius.
-//       2. The lazy A* again; repeat until solved or a bound. Rounds past the finest level
+//       3. The lazy A* again; repeat until solved or a bound. Rounds past the finest level
 //          widen the region to 2, 4, ... 32 times max_edge around the frontier (a street
 //          network at 10 m above ground is crossed that way). Bounds: refine_rounds rounds a
 //          leg, a level needing more than 4 million Halton indices is not used, at most 1
@@ -282,10 +292,7 @@ private:
 //          that adds nothing stops.
 //          Then NoPath, the reason naming the rounds, the samples added and the finest spacing.
 //     Deterministic: samples are tested in parallel and kept in index order, the searches are
-//     sequential with ties broken by node number. Times: bench/README.md (bench_table3). Since
-//     the ceiling holds over every edge, not only at the samples, a low ceiling leaves fewer
-//     edges, and refinement works harder for the same legs (at max_agl 15 on the NRW tile about
-//     twenty times as long as when edges could rise above it).
+//     sequential with ties broken by node number. Times: bench/README.md (bench_table3).
 // Every segment of a returned path satisfies segment_clear(p, q, safety) and the ceiling (checked once more
 // before it is returned; tests/plan_test.cpp re-verifies it by brute force over all triangles).
 // Measured on the NRW 1 m tile (1,996,002 triangles, 2 cores), defaults, 3 waypoints 30 m above
@@ -355,6 +362,7 @@ struct PlanResult {
   double seconds_roadmap = 0, seconds_query = 0, seconds_smooth = 0;
   size_t refined_samples = 0;  ///< samples query-time refinement added (0: the roadmap sufficed)
   int refine_rounds = 0;       ///< refinement rounds run, over all legs
+  size_t lattice_nodes = 0;    ///< nodes the refinement's lattice searches made, over all legs
   /// "waypoint N" or "waypoints N to N+1" (1-based), empty when solved.
   std::string place() const;
 };

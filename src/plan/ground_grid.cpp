@@ -81,35 +81,67 @@ double GroundGrid::height_above(const Point3& p) const {
   if (empty()) return INFINITY;
   const double u = (p[0] - grid_.x0) / grid_.cell_x, v = (grid_.y0 - p[1]) / grid_.cell_y;
   if (!(u >= 0 && v >= 0 && u <= grid_.width && v <= grid_.height)) return INFINITY;
-  const int col = std::min(static_cast<int>(u), grid_.width - 1), row = std::min(static_cast<int>(v), grid_.height - 1);
-  return p[2] - cell_ground(col, row);
+  return touching(u, v, p[2]);
 }
 
 double GroundGrid::max_height_above(const Point3& p, const Point3& q) const {
   if (empty()) return INFINITY;
-  const double pu = (p[0] - grid_.x0) / grid_.cell_x, pv = (grid_.y0 - p[1]) / grid_.cell_y;
-  const double qu = (q[0] - grid_.x0) / grid_.cell_x, qv = (grid_.y0 - q[1]) / grid_.cell_y;
-  const double du = qu - pu, dv = qv - pv, dz = q[2] - p[2];
-  auto inside = [&](double u, double v) { return u >= 0 && v >= 0 && u <= grid_.width && v <= grid_.height; };
-  if (!inside(pu, pv) || !inside(qu, qv)) return INFINITY;  // the grid is convex: both ends inside, all inside
-  auto z_at = [&](double t) { return p[2] + t * dz; };
-  int col = std::min(static_cast<int>(pu), grid_.width - 1), row = std::min(static_cast<int>(pv), grid_.height - 1);
-  const int step_c = du > 0 ? 1 : -1, step_r = dv > 0 ? 1 : -1;
+  const Walk w(*this, p, q);
+  if (!w.inside) return INFINITY;
+  const int col = std::min(static_cast<int>(w.pu), grid_.width - 1), row = std::min(static_cast<int>(w.pv), grid_.height - 1);
+  double best = std::max({walk(w, 0, 1, col, row, INFINITY), touching(w.pu, w.pv, p[2]),
+                          touching(w.pu + w.du, w.pv + w.dv, q[2])});
+  // Along a line between two columns (rows) of cells: the other side's cells touch it all along.
+  if (w.du == 0 && w.pu == std::floor(w.pu) && col > 0 && col == static_cast<int>(w.pu))
+    best = std::max(best, walk(w, 0, 1, col - 1, row, INFINITY));
+  if (w.dv == 0 && w.pv == std::floor(w.pv) && row > 0 && row == static_cast<int>(w.pv))
+    best = std::max(best, walk(w, 0, 1, col, row - 1, INFINITY));
+  return best;
+}
+
+// The greatest z - ground over the cells whose closed square holds the point (u, v) (cell
+// units): one inside a cell, two on a side, four at a corner.
+double GroundGrid::touching(double u, double v, double z) const {
+  const int c = std::min(static_cast<int>(u), grid_.width - 1), r = std::min(static_cast<int>(v), grid_.height - 1);
+  double best = z - cell_ground(c, r);
+  const bool on_u = u == std::floor(u) && u > 0 && u < grid_.width, on_v = v == std::floor(v) && v > 0 && v < grid_.height;
+  if (on_u) best = std::max(best, z - cell_ground(c - 1, r));
+  if (on_v) best = std::max(best, z - cell_ground(c, r - 1));
+  if (on_u && on_v) best = std::max(best, z - cell_ground(c - 1, r - 1));
+  return best;
+}
+
+GroundGrid::Walk::Walk(const GroundGrid& g, const Point3& p, const Point3& q) {
+  const Grid& grid = g.grid_;
+  pu = (p[0] - grid.x0) / grid.cell_x, pv = (grid.y0 - p[1]) / grid.cell_y;
+  const double qu = (q[0] - grid.x0) / grid.cell_x, qv = (grid.y0 - q[1]) / grid.cell_y;
+  du = qu - pu, dv = qv - pv, pz = p[2], dz = q[2] - p[2];
+  auto in = [&](double u, double v) { return u >= 0 && v >= 0 && u <= grid.width && v <= grid.height; };
+  inside = in(pu, pv) && in(qu, qv);  // the grid is convex: both ends inside, all inside
+}
+
+// The greatest height above the cells it crosses of the part [t0, t1] of the segment, starting
+// in the cell (col, row) that holds the point at t0; as soon as it exceeds `stop`, a value above
+// `stop`. Cost O(cells crossed).
+double GroundGrid::walk(const Walk& w, double t0, double t1, int col, int row, double stop) const {
+  auto z_at = [&](double t) { return w.pz + t * w.dz; };
+  const int step_c = w.du > 0 ? 1 : -1, step_r = w.dv > 0 ? 1 : -1;
   // Parameter where the segment leaves the current cell across a column (row) line.
-  auto next_u = [&] { return du == 0 ? INFINITY : ((du > 0 ? col + 1 : col) - pu) / du; };
-  auto next_v = [&] { return dv == 0 ? INFINITY : ((dv > 0 ? row + 1 : row) - pv) / dv; };
-  double best = -INFINITY, t = 0;
-  const double steps = std::abs(du) + std::abs(dv) + 4;  // a bound on the cells crossed
+  auto next_u = [&] { return w.du == 0 ? INFINITY : ((w.du > 0 ? col + 1 : col) - w.pu) / w.du; };
+  auto next_v = [&] { return w.dv == 0 ? INFINITY : ((w.dv > 0 ? row + 1 : row) - w.pv) / w.dv; };
+  double best = -INFINITY, t = t0;
+  const double steps = (std::abs(w.du) + std::abs(w.dv)) * (t1 - t0) + 4;  // a bound on the cells crossed
   for (double n = 0; n < steps; ++n) {
-    const double tu = next_u(), tv = next_v(), t_next = std::min({tu, tv, 1.0});
+    const double tu = next_u(), tv = next_v(), t_next = std::min({tu, tv, t1});
     best = std::max(best, std::max(z_at(t), z_at(t_next)) - cell_ground(col, row));
-    if (t_next >= 1) break;
     const int col_next = tu <= tv ? col + step_c : col, row_next = tv <= tu ? row + step_r : row;
-    if (col_next < 0 || row_next < 0 || col_next >= grid_.width || row_next >= grid_.height) break;  // left at the border
-    if (tu == tv) {  // through a corner: the two cells touching the segment only there
-      best = std::max(best, z_at(t_next) - cell_ground(col_next, row));
-      best = std::max(best, z_at(t_next) - cell_ground(col, row_next));
+    const bool col_in = col_next >= 0 && col_next < grid_.width, row_in = row_next >= 0 && row_next < grid_.height;
+    if (tu == tv && tu <= t1) {  // through a corner (also at the part's end): the cells touching it only there
+      if (col_in) best = std::max(best, z_at(tu) - cell_ground(col_next, row));
+      if (row_in) best = std::max(best, z_at(tu) - cell_ground(col, row_next));
     }
+    if (t_next >= t1 || best > stop) break;
+    if (!col_in || !row_in) break;  // left at the border
     col = col_next, row = row_next, t = t_next;
   }
   return best;
@@ -117,17 +149,45 @@ double GroundGrid::max_height_above(const Point3& p, const Point3& q) const {
 
 bool GroundGrid::below_ceiling(const Point3& p, const Point3& q, double ceiling) const {
   if (empty()) return false;
-  const double u0 = (std::min(p[0], q[0]) - grid_.x0) / grid_.cell_x, u1 = (std::max(p[0], q[0]) - grid_.x0) / grid_.cell_x;
-  const double v0 = (grid_.y0 - std::max(p[1], q[1])) / grid_.cell_y, v1 = (grid_.y0 - std::min(p[1], q[1])) / grid_.cell_y;
-  if (u0 >= 0 && v0 >= 0 && u1 <= grid_.width && v1 <= grid_.height) {
-    const int b0 = static_cast<int>(u0) / block, b1 = std::min(static_cast<int>(u1), grid_.width - 1) / block;
-    const int a0 = static_cast<int>(v0) / block, a1 = std::min(static_cast<int>(v1), grid_.height - 1) / block;
-    float low = INFINITY;
-    for (int r = a0; r <= a1; ++r)
-      for (int c = b0; c <= b1; ++c) low = std::min(low, block_low_[static_cast<size_t>(r) * block_cols_ + c]);
-    if (std::max(p[2], q[2]) - low <= ceiling) return true;
+  const Walk w(*this, p, q);
+  if (!w.inside) return false;
+  if (touching(w.pu, w.pv, p[2]) > ceiling || touching(w.pu + w.du, w.pv + w.dv, q[2]) > ceiling) return false;
+  if ((w.du == 0 && w.pu == std::floor(w.pu)) || (w.dv == 0 && w.pv == std::floor(w.pv)))
+    return max_height_above(p, q) <= ceiling;  // along a line between cells: both sides, the whole walk
+  // The blocks the segment crosses, each settled by its lowest ground when it can be; the
+  // cells of the others walked (the same walk as max_height_above(), one block at a time).
+  int bc = std::min(static_cast<int>(w.pu), grid_.width - 1) / block;
+  int br = std::min(static_cast<int>(w.pv), grid_.height - 1) / block;
+  const int step_c = w.du > 0 ? 1 : -1, step_r = w.dv > 0 ? 1 : -1;
+  auto z_at = [&](double t) { return w.pz + t * w.dz; };
+  double t = 0;
+  const double steps = (std::abs(w.du) + std::abs(w.dv)) / block + 4;
+  for (double n = 0; n < steps; ++n) {
+    const double tu = w.du == 0 ? INFINITY : ((w.du > 0 ? (bc + 1) * block : bc * block) - w.pu) / w.du;
+    const double tv = w.dv == 0 ? INFINITY : ((w.dv > 0 ? (br + 1) * block : br * block) - w.pv) / w.dv;
+    const double t_next = std::min({tu, tv, 1.0});
+    if (std::max(z_at(t), z_at(t_next)) - block_low_[static_cast<size_t>(br) * block_cols_ + bc] > ceiling) {
+      const double u = w.pu + t * w.du, v = w.pv + t * w.dv;
+      // Where the segment enters the block: the cells its entry point touches (a corner on the
+      // block's side touches a cell of the block the walk below does not step through). The
+      // point is computed, so it is snapped to a line of cells within rounding: more cells,
+      // never fewer.
+      if (t > 0) {
+        auto snap = [](double x) { return std::abs(x - std::round(x)) <= 1e-9 * std::max(1.0, std::abs(x)) ? std::round(x) : x; };
+        if (touching(std::clamp(snap(u), 0.0, double(grid_.width)), std::clamp(snap(v), 0.0, double(grid_.height)), z_at(t)) > ceiling)
+          return false;
+      }
+      const int col = std::clamp(static_cast<int>(u), bc * block, std::min(bc * block + block, grid_.width) - 1);
+      const int row = std::clamp(static_cast<int>(v), br * block, std::min(br * block + block, grid_.height) - 1);
+      if (walk(w, t, t_next, col, row, ceiling) > ceiling) return false;
+    }
+    if (t_next >= 1) break;
+    if (tu == tv) return max_height_above(p, q) <= ceiling;  // through a block's corner: the whole walk
+    bc += tu < tv ? step_c : 0, br += tv < tu ? step_r : 0;
+    if (bc < 0 || br < 0 || bc >= block_cols_ || br >= block_rows_) break;  // left at the border
+    t = t_next;
   }
-  return max_height_above(p, q) <= ceiling;
+  return true;
 }
 
 double GroundGrid::lowest_near(double x, double y, double r) const {

@@ -94,4 +94,20 @@ inline std::vector<std::pair<double, uint32_t>> roadmap_links(const Point3& w, c
   return links;
 }
 
+/// What lattice_path() found: the path (empty when none), the lattice nodes it made, and
+/// whether it stopped at its bound of nodes.
+struct LatticeResult {
+  std::vector<Point3> path;
+  size_t nodes = 0;
+  bool out_of_work = false;
+};
+
+/// The shortest path from waypoint a to waypoint b over the clear edges of the lattice of side
+/// `step` anchored at a (26 neighbours a node; nodes valid as FlightSpace states not under the
+/// surface; the path ends at b from a node within 2 step of it), runs of equal steps merged; at
+/// most `max_nodes` nodes are made. Every segment of the path is motion_valid. Deterministic.
+/// Time O(n log n) for the n nodes made, each tested once (point_clear), one motion checked per
+/// settled node plus one per blocked edge (lattice_search.cpp).
+LatticeResult lattice_path(const FlightSpace& space, const Point3& a, const Point3& b, double step, size_t max_nodes);
+
 }  // namespace dsmplan::detail

@@ -100,6 +100,9 @@ constexpr size_t kMaxRefinedSamples = 1000000;  // added samples a query, at mos
 // bench_table3 solves looks at 7e6. A count, not a clock: the same answer on every machine.
 constexpr size_t kMaxSearchWork = 100000000;
 constexpr int kMaxWiden = 5;                    // the region: at most 2^5 max_edge around the frontier
+// Lattice nodes one lattice search may make, at most (about 100 bytes each with their lookup
+// and queue entries): a whole 1 km x 1 km tile under a 15 m ceiling at 2.5 m is about 1.5 million.
+constexpr size_t kMaxLatticeNodes = 2000000;
 
 // The roadmap with the samples a query adds to it, connected lazily. Level l (1..kMaxLevel)
 // continues the roadmap's Halton sequence from where build_roadmap() stopped to the count of
@@ -130,11 +133,23 @@ public:
   bool out_of_work() const { return work_ >= kMaxSearchWork; }
   int rounds() const { return rounds_; }
   double finest_spacing() const { return o_.spacing / (1 << finest_); }
+  size_t lattice_nodes() const { return lattice_nodes_; }
 
   // The points of a path from waypoint a (number ia in the query) to b, or empty; every edge on
   // it is clear (checked here or a roadmap edge).
   std::vector<Point3> solve(const Point3& a, size_t ia, const Point3& b, size_t ib) {
     Search s = search(a, ia, &b, ib, SIZE_MAX);
+    // Lattices from coarse to fine: a coarse one that fails has cost an eighth of the next.
+    double previous = 0;
+    for (int level = 1; s.path.empty() && level <= kMaxLevel; ++level) {
+      // No step longer than max_edge, as in the roadmap (a diagonal step is sqrt(3) sides).
+      const double side = std::min(o_.spacing / (1 << level), o_.max_edge / std::sqrt(3.0));
+      if (side == previous) break;  // the same lattice again
+      previous = side;
+      const detail::LatticeResult lattice = detail::lattice_path(space_, a, b, side, kMaxLatticeNodes);
+      lattice_nodes_ += lattice.nodes;
+      if (!lattice.path.empty()) return lattice.path;
+    }
     for (int round = 1; s.path.empty() && round <= o_.refine_rounds; ++round) {
       if (levels_ == 0 || nodes_.size() >= kMaxRefinedSamples || out_of_work()) break;
       // The smaller component: s.closed is all of a's; b's is explored up to that size.
@@ -404,6 +419,7 @@ private:
   double count_[kMaxLevel + 1] = {};
   int levels_ = 0, finest_ = 0, rounds_ = 0;
   size_t work_ = 0;  // candidate edges looked at by the searches of this query
+  size_t lattice_nodes_ = 0;
   std::vector<Point3> nodes_;
   std::vector<uint8_t> level_;
   std::vector<std::vector<uint32_t>> level_ids_;
@@ -444,6 +460,7 @@ PlanResult query_roadmap(const Roadmap& map, const ClearanceIndex& index, const 
     if (refinement) {
       result.refined_samples = refinement->added();
       result.refine_rounds = refinement->rounds();
+      result.lattice_nodes = refinement->lattice_nodes();
     }
     if (leg.empty()) {
       result.status = PlanStatus::NoPath;

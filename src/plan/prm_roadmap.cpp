@@ -30,7 +30,7 @@ void check_plan_options(const PlanOptions& o) {
   positive(o.max_agl, "--max-agl");
   if (o.connections < 1) throw ArgumentError("connections", "must be at least 1");
   if (o.threads < 0) throw ArgumentError("--threads", "must be >= 0");
-  if (o.refine_rounds < 0) throw ArgumentError("refine_rounds", "must be >= 0");
+  if (o.refine_rounds < 0) throw ArgumentError("--refine-rounds", "must be >= 0");
 }
 
 Roadmap build_roadmap(const ClearanceIndex& index, const PlanOptions& options, const Progress& progress) {

@@ -58,6 +58,19 @@ Grid read_companion(const std::string& path, const char* what, const Crs& mesh_c
   return grid;
 }
 
+// InputError naming the first waypoint closer than the safety distance to the DSM's columns,
+// before any work on the mesh (the mesh would only refuse it later, after it is indexed).
+void refuse_near_columns(const std::vector<Point3>& waypoints, const Grid& columns, const PlanJobOptions& options) {
+  for (size_t i = 0; i < waypoints.size(); ++i) {
+    const double d = column_clearance(columns, waypoints[i], waypoints[i], options.plan.safety);
+    if (d >= options.plan.safety) continue;
+    throw InputError(options.waypoints, "waypoint " + std::to_string(i + 1),
+                     d <= 0 ? "inside the DSM (under its surface)"
+                            : "closer than the safety distance to the DSM: " + two_decimals(d) +
+                                  " m from its columns, --safety " + two_decimals(options.plan.safety));
+  }
+}
+
 // InputError naming the first waypoint above the ceiling (in the planner's words), before any work.
 void refuse_above_ceiling(const std::vector<Point3>& waypoints, const GroundGrid& ground, const PlanJobOptions& options) {
   for (size_t i = 0; i < waypoints.size(); ++i) {
@@ -215,6 +228,7 @@ PlanReport plan_job(const PlanJobOptions& options, const Progress& progress) {
     // A waypoint above the ceiling is refused now, before the work on the mesh.
     plan.ground = std::make_shared<GroundGrid>(dsm);
     if (options.dtm.empty()) refuse_above_ceiling(waypoints, *plan.ground, options);
+    refuse_near_columns(waypoints, columns, options);
     // The valid cells' columns against the mesh; the holes' are added to it whole below.
     ColumnError above;
     VerticalError below;

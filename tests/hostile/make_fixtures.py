@@ -282,6 +282,7 @@ def waypoint_fixtures():
     out("wp_under_ground.csv", (head + a + "356305,5699760,40\n" + b).encode())  # ground at 50 m
     out("wp_outside_extent.csv", (head + a + "356900,5699770,60\n" + b).encode())
     out("wp_too_high.csv", (head + a + "356310,5699760,400\n" + b).encode())  # far above --max-agl
+    out("wp_near_wall.csv", (head + a + "356313.8,5699770,60\n" + b).encode())  # 1.2 m west of the wall
     out("wp_malformed.csv", (head + a + "356320;5699770;60\n" + b).encode())
     out("wp_nan.csv", (head + a + "356320,5699770,nan\n" + b).encode())
     out("wp_one_point.csv", (head + a).encode())
