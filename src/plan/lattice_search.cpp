@@ -51,7 +51,7 @@ public:
   LatticeResult run() {
     LatticeResult result;
     const uint32_t start = node(0, 0, 0);  // the waypoint a itself, valid (checked by the query)
-    nodes_[start].valid = true;
+    nodes_[start].state = kValid;
     nodes_[start].best = 0;
     open_.push({h(start), 0, start, kNone});
     const double reach = 2 * h_;  // nodes this near b may end the path
@@ -65,8 +65,9 @@ public:
         }
         continue;
       }
+      if (nodes_[e.v].closed || e.g > nodes_[e.v].best) continue;  // settled, or a stale entry
+      if (!valid(e.v)) continue;  // tested when first it comes first: most nodes made never do
       Node& v = nodes_[e.v];
-      if (v.closed || e.g > v.best) continue;  // settled, or a stale entry
       if (e.u != kNone && !space_.motion_valid(nodes_[e.u].p, v.p)) {
         blocked_.insert(edge_key(e.u, e.v));
         offer_again(e.v);
@@ -82,7 +83,7 @@ public:
       for (const Step& s : steps_) {
         const uint32_t w = node(i + s.di, j + s.dj, k + s.dk);
         Node& n = nodes_[w];
-        if (!n.valid || n.closed) continue;
+        if (n.state == kInvalid || n.closed) continue;
         const double cost = gv + s.length * h_;
         if (cost < n.best) {
           n.best = cost;
@@ -104,8 +105,10 @@ private:
     int i, j, k;
     double best = INFINITY;  // least cost offered so far
     uint32_t parent = kNone;
-    bool valid = false, closed = false;
+    uint8_t state = kUntested;
+    bool closed = false;
   };
+  static constexpr uint8_t kUntested = 0, kValid = 1, kInvalid = 2;
   struct Entry {
     double f, g;
     uint32_t v, u;
@@ -123,19 +126,28 @@ private:
     return u < v ? (uint64_t{u} << 32 | v) : (uint64_t{v} << 32 | u);
   }
 
-  // The node (i, j, k), made and tested on first sight: valid when below the ceiling, not
-  // under the surface and clear of the mesh by the safety distance.
+  // The node (i, j, k), made on first sight.
   uint32_t node(int i, int j, int k) {
     auto [it, fresh] = ids_.try_emplace(key(i, j, k), static_cast<uint32_t>(nodes_.size()));
     if (!fresh) return it->second;
     Node n;
     n.p = {a_[0] + i * h_, a_[1] + j * h_, a_[2] + k * h_};
     n.i = i, n.j = j, n.k = k;
-    const ClearanceIndex& index = space_.index();
-    n.valid = space_.below_ceiling(n.p) && n.p[2] >= index.ground(n.p[0], n.p[1]) &&
-              index.point_clear(n.p, space_.safety());
     nodes_.push_back(n);
     return it->second;
+  }
+
+  // Valid when below the ceiling, not under the surface and clear of the mesh by the safety
+  // distance; tested once.
+  bool valid(uint32_t v) {
+    Node& n = nodes_[v];
+    if (n.state == kUntested) {
+      const ClearanceIndex& index = space_.index();
+      const bool ok = space_.below_ceiling(n.p) && n.p[2] >= index.ground(n.p[0], n.p[1]) &&
+                      index.point_clear(n.p, space_.safety());
+      n.state = ok ? kValid : kInvalid;
+    }
+    return n.state == kValid;
   }
 
   // v's best edge was blocked: offer it through the settled neighbour that now gives the least

@@ -106,8 +106,9 @@ struct LatticeResult {
 /// `step` anchored at a (26 neighbours a node; nodes valid as FlightSpace states not under the
 /// surface; the path ends at b from a node within 2 step of it), runs of equal steps merged; at
 /// most `max_nodes` nodes are made. Every segment of the path is motion_valid. Deterministic.
-/// Time O(n log n) for the n nodes made, each tested once (point_clear), one motion checked per
-/// settled node plus one per blocked edge (lattice_search.cpp).
+/// Time O(n log n) for the n nodes made; a node is tested (point_clear) when it first comes
+/// first in the queue, and one motion is checked per settled node plus one per blocked edge
+/// (lattice_search.cpp).
 LatticeResult lattice_path(const FlightSpace& space, const Point3& a, const Point3& b, double step, size_t max_nodes);
 
 }  // namespace dsmplan::detail
