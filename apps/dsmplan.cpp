@@ -4,6 +4,7 @@
 
 #include <CLI/CLI.hpp>
 #include <cstdio>
+#include <filesystem>
 #include <new>
 #include <string>
 #include <vector>
@@ -27,6 +28,19 @@ Progress terminal_progress(bool quiet) {
   };
 }
 
+// --stats after the main output: when it cannot be written, the main output is removed too,
+// so a run leaves all its files or none.
+void write_stats(const std::string& stats, const Json& report, const std::string& output) {
+  if (stats.empty()) return;
+  try {
+    write_text_file(stats, report.dump(2) + "\n");
+  } catch (...) {
+    std::error_code ignored;
+    std::filesystem::remove(output, ignored);
+    throw;
+  }
+}
+
 // One line on stderr, on a line of its own; returns the exit code.
 int fail(const std::string& message, int exit_code) {
   if (progress_line_open) std::printf("\n");
@@ -47,6 +61,7 @@ struct ReleaseWorkers {
 };
 
 int main(int argc, char** argv) {
+  remove_partial_outputs_on_signals();
   const MpiFarm farm(argc, argv);  // active only under mpirun with 2 or more ranks
   CLI::App app{"dsmplan: DSM to conservative obstacle mesh and UAV paths (Adolf & Hirschmueller)"};
   app.require_subcommand(1);
@@ -278,15 +293,19 @@ int main(int argc, char** argv) {
       } else if (!drop_classes.empty()) {
         grid.grid.drop_classes = drop_classes;
       }
+      std::vector<NamedFile> inputs;
+      for (const std::string& points : grid.inputs) inputs.push_back({"POINTS", points});
+      refuse_overwrites(inputs, {{"-o", grid.output}});
       grid_to_geotiff(grid, terminal_progress(quiet));
     }
     if (*mesh_cmd) {
       if (mesh_res->count()) mesh.resolution = mesh_resolution;
       mesh.resampling = parse_resampling(resampling);
       if (!mesh_of.empty()) mesh.format = parse_mesh_format(mesh_of, "--of");
+      refuse_overwrites({{"DSM", mesh.input}}, {{"-o", mesh.output}, {"--stats", stats_path}});
       if (!stats_path.empty()) check_writable(stats_path);
       const MeshReport report = mesh_dsm(mesh, terminal_progress(quiet));
-      if (!stats_path.empty()) write_text_file(stats_path, to_json(report).dump(2) + "\n");
+      write_stats(stats_path, to_json(report), mesh.output);
     }
     if (*simplify_cmd) {
       if (simplify_res->count()) simplify.resolution = simplify_resolution;
@@ -301,19 +320,27 @@ int main(int argc, char** argv) {
       } else if (simplify.method == SimplifyMethod::Bounded) {
         throw ArgumentError("--method bounded", "needs --max-error E");
       }
+      refuse_overwrites({{"INPUT", simplify.input}, {"--dsm", simplify.dsm}},
+                        {{"-o", simplify.output}, {"--stats", simplify_stats}});
       if (!simplify_stats.empty()) check_writable(simplify_stats);
       if (farm.active()) simplify.bounded_engine = farm.master();
       const SimplifyReport report = simplify_job(simplify, terminal_progress(quiet));
-      if (!simplify_stats.empty()) write_text_file(simplify_stats, to_json(report).dump(2) + "\n");
+      write_stats(simplify_stats, to_json(report), simplify.output);
       std::fputs(simplify_json ? (to_json(report).dump(2) + "\n").c_str() : to_text(report).c_str(), stdout);
     }
     if (*render_cmd) {
       if (render_res->count()) render.resolution = render_resolution;
       if (!window.empty()) render.render.window = parse_window(window);
       render.render.edges = !no_edges;
+      std::vector<NamedFile> inputs{{"DSM", render.dsm}, {"--waypoints", render.waypoints}, {"--roadmap", render.roadmap}};
+      for (const std::string& m : render.meshes) inputs.push_back({"--mesh", m});
+      for (const std::string& p : render.paths) inputs.push_back({"--path", p});
+      refuse_overwrites(inputs, {{"-o", render.output}});
       render_job(render, terminal_progress(quiet));
     }
     if (*profile_cmd) {
+      refuse_overwrites({{"DSM", profile.dsm}, {"--path", profile.path}, {"--dtm", profile.dtm}, {"--waypoints", profile.waypoints}},
+                        {{"-o", profile.output}});
       const ProfileReport report = profile_job(profile, terminal_progress(quiet));
       if (!quiet) std::fputs(to_text(report).c_str(), stdout);
     }
@@ -323,9 +350,12 @@ int main(int argc, char** argv) {
       plan.plan.planner = planner == "rrtconnect" ? PlannerKind::rrt_connect : PlannerKind::prm;
       if (seed < 0) throw ArgumentError("--seed", "must be >= 0, got " + std::to_string(seed));
       plan.plan.seed = static_cast<uint64_t>(seed);
+      // The roadmap file is read when it exists and written when not: it may be neither of the others.
+      refuse_overwrites({{"MESH", plan.mesh}, {"--waypoints", plan.waypoints}, {"--dsm", plan.dsm}, {"--dtm", plan.dtm}},
+                        {{"-o", plan.output}, {"--stats", plan_stats}, {"--roadmap", plan.roadmap}});
       if (!plan_stats.empty()) check_writable(plan_stats);
       const PlanReport report = plan_job(plan, terminal_progress(quiet));
-      if (!plan_stats.empty()) write_text_file(plan_stats, to_json(report).dump(2) + "\n");
+      write_stats(plan_stats, to_json(report), plan.output);
       if (plan_json)
         std::fputs((to_json(report).dump(2) + "\n").c_str(), stdout);
       else if (!quiet)

@@ -11,11 +11,14 @@
 #include <gdal.h>
 #include <gtest/gtest.h>
 #include <ogr_srs_api.h>
+#include <fcntl.h>
+#include <sys/wait.h>
 #include <unistd.h>
 
 #include <algorithm>
 #include <array>
 #include <cctype>
+#include <csignal>
 #include <cmath>
 #include <cstdint>
 #include <cstring>
@@ -1707,4 +1710,50 @@ TEST(CliScale, MeshStreamedFromAMosaicIsTheWholeMesh) {
   const auto glb = run_cli({"mesh", vrt, "--stream", "-o", dir.path("x.glb"), "-q"});
   EXPECT_EQ(glb.exit_code, 1);
   EXPECT_NE(glb.err.find("--stream"), std::string::npos) << glb.err;
+}
+
+// ---- interrupted runs --------------------------------------------------------------------
+
+namespace {
+
+// Starts `dsmplan mesh --stream` of the 1 km tile into `folder`, waits until its temporary
+// output exists, sends `signal`, and returns the exit code (or -1 when no temporary file showed).
+int interrupt_streamed_mesh(const std::filesystem::path& folder, int signal) {
+  const std::string out = (folder / "tile.ply").string();
+  const std::string tile = testkit::data_path("nrw-dom1/dom1_32_356_5699_1_nw_2020.tif");
+  const pid_t pid = fork();
+  if (pid == 0) {
+    const int null = ::open("/dev/null", O_WRONLY);
+    ::dup2(null, 1), ::dup2(null, 2);
+    ::execl(DSMPLAN_CLI, DSMPLAN_CLI, "mesh", tile.c_str(), "-o", out.c_str(), "--stream", "-q", nullptr);
+    ::_exit(127);
+  }
+  bool seen = false;
+  for (int i = 0; i < 5000 && !seen; ++i) {  // up to 10 s
+    for (const auto& e : std::filesystem::directory_iterator(folder))
+      seen = seen || e.path().filename().string().find(".partial-") != std::string::npos;
+    if (!seen) ::usleep(2000);
+  }
+  ::kill(pid, signal);
+  int status = 0;
+  ::waitpid(pid, &status, 0);
+  if (!seen) return -1;
+  return WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+}
+
+}  // namespace
+
+TEST(CliInterrupted, SigintAndSigtermLeaveNothingBehindAndExit130And143) {
+  for (const auto& [signal, code] : {std::pair{SIGINT, 130}, std::pair{SIGTERM, 143}}) {
+    testkit::TempDir out;
+    const int exit_code = interrupt_streamed_mesh(out.dir(), signal);
+    ASSERT_NE(exit_code, -1) << "no temporary output appeared";
+    // Finished before the signal came (a fast machine): then the whole output is there.
+    if (exit_code == 0) {
+      EXPECT_TRUE(std::filesystem::exists(out.dir() / "tile.ply"));
+      continue;
+    }
+    EXPECT_EQ(exit_code, code) << "signal " << signal;
+    EXPECT_TRUE(out.files().empty()) << "left behind: " << out.files().front();
+  }
 }

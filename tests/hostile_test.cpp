@@ -13,6 +13,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <chrono>
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
@@ -27,6 +28,7 @@ namespace fs = std::filesystem;
 namespace {
 
 const std::string kFixtures = DSMPLAN_HOSTILE_DIR;
+constexpr int kTimeout = 60;  // seconds a case may take (the slowest takes about 2 under ASan)
 
 std::vector<json> load_catalogue() {
   std::ifstream in(kFixtures + "/catalogue.json");
@@ -66,8 +68,17 @@ testkit::CliResult run_limited(const std::vector<std::string>& args, long file_s
     ::execv(DSMPLAN_CLI, argv.data());
     ::_exit(127);
   }
+  // A hang is a finding too: past kTimeout seconds the child is killed (exit 128 + SIGKILL).
   int status = 0;
-  ::waitpid(pid, &status, 0);
+  const auto started = std::chrono::steady_clock::now();
+  while (::waitpid(pid, &status, WNOHANG) == 0) {
+    if (std::chrono::steady_clock::now() - started > std::chrono::seconds(kTimeout)) {
+      ::kill(pid, SIGKILL);
+      ::waitpid(pid, &status, 0);
+      break;
+    }
+    ::usleep(2000);
+  }
   testkit::CliResult result;
   result.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
   result.out = testkit::read_file(out_path);

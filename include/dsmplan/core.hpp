@@ -72,6 +72,12 @@ std::string memory_problem(double bytes);
 /// Throws InputError(file, place, memory_problem(bytes)) when that is not empty.
 void require_memory(const std::string& file, const std::string& place, double bytes);
 
+/// Installs handlers of SIGINT, SIGTERM and SIGHUP that remove the temporary file of every
+/// output being written and exit with 128 + the signal (130, 143, 129): an interrupted run
+/// leaves nothing behind (outputs are written to a temporary file and renamed into place when
+/// whole). For programs such as the dsmplan binary; a library does not take a process's signals.
+void remove_partial_outputs_on_signals();
+
 /// A coordinate reference system as the data declared it. The core only carries it along;
 /// the I/O layer (GDAL/PROJ) resolves `definition` into the descriptive fields.
 using Point3 = std::array<double, 3>;  ///< x, y, z

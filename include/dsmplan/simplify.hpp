@@ -70,7 +70,7 @@
 //    from the DSM to the mesh above it (the triangle containing the centre in x,y, interpolated
 //    linearly; a centre on a shared edge belongs to either, they agree there). Not a sample.
 //
-// Errors: ArgumentError for a bad option (dz < 0, dco < 0, max_error <= 0 or not finite);
+// Errors: ArgumentError for a bad option (dz < 0, dco < 0, max_error outside 0.001 to 10000);
 // InputError for a mesh that is not 2.5D. See core.hpp.
 #pragma once
 
@@ -119,7 +119,7 @@ PaperSimplifyResult simplify_paper(const Mesh& mesh, const PaperSimplifyOptions&
 // ---- the bounded mode (beyond the paper) ------------------------------------------------
 
 struct BoundedSimplifyOptions {
-  double max_error = 0.4;     ///< E: certified bound on |mesh - dsm|, vertical units, > 0
+  double max_error = 0.4;     ///< E: certified bound on |mesh - dsm|, vertical units, 0.001 to 10000
   bool conservative = false;  ///< 0 <= mesh - dsm <= E instead of |mesh - dsm| <= E
   bool delaunay = false;      ///< one global Delaunay triangulation (single-threaded)
   int tile_size = 0;          ///< cells per tile side; 0 = automatic, 64 (ignored with delaunay)
@@ -127,7 +127,7 @@ struct BoundedSimplifyOptions {
   int threads = 0;            ///< 0 = every core
 };
 
-/// Throws ArgumentError for max_error <= 0 or not finite, or tile_size < 0 (what
+/// Throws ArgumentError for max_error outside 0.001 to 10000, or tile_size < 0 (what
 /// simplify_bounded() checks of its options).
 void check_bounded_options(const BoundedSimplifyOptions& options);
 

@@ -26,6 +26,19 @@ namespace dsmplan {
 
 using Json = nlohmann::ordered_json;
 
+// ---- what every tool checks first ------------------------------------------------------------
+
+/// A file a tool is given, with the flag it came by ("-o", "--dsm", "DSM", ...).
+struct NamedFile {
+  std::string flag, path;
+};
+
+/// ArgumentError naming the flag of the first output that is, or resolves to (through "..",
+/// symbolic and hard links), one of the inputs or another output: an output must never replace
+/// what the job reads, nor another output of the same run. Empty paths are skipped. Called
+/// before any work. O(files^2) path resolutions.
+void refuse_overwrites(const std::vector<NamedFile>& inputs, const std::vector<NamedFile>& outputs);
+
 // ---- dsmplan info ---------------------------------------------------------------------------
 
 struct InfoOptions {

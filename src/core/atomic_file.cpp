@@ -4,13 +4,56 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include <atomic>
 #include <cerrno>
+#include <csignal>
 #include <cstring>
 #include <filesystem>
 
 #include "dsmplan/core.hpp"
 
 namespace dsmplan {
+
+namespace {
+
+// The temporary files being written, where a signal handler can read them: fixed slots of C
+// strings (a handler may not allocate or lock), each free, being filled, or ready.
+constexpr int kSlots = 256;
+constexpr size_t kPathBytes = 4096;
+char temp_paths[kSlots][kPathBytes];
+std::atomic<int> slot_state[kSlots];  // 0 free, 1 being filled, 2 ready
+constexpr int kFree = 0, kFilling = 1, kReady = 2;
+
+int remember(const std::string& path) {
+  if (path.size() >= kPathBytes) return -1;
+  for (int i = 0; i < kSlots; ++i) {
+    int expected = kFree;
+    if (!slot_state[i].compare_exchange_strong(expected, kFilling)) continue;
+    std::memcpy(temp_paths[i], path.c_str(), path.size() + 1);
+    slot_state[i].store(kReady);
+    return i;
+  }
+  return -1;  // more than 256 outputs at once: this one is not removed on a signal
+}
+
+void forget(int slot) {
+  if (slot >= 0) slot_state[slot].store(kFree);
+}
+
+extern "C" void remove_temporaries_and_exit(int signal) {
+  for (int i = 0; i < kSlots; ++i)
+    if (slot_state[i].load() == kReady) ::unlink(temp_paths[i]);
+  ::_exit(128 + signal);
+}
+
+}  // namespace
+
+void remove_partial_outputs_on_signals() {
+  struct sigaction action {};
+  action.sa_handler = remove_temporaries_and_exit;
+  sigemptyset(&action.sa_mask);
+  for (int signal : {SIGINT, SIGTERM, SIGHUP}) ::sigaction(signal, &action, nullptr);
+}
 
 AtomicFile::AtomicFile(std::string path) : path_(std::move(path)) {
   namespace fs = std::filesystem;
@@ -29,10 +72,12 @@ AtomicFile::AtomicFile(std::string path) : path_(std::move(path)) {
   int fd = ::mkstemp(pattern.data());
   if (fd < 0) throw OutputError(path_, std::string("cannot write: ") + std::strerror(errno));
   temp_path_ = pattern;
+  slot_ = remember(temp_path_);
   stream_ = ::fdopen(fd, "w+b");  // + : a writer may read back what it wrote (PlyStreamWriter)
   if (!stream_) {
     ::close(fd);
     ::unlink(temp_path_.c_str());
+    forget(slot_);
     throw OutputError(path_, std::string("cannot write: ") + std::strerror(errno));
   }
   std::setvbuf(stream_, nullptr, _IOFBF, 1 << 20);
@@ -41,6 +86,7 @@ AtomicFile::AtomicFile(std::string path) : path_(std::move(path)) {
 AtomicFile::~AtomicFile() {
   if (stream_) std::fclose(stream_);
   if (!committed_) ::unlink(temp_path_.c_str());
+  forget(slot_);
 }
 
 void AtomicFile::close_stream() {

@@ -34,6 +34,7 @@ private:
   std::string path_, temp_path_;
   std::FILE* stream_ = nullptr;
   bool committed_ = false;
+  int slot_ = -1;  ///< where remove_partial_outputs_on_signals() finds temp_path_
 };
 
 }  // namespace dsmplan

@@ -22,4 +22,11 @@ inline std::string two_decimals(double v) {
   return buffer;
 }
 
+/// A number as a user would type it ("%g": "0.25", not "0.250000"; "1e-07", not "0.000000").
+inline std::string short_number(double v) {
+  char buffer[32];
+  std::snprintf(buffer, sizeof buffer, "%g", v);
+  return buffer;
+}
+
 }  // namespace dsmplan

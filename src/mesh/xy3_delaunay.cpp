@@ -156,6 +156,7 @@ void triangulate_border(const Lattice& lattice, std::vector<Triangle>& triangles
   report(progress, 0.2);
   if (border.size() < 3) return;
   Delaunay delaunay(border.begin(), border.end());
+  if (delaunay.dimension() < 2) return;  // collinear cells (one row, one column, a diagonal): no triangle
   // Row-major cell index, from the rounded lattice coordinates: a window of whole rows orders
   // its cells as the whole grid does.
   break_ties(delaunay, [&](Delaunay::Vertex_handle v) {

@@ -20,6 +20,7 @@
 #include <string>
 
 #include "core/atomic_file.hpp"
+#include "core/text.hpp"
 #include "dsmplan/raster.hpp"
 
 namespace dsmplan {
@@ -331,6 +332,12 @@ void resolve_crs(Crs& crs) {
 
 namespace {
 
+// No projected CRS reaches farther than this from its origin (CRS units, metres or feet).
+constexpr double kMaxCoordinate = 1e9;
+// No height on Earth is farther from its datum than this (metres): a cell beyond it is a
+// sentinel the raster did not declare as nodata (-FLT_MAX, -1e38, 1e20, ...).
+constexpr double kMaxHeight = 1e5;
+
 // One band of a GDAL raster, read by windows. Every window gets read_raster()'s treatment:
 // declared nodata and masked cells become NaN, scale and offset are applied, south-up rasters
 // are turned north-up, and an undeclared NaN or an infinite height is refused by cell.
@@ -355,6 +362,16 @@ public:
     if (dataset_->GetGeoTransform(gt) != CE_None) throw InputError(path, "", "not geo-referenced (no geotransform)");
     if (gt[2] != 0 || gt[4] != 0) throw InputError(path, "geotransform", "rotated or sheared rasters are not supported");
     if (!(gt[1] > 0) || gt[5] == 0) throw InputError(path, "geotransform", "cell size must be positive");
+    // Beyond any projected CRS, or cells finer than the coordinates can tell apart: every later
+    // sum of an origin and an offset would round (a 1 m raster at 1e16 has its cells collapse).
+    const double far = std::max({std::abs(gt[0]), std::abs(gt[3]), std::abs(gt[0] + width * gt[1]),
+                                 std::abs(gt[3] + height * gt[5])});
+    if (!(far <= kMaxCoordinate))
+      throw InputError(path, "geotransform", "the raster reaches " + short_number(far) +
+                                                 " CRS units from the origin: beyond any projected CRS (at most 1e9)");
+    if (std::min(gt[1], std::abs(gt[5])) < 1e-9 * std::max(1.0, far))
+      throw InputError(path, "geotransform", "cells of " + short_number(std::min(gt[1], std::abs(gt[5]))) + " at " + short_number(far) +
+                                                 " CRS units from the origin are too fine: their corners would round together");
     south_up_ = gt[5] > 0;
     frame_.width = width;
     frame_.height = height;
@@ -455,6 +472,12 @@ public:
         }
         if (std::isinf(z)) throw InputError(path_, cell_place(frame_, col0 + col, row0 + row), "height is infinite");
         if (rescale) z = static_cast<float>(z * scale_ + offset_);
+        if (!(std::abs(z) <= kMaxHeight)) {
+          char text[160];
+          std::snprintf(text, sizeof text, "height %.6g is no height on Earth (beyond +-100 km): a nodata sentinel "
+                        "the raster does not declare? Declare it as the band's nodata", z);
+          throw InputError(path_, cell_place(frame_, col0 + col, row0 + row), text);
+        }
       }
     }
   }

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <vector>
 
+#include "core/text.hpp"
 #include "dsmplan/raster.hpp"
 
 namespace dsmplan {
@@ -49,6 +50,9 @@ GridSummary summarize(const Grid& grid) {
 }
 
 HeightQuantizer::HeightQuantizer(double step) : step_(step) {
+  // 0 or less keeps heights; NaN, infinity or a step coarser than 100 m would make them NaN or 0.
+  if (std::isnan(step) || step > 100)
+    throw ArgumentError("--zstep", "must be at most 100 (0 or less: keep the heights), got " + short_number(step));
   if (!(step > 0)) return;
   const double per_unit = 1.0 / step;
   if (std::abs(per_unit - std::round(per_unit)) < 1e-9 * per_unit) per_unit_ = std::round(per_unit);

@@ -28,6 +28,7 @@
 #include <string>
 #include <vector>
 
+#include "core/text.hpp"
 #include "dsmplan/simplify.hpp"
 
 namespace dsmplan {
@@ -573,8 +574,10 @@ BoundedBlock make_block(const Grid& frame, const BlockWindow& window, const Boun
 }  // namespace
 
 void check_bounded_options(const BoundedSimplifyOptions& options) {
-  if (!(options.max_error > 0) || !std::isfinite(options.max_error)) {
-    throw ArgumentError("--max-error", "must be a positive number, got " + std::to_string(options.max_error));
+  // Below a millimetre the float heights' own rounding (7.6e-6 m at 100 m) is as large as the
+  // bound: insertion would chase rounding, cell after cell, instead of ending.
+  if (!(options.max_error >= 1e-3) || !(options.max_error <= 1e4)) {
+    throw ArgumentError("--max-error", "must be from 0.001 to 10000 (vertical units), got " + short_number(options.max_error));
   }
   if (options.tile_size < 0) throw ArgumentError("--tile-size", "must be >= 0 (0: automatic)");
   if (options.block_tiles < 0) throw ArgumentError("--block-tiles", "must be >= 0 (0: automatic)");

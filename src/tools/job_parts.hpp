@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "core/stopwatch.hpp"
+#include "core/text.hpp"
 #include "dsmplan/core.hpp"
 #include "dsmplan/export.hpp"
 
@@ -43,13 +44,6 @@ inline bool is_mesh_file(const std::string& path) {
   } catch (const ArgumentError&) {
     return false;
   }
-}
-
-/// A number as a user would type it ("0.25", not "0.250000").
-inline std::string short_number(double value) {
-  char text[32];
-  std::snprintf(text, sizeof text, "%g", value);
-  return text;
 }
 
 /// A mesh with no triangle is no obstacle model (and every planner would fly through it):

@@ -36,17 +36,26 @@ bool parse_point(const std::string& line, Point3& p) {
   return true;
 }
 
+// A JSON value for a message: scalars and flat arrays as JSON, cut at 80 characters; anything
+// nested by its kind only (dumping it recurses as deep as it nests: 100,000 deep overflowed the stack).
+std::string brief(const Json& v) {
+  const bool flat = !v.is_structured() || std::none_of(v.begin(), v.end(), [](const Json& e) { return e.is_structured(); });
+  if (!flat) return v.is_array() ? "an array of arrays" : "an object";
+  const std::string text = v.dump();
+  return text.size() > 80 ? text.substr(0, 77) + "..." : text;
+}
+
 // One position of a GeoJSON geometry as longitude, latitude, height, or a reason it is not.
 std::string position(const Json& p, Point3& out) {
   if (!p.is_array()) return "a position must be an array [longitude, latitude, height]";
-  if (p.size() < 3) return "a waypoint needs a height: [longitude, latitude, height], got " + p.dump();
+  if (p.size() < 3) return "a waypoint needs a height: [longitude, latitude, height], got " + brief(p);
   for (int k = 0; k < 3; ++k) {
-    if (!p[k].is_number()) return "coordinates must be numbers, got " + p.dump();
+    if (!p[k].is_number()) return "coordinates must be numbers, got " + brief(p);
     out[k] = p[k].get<double>();
     if (!std::isfinite(out[k])) return "coordinates must be finite";
   }
   if (std::abs(out[0]) > 180 || std::abs(out[1]) > 90)
-    return "not longitude, latitude in degrees (RFC 7946 GeoJSON is WGS 84): " + p.dump();
+    return "not longitude, latitude in degrees (RFC 7946 GeoJSON is WGS 84): " + brief(p);
   return {};
 }
 

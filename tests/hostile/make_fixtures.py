@@ -192,6 +192,28 @@ def raster_fixtures():
     # 10^6 x 10^6 cells with no source: GDAL would serve zeros, 4 TB of them.
     vrt("raster_huge.vrt", 1_000_000, 1_000_000, north_up)
     vrt("raster_one_row.vrt", 4, 1, north_up, source="raster_4x4.bin")
+    # Valid cells on one line only: one row with holes, and a diagonal (no triangle can be made).
+    line = [-9999.0] * 144
+    for c in range(12):
+        if c % 3 != 1:
+            line[5 * 12 + c] = 50.0 + c
+    out("raster_line.bin", raw(line))
+    vrt("raster_line.vrt", 12, 12, north_up, source="raster_line.bin", nodata=-9999)
+    diagonal = [-9999.0] * 144
+    for k in range(12):
+        diagonal[k * 12 + k] = 50.0
+    out("raster_diagonal.bin", raw(diagonal))
+    vrt("raster_diagonal.vrt", 12, 12, north_up, source="raster_diagonal.bin", nodata=-9999)
+    # An origin at 1e16 (1 m cells round together there), and undeclared sentinels: -FLT_MAX, 1e15.
+    vrt("raster_far_origin.vrt", 4, 4, (1e16, 1, 0, 1e16, 0, -1), source="raster_4x4.bin")
+    sentinel = list(small)
+    sentinel[6] = -3.4028234663852886e38
+    out("raster_flt_max.bin", raw(sentinel))
+    vrt("raster_flt_max.vrt", 4, 4, north_up, source="raster_flt_max.bin")
+    towering = list(small)
+    towering[9] = 1e15
+    out("raster_1e15.bin", raw(towering))
+    vrt("raster_1e15.vrt", 4, 4, north_up, source="raster_1e15.bin")
     out("raster_text.tif", b"Heights of Delft, see attached spreadsheet.\n")
     out("raster_missing_source.vrt",
         open(os.path.join(HERE, "raster_nan.vrt")).read().replace("raster_nan.bin", "gone.bin").encode())
@@ -282,6 +304,9 @@ def waypoint_fixtures():
     out("wp_under_ground.csv", (head + a + "356305,5699760,40\n" + b).encode())  # ground at 50 m
     out("wp_outside_extent.csv", (head + a + "356900,5699770,60\n" + b).encode())
     out("wp_too_high.csv", (head + a + "356310,5699760,400\n" + b).encode())  # far above --max-agl
+    # Coordinates nested 100,000 arrays deep: the message once dumped them, recursing off the stack.
+    out("wp_deep.geojson", (b'{"type": "FeatureCollection", "features": [{"type": "Feature", "geometry": '
+                            b'{"type": "Point", "coordinates": ' + b"[" * 100000 + b"]" * 100000 + b"}}]}"))
     out("wp_near_wall.csv", (head + a + "356313.8,5699770,60\n" + b).encode())  # 1.2 m west of the wall
     out("wp_malformed.csv", (head + a + "356320;5699770;60\n" + b).encode())
     out("wp_nan.csv", (head + a + "356320,5699770,nan\n" + b).encode())
