@@ -3,6 +3,8 @@
 // headless Chromium (scripts/test.sh installs it) renders the page with SwiftShader's WebGL, and
 // the screenshot is read back with libpng. Chromium missing is a failure, not a skip.
 #include <fcntl.h>
+#include <netinet/in.h>
+#include <sys/socket.h>
 #include <gtest/gtest.h>
 #include <httplib.h>
 #include <png.h>
@@ -345,4 +347,64 @@ TEST(View, ServesTheViewerAndTheNamedFilesOnly) {
     ASSERT_TRUE(refused) << escape;
     EXPECT_EQ(refused->status, 403) << escape;
   }
+}
+
+TEST(View, NoDotfilesNoSymlinksOutNoForeignHostNoBlockingIdlers) {
+  // A viewer folder of our own: the three files the server checks for, a dotfile, and two
+  // symbolic links (one to a file outside the folder, one to a file inside it).
+  testkit::TempDir dir;
+  const std::filesystem::path viewer = dir.dir() / "viewer";
+  std::filesystem::create_directories(viewer / "node_modules/three/build");
+  testkit::write_file((viewer / "index.html").string(), "<html>importmap</html>\n");
+  testkit::write_file((viewer / "viewer.js").string(), "// viewer\n");
+  testkit::write_file((viewer / "node_modules/three/build/three.module.js").string(), "// three\n");
+  testkit::write_file((viewer / ".env").string(), "SECRET=1\n");
+  testkit::write_file(dir.path("outside.txt"), "outside\n");
+  std::filesystem::create_symlink(dir.path("outside.txt"), viewer / "leak.txt");
+  std::filesystem::create_symlink(viewer / "viewer.js", viewer / "alias.js");
+  const std::string glb = dir.path("m.glb");
+  ASSERT_EQ(testkit::run_cli({"mesh", testkit::data_path(kDsm), "--res", "25", "-o", glb, "-q"}).exit_code, 0);
+  ViewServer server(dir, {glb, "--viewer-dir", viewer.string()});
+  ASSERT_FALSE(server.url().empty());
+  httplib::Client client("127.0.0.1", server.port());
+  client.set_url_encode(false);
+  const std::string port = std::to_string(server.port());
+
+  EXPECT_EQ(client.Get("/")->status, 200);
+  EXPECT_EQ(client.Get("/alias.js")->status, 200);  // a link that stays inside is fine
+  for (const char* refused : {"/.env", "/leak.txt", "/node_modules/.bin/x", "/%2eenv"}) {
+    const auto r = client.Get(refused);
+    ASSERT_TRUE(r) << refused;
+    EXPECT_EQ(r->status, 403) << refused;
+    EXPECT_EQ(r->body.find("SECRET"), std::string::npos);
+    EXPECT_EQ(r->body.find("outside"), std::string::npos);
+  }
+  // DNS rebinding: a foreign name in Host is refused; addresses and localhost with our port are not.
+  for (const auto& [host, status] : std::vector<std::pair<std::string, int>>{
+           {"evil.example:" + port, 403}, {"127.0.0.1:" + port, 200}, {"localhost:" + port, 200},
+           {"127.0.0.1:1", 403}, {"", 403}}) {
+    const auto r = client.Get("/", httplib::Headers{{"Host", host}});
+    ASSERT_TRUE(r) << host;
+    EXPECT_EQ(r->status, status) << "Host: " << host;
+  }
+  // 40 connections that never send a byte do not keep the page from a browser for long.
+  std::vector<int> idle;
+  for (int i = 0; i < 40; ++i) {
+    const int fd = ::socket(AF_INET, SOCK_STREAM, 0);
+    sockaddr_in address{};
+    address.sin_family = AF_INET;
+    address.sin_port = htons(static_cast<uint16_t>(server.port()));
+    address.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    ASSERT_EQ(::connect(fd, reinterpret_cast<sockaddr*>(&address), sizeof address), 0);
+    idle.push_back(fd);
+  }
+  const auto started = Clock::now();
+  httplib::Client browser("127.0.0.1", server.port());
+  browser.set_read_timeout(30, 0);
+  const auto page = browser.Get("/");
+  const double seconds = std::chrono::duration<double>(Clock::now() - started).count();
+  for (int fd : idle) ::close(fd);
+  ASSERT_TRUE(page);
+  EXPECT_EQ(page->status, 200);
+  EXPECT_LT(seconds, 5) << "the page waited behind idle connections";
 }

@@ -55,6 +55,17 @@ void check_csv(const std::string& path, const char* what) {
   if (read_waypoints_csv(path).empty()) throw InputError(path, "", std::string("no points in the ") + what);
 }
 
+// True for "ADDRESS:PORT" with our port and an IP address or "localhost" before it: a name
+// of any other site (DNS rebinding) is refused, an address a user typed is not.
+bool host_is_ours(const std::string& host, const std::string& port) {
+  const size_t colon = host.rfind(':');
+  if (colon == std::string::npos || host.substr(colon + 1) != port || colon == 0) return false;
+  const std::string name = lower_case(host.substr(0, colon));
+  if (name == "localhost") return true;
+  if (name.front() == '[') return name.back() == ']';  // IPv6 literal
+  return std::all_of(name.begin(), name.end(), [](char c) { return std::isdigit(static_cast<unsigned char>(c)) || c == '.'; });
+}
+
 }  // namespace
 
 std::string default_viewer_dir() {
@@ -85,20 +96,35 @@ void serve_view(const ViewOptions& options, const std::function<void(const std::
   if (!options.waypoints.empty()) data["/data/waypoints.csv"] = options.waypoints;
 
   httplib::Server server;
+  const fs::path viewer_real = fs::canonical(viewer);
+  std::string port_text;  // the port we listen on (set below, before the first request)
+  auto refuse = [](httplib::Response& response, const std::string& why) {
+    response.status = 403;
+    response.set_content("refused: " + why + "\n", "text/plain");
+  };
   server.Get(R"(/.*)", [&](const httplib::Request& request, httplib::Response& response) {
+    // A page of another site that made its name resolve to this address (DNS rebinding) sends
+    // its own name as Host: only an address (or "localhost") with our port is answered.
+    const std::string host = request.get_header_value("Host");
+    if (!host_is_ours(host, port_text))
+      return refuse(response, "Host '" + host + "' is not an address of this server (port " + port_text + ")");
     // request.path is percent-decoded already, so "%2e%2e" is caught here too.
     const std::string& url = request.path;
     fs::path file;
     if (const auto it = data.find(url); it != data.end()) {
       file = it->second;
     } else if (url.empty() || url[0] != '/' || url.find("..") != std::string::npos || url.find("//") != std::string::npos ||
-               url.find('\\') != std::string::npos || url.find('\0') != std::string::npos) {
-      // ".." climbs out of the folder; "//etc" would join as the absolute "/etc".
-      response.status = 403;
-      response.set_content("refused: only files inside the viewer's folder\n", "text/plain");
-      return;
+               url.find('\\') != std::string::npos || url.find('\0') != std::string::npos || url.find("/.") != std::string::npos) {
+      // ".." climbs out of the folder; "//etc" would join as the absolute "/etc"; "/." is a
+      // dotfile or dot folder (.git, .env, .npmrc), never part of the viewer.
+      return refuse(response, "only files inside the viewer's folder, no dotfiles");
     } else {
       file = viewer / (url == "/" ? std::string("index.html") : url.substr(1));
+      // A symbolic link inside the folder may point anywhere: what it resolves to must be inside too.
+      std::error_code error;
+      const fs::path real = fs::weakly_canonical(file, error);
+      const auto [end, rest] = std::mismatch(viewer_real.begin(), viewer_real.end(), real.begin(), real.end());
+      if (error || end != viewer_real.end()) return refuse(response, "only files inside the viewer's folder");
     }
     std::string bytes;
     if (!fs::is_regular_file(file) || !read_whole(file, bytes)) {
@@ -111,6 +137,12 @@ void serve_view(const ViewOptions& options, const std::function<void(const std::
     response.set_content(std::move(bytes), content_type(file));
   });
 
+  // Idle connections must not hold the workers: a browser reconnects at once, a silent client
+  // is dropped after 2 s (httplib's defaults, 5 s on a pool of a few threads, let 40 of them
+  // block the page for 20 s).
+  server.set_read_timeout(2, 0);
+  server.set_keep_alive_timeout(2);
+  server.new_task_queue = [] { return new httplib::ThreadPool(32); };
   // httplib's default also sets SO_REUSEPORT, with which a second server binds a port in use
   // and the two share the requests; SO_REUSEADDR alone still allows a restart at once.
   server.set_socket_options([](socket_t sock) {
@@ -125,8 +157,10 @@ void serve_view(const ViewOptions& options, const std::function<void(const std::
     throw ArgumentError("--port", "cannot listen on " + options.host + ":" + std::to_string(port) +
                                       " (in use, or not an address of this machine)");
   }
-  std::string url = "http://" + (options.host.find(':') != std::string::npos ? "[" + options.host + "]" : options.host) +
-                    ":" + std::to_string(port) + "/?mesh=/data/mesh.glb";
+  const std::string authority =
+      (options.host.find(':') != std::string::npos ? "[" + options.host + "]" : options.host) + ":" + std::to_string(port);
+  port_text = std::to_string(port);
+  std::string url = "http://" + authority + "/?mesh=/data/mesh.glb";
   if (!options.path.empty()) url += "&path=/data/path.csv";
   if (!options.waypoints.empty()) url += "&waypoints=/data/waypoints.csv";
   listening(url);
