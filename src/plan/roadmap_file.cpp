@@ -12,6 +12,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <filesystem>
 #include <fstream>
 #include <iterator>
 #include <string>
@@ -114,6 +115,10 @@ Roadmap read_roadmap(const std::string& path, uint64_t fingerprint, const PlanOp
 }
 
 Roadmap read_roadmap(const std::string& path, RoadmapHeader* header) {
+  // Read whole: a device or pipe (/dev/zero) would never end, and is no roadmap this wrote.
+  std::error_code error;
+  if (std::filesystem::exists(path, error) && !std::filesystem::is_regular_file(path, error))
+    throw InputError(path, "", "not a regular file (a device, pipe or folder): not a roadmap file");
   std::ifstream in(path, std::ios::binary);
   if (!in) throw InputError(path, "", "cannot open the roadmap file");
   const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
