@@ -55,6 +55,15 @@ Grid read_companion(const std::string& path, const char* what, const Crs& mesh_c
                                    two_decimals(grid.y0) + ") does not overlap the mesh (x " + two_decimals(xmin) +
                                    " to " + two_decimals(xmax) + ", y " + two_decimals(ymin) + " to " +
                                    two_decimals(ymax) + ")");
+  // The DSM's columns are what the path is checked against: where the mesh reaches beyond them,
+  // a path could fly unchecked (the terrain only bounds the ceiling, and beyond it nothing flies).
+  const double hx = grid.cell_x / 2 + 1e-9, hy = grid.cell_y / 2 + 1e-9;
+  if (std::string(what) == "DSM" &&
+      !(grid.x0 <= xmin + hx && grid.x1() >= xmax - hx && grid.y1() <= ymin + hy && grid.y0 >= ymax - hy))
+    throw InputError(path, "", "the DSM (x " + two_decimals(grid.x0) + " to " + two_decimals(grid.x1()) + ", y " +
+                                   two_decimals(grid.y1()) + " to " + two_decimals(grid.y0) + ") does not cover the mesh (x " +
+                                   two_decimals(xmin) + " to " + two_decimals(xmax) + ", y " + two_decimals(ymin) + " to " +
+                                   two_decimals(ymax) + "): a path there would go unchecked");
   return grid;
 }
 

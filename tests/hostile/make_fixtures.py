@@ -160,6 +160,9 @@ def raster_fixtures():
     # Terrain for plan --dtm: the block's cells in another CRS, and in the right CRS 10 km away.
     vrt("dtm_other_crs.vrt", W, H, north_up, source="block.bin", srs="EPSG:32632")
     vrt("dtm_elsewhere.vrt", W, H, (X0 + 10000, 1, 0, Y0, 0, -1), source="block.bin")
+    # The western half of the block only (20 of its 40 columns): a --dsm that covers part of the mesh.
+    out("dsm_west_half.vrt", open(os.path.join(HERE, "block.vrt")).read().replace(
+        'rasterXSize="40"', 'rasterXSize="20"').encode())
 
     small = [50.0 + i for i in range(16)]
     nan_cells = list(small)
