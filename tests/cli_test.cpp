@@ -688,8 +688,10 @@ TEST(CliSimplify, RealSampleVariantTwoAndBoundedReportTableTwoColumns) {
 TEST(CliBadInput, SimplifyNegativeDzOrNonPositiveMaxError) {
   TempDir out;
   const std::string dsm = testkit::data_path(kSample);
-  expect_clean_failure(run_cli({"simplify", dsm, "-o", out.path("o.ply"), "--dz", "-0.1"}), out, "--dz", {">= 0"});
-  expect_clean_failure(run_cli({"simplify", dsm, "-o", out.path("o.ply"), "--dco", "-1"}), out, "--dco", {">= 0"});
+  for (const char* v : {"-0.1", "inf", "nan", "1e300"}) {
+    expect_clean_failure(run_cli({"simplify", dsm, "-o", out.path("o.ply"), "--dz", v}), out, "--dz", {"from 0 to 1000"});
+    expect_clean_failure(run_cli({"simplify", dsm, "-o", out.path("o.ply"), "--dco", v}), out, "--dco", {"from 0 to 1000"});
+  }
   for (const char* e : {"0", "-1", "inf", "nan", "1e-7", "1e5"}) {
     expect_clean_failure(run_cli({"simplify", dsm, "-o", out.path("o.ply"), "--max-error", e}), out, "--max-error",
                          {"from 0.001 to 10000"});
@@ -1007,6 +1009,24 @@ TEST(CliPlan, ThreeWaypointsGiveAPathCsvAndStats) {
   EXPECT_GT(s["roadmap_edges"].get<long long>(), 0);
   for (const char* key : {"seconds_load", "seconds_roadmap", "seconds_query", "seconds_smooth"})
     EXPECT_GE(s[key].get<double>(), 0) << key;
+}
+
+TEST(CliBadInput, NumericOptionsAreFiniteAndInTheirStatedRange) {
+  PlanFixture f;
+  f.write_waypoints(f.corners());
+  TempDir out;
+  for (const char* v : {"-1", "inf", "nan", "1e300"}) {
+    for (const char* flag : {"--safety", "--spacing", "--max-edge", "--max-agl"}) {
+      if (std::string(v) == "-1" && std::string(flag) == "--safety") continue;  // checked elsewhere: >= 0
+      expect_clean_failure(run_cli({"plan", f.mesh, "--waypoints", f.waypoints, "-o", out.path("p.csv"), flag, v, "-q"}),
+                           out, flag, {"at most", "from 0 to"});
+    }
+    expect_clean_failure(run_cli({"mesh", testkit::data_path(kSample), "-o", out.path("m.ply"), "--max-edge", v, "-q"}),
+                         out, "--max-edge", {"to 1e6"});
+  }
+  // A resolution far beyond the raster's extent: one cell, no triangle (it was a write out of bounds).
+  expect_clean_failure(run_cli({"mesh", testkit::data_path(kSample), "-o", out.path("m.ply"), "--res", "1e300", "-q"}),
+                       out, testkit::data_path(kSample), {"give no triangle"});
 }
 
 TEST(CliBadInput, PlanWaypointsOutsideUnderOrTooClose) {

@@ -21,6 +21,7 @@
 #include <string>
 #include <vector>
 
+#include "core/text.hpp"
 #include "dsmplan/export.hpp"
 #include "export/canvas.hpp"
 
@@ -258,8 +259,8 @@ Image render_profile(const std::vector<Point3>& path, const Grid& dsm, const Gri
   if (W > kMaxSide || H > kMaxSide || double(W) * H > kMaxPixels)
     throw ArgumentError(W > kMaxSide ? "--width" : "--height",
                         "the picture must be at most 30000 pixels a side and 2^26 in all");
-  if (!(options.safety >= 0 && std::isfinite(options.safety)))
-    throw ArgumentError("--safety", "must be >= 0 and finite");
+  if (!(options.safety >= 0 && options.safety <= 1000))
+    throw ArgumentError("--safety", "must be from 0 to 1000, got " + short_number(options.safety));
   if (!(options.max_agl > 0 && std::isfinite(options.max_agl)))
     throw ArgumentError("--max-agl", "must be positive and finite");
   const bool fixed_axis = !std::isnan(options.z_min) || !std::isnan(options.z_max);

@@ -11,6 +11,7 @@
 #include <cstdint>
 #include <string>
 
+#include "core/text.hpp"
 #include "dsmplan/plan.hpp"
 #include "plan/prm_parts.hpp"
 
@@ -20,14 +21,17 @@ using detail::halton;
 using detail::squared_distance;
 
 void check_plan_options(const PlanOptions& o) {
-  auto positive = [](double v, const char* name) {
-    if (!(v > 0) || !std::isfinite(v)) throw ArgumentError(name, "must be a positive number, got " + std::to_string(v));
+  // Lengths in CRS units (metres): positive and at most `most` (a city's scale; beyond it a value
+  // is a typo, and 1e300 would overflow the sample count or the grids built from it).
+  auto positive = [](double v, const char* name, double most) {
+    if (!(v > 0) || !(v <= most))
+      throw ArgumentError(name, "must be more than 0 and at most " + short_number(most) + ", got " + short_number(v));
   };
-  if (!(o.safety >= 0) || !std::isfinite(o.safety))
-    throw ArgumentError("--safety", "must be a number >= 0, got " + std::to_string(o.safety));
-  positive(o.spacing, "--spacing");
-  positive(o.max_edge, "--max-edge");
-  positive(o.max_agl, "--max-agl");
+  if (!(o.safety >= 0) || !(o.safety <= 1000))
+    throw ArgumentError("--safety", "must be from 0 to 1000, got " + short_number(o.safety));
+  positive(o.spacing, "--spacing", 1e4);
+  positive(o.max_edge, "--max-edge", 1e4);
+  positive(o.max_agl, "--max-agl", 1e5);
   if (o.connections < 1) throw ArgumentError("connections", "must be at least 1");
   if (o.threads < 0) throw ArgumentError("--threads", "must be >= 0");
   if (o.refine_rounds < 0) throw ArgumentError("--refine-rounds", "must be >= 0");

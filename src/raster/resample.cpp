@@ -94,8 +94,9 @@ Grid resample(const Grid& grid, double resolution, Resampling method, const Prog
     report(progress, 1);
     return grid;
   }
-  const int width = static_cast<int>(std::ceil(grid.width * grid.cell_x / resolution - 1e-9));
-  const int height = static_cast<int>(std::ceil(grid.height * grid.cell_y / resolution - 1e-9));
+  // At least one cell: a resolution far coarser than the extent (1e300) rounds the count to 0.
+  const int width = std::max(1, static_cast<int>(std::ceil(grid.width * grid.cell_x / resolution - 1e-9)));
+  const int height = std::max(1, static_cast<int>(std::ceil(grid.height * grid.cell_y / resolution - 1e-9)));
   Grid out(width, height, grid.x0, grid.y0, resolution, resolution);
   out.crs = grid.crs;
   const auto cols = ranges_of(block_of(grid.width, grid.cell_x, resolution), width);

@@ -17,6 +17,7 @@
 #include <string>
 
 #include "core/stopwatch.hpp"
+#include "core/text.hpp"
 #include "dsmplan/simplify.hpp"
 
 namespace dsmplan {
@@ -174,8 +175,9 @@ std::vector<VertexMark> search(const Mesh& mesh, const Corners& corners, const P
 }  // namespace
 
 void check_paper_options(const PaperSimplifyOptions& options) {
-  if (!(options.dz >= 0)) throw ArgumentError("--dz", "must be >= 0, got " + std::to_string(options.dz));
-  if (!(options.dco >= 0)) throw ArgumentError("--dco", "must be >= 0, got " + std::to_string(options.dco));
+  if (!(options.dz >= 0 && options.dz <= 1000)) throw ArgumentError("--dz", "must be from 0 to 1000, got " + short_number(options.dz));
+  if (!(options.dco >= 0 && options.dco <= 1000))
+    throw ArgumentError("--dco", "must be from 0 to 1000, got " + short_number(options.dco));
 }
 
 const char* to_string(PaperVariant variant) { return variant == PaperVariant::One ? "variant1" : "variant2"; }

@@ -45,8 +45,8 @@ ProfileReport profile_job(const ProfileJobOptions& options, const Progress& prog
   if (picture.width < 240 || picture.height < 160 || picture.width > 30000 || picture.height > 30000)
     throw ArgumentError(picture.width < 240 || picture.width > 30000 ? "--width" : "--height",
                         "the picture must be 240 x 160 to 30000 x 30000 pixels");
-  if (!(picture.safety >= 0 && std::isfinite(picture.safety)))
-    throw ArgumentError("--safety", "must be >= 0 and finite");
+  if (!(picture.safety >= 0 && picture.safety <= 1000))
+    throw ArgumentError("--safety", "must be from 0 to 1000, got " + short_number(picture.safety));
   if (!(picture.max_agl > 0 && std::isfinite(picture.max_agl)))
     throw ArgumentError("--max-agl", "must be positive and finite");
 

@@ -67,6 +67,19 @@ def las_fixtures():
     struct.pack_into("<Q", h14, 247, 4 * 10**10)
     out("las_huge_header.las", bytes(h14))
 
+    # Two points 2e9 m apart (x scale 1, offset -1e9; X 0 and 2e9): a grid of 2e9 cells a row.
+    h = bytearray(head)
+    length = struct.unpack_from("<H", head, 105)[0]
+    far = bytearray(body[:2 * length])
+    struct.pack_into("<I", h, 107, 2)
+    struct.pack_into("<d", h, 131, 1.0)
+    struct.pack_into("<d", h, 155, -1e9)
+    struct.pack_into("<d", h, 179, 1e9)
+    struct.pack_into("<d", h, 187, -1e9)
+    struct.pack_into("<i", far, 0, 0)
+    struct.pack_into("<i", far, length, 2_000_000_000)
+    out("las_far_apart.las", bytes(h) + bytes(far))
+
     h = bytearray(head)
     struct.pack_into("<I", h, 96, 1_000_000_000)  # point data "starts" 1 GB in
     out("las_offset_past_end.las", bytes(h) + body)
