@@ -87,7 +87,14 @@ TEST(MeshWriter, HeadersCarryTheCrs) {
   EXPECT_NE(header.find("format binary_little_endian 1.0"), std::string::npos);
   EXPECT_NE(header.find("comment crs_epsg 25832\n"), std::string::npos);
   EXPECT_NE(header.find("comment crs_name ETRS89 / UTM zone 32N\n"), std::string::npos);
-  EXPECT_NE(header.find("comment crs_wkt PROJCRS[\"ETRS89 / UTM zone 32N\""), std::string::npos);
+  // The WKT in pieces short enough for RPly (CloudCompare: 1,024 bytes a line) and MeshLab (512).
+  EXPECT_NE(header.find("comment crs_wkt_part 1/"), std::string::npos);
+  EXPECT_NE(header.find("PROJCRS[\"ETRS89 / UTM zone 32N\""), std::string::npos);
+  for (size_t at = 0, end; at < header.size(); at = end + 1) {
+    end = header.find('\n', at);
+    if (end == std::string::npos) end = header.size();
+    EXPECT_LE(end - at, 480u) << header.substr(at, 80);
+  }
   EXPECT_NE(header.find("comment vertical "), std::string::npos);
   EXPECT_NE(header.find("property double x\n"), std::string::npos);
   // Size is exactly header + 24 bytes per vertex + 13 per face: nothing else was written.
@@ -184,6 +191,28 @@ TEST(MeshReader, RoundTripsTheRealTileInEveryFormat) {
     const Mesh read = read_mesh(path);
     expect_same_mesh(read, mesh, name);
     EXPECT_EQ(read.crs.definition, mesh.crs.wkt) << name;
+  }
+}
+
+TEST(MeshReader, LongWktsComeBackWholeFromTheirPieces) {
+  // WKTs of every length around the piece size, with blanks and commas where a cut may fall,
+  // and the real tile's own WKT.
+  Mesh mesh = real_mesh();
+  mesh.triangles.resize(20);
+  std::vector<std::string> wkts{mesh.crs.wkt};
+  std::string text;
+  for (int n = 0; text.size() < 2000; ++n) text += n % 7 == 0 ? "A, B ," : n % 5 == 0 ? "PARAM[\"x y\",1]," : "abc";
+  for (size_t length : {1, 399, 400, 401, 799, 800, 801, 1999}) wkts.push_back(text.substr(0, length));
+  wkts.push_back(std::string(1200, 'x'));  // no comma at all
+  testkit::TempDir dir;
+  for (const std::string& wkt : wkts) {
+    if (!wkt.empty() && (wkt.back() == ' ' || wkt.front() == ' ')) continue;  // readers trim a value's ends
+    mesh.crs.wkt = wkt;
+    for (const char* name : {"m.ply", "m.obj", "m.off"}) {
+      const std::string path = dir.path(name);
+      write_mesh(mesh, path, mesh_format_for(path));
+      EXPECT_EQ(read_mesh(path).crs.wkt, wkt) << name << " length " << wkt.size();
+    }
   }
 }
 

@@ -71,7 +71,7 @@ struct MeshOptions {
   /// Longest x,y edge a triangle may have, in CRS units. 0 means 2.5 times the larger cell size,
   /// which bridges a single missing cell (edges of 2 cells) and leaves wider gaps open.
   /// Use infinity to keep the whole Delaunay triangulation.
-  double max_edge_length = 0;
+  double max_edge_length = 0;  ///< CRS units, 0 to 1e6 (0: 2.5 cells), or infinity: keep every triangle
   int band_rows = 0;  ///< out of core: rows a band (0: 256)
 };
 

@@ -14,6 +14,7 @@
 #include <cstring>
 #include <filesystem>
 #include <limits>
+#include <map>
 #include <optional>
 #include <string>
 #include <string_view>
@@ -126,6 +127,17 @@ public:
       epsg_ = code;
     } else if (key == "crs_wkt" && !wkt_) {
       wkt_ = std::string(value);
+    } else if (key == "crs_wkt_part") {
+      // "K/N PIECE": the WKT cut into lines short enough for every PLY reader (mesh_writer.cpp).
+      const size_t slash = value.find('/'), blank = value.find(' ');
+      int k = 0, n = 0;
+      if (slash == std::string_view::npos || blank == std::string_view::npos || blank < slash ||
+          !parse_number(value.substr(0, slash), k) || !parse_number(value.substr(slash + 1, blank - slash - 1), n) ||
+          k < 1 || n < 1 || k > n || n > 1000)
+        throw InputError(path_, place, "crs_wkt_part " + shown(value) + " is not 'K/N PIECE'");
+      if (parts_total_ && *parts_total_ != n) throw InputError(path_, place, "crs_wkt_part: the parts disagree on their count");
+      parts_total_ = n;
+      parts_[k] = std::string(trim(value.substr(blank)));
     } else if (key == "vertical" && !vertical_) {
       vertical_ = std::string(value);
     }
@@ -135,7 +147,11 @@ public:
     Crs crs;
     if (name_ && *name_ != "unknown") crs.name = *name_;
     if (epsg_) crs.epsg = *epsg_;
-    if (wkt_) crs.wkt = *wkt_;
+    if (wkt_) {
+      crs.wkt = *wkt_;
+    } else if (parts_total_ && parts_.size() == static_cast<size_t>(*parts_total_)) {
+      for (const auto& [k, piece] : parts_) crs.wkt += piece;
+    }
     crs.definition = !crs.wkt.empty() ? crs.wkt : crs.epsg ? "EPSG:" + std::to_string(crs.epsg) : "";
     crs.geographic = geographic_wkt(crs.wkt);
     if (vertical_) {
@@ -170,7 +186,8 @@ private:
 
   const std::string& path_;
   std::optional<std::string> name_, wkt_, vertical_;
-  std::optional<int> epsg_;
+  std::optional<int> epsg_, parts_total_;
+  std::map<int, std::string> parts_;  ///< crs_wkt_part K -> its piece
 };
 
 // Lines of a text file with their numbers (from 1) and byte offsets.
