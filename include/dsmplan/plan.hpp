@@ -270,7 +270,7 @@ private:
 //          before smoothing, found visiting far fewer nodes), the path pulled tight over up to
 //          8 nodes. Lattices of spacing / 2, / 4, / 8 in turn (sides at most max_edge / sqrt(3):
 //          no step longer than a roadmap edge), at most 2 million nodes each
-//          (about 200 MB).
+//          (their lookup and queue: about 300 MB at most).
 //          Under a low ceiling the free space is a thin layer over the streets; a lattice at
 //          the streets' scale follows it where random samples would have to become very dense.
 //       2. Failing that, round r: the component of each waypoint is explored (the smaller one

@@ -1,5 +1,6 @@
 // Memory refused up front: a job that would need more than the machine has is an InputError with
 // the figure, not a process the kernel's out-of-memory killer takes half-way through.
+#include <sys/resource.h>
 #include <unistd.h>
 
 #include <cmath>
@@ -20,6 +21,11 @@ double machine_memory_bytes() {
     double limit = 0;
     if (in >> limit && limit > 0 && limit < bytes) bytes = limit;
   }
+  // So is a limit on the address space (ulimit -v): past it, allocation fails.
+  rlimit address_space{};
+  if (::getrlimit(RLIMIT_AS, &address_space) == 0 && address_space.rlim_cur != RLIM_INFINITY &&
+      static_cast<double>(address_space.rlim_cur) < bytes)
+    bytes = static_cast<double>(address_space.rlim_cur);
   return bytes;
 }
 

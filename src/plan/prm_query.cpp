@@ -100,8 +100,9 @@ constexpr size_t kMaxRefinedSamples = 1000000;  // added samples a query, at mos
 // bench_table3 solves looks at 7e6. A count, not a clock: the same answer on every machine.
 constexpr size_t kMaxSearchWork = 100000000;
 constexpr int kMaxWiden = 5;                    // the region: at most 2^5 max_edge around the frontier
-// Lattice nodes one lattice search may make, at most (about 100 bytes each with their lookup
-// and queue entries): a whole 1 km x 1 km tile under a 15 m ceiling at 2.5 m is about 1.5 million.
+// Lattice nodes one lattice search may make, at most (about 100 bytes each with their lookup,
+// and their queue entries: some 300 MB at most): a whole 1 km x 1 km tile under a 15 m ceiling
+// at 2.5 m is about 1.5 million.
 constexpr size_t kMaxLatticeNodes = 2000000;
 
 // The roadmap with the samples a query adds to it, connected lazily. Level l (1..kMaxLevel)
