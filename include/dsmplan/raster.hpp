@@ -113,6 +113,19 @@ Resampling parse_resampling(const std::string& name);
 /// resolution <= 0 or not finite. O(input cells).
 Grid resample(const Grid& grid, double resolution, Resampling method, const Progress& progress = {});
 
+/// No projected CRS reaches farther than this from its origin (CRS units).
+constexpr double kMaxCoordinate = 1e9;
+/// No height on Earth is farther from its datum than this (metres): beyond it a cell is a
+/// nodata sentinel nobody declared (-FLT_MAX, 1e20, ...).
+constexpr double kMaxHeight = 1e5;
+
+/// ArgumentError("DSM", ...) for a grid the stages cannot work on: a georeference that is not
+/// finite, cells not positive, anything beyond kMaxCoordinate or cells finer than 1e-9 of it,
+/// or a height that is infinite or beyond kMaxHeight (NaN is nodata). The readers refuse the same
+/// with the file and cell named; triangulate_xy3() and simplify_bounded() call this for grids
+/// made in memory. O(cells).
+void check_grid(const Grid& grid);
+
 /// Rounds heights to the nearest multiple k*step of the vertical resolution (step <= 0: no
 /// rounding). When 1/step is a whole number n (0.1, 0.25, 1 ...) the result is k/n, the double
 /// nearest to the decimal k*step, so 0.1-steps print as 123.4, not 123.40000000000001.

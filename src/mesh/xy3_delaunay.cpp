@@ -189,6 +189,7 @@ double max_edge_length(const Grid& grid, const MeshOptions& options) {
 }
 
 Mesh triangulate_xy3(const Grid& grid, const MeshOptions& options, const Progress& progress) {
+  check_grid(grid);
   const double max_edge = max_edge_length(grid, options);
   const HeightQuantizer quantize(options.zstep);
   const size_t valid =

@@ -332,11 +332,6 @@ void resolve_crs(Crs& crs) {
 
 namespace {
 
-// No projected CRS reaches farther than this from its origin (CRS units, metres or feet).
-constexpr double kMaxCoordinate = 1e9;
-// No height on Earth is farther from its datum than this (metres): a cell beyond it is a
-// sentinel the raster did not declare as nodata (-FLT_MAX, -1e38, 1e20, ...).
-constexpr double kMaxHeight = 1e5;
 
 // One band of a GDAL raster, read by windows. Every window gets read_raster()'s treatment:
 // declared nodata and masked cells become NaN, scale and offset are applied, south-up rasters

@@ -49,6 +49,23 @@ GridSummary summarize(const Grid& grid) {
   return summary;
 }
 
+void check_grid(const Grid& grid) {
+  const double far = std::max({std::abs(grid.x0), std::abs(grid.y0), std::abs(grid.x0 + grid.width * grid.cell_x),
+                               std::abs(grid.y0 - grid.height * grid.cell_y)});
+  if (!(grid.cell_x > 0) || !(grid.cell_y > 0))
+    throw ArgumentError("DSM", "cells must have a positive size, got " + short_number(grid.cell_x) + " x " +
+                                   short_number(grid.cell_y));
+  if (!(far <= kMaxCoordinate))
+    throw ArgumentError("DSM", "reaches " + short_number(far) + " CRS units from the origin: beyond any projected CRS (at most 1e9)");
+  if (std::min(grid.cell_x, grid.cell_y) < 1e-9 * std::max(1.0, far))
+    throw ArgumentError("DSM", "cells of " + short_number(std::min(grid.cell_x, grid.cell_y)) +
+                                   " are too fine for coordinates this large: their corners would round together");
+  for (size_t i = 0; i < grid.z.size(); ++i)
+    if (!std::isnan(grid.z[i]) && !(std::abs(grid.z[i]) <= kMaxHeight))
+      throw ArgumentError("DSM", "cell (col " + std::to_string(i % grid.width) + ", row " + std::to_string(i / grid.width) +
+                                     "): height " + short_number(grid.z[i]) + " is no height on Earth (beyond +-100 km)");
+}
+
 HeightQuantizer::HeightQuantizer(double step) : step_(step) {
   // 0 or less keeps heights; NaN, infinity or a step coarser than 100 m would make them NaN or 0.
   if (std::isnan(step) || step > 100)

@@ -6,6 +6,7 @@
 #include <string>
 #include <vector>
 
+#include "core/text.hpp"
 #include "dsmplan/raster.hpp"
 
 namespace dsmplan {
@@ -90,6 +91,10 @@ Grid resample(const Grid& grid, double resolution, Resampling method, const Prog
     throw ArgumentError("--res", std::to_string(resolution) + " is finer than the DSM's cells (" +
                                      std::to_string(finest) + "); resampling only aggregates");
   }
+  const double extent = std::max(grid.width * grid.cell_x, grid.height * grid.cell_y);
+  if (resolution > extent)
+    throw ArgumentError("--res", short_number(resolution) + " is coarser than the whole raster (" + short_number(extent) +
+                                     " CRS units across): one cell, no surface");
   if (resolution == grid.cell_x && resolution == grid.cell_y) {
     report(progress, 1);
     return grid;

@@ -682,6 +682,7 @@ BoundedStreamResult simplify_bounded(GridSource& dsm, const BoundedSimplifyOptio
 
 Mesh simplify_bounded(const Grid& dsm, const BoundedSimplifyOptions& options, const Progress& progress) {
   check_bounded_options(options);
+  check_grid(dsm);
   if (dsm.width < 2 || dsm.height < 2) throw ArgumentError("DSM", "needs at least 2 x 2 cells to triangulate");
   GridView view(dsm);
   Mesh mesh;
