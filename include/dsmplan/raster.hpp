@@ -125,6 +125,10 @@ constexpr double kMaxHeight = 1e5;
 /// with the file and cell named; triangulate_xy3() and simplify_bounded() call this for grids
 /// made in memory. O(cells).
 void check_grid(const Grid& grid);
+/// Why a grid's georeference (positive cells assumed) is unusable: it reaches beyond
+/// kMaxCoordinate, or its cells are finer than 1e-9 of that reach; empty when it is fine. What
+/// check_grid() and the GDAL reader both test.
+std::string frame_problem(const Grid& frame);
 
 /// Rounds heights to the nearest multiple k*step of the vertical resolution (step <= 0: no
 /// rounding). When 1/step is a whole number n (0.1, 0.25, 1 ...) the result is k/n, the double

@@ -357,16 +357,6 @@ public:
     if (dataset_->GetGeoTransform(gt) != CE_None) throw InputError(path, "", "not geo-referenced (no geotransform)");
     if (gt[2] != 0 || gt[4] != 0) throw InputError(path, "geotransform", "rotated or sheared rasters are not supported");
     if (!(gt[1] > 0) || gt[5] == 0) throw InputError(path, "geotransform", "cell size must be positive");
-    // Beyond any projected CRS, or cells finer than the coordinates can tell apart: every later
-    // sum of an origin and an offset would round (a 1 m raster at 1e16 has its cells collapse).
-    const double far = std::max({std::abs(gt[0]), std::abs(gt[3]), std::abs(gt[0] + width * gt[1]),
-                                 std::abs(gt[3] + height * gt[5])});
-    if (!(far <= kMaxCoordinate))
-      throw InputError(path, "geotransform", "the raster reaches " + short_number(far) +
-                                                 " CRS units from the origin: beyond any projected CRS (at most 1e9)");
-    if (std::min(gt[1], std::abs(gt[5])) < 1e-9 * std::max(1.0, far))
-      throw InputError(path, "geotransform", "cells of " + short_number(std::min(gt[1], std::abs(gt[5]))) + " at " + short_number(far) +
-                                                 " CRS units from the origin are too fine: their corners would round together");
     south_up_ = gt[5] > 0;
     frame_.width = width;
     frame_.height = height;
@@ -374,6 +364,7 @@ public:
     frame_.y0 = south_up_ ? gt[3] + height * gt[5] : gt[3];
     frame_.cell_x = gt[1];
     frame_.cell_y = std::abs(gt[5]);
+    if (const std::string problem = frame_problem(frame_); !problem.empty()) throw InputError(path, "geotransform", problem);
     const OGRSpatialReference* srs = dataset_->GetSpatialRef();
     if (srs && !srs->IsEmpty()) {
       describe(*srs, frame_.crs);

@@ -49,17 +49,25 @@ GridSummary summarize(const Grid& grid) {
   return summary;
 }
 
+std::string frame_problem(const Grid& frame) {
+  // Beyond any projected CRS, or cells finer than the coordinates can tell apart: every later
+  // sum of an origin and an offset would round (a 1 m raster at 1e16 has its cells collapse).
+  const double far = std::max({std::abs(frame.x0), std::abs(frame.y0), std::abs(frame.x0 + frame.width * frame.cell_x),
+                               std::abs(frame.y0 - frame.height * frame.cell_y)});
+  if (!(far <= kMaxCoordinate))
+    return "the raster reaches " + short_number(far) + " CRS units from the origin: beyond any projected CRS (at most 1e9)";
+  const double finest = std::min(frame.cell_x, frame.cell_y);
+  if (finest < 1e-9 * std::max(1.0, far))
+    return "cells of " + short_number(finest) + " at " + short_number(far) +
+           " CRS units from the origin are too fine: their corners would round together";
+  return {};
+}
+
 void check_grid(const Grid& grid) {
-  const double far = std::max({std::abs(grid.x0), std::abs(grid.y0), std::abs(grid.x0 + grid.width * grid.cell_x),
-                               std::abs(grid.y0 - grid.height * grid.cell_y)});
   if (!(grid.cell_x > 0) || !(grid.cell_y > 0))
     throw ArgumentError("DSM", "cells must have a positive size, got " + short_number(grid.cell_x) + " x " +
                                    short_number(grid.cell_y));
-  if (!(far <= kMaxCoordinate))
-    throw ArgumentError("DSM", "reaches " + short_number(far) + " CRS units from the origin: beyond any projected CRS (at most 1e9)");
-  if (std::min(grid.cell_x, grid.cell_y) < 1e-9 * std::max(1.0, far))
-    throw ArgumentError("DSM", "cells of " + short_number(std::min(grid.cell_x, grid.cell_y)) +
-                                   " are too fine for coordinates this large: their corners would round together");
+  if (const std::string problem = frame_problem(grid); !problem.empty()) throw ArgumentError("DSM", problem);
   for (size_t i = 0; i < grid.z.size(); ++i)
     if (!std::isnan(grid.z[i]) && !(std::abs(grid.z[i]) <= kMaxHeight))
       throw ArgumentError("DSM", "cell (col " + std::to_string(i % grid.width) + ", row " + std::to_string(i / grid.width) +
