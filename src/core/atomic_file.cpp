@@ -24,12 +24,15 @@ char temp_paths[kSlots][kPathBytes];
 std::atomic<int> slot_state[kSlots];  // 0 free, 1 being filled, 2 ready
 constexpr int kFree = 0, kFilling = 1, kReady = 2;
 
-int remember(const std::string& path) {
-  if (path.size() >= kPathBytes) return -1;
+// Takes a slot for a mkstemp pattern, so that mkstemp fills in the name where the handler reads
+// it: a signal between creating the file and remembering it would otherwise leave it behind.
+// Before mkstemp the handler unlinks a name that does not exist, which is harmless.
+int remember(const std::string& pattern) {
+  if (pattern.size() >= kPathBytes) return -1;
   for (int i = 0; i < kSlots; ++i) {
     int expected = kFree;
     if (!slot_state[i].compare_exchange_strong(expected, kFilling)) continue;
-    std::memcpy(temp_paths[i], path.c_str(), path.size() + 1);
+    std::memcpy(temp_paths[i], pattern.c_str(), pattern.size() + 1);
     slot_state[i].store(kReady);
     return i;
   }
@@ -69,10 +72,14 @@ AtomicFile::AtomicFile(std::string path) : path_(std::move(path)) {
   fs::path folder = target.parent_path();
   if (folder.empty()) folder = ".";
   std::string pattern = (folder / ("." + target.filename().string() + ".partial-XXXXXX")).string();
-  int fd = ::mkstemp(pattern.data());
-  if (fd < 0) throw OutputError(path_, std::string("cannot write: ") + std::strerror(errno));
-  temp_path_ = pattern;
-  slot_ = remember(temp_path_);
+  slot_ = remember(pattern);
+  char* name = slot_ >= 0 ? temp_paths[slot_] : pattern.data();
+  int fd = ::mkstemp(name);
+  if (fd < 0) {
+    forget(slot_);
+    throw OutputError(path_, std::string("cannot write: ") + std::strerror(errno));
+  }
+  temp_path_ = name;
   stream_ = ::fdopen(fd, "w+b");  // + : a writer may read back what it wrote (PlyStreamWriter)
   if (!stream_) {
     ::close(fd);
