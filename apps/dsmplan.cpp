@@ -49,6 +49,34 @@ int fail(const std::string& message, int exit_code) {
   return exit_code;
 }
 
+// One of a flag's named values, else ArgumentError listing them.
+template <typename T>
+T parse_choice(const char* flag, const std::string& value, const std::vector<std::pair<std::string, T>>& choices) {
+  std::string names;
+  for (const auto& [name, choice] : choices) {
+    if (name == value) return choice;
+    names += (names.empty() ? "" : ", ") + name;
+  }
+  throw ArgumentError(flag, "must be one of " + names + ", got '" + value + "'");
+}
+
+// --home "a,b": two numbers, or NaN, NaN when not given.
+std::array<double, 2> parse_home(const std::string& text) {
+  if (text.empty()) return {NAN, NAN};
+  const size_t comma = text.find(',');
+  try {
+    size_t used_a = 0, used_b = 0;
+    if (comma == std::string::npos) throw std::invalid_argument("");
+    const std::string a = text.substr(0, comma), b = text.substr(comma + 1);
+    const std::array<double, 2> home{std::stod(a, &used_a), std::stod(b, &used_b)};
+    if (used_a != a.size() || used_b != b.size() || !std::isfinite(home[0]) || !std::isfinite(home[1]))
+      throw std::invalid_argument("");
+    return home;
+  } catch (const std::exception&) {
+    throw ArgumentError("--home", "must be x,y in the mesh's CRS or lon,lat in degrees, got '" + text + "'");
+  }
+}
+
 }  // namespace
 
 // Rank 0 of an MPI run releases the workers however its job ends.
@@ -260,6 +288,19 @@ int main(int argc, char** argv) {
                      "Accept a ballpark height transformation (or an unknown vertical reference) for WGS 84 output");
   plan_cmd->add_option("--stats", plan_stats, "Write statistics as JSON to this file");
   plan_cmd->add_flag("-q,--quiet", quiet, "No progress output");
+  std::string home, end, altitude_frame = "relative", firmware = "generic";
+  plan_cmd->add_option("--home", home,
+                       "Missions: where the drone takes off, x,y in the mesh's CRS (m) or lon,lat (degrees); "
+                       "default: the ground under the first waypoint");
+  plan_cmd->add_option("--end", end, "Missions: rtl (a planned leg back above home, then return to launch), land "
+                                     "(at the last waypoint) or none; default rtl");
+  plan_cmd->add_option("--altitude-frame", altitude_frame, "Missions: relative (m above home) or amsl (m above mean sea level)")
+      ->capture_default_str();
+  plan_cmd->add_option("--firmware", firmware, "Missions: px4, ardupilot or generic")->capture_default_str();
+  plan_cmd->add_option("--speed", plan.mission.format.speed, "Missions: speed along the route (m/s, (0, 100])")
+      ->capture_default_str();
+  double hover_speed = NAN;
+  plan_cmd->add_option("--hover-speed", hover_speed, "Missions: the .plan's hoverSpeed (m/s, (0, 100]); default --speed");
 
   ViewOptions view;
   CLI::App* view_cmd = app.add_subcommand(
@@ -350,6 +391,13 @@ int main(int argc, char** argv) {
       plan.plan.planner = planner == "rrtconnect" ? PlannerKind::rrt_connect : PlannerKind::prm;
       if (seed < 0) throw ArgumentError("--seed", "must be >= 0, got " + std::to_string(seed));
       plan.plan.seed = static_cast<uint64_t>(seed);
+      plan.mission.home = parse_home(home);
+      if (!end.empty()) plan.mission.end = parse_choice<MissionEnd>("--end", end, {{"rtl", MissionEnd::rtl}, {"land", MissionEnd::land}, {"none", MissionEnd::none}});
+      plan.mission.format.altitude_frame = parse_choice<AltitudeFrame>(
+          "--altitude-frame", altitude_frame, {{"relative", AltitudeFrame::relative}, {"amsl", AltitudeFrame::amsl}});
+      plan.mission.format.firmware = parse_choice<Firmware>(
+          "--firmware", firmware, {{"px4", Firmware::px4}, {"ardupilot", Firmware::ardupilot}, {"generic", Firmware::generic}});
+      plan.mission.format.hover_speed = std::isnan(hover_speed) ? plan.mission.format.speed : hover_speed;
       // The roadmap file is read when it exists and written when not: it may be neither of the others.
       refuse_overwrites({{"MESH", plan.mesh}, {"--waypoints", plan.waypoints}, {"--dsm", plan.dsm}, {"--dtm", plan.dtm}},
                         {{"-o", plan.output}, {"--stats", plan_stats}, {"--roadmap", plan.roadmap}});

@@ -922,6 +922,20 @@ struct PlanFixture {
     const auto made = run_cli({"mesh", testkit::data_path(kSample), "-o", mesh, "--res", "2", "-q"});
     if (made.exit_code != 0) throw std::runtime_error("mesh failed: " + made.err);
   }
+  // The DSM's cell under (x, y).
+  double cell(double x, double y) const {
+    const int col = int(std::floor((x - dsm.gt[0]) / dsm.gt[1])), row = int(std::floor((y - dsm.gt[3]) / dsm.gt[5]));
+    if (col < 0 || row < 0 || col >= dsm.width || row >= dsm.height) return NAN;
+    return dsm.z[size_t(row) * dsm.width + col];
+  }
+  // The ground dsmplan counts from at (x, y): the DSM's cell, the lowest of those whose closed
+  // squares hold the point on a side or corner.
+  double ground(double x, double y) const {
+    double low = INFINITY;
+    for (const double ex : {-1e-9, 1e-9})
+      for (const double ey : {-1e-9, 1e-9}) low = std::min(low, cell(x + ex, y + ey));
+    return low;
+  }
   // Highest DSM cell within `r` of (x, y).
   double highest(double x, double y, double r) const {
     double top = -INFINITY;
@@ -1333,15 +1347,139 @@ TEST(CliBadInput, PlanUnknownPlannerOrNegativeSeed) {
 // heights given as EGM96 (--vertical-crs EPSG:5773) reach mean sea level unchanged, so the first
 // and last items must carry the first and last waypoints' heights.
 
+// ---- flyable missions --------------------------------------------------------------------------
+
+// Least distance from p to the DSM's cells as solid columns (each a box over its square, from
+// below up to its height), by brute force over the cells within r; r when none is nearer.
+double distance_to_columns(const Raster& dsm, const std::array<double, 3>& p, double r) {
+  double best = r;
+  const int c0 = std::max(0, int(std::floor((p[0] - r - dsm.gt[0]) / dsm.gt[1])));
+  const int c1 = std::min(dsm.width - 1, int(std::floor((p[0] + r - dsm.gt[0]) / dsm.gt[1])));
+  const int r0 = std::max(0, int(std::floor((p[1] + r - dsm.gt[3]) / dsm.gt[5])));
+  const int r1 = std::min(dsm.height - 1, int(std::floor((p[1] - r - dsm.gt[3]) / dsm.gt[5])));
+  for (int row = r0; row <= r1; ++row)
+    for (int col = c0; col <= c1; ++col) {
+      const double x0 = dsm.gt[0] + col * dsm.gt[1], x1 = x0 + dsm.gt[1];
+      const double y1 = dsm.gt[3] + row * dsm.gt[5], y0 = y1 + dsm.gt[5];
+      const double dx = std::max({0.0, x0 - p[0], p[0] - x1}), dy = std::max({0.0, y0 - p[1], p[1] - y1});
+      const double dz = std::max(0.0, p[2] - dsm.z[size_t(row) * dsm.width + col]);
+      best = std::min(best, std::sqrt(dx * dx + dy * dy + dz * dz));
+    }
+  return best;
+}
+
+struct MissionLine {
+  int command = 0, frame = 0;
+  std::array<double, 3> xyz{};  // in EPSG:25832; z above mean sea level (the data's heights here)
+};
+
+// A .waypoints file read back: items (home first) with their positions in UTM, altitudes made
+// absolute with home's.
+std::vector<MissionLine> read_mission_utm(const std::string& path) {
+  OGRSpatialReferenceH utm = OSRNewSpatialReference(nullptr), wgs = OSRNewSpatialReference(nullptr);
+  OSRImportFromEPSG(utm, 25832);
+  OSRImportFromEPSG(wgs, 4326);
+  OSRSetAxisMappingStrategy(utm, OAMS_TRADITIONAL_GIS_ORDER);
+  OSRSetAxisMappingStrategy(wgs, OAMS_TRADITIONAL_GIS_ORDER);
+  OGRCoordinateTransformationH to_utm = OCTNewCoordinateTransformation(wgs, utm);
+  std::vector<MissionLine> lines;
+  std::istringstream wpl(testkit::read_file(path));
+  std::string line;
+  std::getline(wpl, line);
+  while (std::getline(wpl, line)) {
+    std::vector<std::string> f;
+    std::istringstream split(line);
+    for (std::string field; std::getline(split, field, '\t');) f.push_back(field);
+    if (f.size() != 12) throw std::runtime_error("not 12 fields: " + line);
+    MissionLine item;
+    item.command = std::stoi(f[3]);
+    item.frame = std::stoi(f[2]);
+    double x = std::stod(f[9]), y = std::stod(f[8]);  // longitude, latitude
+    if (!OCTTransform(to_utm, 1, &x, &y, nullptr)) throw std::runtime_error("transform");
+    item.xyz = {x, y, std::stod(f[10]) + (item.frame == 3 ? lines.front().xyz[2] : 0)};
+    lines.push_back(item);
+  }
+  OCTDestroyCoordinateTransformation(to_utm);
+  OSRDestroySpatialReference(utm);
+  OSRDestroySpatialReference(wgs);
+  return lines;
+}
+
+// Every straight line a mission flies, sampled every 5 cm: its least distance to the DSM's
+// columns and its greatest height above the DSM's cell below. The vertical climb at home and the
+// descent of a landing are counted from 1 m plus `safety` above the ground, as documented.
+struct MissionFlight {
+  double least_clearance = INFINITY, most_above = -INFINITY;
+  size_t positions = 0;
+};
+MissionFlight fly(const std::vector<MissionLine>& items, const PlanFixture& f, double safety) {
+  MissionFlight flight;
+  const auto& home = items.front().xyz;
+  std::vector<std::array<double, 3>> route;
+  std::vector<std::pair<std::array<double, 3>, std::array<double, 3>>> legs;
+  for (size_t i = 1; i < items.size(); ++i) {
+    const MissionLine& item = items[i];
+    if (item.command == 22) {
+      route.push_back({home[0], home[1], item.xyz[2]});
+      legs.push_back({{home[0], home[1], std::min(item.xyz[2], home[2] + 1 + safety)}, route.back()});
+    } else if (item.command == 16) {
+      legs.push_back({route.back(), item.xyz});
+      route.push_back(item.xyz);
+    } else if (item.command == 21) {
+      const auto& top = route.back();
+      legs.push_back({{top[0], top[1], std::min(top[2], item.xyz[2] + 1 + safety)}, top});
+    }
+  }
+  flight.positions = route.size();
+  for (const auto& [a, b] : legs) {
+    const double length = std::hypot(b[0] - a[0], b[1] - a[1], b[2] - a[2]);
+    const int steps = std::max(1, int(std::ceil(length / 0.05)));
+    for (int k = 0; k <= steps; ++k) {
+      const double t = double(k) / steps;
+      const std::array<double, 3> p{a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1]), a[2] + t * (b[2] - a[2])};
+      flight.least_clearance = std::min(flight.least_clearance, distance_to_columns(f.dsm, p, safety + 1));
+      flight.most_above = std::max(flight.most_above, p[2] - f.cell(p[0], p[1]));
+    }
+  }
+  return flight;
+}
+
+// A waypoint CSV with its comment lines.
+std::vector<std::array<double, 3>> read_waypoints_csv_file(const std::string& path) {
+  std::istringstream in(testkit::read_file(path));
+  std::string kept;
+  for (std::string line; std::getline(in, line);)
+    if (line.rfind("#", 0) != 0) kept += line + "\n";
+  TempDir dir;
+  testkit::write_file(dir.path("w.csv"), kept);
+  return read_path_csv(dir.path("w.csv"));
+}
+
+struct MissionFixture : PlanFixture {
+  std::string bounded = in.path("bounded.ply");
+  std::string low = testkit::data_path("nrw-dom1/low_waypoints.csv");
+  MissionFixture() {
+    const auto made = run_cli({"simplify", testkit::data_path(kSample), "--max-error", "0.4", "--conservative", "-o",
+                               bounded, "-q"});
+    if (made.exit_code != 0) throw std::runtime_error("simplify failed: " + made.err);
+  }
+  testkit::CliResult plan(const std::string& output, std::vector<std::string> extra) const {
+    std::vector<std::string> args{"plan", bounded, "--waypoints", low, "-o", output, "--dsm", testkit::data_path(kSample),
+                                  "--max-agl", "30", "--spacing", "10", "--vertical-crs", "EPSG:5773", "-q"};
+    args.insert(args.end(), extra.begin(), extra.end());
+    return run_cli(args);
+  }
+};
+
 TEST(CliPlan, MissionsAndKmlCarryTheWaypointsInLatLonAndMeanSeaLevelHeights) {
-  PlanFixture f;
+  MissionFixture f;
   const auto waypoints = f.corners();
   f.write_waypoints(waypoints);
   TempDir out;
   const std::vector<std::string> egm96{"--vertical-crs", "EPSG:5773"};
   auto run = [&](const std::string& name, bool quiet) {
-    std::vector<std::string> args{"plan", f.mesh, "--waypoints", f.waypoints, "-o", out.path(name), "--stats",
-                                  out.path(name + ".json")};
+    std::vector<std::string> args{"plan", f.bounded, "--waypoints", f.waypoints, "-o", out.path(name), "--stats",
+                                  out.path(name + ".json"), "--dsm", testkit::data_path(kSample)};
     args.insert(args.end(), egm96.begin(), egm96.end());
     if (quiet) args.push_back("-q");
     return run_cli(args);
@@ -1374,20 +1512,35 @@ TEST(CliPlan, MissionsAndKmlCarryTheWaypointsInLatLonAndMeanSeaLevelHeights) {
   const json plan = json::parse(testkit::read_file(out.path("m.plan")));
   EXPECT_EQ(plan["fileType"], "Plan");
   const json& items = plan["mission"]["items"];
-  ASSERT_GE(items.size(), 3u);
-  // The summary line counts the points written: the mission's items.
-  EXPECT_NE(written.out.find("m.plan: " + std::to_string(items.size()) + " points"), std::string::npos) << written.out;
-  for (size_t i : {size_t{0}, items.size() - 1}) {
-    const auto& w = i == 0 ? lonlath.front() : lonlath.back();
-    const json& p = items[i]["params"];
+  ASSERT_GE(items.size(), 5u);
+  // The summary counts the mission's items.
+  EXPECT_NE(written.out.find("mission: " + std::to_string(items.size()) + " items"), std::string::npos) << written.out;
+  // Home on the ground under the first waypoint (the DSM's cell: EGM96 heights are the data's
+  // here), the takeoff there to the first waypoint, the last waypoint, back above home, RTL.
+  const double ground = f.ground(waypoints.front()[0], waypoints.front()[1]);
+  const json& home = plan["mission"]["plannedHomePosition"];
+  EXPECT_NEAR(home[0].get<double>(), lonlath.front()[1], 2e-9);
+  EXPECT_NEAR(home[1].get<double>(), lonlath.front()[0], 2e-9);
+  EXPECT_NEAR(home[2].get<double>(), ground, 1e-3);
+  EXPECT_EQ(items[0]["command"], 22);
+  EXPECT_EQ(items[1]["command"], 178);
+  EXPECT_EQ(items.back()["command"], 20);
+  size_t last_waypoint = 0;
+  for (size_t i = 2; i + 1 < items.size(); ++i) {
     EXPECT_EQ(items[i]["command"], 16);
-    EXPECT_EQ(items[i]["frame"], 0);
-    EXPECT_NEAR(p[4].get<double>(), w[1], 2e-9);  // latitude first
-    EXPECT_NEAR(p[5].get<double>(), w[0], 2e-9);
-    EXPECT_NEAR(p[6].get<double>(), w[2], 1e-3);
+    EXPECT_EQ(items[i]["frame"], 3);  // relative to home
+    const json& p = items[i]["params"];
+    if (std::abs(p[4].get<double>() - lonlath.back()[1]) < 2e-9 && std::abs(p[5].get<double>() - lonlath.back()[0]) < 2e-9)
+      last_waypoint = i;
   }
-  EXPECT_EQ(plan["mission"]["plannedHomePosition"],
-            (json{items[0]["params"][4], items[0]["params"][5], items[0]["params"][6]}));
+  ASSERT_GT(last_waypoint, 0u) << "the last waypoint is not an item";
+  EXPECT_NEAR(items[last_waypoint]["params"][6].get<double>() + ground, lonlath.back()[2], 1e-3);
+  for (size_t i : {size_t{0}, items.size() - 2}) {  // the takeoff, and the return above home
+    const json& p = items[i]["params"];
+    EXPECT_NEAR(p[4].get<double>(), lonlath.front()[1], 2e-9);  // latitude first
+    EXPECT_NEAR(p[5].get<double>(), lonlath.front()[0], 2e-9);
+    EXPECT_NEAR(p[6].get<double>() + ground, lonlath.front()[2], 1e-3);
+  }
 
   ASSERT_EQ(run("m.waypoints", true).exit_code, 0);
   std::istringstream wpl(testkit::read_file(out.path("m.waypoints")));
@@ -1395,25 +1548,20 @@ TEST(CliPlan, MissionsAndKmlCarryTheWaypointsInLatLonAndMeanSeaLevelHeights) {
   std::getline(wpl, line);
   EXPECT_EQ(line, "QGC WPL 110");
   size_t lines = 0;
-  std::vector<std::string> last;
   while (std::getline(wpl, line)) {
     std::vector<std::string> fields;
     std::istringstream split(line);
     for (std::string field; std::getline(split, field, '\t');) fields.push_back(field);
     ASSERT_EQ(fields.size(), 12u) << line;
     EXPECT_EQ(std::stoul(fields[0]), lines);
-    if (lines == 1) {  // the first waypoint after home
+    if (lines <= 1) {  // home (absolute), then the takeoff above it (relative)
       EXPECT_NEAR(std::stod(fields[8]), lonlath.front()[1], 2e-9);
       EXPECT_NEAR(std::stod(fields[9]), lonlath.front()[0], 2e-9);
-      EXPECT_NEAR(std::stod(fields[10]), lonlath.front()[2], 1e-3);
+      EXPECT_NEAR(std::stod(fields[10]), lines == 0 ? ground : lonlath.front()[2] - ground, 1e-3);
     }
-    last = fields;
     ++lines;
   }
-  EXPECT_EQ(lines, items.size() + 1);  // the same thinned points, home first
-  ASSERT_EQ(last.size(), 12u);
-  EXPECT_NEAR(std::stod(last[8]), lonlath.back()[1], 2e-9);
-  EXPECT_NEAR(std::stod(last[9]), lonlath.back()[0], 2e-9);
+  EXPECT_EQ(lines, items.size() + 1);  // the same items, home first
 
   ASSERT_EQ(run("m.kml", true).exit_code, 0);
   const std::string kml = testkit::read_file(out.path("m.kml"));
@@ -1425,11 +1573,6 @@ TEST(CliPlan, MissionsAndKmlCarryTheWaypointsInLatLonAndMeanSeaLevelHeights) {
     const std::string prefix(expected, std::strlen(expected) - 3);
     EXPECT_NE(kml.find(prefix), std::string::npos) << expected;
   }
-  // KML keeps every point of the path (the same path: the planner is deterministic); the mission
-  // may have dropped points on straight runs, never added any.
-  const size_t begin = kml.find("<coordinates>\n"), end = kml.find("</coordinates>");
-  ASSERT_NE(begin, std::string::npos);
-  EXPECT_LE(items.size(), size_t(std::count(kml.begin() + begin, kml.begin() + end, '\n')) - 1);
 }
 
 TEST(CliBadInput, MissionsNeedAKnownAndExactVerticalReference) {
@@ -1447,50 +1590,168 @@ TEST(CliBadInput, MissionsNeedAKnownAndExactVerticalReference) {
   expect_clean_failure(plan("m.txt", {"--vertical-crs", "EPSG:5773"}), out, "-o", {".plan"});
 }
 
-TEST(CliPlan, MissionDropsOnlyPointsWithinACentimetreOfItsLegs) {
-  PlanFixture f;
+TEST(CliPlan, MissionItemsAreFewAndTheirStraightLinesKeepSafetyAndCeilingOnTheDsm) {
+  MissionFixture f;
   TempDir out;
-  const std::string waypoints = testkit::data_path("nrw-dom1/sample_waypoints.csv");
-  for (const std::string name : {"p.csv", "p.waypoints"})
-    ASSERT_EQ(run_cli({"plan", f.mesh, "--waypoints", waypoints, "-o", out.path(name), "--vertical-crs", "EPSG:5773",
-                       "-q"}).exit_code, 0);
+  ASSERT_EQ(f.plan(out.path("p.csv"), {}).exit_code, 0);
   const auto path = read_path_csv(out.path("p.csv"));
-  // The mission's items back in UTM by GDAL (EGM96 heights are the data's heights here).
+  const auto user = read_waypoints_csv_file(f.low);
+  for (const std::string end : {"rtl", "land", "none"}) {
+    const auto run = f.plan(out.path(end + ".waypoints"), {"--end", end});
+    ASSERT_EQ(run.exit_code, 0) << run.err;
+    const auto items = read_mission_utm(out.path(end + ".waypoints"));
+    // Home on the DSM under the first waypoint; the takeoff first, the end last.
+    EXPECT_NEAR(items[0].xyz[0], user.front()[0], 1e-3);
+    EXPECT_NEAR(items[0].xyz[1], user.front()[1], 1e-3);
+    EXPECT_NEAR(items[0].xyz[2], f.ground(user.front()[0], user.front()[1]), 1e-3);
+    EXPECT_EQ(items[1].command, 22);
+    EXPECT_EQ(items[2].command, 178);
+    EXPECT_EQ(items.back().command, end == "rtl" ? 20 : end == "land" ? 21 : 16);
+    // Every waypoint of the file is an item, in order.
+    size_t found = 0;
+    for (const MissionLine& item : items)
+      if (found < user.size() && (item.command == 16 || item.command == 22) &&
+          std::hypot(item.xyz[0] - user[found][0], item.xyz[1] - user[found][1], item.xyz[2] - user[found][2]) < 2e-3)
+        ++found;
+    EXPECT_EQ(found, user.size()) << end;
+    // The limits hold on the straight lines between the items, measured on the DSM itself.
+    const MissionFlight flight = fly(items, f, 2.0);
+    EXPECT_GE(flight.least_clearance, 2.0 - 0.01) << end;
+    EXPECT_LE(flight.most_above, 30 + 0.05) << end;
+    // Few items: the path has a point every few metres, the mission one per turn it needs.
+    EXPECT_LT(flight.positions * 4, path.size()) << end << ": " << flight.positions << " of " << path.size();
+    if (end == "none") {  // the oracle sees a line through a building: an item moved into the DSM
+      auto broken = items;
+      broken[4].xyz[2] = f.cell(broken[4].xyz[0], broken[4].xyz[1]) - 1;
+      EXPECT_LT(fly(broken, f, 2.0).least_clearance, 0.5);
+    }
+    if (end == "rtl") {  // back above home before the return
+      const auto& back = items[items.size() - 2].xyz;
+      EXPECT_NEAR(back[0], items[0].xyz[0], 1e-3);
+      EXPECT_NEAR(back[1], items[0].xyz[1], 1e-3);
+    }
+  }
+}
+
+TEST(CliPlan, MissionFromAHomeElsewhereLandsAtTheEndInAbsoluteAltitudes) {
+  MissionFixture f;
+  TempDir out;
+  const auto user = read_waypoints_csv_file(f.low);
+  // A flat open spot 30-60 m from the first waypoint: no cell within 3 m more than 0.3 m higher.
+  std::array<double, 2> spot{NAN, NAN};
+  for (double dy = -60; dy <= 60 && std::isnan(spot[0]); dy += 1)
+    for (double dx = -60; dx <= 60 && std::isnan(spot[0]); dx += 1) {
+      const double x = user[0][0] + dx + 0.5, y = user[0][1] + dy + 0.5, r = std::hypot(dx, dy);
+      if (r < 30 || r > 60) continue;
+      if (std::isnan(f.cell(x - 4, y - 4)) || std::isnan(f.cell(x + 4, y + 4))) continue;  // inside the DSM
+      if (f.highest(x, y, 3.5) - f.cell(x, y) <= 0.3 && f.cell(x, y) < user[0][2] - 5) spot = {x, y};
+    }
+  ASSERT_FALSE(std::isnan(spot[0])) << "no open spot near the first waypoint";
+  char home[64];
+  std::snprintf(home, sizeof home, "%.3f,%.3f", spot[0], spot[1]);
+  const auto run = f.plan(out.path("m.waypoints"), {"--home", home, "--end", "land", "--altitude-frame", "amsl",
+                                                    "--firmware", "ardupilot", "--speed", "4", "--stats", out.path("s.json")});
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  const auto items = read_mission_utm(out.path("m.waypoints"));
+  const double ground = f.ground(spot[0], spot[1]);
+  EXPECT_NEAR(items[0].xyz[0], spot[0], 1e-3);
+  EXPECT_NEAR(items[0].xyz[1], spot[1], 1e-3);
+  EXPECT_NEAR(items[0].xyz[2], ground, 1e-3);
+  // The takeoff climbs at home as high above its ground as the first waypoint is above its own.
+  EXPECT_EQ(items[1].command, 22);
+  EXPECT_EQ(items[1].frame, 0);  // absolute
+  EXPECT_NEAR(items[1].xyz[0], spot[0], 1e-3);
+  EXPECT_NEAR(items[1].xyz[2] - ground, user[0][2] - f.ground(user[0][0], user[0][1]), 1e-3);
+  // Lands at the last waypoint, on the DSM's cell there.
+  EXPECT_EQ(items.back().command, 21);
+  EXPECT_NEAR(items.back().xyz[0], user.back()[0], 1e-3);
+  EXPECT_NEAR(items.back().xyz[1], user.back()[1], 1e-3);
+  EXPECT_NEAR(items.back().xyz[2], f.ground(user.back()[0], user.back()[1]), 1e-3);
+  const MissionFlight flight = fly(items, f, 2.0);
+  EXPECT_GE(flight.least_clearance, 2.0 - 0.01);
+  EXPECT_LE(flight.most_above, 30 + 0.05);
+  const json stats = json::parse(testkit::read_file(out.path("s.json")));
+  EXPECT_EQ(stats["mission_items"], items.size() - 1);
+  EXPECT_EQ(stats["mission_end"], "land");
+
+  // The same home in degrees; the .plan says ArduPilot and its speed.
+  double lon = spot[0], lat = spot[1];
   OGRSpatialReferenceH utm = OSRNewSpatialReference(nullptr), wgs = OSRNewSpatialReference(nullptr);
   OSRImportFromEPSG(utm, 25832);
   OSRImportFromEPSG(wgs, 4326);
   OSRSetAxisMappingStrategy(utm, OAMS_TRADITIONAL_GIS_ORDER);
   OSRSetAxisMappingStrategy(wgs, OAMS_TRADITIONAL_GIS_ORDER);
-  OGRCoordinateTransformationH to_utm = OCTNewCoordinateTransformation(wgs, utm);
-  std::vector<std::array<double, 3>> legs;
-  std::istringstream wpl(testkit::read_file(out.path("p.waypoints")));
-  std::string line;
-  std::getline(wpl, line);
-  for (size_t k = 0; std::getline(wpl, line); ++k) {
-    std::vector<std::string> fields;
-    std::istringstream split(line);
-    for (std::string field; std::getline(split, field, '\t');) fields.push_back(field);
-    ASSERT_EQ(fields.size(), 12u);
-    double x = std::stod(fields[9]), y = std::stod(fields[8]);  // longitude, latitude
-    ASSERT_TRUE(OCTTransform(to_utm, 1, &x, &y, nullptr));
-    if (k > 0) legs.push_back({x, y, std::stod(fields[10])});  // item 0 is home
-  }
-  OCTDestroyCoordinateTransformation(to_utm);
+  OGRCoordinateTransformationH to_wgs = OCTNewCoordinateTransformation(utm, wgs);
+  ASSERT_TRUE(OCTTransform(to_wgs, 1, &lon, &lat, nullptr));
+  OCTDestroyCoordinateTransformation(to_wgs);
   OSRDestroySpatialReference(utm);
   OSRDestroySpatialReference(wgs);
-  ASSERT_GE(legs.size(), 2u);
-  EXPECT_LT(legs.size(), path.size()) << "the spline's straight runs should have been thinned";
-  for (const auto& p : path) {
-    double best = INFINITY;
-    for (size_t k = 1; k < legs.size(); ++k) {
-      const auto &a = legs[k - 1], &b = legs[k];
-      const double ab[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]}, ap[3] = {p[0] - a[0], p[1] - a[1], p[2] - a[2]};
-      const double len2 = ab[0] * ab[0] + ab[1] * ab[1] + ab[2] * ab[2];
-      const double t = len2 > 0 ? std::clamp((ab[0] * ap[0] + ab[1] * ap[1] + ab[2] * ap[2]) / len2, 0.0, 1.0) : 0;
-      best = std::min(best, std::hypot(ap[0] - t * ab[0], ap[1] - t * ab[1], ap[2] - t * ab[2]));
-    }
-    EXPECT_LE(best, 0.01 + 0.002) << p[0] << "," << p[1] << "," << p[2];  // 1 cm + the text's rounding
+  std::snprintf(home, sizeof home, "%.10f,%.10f", lon, lat);
+  ASSERT_EQ(f.plan(out.path("m.plan"), {"--home", home, "--firmware", "ardupilot", "--speed", "4"}).exit_code, 0);
+  const json plan = json::parse(testkit::read_file(out.path("m.plan")));
+  EXPECT_EQ(plan["mission"]["firmwareType"], 3);
+  EXPECT_EQ(plan["mission"]["cruiseSpeed"], 4);
+  EXPECT_EQ(plan["mission"]["hoverSpeed"], 4);
+  EXPECT_NEAR(plan["mission"]["plannedHomePosition"][0].get<double>(), lat, 1e-8);
+  EXPECT_NEAR(plan["mission"]["plannedHomePosition"][1].get<double>(), lon, 1e-8);
+  EXPECT_NEAR(plan["mission"]["plannedHomePosition"][2].get<double>(), ground, 1e-3);
+}
+
+TEST(CliBadInput, MissionHomeEndAndFirmwareRefusedInOneLine) {
+  MissionFixture f;
+  TempDir out;
+  const auto user = read_waypoints_csv_file(f.low);
+  expect_clean_failure(f.plan(out.path("m.plan"), {"--home", "356000,5699000"}), out, "--home", {"outside"});
+  expect_clean_failure(f.plan(out.path("m.plan"), {"--home", "356400"}), out, "--home", {"x,y"});
+  expect_clean_failure(f.plan(out.path("m.plan"), {"--firmware", "dji"}), out, "--firmware", {"px4, ardupilot"});
+  expect_clean_failure(f.plan(out.path("m.plan"), {"--end", "hover"}), out, "--end", {"rtl, land"});
+  expect_clean_failure(f.plan(out.path("m.plan"), {"--altitude-frame", "agl"}), out, "--altitude-frame", {"relative"});
+  expect_clean_failure(f.plan(out.path("m.plan"), {"--speed", "0"}), out, "--speed", {"(0, 100]"});
+  expect_clean_failure(f.plan(out.path("m.csv"), {"--home", "356400,5699400"}), out, "--home", {"missions"});
+  expect_clean_failure(f.plan(out.path("m.csv"), {"--end", "land"}), out, "--end", {"missions"});
+  // A home against a wall: the climb passes nearer than the safety distance.
+  std::array<double, 2> wall{NAN, NAN};
+  for (double dx = 0.5; dx < 60 && std::isnan(wall[0]); dx += 1) {
+    const double x = user[0][0] + dx, y = user[0][1] + 0.5;
+    if (f.cell(x + 1, y) - f.cell(x, y) > 8) wall = {x, y};
   }
+  ASSERT_FALSE(std::isnan(wall[0])) << "no wall east of the first waypoint";
+  char at[64];
+  std::snprintf(at, sizeof at, "%.2f,%.2f", wall[0], wall[1]);
+  expect_clean_failure(f.plan(out.path("m.plan"), {"--home", at}), out, "--home", {"climb", "obstacle"});
+  // With a terrain model, a home and a landing under roofs are told apart from the ground.
+  // A terrain model made as a crude ground filter would: the lowest DSM cell within 12 m.
+  std::string points;
+  for (int i = 0; i < 100; ++i)
+    for (int j = 0; j < 100; ++j) {
+      const double x = 356302.5 + 5 * i, y = 5699252.5 + 5 * j;
+      double low = INFINITY;
+      for (double dx = -12; dx <= 12; dx += 1)
+        for (double dy = -12; dy <= 12; dy += 1)
+          if (std::abs(x + dx - 356550) < 250 && std::abs(y + dy - 5699500) < 250) low = std::min(low, f.cell(x + dx, y + dy));
+      points += std::to_string(x) + " " + std::to_string(y) + " " + std::to_string(low) + "\n";
+    }
+  testkit::write_file(f.in.path("dtm.xyz"), points);
+  ASSERT_EQ(run_cli({"grid", f.in.path("dtm.xyz"), "--crs", "EPSG:25832", "--res", "5", "-o", f.in.path("dtm.tif"), "-q"})
+                .exit_code,
+            0);
+  std::array<double, 2> roof{NAN, NAN};
+  double top = -INFINITY;
+  for (int row = 2; row < f.dsm.height - 2; ++row)
+    for (int col = 2; col < f.dsm.width - 2; ++col)
+      if (f.dsm.z[size_t(row) * f.dsm.width + col] > top)
+        top = f.dsm.z[size_t(row) * f.dsm.width + col], roof = {f.dsm.gt[0] + col + 0.5, f.dsm.gt[3] - row - 0.5};
+  std::snprintf(at, sizeof at, "%.2f,%.2f", roof[0], roof[1]);
+  expect_clean_failure(f.plan(out.path("m.plan"), {"--home", at, "--dtm", f.in.path("dtm.tif")}), out, "--home",
+                       {"under a roof"});
+  // The last waypoint above that roof, landing there.
+  std::vector<std::array<double, 3>> over_roof = user;
+  over_roof.back() = {roof[0], roof[1], top + 5};
+  f.write_waypoints(over_roof);
+  const auto land = run_cli({"plan", f.bounded, "--waypoints", f.waypoints, "-o", out.path("m.plan"), "--dsm",
+                             testkit::data_path(kSample), "--dtm", f.in.path("dtm.tif"), "--vertical-crs", "EPSG:5773",
+                             "--end", "land", "-q"});
+  expect_clean_failure(land, out, "--end", {"under a roof"});
 }
 
 // ---- GLB and --of -----------------------------------------------------------------------------

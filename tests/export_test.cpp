@@ -1117,34 +1117,81 @@ std::vector<WplItem> read_wpl_as_qgc(const std::string& text) {
 
 }  // namespace
 
+// A mission over the NRW tile: home on the street, 17.25 m up to the first point, two more.
+Mission sample_mission(MissionEnd end) {
+  Mission mission;
+  mission.home = {6.933290123, 51.426401234, 160.25};
+  mission.route = {{6.933290123, 51.426401234, 177.5}, {6.9341, 51.4269, 180.25}, {6.935, 51.4271, 179}};
+  mission.end = end;
+  if (end == MissionEnd::land) mission.land = {6.935, 51.4271, 158};
+  return mission;
+}
+
+// What the autopilots check before they fly a mission, written from their sources (not from ours):
+// ArduPilot, AP_Mission::starts_with_takeoff_cmd(): from index 1 (0 is home), the first
+// navigation command (id <= MAV_CMD_NAV_LAST, 95), skipping NAV_DELAY (93), is NAV_TAKEOFF (22).
+bool ardupilot_starts_with_takeoff(const std::vector<WplItem>& items) {
+  for (size_t i = 1; i < items.size(); ++i) {
+    const int id = items[i].command;
+    if (id > 95 || id == 93) continue;
+    return id == 22;
+  }
+  return false;
+}
+// PX4, FeasibilityChecker::checkTakeoff(): the takeoff is the first item with a position (not
+// DO_CHANGE_SPEED 178, DELAY 93, ...), its altitude above home, and (older releases) at least
+// 1 m above the altitude acceptance radius (0.8 m).
+bool px4_takeoff_feasible(const std::vector<WplItem>& items, double home_amsl) {
+  for (size_t i = 1; i < items.size(); ++i) {
+    const WplItem& item = items[i];
+    if (item.command == 178 || item.command == 93 || item.command == 177) continue;
+    if (item.command != 22) return false;
+    const double above_home = item.frame == 3 ? item.altitude : item.altitude - home_amsl;
+    return above_home - 1.0 >= 0.8;
+  }
+  return false;
+}
+
 TEST(MissionText, PlanMatchesTheGoldenFileAndPassesTheQgcSchema) {
-  const std::string text = path_to_qgc_plan(kMission);
+  const Mission mission = sample_mission(MissionEnd::rtl);
+  const std::string text = mission_to_qgc_plan(mission);
   EXPECT_EQ(text, testkit::read_file(test_data("path.plan")));
   const auto plan = nlohmann::json::parse(text);
   const auto errors = plan_schema_errors(plan);
   EXPECT_TRUE(errors.empty()) << errors.front();
+  EXPECT_EQ(plan["mission"]["globalPlanAltitudeMode"], 1);  // relative to home
+  EXPECT_EQ(plan["mission"]["firmwareType"], 0);
   const auto& items = plan["mission"]["items"];
-  ASSERT_EQ(items.size(), kMission.size());
+  const std::vector<int> commands{22, 178, 16, 16, 20}, frames{3, 2, 3, 3, 2};
+  ASSERT_EQ(items.size(), commands.size());
   for (size_t i = 0; i < items.size(); ++i) {
-    EXPECT_EQ(items[i]["command"], 16);
-    EXPECT_EQ(items[i]["frame"], 0);  // MAV_FRAME_GLOBAL: altitude above mean sea level
-    EXPECT_EQ(items[i]["AltitudeMode"], 2);
+    EXPECT_EQ(items[i]["command"], commands[i]) << i;
+    EXPECT_EQ(items[i]["frame"], frames[i]) << i;
     EXPECT_EQ(items[i]["doJumpId"], i + 1);
-    EXPECT_TRUE(items[i]["params"][3].is_null());
-    EXPECT_NEAR(items[i]["params"][4].get<double>(), kMission[i][1], 1e-12);  // latitude first
-    EXPECT_NEAR(items[i]["params"][5].get<double>(), kMission[i][0], 1e-12);
-    EXPECT_NEAR(items[i]["params"][6].get<double>(), kMission[i][2], 1e-12);
-    EXPECT_EQ(items[i]["Altitude"], items[i]["params"][6]);
+    EXPECT_EQ(items[i].contains("Altitude"), frames[i] == 3) << i;  // positions only, as QGC saves them
   }
+  // The takeoff at home, to the first point's height above home; the points after it.
   const auto& home = plan["mission"]["plannedHomePosition"];
-  EXPECT_EQ(home, (nlohmann::json{items[0]["params"][4], items[0]["params"][5], items[0]["params"][6]}));
+  EXPECT_NEAR(home[0].get<double>(), mission.home[1], 1e-12);
+  EXPECT_NEAR(home[1].get<double>(), mission.home[0], 1e-12);
+  EXPECT_NEAR(home[2].get<double>(), mission.home[2], 1e-12);
+  for (size_t i : {0, 2, 3}) {
+    const Point3& p = mission.route[i == 0 ? 0 : i - 1];
+    EXPECT_NEAR(items[i]["params"][4].get<double>(), p[1], 1e-12);  // latitude first
+    EXPECT_NEAR(items[i]["params"][5].get<double>(), p[0], 1e-12);
+    EXPECT_NEAR(items[i]["params"][6].get<double>(), p[2] - mission.home[2], 1e-9);
+    EXPECT_EQ(items[i]["Altitude"], items[i]["params"][6]);
+    EXPECT_EQ(items[i]["AltitudeMode"], 1);
+    EXPECT_TRUE(items[i]["params"][3].is_null());  // yaw: the vehicle's own
+  }
+  EXPECT_EQ(items[1]["params"][1], 5);  // m/s
 
   // The validator does validate: broken plans are caught.
   auto broken = plan;
   broken["fileType"] = "Mission";
   EXPECT_FALSE(plan_schema_errors(broken).empty());
   broken = plan;
-  broken["mission"]["items"][1]["params"].erase(6);
+  broken["mission"]["items"][2]["params"].erase(6);
   EXPECT_FALSE(plan_schema_errors(broken).empty());
   broken = plan;
   broken["mission"]["items"][0]["params"][4] = 356320.5;  // an easting where the latitude goes
@@ -1155,23 +1202,75 @@ TEST(MissionText, PlanMatchesTheGoldenFileAndPassesTheQgcSchema) {
 }
 
 TEST(MissionText, WplMatchesTheGoldenFileAndReadsAsQgcReadsIt) {
-  const std::string text = path_to_qgc_wpl(kMission);
+  const Mission mission = sample_mission(MissionEnd::rtl);
+  const std::string text = mission_to_qgc_wpl(mission);
   EXPECT_EQ(text, testkit::read_file(test_data("path.waypoints")));
   const auto items = read_wpl_as_qgc(text);
-  ASSERT_EQ(items.size(), kMission.size() + 1);  // home first
+  const std::vector<int> commands{16, 22, 178, 16, 16, 20};
+  ASSERT_EQ(items.size(), commands.size());  // home first
   for (size_t i = 0; i < items.size(); ++i) {
-    const Point3& p = kMission[i == 0 ? 0 : i - 1];
     EXPECT_EQ(items[i].index, int(i));
     EXPECT_EQ(items[i].current, i == 0 ? 1 : 0);
-    EXPECT_EQ(items[i].frame, 0);
-    EXPECT_EQ(items[i].command, 16);
+    EXPECT_EQ(items[i].command, commands[i]);
     EXPECT_EQ(items[i].autocontinue, 1);
-    for (double q : items[i].param) EXPECT_EQ(q, 0);
     EXPECT_LE(std::abs(items[i].latitude), 90);
-    EXPECT_NEAR(items[i].latitude, p[1], 5e-10);
-    EXPECT_NEAR(items[i].longitude, p[0], 5e-10);
-    EXPECT_NEAR(items[i].altitude, p[2], 5e-4);
   }
+  // Home: absolute, as ArduPilot keeps item 0.
+  EXPECT_EQ(items[0].frame, 0);
+  EXPECT_NEAR(items[0].latitude, mission.home[1], 5e-10);
+  EXPECT_NEAR(items[0].longitude, mission.home[0], 5e-10);
+  EXPECT_NEAR(items[0].altitude, mission.home[2], 5e-4);
+  for (size_t i : {1, 3, 4}) {
+    const Point3& p = mission.route[i == 1 ? 0 : i - 2];
+    EXPECT_EQ(items[i].frame, 3);
+    EXPECT_NEAR(items[i].latitude, i == 1 ? mission.home[1] : p[1], 5e-10);
+    EXPECT_NEAR(items[i].longitude, i == 1 ? mission.home[0] : p[0], 5e-10);
+    EXPECT_NEAR(items[i].altitude, p[2] - mission.home[2], 5e-4);
+  }
+}
+
+TEST(MissionText, EveryFirmwareFrameAndEndIsWhatArduPilotAndPx4Fly) {
+  for (const MissionEnd end : {MissionEnd::rtl, MissionEnd::land, MissionEnd::none})
+    for (const AltitudeFrame frame : {AltitudeFrame::relative, AltitudeFrame::amsl})
+      for (const Firmware firmware : {Firmware::generic, Firmware::px4, Firmware::ardupilot}) {
+        const Mission mission = sample_mission(end);
+        MissionOptions options;
+        options.altitude_frame = frame;
+        options.firmware = firmware;
+        options.speed = 3.5;
+        options.hover_speed = 2;
+        const auto items = read_wpl_as_qgc(mission_to_qgc_wpl(mission, options));
+        EXPECT_TRUE(ardupilot_starts_with_takeoff(items));
+        EXPECT_TRUE(px4_takeoff_feasible(items, mission.home[2]));
+        const double base = frame == AltitudeFrame::relative ? mission.home[2] : 0;
+        for (size_t i = 1; i < items.size(); ++i)
+          if (items[i].command == 16 || items[i].command == 22)
+            EXPECT_EQ(items[i].frame, frame == AltitudeFrame::relative ? 3 : 0);
+        EXPECT_NEAR(items[1].altitude + base, mission.route[0][2], 5e-4);  // the takeoff's top
+        EXPECT_EQ(items[2].param[1], 3.5);
+        const WplItem& last = items.back();
+        if (end == MissionEnd::rtl) EXPECT_EQ(last.command, 20);
+        if (end == MissionEnd::none) EXPECT_EQ(last.command, 16);
+        if (end == MissionEnd::land) {
+          EXPECT_EQ(last.command, 21);
+          EXPECT_NEAR(last.latitude, mission.land[1], 5e-10);
+          EXPECT_NEAR(last.altitude + base, mission.land[2], 5e-4);
+        }
+        const auto plan = nlohmann::json::parse(mission_to_qgc_plan(mission, options));
+        EXPECT_TRUE(plan_schema_errors(plan).empty());
+        EXPECT_EQ(plan["mission"]["firmwareType"], firmware == Firmware::px4 ? 12 : firmware == Firmware::ardupilot ? 3 : 0);
+        EXPECT_EQ(plan["mission"]["globalPlanAltitudeMode"], frame == AltitudeFrame::relative ? 1 : 2);
+        EXPECT_EQ(plan["mission"]["cruiseSpeed"], 3.5);
+        EXPECT_EQ(plan["mission"]["hoverSpeed"], 2);
+      }
+  // The oracles refuse what the autopilots refuse: waypoints before any takeoff, a takeoff below home.
+  auto items = read_wpl_as_qgc(mission_to_qgc_wpl(sample_mission(MissionEnd::rtl)));
+  std::swap(items[1], items[3]);
+  EXPECT_FALSE(ardupilot_starts_with_takeoff(items));
+  EXPECT_FALSE(px4_takeoff_feasible(items, 160.25));
+  items = read_wpl_as_qgc(mission_to_qgc_wpl(sample_mission(MissionEnd::rtl)));
+  items[1].altitude = 1.5;
+  EXPECT_FALSE(px4_takeoff_feasible(items, 160.25));
 }
 
 TEST(MissionText, KmlMatchesTheGoldenFileAndGdalReadsLonLatAbsoluteAltitudes) {
@@ -1225,15 +1324,36 @@ TEST(MissionText, KmlMatchesTheGoldenFileAndGdalReadsLonLatAbsoluteAltitudes) {
     for (int k = 0; k < 3; ++k) EXPECT_NEAR(points[i][0][k], marks[i][k], 1e-9);
 }
 
-TEST(MissionText, RefusesNoPointsAndPointsThatAreNotLonLat) {
-  EXPECT_THROW(path_to_qgc_plan({}), ArgumentError);
-  EXPECT_THROW(path_to_qgc_wpl({}), ArgumentError);
+TEST(MissionText, RefusesWhatCannotFly) {
+  const auto refused = [](const Mission& mission, const MissionOptions& options = {}) {
+    EXPECT_THROW(mission_to_qgc_plan(mission, options), ArgumentError);
+    EXPECT_THROW(mission_to_qgc_wpl(mission, options), ArgumentError);
+  };
+  Mission m = sample_mission(MissionEnd::rtl);
+  m.route.clear();
+  refused(m);
   EXPECT_THROW(path_to_kml({}), ArgumentError);
-  EXPECT_THROW(path_to_qgc_wpl({{356320, 5699270, 130}}), ArgumentError);  // UTM, not degrees
-  EXPECT_THROW(path_to_qgc_plan({{6.9, 51.4, NAN}}), ArgumentError);
+  m = sample_mission(MissionEnd::rtl);
+  m.route[1] = {356320, 5699270, 130};  // UTM, not degrees
+  refused(m);
+  m = sample_mission(MissionEnd::rtl);
+  m.route[2][2] = NAN;
+  refused(m);
+  m = sample_mission(MissionEnd::rtl);
+  m.route[0][0] += 1e-5;  // the takeoff's top not above home
+  refused(m);
+  m = sample_mission(MissionEnd::rtl);
+  m.route[0][2] = m.home[2] + 1.9;  // too low a takeoff
+  refused(m);
+  m = sample_mission(MissionEnd::land);
+  m.land = {NAN, NAN, NAN};
+  refused(m);
   MissionOptions still;
   still.hover_speed = 0;
-  EXPECT_THROW(path_to_qgc_plan(kMission, still), ArgumentError);
+  refused(sample_mission(MissionEnd::rtl), still);
+  MissionOptions rocket;
+  rocket.speed = 101;
+  refused(sample_mission(MissionEnd::rtl), rocket);
 }
 
 TEST(MissionText, MeanSeaLevelRoundTripThroughTheWplTextLandsWithinAMillimetre) {
@@ -1260,10 +1380,17 @@ TEST(MissionText, MeanSeaLevelRoundTripThroughTheWplTextLandsWithinAMillimetre) 
     const Point3 back = t.from_wgs84(lonlatamsl.back());
     EXPECT_LT(std::hypot(back[0] - p[0], back[1] - p[1], back[2] - p[2]), 1e-3);
   }
-  const auto items = read_wpl_as_qgc(path_to_qgc_wpl(lonlatamsl));
-  ASSERT_EQ(items.size(), path.size() + 1);
+  Mission mission;
+  mission.home = {lonlatamsl[0][0], lonlatamsl[0][1], lonlatamsl[0][2] - 20};
+  mission.route = lonlatamsl;
+  mission.end = MissionEnd::none;
+  MissionOptions amsl;
+  amsl.altitude_frame = AltitudeFrame::amsl;
+  const auto items = read_wpl_as_qgc(mission_to_qgc_wpl(mission, amsl));
+  ASSERT_EQ(items.size(), path.size() + 2);  // home, takeoff, speed, the points after the first
   for (size_t i = 0; i < path.size(); ++i) {
-    const Point3 back = t.from_wgs84({items[i + 1].longitude, items[i + 1].latitude, items[i + 1].altitude});
+    const WplItem& item = items[i == 0 ? 1 : i + 2];  // the takeoff climbs to the first point
+    const Point3 back = t.from_wgs84({item.longitude, item.latitude, item.altitude});
     EXPECT_LT(std::hypot(back[0] - path[i][0], back[1] - path[i][1], back[2] - path[i][2]), 1e-3) << i;
   }
 }

@@ -328,39 +328,71 @@ std::string path_to_geojson(const std::vector<Point3>& lonlath, const std::strin
 
 // ---- drone missions and KML (formatting only; the caller transforms) ----------------------
 //
-// Input: the path's points as WGS 84 longitude, latitude (degrees) and height above mean sea
-// level (EGM96, Wgs84Transform with HeightReference::MeanSeaLevel): what MAVLink's
-// MAV_FRAME_GLOBAL and QGroundControl call AMSL, and what KML 2.2 states its altitudes in (CRS
-// LonLat84_5773, EGM96 geoid). Each point becomes one MAV_CMD_NAV_WAYPOINT (16) in
-// MAV_FRAME_GLOBAL (0: absolute altitude); the first is also the planned home. Degrees are
-// written to 1e-9 (0.1 mm), altitudes to 1 mm. ArgumentError when there is no point, or a point
-// is not finite or outside longitude [-180, 180], latitude [-90, 90] (e.g. still in UTM).
-// The formats' sources (QGC's and MAVLink's documentation, OGC KML 2.2): mission_writers.cpp.
+// Input: WGS 84 longitude, latitude (degrees) and height above mean sea level (EGM96,
+// Wgs84Transform with HeightReference::MeanSeaLevel): what MAVLink's MAV_FRAME_GLOBAL and
+// QGroundControl call AMSL, and what KML 2.2 states its altitudes in (CRS LonLat84_5773).
+// Degrees are written to 1e-9 (0.1 mm), altitudes to 1 mm. ArgumentError when a point is not
+// finite or outside longitude [-180, 180], latitude [-90, 90] (e.g. still in UTM).
+// The formats' sources (QGC's and MAVLink's documentation, the autopilots' mission checks,
+// OGC KML 2.2): mission_writers.cpp.
+
+enum class Firmware { generic, px4, ardupilot };  ///< MAV_AUTOPILOT 0, 12, 3
+enum class MissionEnd { rtl, land, none };        ///< after the route: return to launch, land there, nothing
+enum class AltitudeFrame {
+  relative,  ///< metres above home (MAV_FRAME_GLOBAL_RELATIVE_ALT, QGC AltitudeMode 1): how most missions fly
+  amsl       ///< metres above mean sea level (MAV_FRAME_GLOBAL, QGC AltitudeMode 2)
+};
+
+/// A mission as an autopilot flies it: armed at `home` on the ground, a vertical takeoff to
+/// route[0] (directly above home), straight lines through the route, then `end`.
+struct Mission {
+  Point3 home{NAN, NAN, NAN};  ///< lon, lat, AMSL height of the ground at home (the planned home)
+  std::vector<Point3> route;   ///< lon, lat, AMSL; route[0] is the top of the takeoff, above home
+  MissionEnd end = MissionEnd::rtl;
+  Point3 land{NAN, NAN, NAN};  ///< end == land: lon, lat, AMSL height of the ground it lands on
+};
+
+/// Takeoff tops closer to home than this are refused: PX4 accepts a takeoff only 1 m above its
+/// altitude acceptance radius (0.8 m by default), and lower than that is no flight anyway.
+constexpr double kMinTakeoffHeight = 2.0;
 
 struct MissionOptions {
-  double cruise_speed = 15;  ///< m/s, .plan: default speed of fixed-wing vehicles (QGC's default)
-  double hover_speed = 5;    ///< m/s, .plan: default speed of multirotors (QGC's default)
-  /// .plan: MAV_AUTOPILOT the plan is for; 0 (generic) since NAV_WAYPOINT in the global frame
-  /// is common to every autopilot (12 PX4, 3 ArduPilot).
-  int firmware_type = 0;
-  int vehicle_type = 2;  ///< .plan: MAV_TYPE, 2 = quadrotor
+  Firmware firmware = Firmware::generic;  ///< .plan's firmwareType; NAV_* items are common to all three
+  AltitudeFrame altitude_frame = AltitudeFrame::relative;
+  /// m/s along the route: a MAV_CMD_DO_CHANGE_SPEED (ground speed) after the takeoff, and the
+  /// .plan's cruiseSpeed. (0, 100].
+  double speed = 5;
+  double hover_speed = 5;  ///< m/s, .plan's hoverSpeed (QGC's time estimate for multirotors). (0, 100]
+  int vehicle_type = 2;    ///< .plan: MAV_TYPE, 2 = quadrotor
   std::string name = "dsmplan path";  ///< KML: the Document's name
   std::string description;            ///< KML: the Document's description (e.g. the transformation), may be empty
 };
 
-/// A QGroundControl plan (JSON, "Plan File Format"): fileType "Plan", version 1, groundStation
-/// "QGroundControl"; mission version 2, globalPlanAltitudeMode 2 (absolute), one SimpleItem per
-/// point {AMSLAltAboveTerrain null, Altitude, AltitudeMode 2, autoContinue true, command 16,
-/// doJumpId 1.., frame 0, params [0, 0, 0, null (yaw: the vehicle's own), lat, lon, alt]},
-/// plannedHomePosition [lat, lon, alt] of the first point; empty geoFence and rallyPoints
-/// (version 2). Also ArgumentError for speeds that are not positive.
-std::string path_to_qgc_plan(const std::vector<Point3>& lonlatamsl, const MissionOptions& options = {});
+/// The mission items, in this order for both formats: MAV_CMD_NAV_TAKEOFF (22) at home to the
+/// altitude of route[0]; MAV_CMD_DO_CHANGE_SPEED (178: ground speed, `speed`, throttle -1);
+/// MAV_CMD_NAV_WAYPOINT (16) for route[1..]; then MAV_CMD_NAV_RETURN_TO_LAUNCH (20) or
+/// MAV_CMD_NAV_LAND (21) at `land`, or nothing. Altitudes in `altitude_frame`; relative ones
+/// are the AMSL height less home's. What the autopilots check is met: ArduPilot's first
+/// navigation command after home (item 0 of a WPL) is the takeoff (AP_Mission::
+/// starts_with_takeoff_cmd, else "Missing Takeoff Cmd"); PX4's takeoff is the first item with a
+/// position and above home (FeasibilityChecker::checkTakeoff).
+/// ArgumentError: an empty route; a point as above; route[0] more than 1e-7 degrees from above
+/// home; a takeoff less than kMinTakeoffHeight above home; end == land without a land point;
+/// speeds outside (0, 100].
+///
+/// A QGroundControl plan (JSON, "Plan File Format"): fileType "Plan", version 1; mission version
+/// 2 with firmwareType, vehicleType, cruiseSpeed, hoverSpeed, globalPlanAltitudeMode (1 relative,
+/// 2 absolute), plannedHomePosition [lat, lon, AMSL] of home; SimpleItems {autoContinue true,
+/// command, doJumpId 1.., frame, params [p1..p4, lat, lon, alt], type}; positional items also
+/// AMSLAltAboveTerrain null, Altitude, AltitudeMode. Empty geoFence and rallyPoints (version 2).
+std::string mission_to_qgc_plan(const Mission& mission, const MissionOptions& options = {});
 
-/// A MAVLink plain-text mission, "QGC WPL 110" (Mission Planner's .waypoints): the header line,
-/// then "INDEX CURRENT FRAME COMMAND P1 P2 P3 P4 LATITUDE LONGITUDE ALTITUDE AUTOCONTINUE"
-/// separated by tabs: line 0 is home (the first point, current 1), lines 1..n the points
-/// (current 0); frame 0, command 16, P1..P4 = 0, autocontinue 1. Latitude comes before longitude.
-std::string path_to_qgc_wpl(const std::vector<Point3>& lonlatamsl);
+/// A MAVLink plain-text mission, "QGC WPL 110" (Mission Planner's .waypoints, ArduPilot's): the
+/// header line, then "INDEX CURRENT FRAME COMMAND P1 P2 P3 P4 LATITUDE LONGITUDE ALTITUDE
+/// AUTOCONTINUE" separated by tabs: line 0 is home (current 1, frame 0, AMSL, as ArduPilot
+/// keeps it), then the items as mission_to_qgc_plan() lists them (current 0, autocontinue 1).
+/// Latitude comes before longitude. Errors as mission_to_qgc_plan().
+std::string mission_to_qgc_wpl(const Mission& mission, const MissionOptions& options = {});
 
 /// KML 2.2: a Document with a Placemark "path" whose LineString has <altitudeMode>absolute
 /// </altitudeMode> and "lon,lat,alt" tuples one a line, then a Point Placemark "waypoint k"

@@ -250,6 +250,22 @@ std::vector<Point3> read_waypoints_csv(const std::string& path);
 /// is required. InputError(path, "feature N[, position K]" or "byte N", why) otherwise.
 std::vector<Point3> read_waypoints_geojson(const std::string& path);
 
+/// How a mission (.plan, .waypoints) takes off and ends. The takeoff is vertical at home, to the
+/// first waypoint's height above the ground (with the default home, the first waypoint itself);
+/// when home is elsewhere, the route from there to the first waypoint is planned like any leg.
+/// `--end rtl` plans a leg back above home, so that the autopilot's RTL, which flies a straight
+/// unchecked line at its own altitude, finds nothing left to fly but the descent; `land` descends
+/// at the last waypoint. The vertical climb and descent keep the safety distance from 1 m plus
+/// `safety` above the ground up (below, a drone is taking off or landing). Without a DTM the
+/// ground is the DSM's (or the mesh floor's) surface: a roof cannot be told from a street.
+struct MissionJobOptions {
+  /// x, y in the mesh's CRS, or longitude, latitude in degrees when |a| <= 180 and |b| <= 90;
+  /// NaN: the ground under the first waypoint.
+  std::array<double, 2> home{NAN, NAN};
+  std::optional<MissionEnd> end;  ///< unset: rtl; --home and --end apply to missions only
+  MissionOptions format;          ///< firmware, altitude frame, speeds
+};
+
 struct PlanJobOptions {
   std::string mesh;       ///< mesh file (read_mesh: .ply, .obj, .off), a 2.5D obstacle surface
   /// .csv: x,y,z in the mesh's CRS (read_waypoints_csv); .geojson/.json: WGS 84 longitude,
@@ -258,8 +274,8 @@ struct PlanJobOptions {
   /// The path, by extension: .csv "x,y,z" in the mesh's CRS (shortest exact decimals);
   /// .geojson/.json an RFC 7946 LineString Feature (WGS 84, ellipsoidal heights); missions in
   /// WGS 84 with heights above mean sea level (EGM96): .plan a QGroundControl plan
-  /// (path_to_qgc_plan), .waypoints a "QGC WPL 110" text mission (path_to_qgc_wpl), both without
-  /// the points within 1 cm of a straight leg (drop_straight_points); .kml a KML 2.2 LineString
+  /// (mission_to_qgc_plan), .waypoints a "QGC WPL 110" text mission (mission_to_qgc_wpl), both
+  /// flyable (MissionJobOptions) with the fewest items whose straight lines keep the limits; .kml a KML 2.2 LineString
   /// with altitudeMode absolute and the waypoints as Points (path_to_kml), every path point.
   std::string output;
   std::string format;     ///< csv, geojson, plan, waypoints or kml; empty: from the output's extension
@@ -278,6 +294,7 @@ struct PlanJobOptions {
   /// When `mesh` is a DSM (a raster or VRT mosaic, not a mesh file): planned along a corridor,
   /// window by window (plan_corridor()), on conservative bounded meshes made on the fly.
   CorridorOptions corridor;
+  MissionJobOptions mission;  ///< .plan and .waypoints: home, end, firmware, altitude frame, speeds
 };
 
 struct PlanReport {
@@ -309,6 +326,12 @@ struct PlanReport {
   /// heights), then "; path by: " the missions' and KML's (to EGM96 heights); empty when none.
   std::string transformation;
   double seconds_load = 0, seconds_roadmap = 0, seconds_query = 0, seconds_smooth = 0;
+  /// Missions: the items written (takeoff, speed, waypoints, end), home (x, y in the CRS, z its
+  /// ground) and the height of the takeoff above it.
+  size_t mission_items = 0;
+  Point3 home{NAN, NAN, NAN};
+  double takeoff_height_m = NAN;
+  std::string mission_end;  ///< rtl, land or none
 };
 
 /// Mesh file + waypoints -> roadmap -> path (plan_path(), see plan.hpp) -> CSV, GeoJSON, a

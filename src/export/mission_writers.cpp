@@ -1,13 +1,24 @@
 // Drone missions and KML from a path. Formatting only: the points come transformed to WGS 84
 // longitude, latitude and height above mean sea level (Wgs84Transform, HeightReference::
-// MeanSeaLevel, EGM96) and are written as the formats' documentation says:
+// MeanSeaLevel, EGM96) and are written as the formats' documentation says, in the item order
+// the autopilots check before they fly:
+//   ArduPilot: AP_Mission::starts_with_takeoff_cmd() (libraries/AP_Mission/AP_Mission.cpp): the
+//     first navigation command from index 1 (0 is home) must be MAV_CMD_NAV_TAKEOFF, else
+//     ArduCopter refuses AUTO on the ground ("Missing Takeoff Cmd"); DO_ commands are skipped.
+//   PX4: FeasibilityChecker::checkTakeoff() (src/modules/navigator/MissionFeasibility): the
+//     takeoff must be the first item with a position and above home; older releases also want
+//     it 1 m above the altitude acceptance radius (kMinTakeoffHeight).
+//   MAVLink commands and frames: common.xml (MAV_CMD_NAV_TAKEOFF 22, MAV_CMD_NAV_WAYPOINT 16,
+//     MAV_CMD_NAV_LAND 21, MAV_CMD_NAV_RETURN_TO_LAUNCH 20, MAV_CMD_DO_CHANGE_SPEED 178;
+//     MAV_FRAME_GLOBAL 0, MAV_FRAME_MISSION 2, MAV_FRAME_GLOBAL_RELATIVE_ALT 3).
 //   QGroundControl .plan: "Plan File Format", QGroundControl Developer Guide
 //     (docs.qgroundcontrol.com, qgc-dev-guide/file_formats/plan): fileType "Plan", version 1;
 //     mission version 2 with firmwareType (MAV_AUTOPILOT), vehicleType (MAV_TYPE), cruiseSpeed,
 //     hoverSpeed, items (SimpleItem: command, frame, params = MISSION_ITEM param1..4, x = latitude,
 //     y = longitude, z = altitude), plannedHomePosition [latitude, longitude, AMSL altitude].
-//     QGC writes a NaN parameter as null and reads null back as NaN; AltitudeMode 2 is QGC's
-//     AltitudeModeAbsolute (its enum: Mixed, Relative, Absolute, CalcAboveTerrain, TerrainFrame).
+//     QGC writes a NaN parameter as null and reads null back as NaN; AltitudeMode 1 and 2 are
+//     QGC's Relative and Absolute (its enum: Mixed, Relative, Absolute, CalcAboveTerrain,
+//     TerrainFrame). Items without a position (speed, return) carry no Altitude keys, as QGC's.
 //   QGC WPL 110: "File Formats", MAVLink Developer Guide (mavlink.io/en/file_formats): a header
 //     line, then one mission item a line, 12 tab-separated fields INDEX CURRENT_WP COORD_FRAME
 //     COMMAND PARAM1..4 PARAM5/X/LATITUDE PARAM6/Y/LONGITUDE PARAM7/Z/ALTITUDE AUTOCONTINUE; item 0
@@ -30,8 +41,15 @@ namespace dsmplan {
 
 namespace {
 
-constexpr int kMavCmdNavWaypoint = 16;  // MAV_CMD_NAV_WAYPOINT
-constexpr int kMavFrameGlobal = 0;      // MAV_FRAME_GLOBAL: altitude above mean sea level
+constexpr int kMavCmdNavWaypoint = 16;
+constexpr int kMavCmdNavReturnToLaunch = 20;
+constexpr int kMavCmdNavLand = 21;
+constexpr int kMavCmdNavTakeoff = 22;
+constexpr int kMavCmdDoChangeSpeed = 178;
+constexpr int kMavFrameGlobal = 0;             // altitude above mean sea level
+constexpr int kMavFrameMission = 2;            // no position
+constexpr int kMavFrameGlobalRelativeAlt = 3;  // altitude above home
+constexpr int kQgcAltitudeModeRelative = 1;
 constexpr int kQgcAltitudeModeAbsolute = 2;
 
 void check_points(const std::vector<Point3>& lonlatamsl, const char* what) {
@@ -56,6 +74,61 @@ std::string fixed(double v, int decimals) {
 }
 std::string degrees(double v) { return fixed(v, 9); }
 std::string metres(double v) { return fixed(v, 3); }
+// A parameter: its shortest exact-enough decimal, null (.plan) or 0 (.waypoints) for NaN.
+std::string parameter(double v, bool nan_as_null) {
+  if (std::isnan(v)) return nan_as_null ? "null" : "0";
+  char buffer[64];
+  std::snprintf(buffer, sizeof buffer, "%.9g", v);
+  return buffer;
+}
+
+struct Item {
+  int command, frame;
+  double param[4];
+  double latitude = 0, longitude = 0, altitude = 0;
+  bool positional = false;
+};
+
+// The items in flying order (see the top); positions in latitude, longitude, altitude in frame.
+std::vector<Item> mission_items(const Mission& mission, const MissionOptions& options) {
+  if (mission.route.empty()) throw ArgumentError("mission", "a mission needs at least one point");
+  check_points({mission.home}, "mission home");
+  check_points(mission.route, "mission");
+  for (const double speed : {options.speed, options.hover_speed})
+    if (!(speed > 0 && speed <= 100)) throw ArgumentError("mission", "speeds must lie in (0, 100] m/s, got " + fixed(speed, 3));
+  const Point3& top = mission.route.front();
+  if (std::abs(top[0] - mission.home[0]) > 1e-7 || std::abs(top[1] - mission.home[1]) > 1e-7)
+    throw ArgumentError("mission", "the route's first point is the top of the takeoff and must lie above home");
+  if (!(top[2] - mission.home[2] >= kMinTakeoffHeight))
+    throw ArgumentError("mission", "the takeoff climbs only " + fixed(top[2] - mission.home[2], 2) +
+                                       " m above home; autopilots want at least " + fixed(kMinTakeoffHeight, 1) + " m");
+  if (mission.end == MissionEnd::land) check_points({mission.land}, "mission landing");
+  const bool relative = options.altitude_frame == AltitudeFrame::relative;
+  const int frame = relative ? kMavFrameGlobalRelativeAlt : kMavFrameGlobal;
+  const auto at = [&](int command, const Point3& p) {
+    Item item{command, frame, {0, 0, 0, NAN}};
+    item.latitude = p[1], item.longitude = p[0];
+    item.altitude = relative ? p[2] - mission.home[2] : p[2];
+    item.positional = true;
+    return item;
+  };
+  // Takeoff at home to the top's altitude (params: pitch, -, -, yaw: the vehicle's own).
+  std::vector<Item> items{at(kMavCmdNavTakeoff, {mission.home[0], mission.home[1], top[2]})};
+  items.push_back({kMavCmdDoChangeSpeed, kMavFrameMission, {1, options.speed, -1, 0}});  // ground speed, m/s, throttle as is
+  for (size_t i = 1; i < mission.route.size(); ++i)
+    items.push_back(at(kMavCmdNavWaypoint, mission.route[i]));  // hold 0 s, acceptance and pass radius the autopilot's
+  if (mission.end == MissionEnd::rtl) items.push_back({kMavCmdNavReturnToLaunch, kMavFrameMission, {0, 0, 0, 0}});
+  if (mission.end == MissionEnd::land) items.push_back(at(kMavCmdNavLand, mission.land));
+  return items;
+}
+
+int mav_autopilot(Firmware firmware) {
+  switch (firmware) {
+    case Firmware::px4: return 12;
+    case Firmware::ardupilot: return 3;
+    default: return 0;
+  }
+}
 
 std::string xml_escaped(const std::string& text) {
   std::string out;
@@ -73,12 +146,9 @@ std::string xml_escaped(const std::string& text) {
 
 }  // namespace
 
-std::string path_to_qgc_plan(const std::vector<Point3>& lonlatamsl, const MissionOptions& options) {
-  check_points(lonlatamsl, "mission");
-  if (!(options.cruise_speed > 0) || !(options.hover_speed > 0) || !std::isfinite(options.cruise_speed) ||
-      !std::isfinite(options.hover_speed))
-    throw ArgumentError("mission", "cruise and hover speeds must be positive and finite");
-  const Point3& home = lonlatamsl.front();
+std::string mission_to_qgc_plan(const Mission& mission, const MissionOptions& options) {
+  const std::vector<Item> items = mission_items(mission, options);
+  const int mode = options.altitude_frame == AltitudeFrame::relative ? kQgcAltitudeModeRelative : kQgcAltitudeModeAbsolute;
   std::string text =
       "{\n"
       "    \"fileType\": \"Plan\",\n"
@@ -89,28 +159,31 @@ std::string path_to_qgc_plan(const std::vector<Point3>& lonlatamsl, const Missio
       "    },\n"
       "    \"groundStation\": \"QGroundControl\",\n"
       "    \"mission\": {\n"
-      "        \"cruiseSpeed\": " + fixed(options.cruise_speed, 3) + ",\n"
-      "        \"firmwareType\": " + std::to_string(options.firmware_type) + ",\n"
-      "        \"globalPlanAltitudeMode\": " + std::to_string(kQgcAltitudeModeAbsolute) + ",\n"
-      "        \"hoverSpeed\": " + fixed(options.hover_speed, 3) + ",\n"
+      "        \"cruiseSpeed\": " + parameter(options.speed, true) + ",\n"
+      "        \"firmwareType\": " + std::to_string(mav_autopilot(options.firmware)) + ",\n"
+      "        \"globalPlanAltitudeMode\": " + std::to_string(mode) + ",\n"
+      "        \"hoverSpeed\": " + parameter(options.hover_speed, true) + ",\n"
       "        \"items\": [\n";
-  for (size_t i = 0; i < lonlatamsl.size(); ++i) {
-    const Point3& p = lonlatamsl[i];
-    // params: hold time 0 s, acceptance radius 0 (the autopilot's default), pass-through 0,
-    // yaw NaN (null: keep the autopilot's heading behaviour), latitude, longitude, altitude.
-    text += "            {\n"
-            "                \"AMSLAltAboveTerrain\": null,\n"
-            "                \"Altitude\": " + metres(p[2]) + ",\n"
-            "                \"AltitudeMode\": " + std::to_string(kQgcAltitudeModeAbsolute) + ",\n"
-            "                \"autoContinue\": true,\n"
-            "                \"command\": " + std::to_string(kMavCmdNavWaypoint) + ",\n"
+  for (size_t i = 0; i < items.size(); ++i) {
+    const Item& item = items[i];
+    text += "            {\n";
+    if (item.positional)
+      text += "                \"AMSLAltAboveTerrain\": null,\n"
+              "                \"Altitude\": " + metres(item.altitude) + ",\n"
+              "                \"AltitudeMode\": " + std::to_string(mode) + ",\n";
+    text += "                \"autoContinue\": true,\n"
+            "                \"command\": " + std::to_string(item.command) + ",\n"
             "                \"doJumpId\": " + std::to_string(i + 1) + ",\n"
-            "                \"frame\": " + std::to_string(kMavFrameGlobal) + ",\n"
-            "                \"params\": [0, 0, 0, null, " + degrees(p[1]) + ", " + degrees(p[0]) + ", " +
-            metres(p[2]) + "],\n"
+            "                \"frame\": " + std::to_string(item.frame) + ",\n"
+            "                \"params\": [";
+    for (const double q : item.param) text += parameter(q, true) + ", ";
+    text += item.positional ? degrees(item.latitude) + ", " + degrees(item.longitude) + ", " + metres(item.altitude)
+                            : std::string("0, 0, 0");
+    text += "],\n"
             "                \"type\": \"SimpleItem\"\n"
-            "            }" + (i + 1 < lonlatamsl.size() ? ",\n" : "\n");
+            "            }" + std::string(i + 1 < items.size() ? ",\n" : "\n");
   }
+  const Point3& home = mission.home;
   text += "        ],\n"
           "        \"plannedHomePosition\": [" + degrees(home[1]) + ", " + degrees(home[0]) + ", " + metres(home[2]) +
           "],\n"
@@ -126,19 +199,21 @@ std::string path_to_qgc_plan(const std::vector<Point3>& lonlatamsl, const Missio
   return text;
 }
 
-std::string path_to_qgc_wpl(const std::vector<Point3>& lonlatamsl) {
-  check_points(lonlatamsl, "mission");
+std::string mission_to_qgc_wpl(const Mission& mission, const MissionOptions& options) {
+  const std::vector<Item> items = mission_items(mission, options);
   std::string text = "QGC WPL 110\n";
-  // Line 0 is home (current = 1), here the first point; the waypoints follow from index 1.
-  // param4 (yaw) is 0, not NaN: readers of this format parse it as a plain number, and
-  // ArduPilot, whose format this is, does not use it for a copter's waypoint.
-  const auto line = [&](size_t index, bool current, const Point3& p) {
-    text += std::to_string(index) + "\t" + (current ? "1" : "0") + "\t" + std::to_string(kMavFrameGlobal) + "\t" +
-            std::to_string(kMavCmdNavWaypoint) + "\t0\t0\t0\t0\t" + degrees(p[1]) + "\t" + degrees(p[0]) + "\t" +
-            metres(p[2]) + "\t1\n";
+  // Line 0 is home, always absolute (ArduPilot keeps it so); NaN parameters are written as 0:
+  // readers of this format parse plain numbers, and no field here needs "unset".
+  const auto line = [&](size_t index, const Item& item) {
+    text += std::to_string(index) + "\t" + (index == 0 ? "1" : "0") + "\t" + std::to_string(item.frame) + "\t" +
+            std::to_string(item.command);
+    for (const double q : item.param) text += "\t" + parameter(q, false);
+    text += "\t" + degrees(item.latitude) + "\t" + degrees(item.longitude) + "\t" + metres(item.altitude) + "\t1\n";
   };
-  line(0, true, lonlatamsl.front());
-  for (size_t i = 0; i < lonlatamsl.size(); ++i) line(i + 1, false, lonlatamsl[i]);
+  Item home{kMavCmdNavWaypoint, kMavFrameGlobal, {0, 0, 0, 0}};
+  home.latitude = mission.home[1], home.longitude = mission.home[0], home.altitude = mission.home[2];
+  line(0, home);
+  for (size_t i = 0; i < items.size(); ++i) line(i + 1, items[i]);
   return text;
 }
 

@@ -13,6 +13,7 @@
 #include "dsmplan/plan.hpp"
 #include "dsmplan/simplify.hpp"
 #include "dsmplan/tools.hpp"
+#include "tools/mission_parts.hpp"
 #include "tools/report_json.hpp"
 #include "tools/job_parts.hpp"
 #include "core/text.hpp"
@@ -138,6 +139,16 @@ PlanReport plan_job(const PlanJobOptions& options, const Progress& progress) {
   if (out_ext != "csv" && !geojson_out && !msl_out)
     throw ArgumentError("-o", "the path is written as .csv (x,y,z in the mesh's CRS), .geojson (WGS 84), .plan "
                               "(QGroundControl), .waypoints (QGC WPL 110) or .kml, got '" + options.output + "'");
+  // Missions take off from home and end (MissionJobOptions); the other formats are the path alone.
+  const bool mission_out = out_ext == "plan" || out_ext == "waypoints";
+  if (!mission_out && (!std::isnan(options.mission.home[0]) || !std::isnan(options.mission.home[1])))
+    throw ArgumentError("--home", "applies to missions (.plan, .waypoints), not to a ." + out_ext + " path");
+  if (!mission_out && options.mission.end)
+    throw ArgumentError("--end", "applies to missions (.plan, .waypoints), not to a ." + out_ext + " path");
+  if (mission_out)
+    for (const auto& [flag, speed] : {std::pair{"--speed", options.mission.format.speed},
+                                      std::pair{"--hover-speed", options.mission.format.hover_speed}})
+      if (!(speed > 0 && speed <= 100)) throw ArgumentError(flag, "must lie in (0, 100] m/s, got " + two_decimals(speed));
   check_plan_options(options.plan);
   if (!options.roadmap.empty() && options.plan.planner != PlannerKind::prm)
     throw ArgumentError("--roadmap", "only the prm planner keeps a roadmap; rrtconnect grows its trees per query");
@@ -187,6 +198,13 @@ PlanReport plan_job(const PlanJobOptions& options, const Progress& progress) {
   if (geo_in)
     for (Point3& p : waypoints) p = wgs84->from_wgs84(p);
   PlanResult result;
+  // A mission's home, takeoff and landing, and the waypoints with the legs they add.
+  detail::MissionSite site;
+  std::vector<Point3> route = waypoints;
+  const auto from_lonlat = [&](double lon, double lat) { return to_msl->from_wgs84({lon, lat, 0}); };
+  const auto failure_place = [&](const PlanResult& r) {
+    return mission_out ? detail::mission_place(r, site, waypoints.size()) : r.place();
+  };
   if (corridor) {
     CorridorOptions along = options.corridor;
     if (!options.dtm.empty()) {
@@ -196,16 +214,27 @@ PlanReport plan_job(const PlanJobOptions& options, const Progress& progress) {
     }
     report.ground = options.dtm.empty() ? "dsm" : "dtm";
     // A mission flies straight from item to item (see below): dropped before measuring.
-    if (out_ext == "plan" || out_ext == "waypoints")
+    if (mission_out) {
       along.finish_piece = [](const std::vector<Point3>& path) { return drop_straight_points(path, 0.01); };
+      const auto ground_z = [&](double x, double y) {
+        if (along.terrain) return -along.terrain->height_above({x, y, 0});
+        const Grid& frame = city->frame();
+        const double u = (x - frame.x0) / frame.cell_x, v = (frame.y0 - y) / frame.cell_y;
+        if (!(u >= 0 && v >= 0 && u < frame.width && v < frame.height)) return double(NAN);
+        return double(read_window(*city, static_cast<int>(u), static_cast<int>(v), 1, 1).z[0]);
+      };
+      site = detail::mission_site(options.mission, waypoints, ground_z, from_lonlat);
+      detail::check_vertical_legs_in(*city, site, waypoints, options.plan.safety);
+      route = detail::route_waypoints(waypoints, site);
+    }
     report.seconds_load = clock.lap();
-    const CorridorResult planned = plan_corridor(*city, waypoints, options.plan, along, sub_progress(progress, 0, 0.95));
+    const CorridorResult planned = plan_corridor(*city, route, options.plan, along, sub_progress(progress, 0, 0.95));
     result = planned.plan;
     report.seconds_load += planned.seconds_windows;
     take_planner_figures(result, report);
     report.corridor_windows = planned.windows;
     report.corridor_largest_window_cells = planned.largest_window_cells;
-    if (result.status != PlanStatus::Solved) throw InputError(options.waypoints, result.place(), result.reason);
+    if (result.status != PlanStatus::Solved) throw InputError(options.waypoints, failure_place(result), result.reason);
     report.path_points = result.path.size();
     report.path_length_m = path_length(result.path);
     report.min_clearance_m = planned.min_clearance_m;
@@ -258,6 +287,22 @@ PlanReport plan_job(const PlanJobOptions& options, const Progress& progress) {
   }
   const ClearanceIndex index(mesh);
   report.ground = !options.dtm.empty() ? "dtm" : !options.dsm.empty() ? "dsm" : "mesh floor";
+  // What a mission's straight items and vertical legs are held to: the DSM's columns when known,
+  // else the mesh; the ceiling over the ground in use.
+  const GroundGrid& ground = plan.ground ? *plan.ground : index.floor();
+  detail::FlightLimits limits;
+  limits.columns = options.dsm.empty() ? nullptr : &columns;
+  limits.mesh = &index;
+  limits.ground = &ground;
+  limits.safety = options.plan.safety;
+  limits.max_agl = options.plan.max_agl;
+  if (mission_out) {
+    const auto ground_z = [&](double x, double y) { return -ground.height_above({x, y, 0}); };
+    site = detail::mission_site(options.mission, waypoints, ground_z, from_lonlat);
+    const auto dsm_z = [&](double x, double y) { return options.dsm.empty() ? NAN : detail::height_at(columns, x, y); };
+    detail::check_vertical_legs(site, waypoints, limits, dsm_z);
+    route = detail::route_waypoints(waypoints, site);
+  }
   report.seconds_load = clock.lap();
 
   // A roadmap file is reused when it exists (and fits this mesh, ground and options), else made.
@@ -272,11 +317,11 @@ PlanReport plan_job(const PlanJobOptions& options, const Progress& progress) {
       write_roadmap(options.roadmap, map, fingerprint, plan);
     }
     const double seconds_roadmap = clock.lap();
-    result = query_roadmap(map, index, waypoints, plan);
+    result = query_roadmap(map, index, route, plan);
     result.seconds_roadmap = report.roadmap_reused ? 0 : seconds_roadmap;
     report.seconds_load += report.roadmap_reused ? seconds_roadmap : 0;
   } else {
-    result = plan_path(index, waypoints, plan, sub_progress(progress, 0.2, 0.9));
+    result = plan_path(index, route, plan, sub_progress(progress, 0.2, 0.9));
   }
   take_planner_figures(result, report);
   if (result.status != PlanStatus::Solved) {
@@ -286,11 +331,11 @@ PlanReport plan_job(const PlanJobOptions& options, const Progress& progress) {
       why += " (on the mesh the safety distance is --safety " + two_decimals(options.plan.safety) + " widened by " +
              two_decimals(report.safety_margin_m) + " m, as far as the DSM's columns may lie inside this mesh; a " +
              "conservative mesh of the DSM itself needs half a cell diagonal)";
-    throw InputError(options.waypoints, result.place(), why);
+    throw InputError(options.waypoints, failure_place(result), why);
   }
-  // A mission flies straight from item to item: points on a straight run of the spline's chords
-  // add items, not turns. Dropped within 1 cm (before the clearance below is measured on it).
-  if (out_ext == "plan" || out_ext == "waypoints") result.path = drop_straight_points(result.path, 0.01);
+  // A mission flies straight from item to item: as few items as keep the limits on those lines
+  // (before the clearance below is measured on them).
+  if (mission_out) result.path = detail::fewest_straight_legs(result.path, route, limits);
 
   report.path_points = result.path.size();
   report.path_length_m = path_length(result.path);
@@ -310,10 +355,20 @@ PlanReport plan_job(const PlanJobOptions& options, const Progress& progress) {
   } else if (msl_out) {
     std::vector<Point3> lonlatamsl, marks;
     for (const Point3& p : result.path) lonlatamsl.push_back(to_msl->to_wgs84(p));
-    if (out_ext == "plan") {
-      write_text_file(options.output, path_to_qgc_plan(lonlatamsl));
-    } else if (out_ext == "waypoints") {
-      write_text_file(options.output, path_to_qgc_wpl(lonlatamsl));
+    if (mission_out) {
+      Mission mission;
+      mission.home = to_msl->to_wgs84(site.home);
+      mission.route = lonlatamsl;
+      mission.route.front() = to_msl->to_wgs84(site.takeoff_top);  // exactly above home
+      mission.end = site.end;
+      if (site.end == MissionEnd::land) mission.land = to_msl->to_wgs84(site.land);
+      const std::string text = out_ext == "plan" ? mission_to_qgc_plan(mission, options.mission.format)
+                                                 : mission_to_qgc_wpl(mission, options.mission.format);
+      report.mission_items = 2 + (mission.route.size() - 1) + (site.end == MissionEnd::none ? 0 : 1);
+      report.home = site.home;
+      report.takeoff_height_m = site.takeoff_top[2] - site.home[2];
+      report.mission_end = site.end == MissionEnd::rtl ? "rtl" : site.end == MissionEnd::land ? "land" : "none";
+      write_text_file(options.output, text);
     } else {
       for (const Point3& p : waypoints) marks.push_back(to_msl->to_wgs84(p));
       MissionOptions kml;
@@ -357,6 +412,12 @@ Json to_json(const PlanReport& r) {
   j["refined_samples"] = r.refined_samples;
   j["planner"] = r.planner;
   if (!r.transformation.empty()) j["transformation"] = r.transformation;
+  if (r.mission_items) {
+    j["mission_items"] = r.mission_items;
+    j["home"] = {r.home[0], r.home[1], r.home[2]};
+    j["takeoff_height_m"] = r.takeoff_height_m;
+    j["mission_end"] = r.mission_end;
+  }
   if (r.corridor_windows) {
     j["corridor_windows"] = r.corridor_windows;
     j["corridor_largest_window_cells"] = r.corridor_largest_window_cells;
@@ -383,6 +444,15 @@ std::string to_text(const PlanReport& r) {
     std::snprintf(ceiling, sizeof ceiling, "at most %.2f m above the ground (%s) anywhere on the path\n", r.max_agl_m,
                   r.ground.c_str());
     text += ceiling;
+  }
+  if (r.mission_items) {
+    char mission[256];
+    std::snprintf(mission, sizeof mission,
+                  "mission: %zu items: takeoff at home (x %.2f, y %.2f, ground %.2f m) to %.2f m above it, %zu more "
+                  "points, then %s\n",
+                  r.mission_items, r.home[0], r.home[1], r.home[2], r.takeoff_height_m, r.path_points - 1,
+                  r.mission_end.c_str());
+    text += mission;
   }
   if (!r.transformation.empty()) text += "heights and coordinates to WGS 84 by: " + r.transformation + "\n";
   return text;

@@ -1,0 +1,171 @@
+// Flyable missions from a planned path: home on the ground, a vertical takeoff, the legs to and
+// from home planned like any other, the vertical climb and descent checked against the data, and
+// the fewest mission items whose straight lines keep the limits. The item order and what the
+// autopilots check of it: src/export/mission_writers.cpp.
+#include "tools/mission_parts.hpp"
+
+#include "core/text.hpp"
+
+namespace dsmplan::detail {
+
+namespace {
+
+constexpr double kSameSpot = 1e-6;      // m: a home this close to the first waypoint is under it
+constexpr double kTouchdown = 1.0;      // m above the ground where the check of a climb starts
+constexpr double kWrittenRounding = 0.01;  // m: what verify_limits() allows for written decimals
+
+bool same_point(const Point3& a, const Point3& b) {
+  return std::abs(a[0] - b[0]) <= kSameSpot && std::abs(a[1] - b[1]) <= kSameSpot && std::abs(a[2] - b[2]) <= kSameSpot;
+}
+
+}  // namespace
+
+double FlightLimits::clearance(const Point3& p, const Point3& q) const {
+  return columns ? column_clearance(*columns, p, q, safety) : mesh->clearance(p, q, safety);
+}
+
+bool FlightLimits::keeps(const Point3& p, const Point3& q) const {
+  if (ground && std::isfinite(max_agl) && !ground->below_ceiling(p, q, max_agl)) return false;
+  return clearance(p, q) >= safety;
+}
+
+std::vector<Point3> fewest_straight_legs(const std::vector<Point3>& path, const std::vector<Point3>& waypoints,
+                                        const FlightLimits& limits) {
+  if (path.size() < 3) return path;
+  // The waypoints are visited in order: the path's points that are them are kept.
+  std::vector<bool> visit(path.size(), false);
+  for (size_t i = 0, k = 0; i < path.size() && k < waypoints.size(); ++i)
+    if (same_point(path[i], waypoints[k])) visit[i] = true, ++k;
+  std::vector<Point3> kept{path.front()};
+  for (size_t i = 0; i + 1 < path.size();) {
+    size_t j = i + 1;
+    while (j + 1 < path.size() && !visit[j] && limits.keeps(path[i], path[j + 1])) ++j;
+    kept.push_back(path[j]);
+    i = j;
+  }
+  return kept;
+}
+
+MissionSite mission_site(const MissionJobOptions& options, const std::vector<Point3>& waypoints,
+                         const std::function<double(double, double)>& ground_z,
+                         const std::function<Point3(double, double)>& from_lonlat) {
+  MissionSite site;
+  site.end = options.end.value_or(MissionEnd::rtl);
+  const Point3& first = waypoints.front();
+  const Point3& last = waypoints.back();
+  const double under_first = ground_z(first[0], first[1]);
+  if (!std::isfinite(under_first))
+    throw ArgumentError("--home", "no ground under the first waypoint to count its height from");
+  double x = first[0], y = first[1];
+  const auto& [a, b] = options.home;
+  if (!std::isnan(a) || !std::isnan(b)) {
+    if (!std::isfinite(a) || !std::isfinite(b)) throw ArgumentError("--home", "must be two finite numbers, x,y or lon,lat");
+    const bool degrees = std::abs(a) <= 180 && std::abs(b) <= 90;
+    const Point3 p = degrees ? from_lonlat(a, b) : Point3{a, b, 0};
+    x = p[0], y = p[1];
+  }
+  const double ground = ground_z(x, y);
+  if (!std::isfinite(ground))
+    throw ArgumentError("--home", "x " + two_decimals(x) + ", y " + two_decimals(y) +
+                                      " lies outside the DSM (no ground known there to take off from)");
+  site.home = {x, y, ground};
+  site.takeoff_top = {x, y, ground + (first[2] - under_first)};
+  site.leading = std::hypot(x - first[0], y - first[1]) > kSameSpot;
+  if (!site.leading) site.takeoff_top = first;
+  site.returns = site.end == MissionEnd::rtl && !same_point(last, site.takeoff_top);
+  if (site.end == MissionEnd::land) {
+    const double below = ground_z(last[0], last[1]);
+    if (!std::isfinite(below)) throw ArgumentError("--end", "no ground known under the last waypoint to land on");
+    site.land = {last[0], last[1], below};
+  }
+  return site;
+}
+
+std::vector<Point3> route_waypoints(const std::vector<Point3>& waypoints, const MissionSite& site) {
+  std::vector<Point3> route;
+  if (site.leading) route.push_back(site.takeoff_top);
+  route.insert(route.end(), waypoints.begin(), waypoints.end());
+  if (site.returns) route.push_back(site.takeoff_top);
+  return route;
+}
+
+namespace {
+
+// The vertical leg from `top` down to 1 m plus the safety distance above `ground` (or only `top`
+// when it is lower) against the limits; the refusal names `flag` and what stands there.
+void check_vertical(const Point3& top, double ground, const FlightLimits& limits,
+                    const std::function<double(double, double)>& dsm_z, const char* flag, const char* what) {
+  const Point3 bottom{top[0], top[1], std::min(top[2], ground + kTouchdown + limits.safety)};
+  const double d = limits.clearance(bottom, top);
+  if (d >= limits.safety - kWrittenRounding) {
+    if (limits.ground && std::isfinite(limits.max_agl) && !limits.ground->below_ceiling(bottom, top, limits.max_agl + 0.05))
+      throw ArgumentError(flag, std::string("the ") + what + " rises above --max-agl " + two_decimals(limits.max_agl));
+    return;
+  }
+  const double surface = dsm_z ? dsm_z(top[0], top[1]) : NAN;
+  if (surface > ground + kTouchdown)
+    throw ArgumentError(flag, std::string("under a roof or tree: the DSM stands ") + two_decimals(surface - ground) +
+                                  " m above the ground there (x " + two_decimals(top[0]) + ", y " + two_decimals(top[1]) + ")");
+  throw ArgumentError(flag, std::string("the ") + what + " at x " + two_decimals(top[0]) + ", y " + two_decimals(top[1]) +
+                                (d <= 0 ? " goes through an obstacle"
+                                        : " passes " + two_decimals(d) + " m from an obstacle, closer than --safety " +
+                                              two_decimals(limits.safety)) +
+                                " (checked from " + two_decimals(kTouchdown) + " m plus --safety above the ground up)");
+}
+
+}  // namespace
+
+void check_vertical_legs(const MissionSite& site, const std::vector<Point3>& waypoints, const FlightLimits& limits,
+                         const std::function<double(double, double)>& dsm_z) {
+  check_vertical(site.takeoff_top, site.home[2], limits, dsm_z, "--home", "climb from home");
+  if (site.end == MissionEnd::land) check_vertical(waypoints.back(), site.land[2], limits, dsm_z, "--end", "descent to land");
+}
+
+std::string mission_place(const PlanResult& result, const MissionSite& site, size_t user_waypoints) {
+  const size_t leading = site.leading ? 1 : 0;
+  const size_t count = user_waypoints + leading + (site.returns ? 1 : 0);
+  const size_t w = result.waypoint;
+  if (result.status == PlanStatus::InvalidWaypoint) {
+    if ((site.leading && w == 0) || (site.returns && w + 1 == count)) return "the takeoff's top above --home";
+    return "waypoint " + std::to_string(w - leading + 1);
+  }
+  if (result.status == PlanStatus::NoPath) {
+    if (site.leading && w == 0) return "the leg from the takeoff above --home to waypoint 1";
+    if (site.returns && w + 2 == count)
+      return "the leg from waypoint " + std::to_string(user_waypoints) + " back above home (--end rtl)";
+    return "waypoints " + std::to_string(w - leading + 1) + " to " + std::to_string(w - leading + 2);
+  }
+  return {};
+}
+
+}  // namespace dsmplan::detail
+
+namespace dsmplan::detail {
+
+double height_at(const Grid& grid, double x, double y) {
+  const double u = (x - grid.x0) / grid.cell_x, v = (grid.y0 - y) / grid.cell_y;
+  if (!(u >= 0 && v >= 0 && u < grid.width && v < grid.height)) return NAN;
+  return grid.at(static_cast<int>(u), static_cast<int>(v));
+}
+
+void check_vertical_legs_in(GridSource& dsm, const MissionSite& site, const std::vector<Point3>& waypoints, double safety) {
+  const Grid& frame = dsm.frame();
+  const auto check = [&](const Point3& top, double ground, const char* flag, const char* what) {
+    const double r = safety + 2 * std::max(frame.cell_x, frame.cell_y);
+    const int c0 = std::max(0, static_cast<int>(std::floor((top[0] - r - frame.x0) / frame.cell_x)));
+    const int r0 = std::max(0, static_cast<int>(std::floor((frame.y0 - top[1] - r) / frame.cell_y)));
+    const int c1 = std::min(frame.width, static_cast<int>(std::ceil((top[0] + r - frame.x0) / frame.cell_x)));
+    const int r1 = std::min(frame.height, static_cast<int>(std::ceil((frame.y0 - top[1] + r) / frame.cell_y)));
+    if (c1 <= c0 || r1 <= r0) throw ArgumentError(flag, "lies outside the DSM");
+    Grid columns = read_window(dsm, c0, r0, c1 - c0, r1 - r0);
+    fill_holes_from_rim(columns, RimHeight::highest);
+    FlightLimits limits;
+    limits.columns = &columns;
+    limits.safety = safety;
+    check_vertical(top, ground, limits, [&](double x, double y) { return height_at(columns, x, y); }, flag, what);
+  };
+  check(site.takeoff_top, site.home[2], "--home", "climb from home");
+  if (site.end == MissionEnd::land) check(waypoints.back(), site.land[2], "--end", "descent to land");
+}
+
+}  // namespace dsmplan::detail
