@@ -394,6 +394,13 @@ std::string mission_to_qgc_plan(const Mission& mission, const MissionOptions& op
 /// Latitude comes before longitude. Errors as mission_to_qgc_plan().
 std::string mission_to_qgc_wpl(const Mission& mission, const MissionOptions& options = {});
 
+/// A DJI WPML mission (.kmz, DJI's "WPML" specification, Cloud API / Mobile SDK): a ZIP holding
+/// wpmz/template.kml and wpmz/waylines.wpml, the same route as mission_to_qgc_plan() (takeoff
+/// height, speed, the waypoints, the end as the finish action: rtl goHome, land autoLand, none
+/// noAction), heights in the altitude frame (relative to the takeoff point, or EGM96). Written
+/// atomically to `path`. Errors as mission_to_qgc_plan(); OutputError when it cannot write.
+void write_wpml_kmz(const Mission& mission, const MissionOptions& options, const std::string& path);
+
 /// KML 2.2: a Document with a Placemark "path" whose LineString has <altitudeMode>absolute
 /// </altitudeMode> and "lon,lat,alt" tuples one a line, then a Point Placemark "waypoint k"
 /// (also absolute) for each of `marks` (may be empty). Without altitudeMode a viewer would clamp
