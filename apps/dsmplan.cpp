@@ -3,6 +3,9 @@
 #include <cpl_progress.h>
 
 #include <CLI/CLI.hpp>
+#include <algorithm>
+#include <cctype>
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <new>
@@ -49,6 +52,11 @@ int fail(const std::string& message, int exit_code) {
   return exit_code;
 }
 
+// --crs means the same for every command.
+constexpr const char* kCrsHelp =
+    "CRS of the input (EPSG:n, WKT or PROJ), overriding what the file states, as gdal_translate -a_srs; "
+    "needed when it states none";
+
 // One of a flag's named values, else ArgumentError listing them.
 template <typename T>
 T parse_choice(const char* flag, const std::string& value, const std::vector<std::pair<std::string, T>>& choices) {
@@ -77,6 +85,101 @@ std::array<double, 2> parse_home(const std::string& text) {
   }
 }
 
+// Levenshtein distance, for "did you mean".
+size_t edit_distance(const std::string& a, const std::string& b) {
+  std::vector<size_t> row(b.size() + 1);
+  for (size_t j = 0; j <= b.size(); ++j) row[j] = j;
+  for (size_t i = 1; i <= a.size(); ++i) {
+    size_t diagonal = row[0];
+    row[0] = i;
+    for (size_t j = 1; j <= b.size(); ++j) {
+      const size_t up = row[j];
+      row[j] = std::min({row[j] + 1, row[j - 1] + 1, diagonal + (a[i - 1] == b[j - 1] ? 0 : 1)});
+      diagonal = up;
+    }
+  }
+  return row[b.size()];
+}
+
+// The name among `names` nearest `typed`, when near enough to be a typo; else empty.
+std::string nearest(const std::string& typed, const std::vector<std::string>& names) {
+  std::string best;
+  size_t best_distance = std::max<size_t>(1, typed.size() / 3) + 1;
+  for (const std::string& name : names) {
+    const size_t d = edit_distance(typed, name);
+    if (d < best_distance) best = name, best_distance = d;
+  }
+  return best;
+}
+
+std::vector<std::string> long_names(const CLI::App& command) {
+  std::vector<std::string> names;
+  for (const CLI::Option* option : command.get_options())
+    for (const std::string& name : option->get_lnames()) names.push_back(name);
+  return names;
+}
+
+// The command given (argv[1]) among app's, or null.
+CLI::App* command_of(CLI::App& app, int argc, char** argv) {
+  if (argc < 2) return nullptr;
+  for (CLI::App* command : app.get_subcommands([](CLI::App*) { return true; }))
+    if (command->get_name() == argv[1]) return command;
+  return nullptr;
+}
+
+// An unknown command or long option, refused before parsing (CLI11 would first complain about
+// a missing required option), with the nearest name when it looks like a typo.
+void refuse_unknown_names(CLI::App& app, int argc, char** argv) {
+  std::vector<std::string> commands;
+  for (CLI::App* c : app.get_subcommands([](CLI::App*) { return true; })) commands.push_back(c->get_name());
+  std::string list;
+  for (const std::string& name : commands) list += (list.empty() ? "" : ", ") + name;
+  if (argc < 2) throw CLI::ValidationError("a command is needed: " + list + " (dsmplan --help)");
+  const std::string first = argv[1];
+  if (first[0] == '-') return;  // --help, --version, or CLI11's own error
+  CLI::App* command = command_of(app, argc, argv);
+  if (!command) {
+    const std::string best = nearest(first, commands);
+    throw CLI::ValidationError("unknown command '" + first + "'" +
+                               (best.empty() ? " (the commands: " + list + ")" : " (did you mean '" + best + "'?)"));
+  }
+  const std::vector<std::string> names = long_names(*command);
+  for (int i = 2; i < argc; ++i) {
+    const std::string arg = argv[i];
+    if (arg.rfind("--", 0) != 0 || arg == "--") continue;
+    const std::string name = arg.substr(2, arg.find('=') == std::string::npos ? std::string::npos : arg.find('=') - 2);
+    if (std::find(names.begin(), names.end(), name) != names.end()) continue;
+    const std::string best = nearest(name, names);
+    throw CLI::ValidationError("unknown option --" + name + " for " + command->get_name() +
+                               (best.empty() ? " (dsmplan " + command->get_name() + " --help lists them)"
+                                             : " (did you mean --" + best + "?)"));
+  }
+}
+
+// A long option written with one dash ("-of glb") would be read as a short one with a value
+// ("-o f"), silently: refused, with the two-dash spelling.
+void refuse_single_dash_long_options(CLI::App& app, int argc, char** argv) {
+  CLI::App* command = command_of(app, argc, argv);
+  if (!command) return;
+  const std::vector<std::string> names = long_names(*command);
+  for (int i = 2; i < argc; ++i) {
+    const std::string arg = argv[i];
+    if (arg.size() < 3 || arg[0] != '-' || arg[1] == '-' || !std::isalpha(static_cast<unsigned char>(arg[1]))) continue;
+    const std::string name = arg.substr(1, arg.find('=') == std::string::npos ? std::string::npos : arg.find('=') - 1);
+    if (std::find(names.begin(), names.end(), name) != names.end())
+      throw CLI::ValidationError(arg + ": long options take two dashes: --" + name);
+  }
+}
+
+// --of for a command that writes one format: its name (any case), else ArgumentError.
+void check_single_format(const std::string& of, const std::vector<std::string>& accepted) {
+  if (of.empty()) return;
+  std::string lower = of;
+  for (char& c : lower) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  if (std::find(accepted.begin(), accepted.end(), lower) == accepted.end())
+    throw ArgumentError("--of", "this command writes " + accepted.front() + " only, got '" + of + "'");
+}
+
 }  // namespace
 
 // Rank 0 of an MPI run releases the workers however its job ends.
@@ -103,7 +206,10 @@ int main(int argc, char** argv) {
   info_cmd->add_option("DSM", info.input, "Raster file (GeoTIFF, VRT, ASCII grid, any GDAL raster)")->required();
   info_cmd->add_flag("--json", info_json, "Print JSON");
   info_cmd->add_option("--band", info.read.band, "Band to read")->capture_default_str();
-  info_cmd->add_option("--crs", info.read.assign_crs, "CRS to assume when the raster has none (EPSG:n, WKT, PROJ)");
+  info_cmd->add_option("--crs", info.read.assign_crs, kCrsHelp);
+  std::string info_of;
+  info_cmd->add_option("--of", info_of, "Output format: text or json (as --json)");
+  info_cmd->add_flag("-q,--quiet", quiet, "Accepted for every command; info has no progress to silence");
 
   GridOptions grid;
   std::string fusion = "median";
@@ -113,16 +219,20 @@ int main(int argc, char** argv) {
       app.add_subcommand("grid", "Grid point clouds (LAS, XYZ) into a GeoTIFF DSM, median height per cell");
   grid_cmd->add_option("POINTS", grid.inputs, "LAS 1.0-1.4 (uncompressed) or XYZ text files")->required();
   grid_cmd->add_option("-o,--output", grid.output, "Output GeoTIFF")->required();
-  grid_cmd->add_option("--res", grid.grid.resolution, "Cell size in CRS units")->required();
+  grid_cmd->add_option("--res", grid.grid.resolution, "Cell size (CRS units: m for a projected CRS in metres)")->required();
   grid_cmd->add_option("--fusion", fusion, "Height per cell: median or max")->capture_default_str();
   grid_cmd->add_option("--drop-classes", drop_classes, "ASPRS classes to drop (default 7 18: noise)")->delimiter(',');
   grid_cmd->add_flag("--keep-all-classes", keep_all_classes, "Keep every class, noise included");
   grid_cmd->add_option("--classes", grid.grid.keep_classes, "Keep only these ASPRS classes (e.g. 2: ground, a DTM)")
       ->delimiter(',');
-  grid_cmd->add_option("--crs", grid.crs, "CRS of the points (overrides the files'; needed when they have none)");
+  grid_cmd->add_option("--crs", grid.crs, kCrsHelp);
   grid_cmd->add_option("--fill-holes", grid.fill_distance,
-                       "Fill holes up to this distance (CRS units) from data, by GDAL's inverse-distance FillNodata");
+                       "Fill holes up to this distance (CRS units, m) from data, by GDAL's inverse-distance FillNodata");
   grid_cmd->add_flag("-q,--quiet", quiet, "No progress output");
+  bool grid_json = false;
+  std::string grid_of;
+  grid_cmd->add_flag("--json", grid_json, "Print the DSM's counts and height range as JSON");
+  grid_cmd->add_option("--of", grid_of, "Output format: gtiff (the only one)");
 
   MeshJobOptions mesh;
   double mesh_resolution = 0;
@@ -135,21 +245,23 @@ int main(int argc, char** argv) {
   std::string mesh_of;
   mesh_cmd->add_option("--of", mesh_of, "Output format, overriding the extension: ply, obj, off or glb");
   CLI::Option* mesh_res =
-      mesh_cmd->add_option("--res", mesh_resolution, "Resample to this x/y resolution (CRS units) first");
+      mesh_cmd->add_option("--res", mesh_resolution, "Resample to this x/y resolution (m) first");
   mesh_cmd->add_option("--resampling", resampling, "median, max (conservative), mean, min or nearest")
       ->capture_default_str();
-  mesh_cmd->add_option("--zstep", mesh.mesh.zstep, "Vertical resolution: heights are rounded to multiples (0: keep)")
+  mesh_cmd->add_option("--zstep", mesh.mesh.zstep, "Vertical resolution (m): heights are rounded to multiples (0: keep)")
       ->capture_default_str();
   mesh_cmd
       ->add_option("--max-edge", mesh.mesh.max_edge_length,
-                   "Drop triangles with a longer x,y edge, so holes stay holes (0: 2.5 cells)")
+                   "Drop triangles with a longer x,y edge (m), so holes stay holes (0: 2.5 cells)")
       ->capture_default_str();
   mesh_cmd->add_flag("--stream", mesh.stream,
                      "Band by band into a .ply, whatever the raster's size (chosen by itself when it would not fit)");
   mesh_cmd->add_option("--stats", stats_path, "Write statistics as JSON to this file");
   mesh_cmd->add_option("--band", mesh.read.band, "Band to read")->capture_default_str();
-  mesh_cmd->add_option("--crs", mesh.read.assign_crs, "CRS to assume when the raster has none");
+  mesh_cmd->add_option("--crs", mesh.read.assign_crs, kCrsHelp);
   mesh_cmd->add_flag("-q,--quiet", quiet, "No progress output");
+  bool mesh_json = false;
+  mesh_cmd->add_flag("--json", mesh_json, "Print the statistics as JSON");
 
   SimplifyJobOptions simplify;
   double simplify_resolution = 0;
@@ -164,10 +276,10 @@ int main(int argc, char** argv) {
   CLI::Option* method_option =
       simplify_cmd->add_option("--method", method, "variant1, variant2 (the paper's) or bounded")
           ->capture_default_str();
-  simplify_cmd->add_option("--dz", simplify.paper.dz, "Co-planar tolerance (vertical units)")->capture_default_str();
-  simplify_cmd->add_option("--dco", simplify.paper.dco, "Co-linear tolerance (CRS units)")->capture_default_str();
+  simplify_cmd->add_option("--dz", simplify.paper.dz, "Co-planar tolerance (m, vertical)")->capture_default_str();
+  simplify_cmd->add_option("--dco", simplify.paper.dco, "Co-linear tolerance (m)")->capture_default_str();
   CLI::Option* max_error = simplify_cmd->add_option("--max-error", simplify.bounded.max_error,
-                                                    "Bounded mode: certified |mesh - DSM| <= E at every cell");
+                                                    "Bounded mode: certified |mesh - DSM| <= E (m) at every cell");
   simplify_cmd->add_flag("--conservative", simplify.bounded.conservative,
                          "Bounded mode: the mesh never below the DSM (0 <= mesh - DSM <= E)");
   simplify_cmd->add_flag("--delaunay", simplify.bounded.delaunay,
@@ -181,15 +293,15 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   simplify_cmd->add_option("--dsm", simplify.dsm, "With a mesh input: the DSM it was made from (for the error)");
   CLI::Option* simplify_res =
-      simplify_cmd->add_option("--res", simplify_resolution, "Resample the DSM to this x/y resolution first");
+      simplify_cmd->add_option("--res", simplify_resolution, "Resample the DSM to this x/y resolution (m) first");
   simplify_cmd->add_option("--resampling", simplify_resampling, "median, max, mean, min or nearest")
       ->capture_default_str();
-  simplify_cmd->add_option("--zstep", simplify.mesh.zstep, "Vertical resolution of the paper's mesh (0: keep)")
+  simplify_cmd->add_option("--zstep", simplify.mesh.zstep, "Vertical resolution of the paper's mesh (m; 0: keep)")
       ->capture_default_str();
   simplify_cmd->add_option("--stats", simplify_stats, "Write statistics as JSON to this file");
   simplify_cmd->add_flag("--json", simplify_json, "Print the statistics as JSON instead of the summary line");
   simplify_cmd->add_option("--band", simplify.read.band, "Band to read")->capture_default_str();
-  simplify_cmd->add_option("--crs", simplify.read.assign_crs, "CRS to assume when the raster has none");
+  simplify_cmd->add_option("--crs", simplify.read.assign_crs, kCrsHelp);
   simplify_cmd->add_flag("-q,--quiet", quiet, "No progress output");
 
   RenderJobOptions render;
@@ -202,17 +314,21 @@ int main(int argc, char** argv) {
   render_cmd->add_option("--mesh", render.meshes, "Mesh file (.ply, .obj, .off) in the DSM's CRS; one panel each");
   render_cmd->add_option("--title", render.titles, "Panel title, in --mesh order (default: the file names)");
   render_cmd->add_option("-o,--output", render.output, "Picture: .png")->required();
-  render_cmd->add_option("--window", window, "Area to draw: xmin,ymin,xmax,ymax in CRS units (default: all)");
+  render_cmd->add_option("--window", window, "Area to draw: xmin,ymin,xmax,ymax in the CRS (m) (default: all)");
   render_cmd->add_option("--zoom", render.render.pixels_per_cell, "Pixels per DSM cell")->capture_default_str();
   render_cmd->add_flag("--no-edges", no_edges, "Do not draw the meshes' edges");
   render_cmd->add_option("--path", render.paths, "Path CSV (from dsmplan plan) to draw; repeatable");
   render_cmd->add_option("--waypoints", render.waypoints, "Waypoint CSV: numbered discs");
   render_cmd->add_option("--roadmap", render.roadmap, "Roadmap file (dsmplan plan --roadmap): its edges");
   CLI::Option* render_res =
-      render_cmd->add_option("--res", render_resolution, "Resample the DSM to this x/y resolution first");
+      render_cmd->add_option("--res", render_resolution, "Resample the DSM to this x/y resolution (m) first");
   render_cmd->add_option("--band", render.read.band, "Band to read")->capture_default_str();
-  render_cmd->add_option("--crs", render.read.assign_crs, "CRS to assume when the raster has none");
+  render_cmd->add_option("--crs", render.read.assign_crs, kCrsHelp);
   render_cmd->add_flag("-q,--quiet", quiet, "No progress output");
+  bool render_json = false;
+  std::string render_of;
+  render_cmd->add_flag("--json", render_json, "Print the picture's size as JSON");
+  render_cmd->add_option("--of", render_of, "Output format: png (the only one)");
 
   ProfileJobOptions profile;
   CLI::App* profile_cmd = app.add_subcommand(
@@ -224,14 +340,18 @@ int main(int argc, char** argv) {
   profile_cmd->add_option("--dtm", profile.dtm,
                           "Terrain raster (the DSM's CRS, any resolution): a line, and the ceiling's ground");
   profile_cmd->add_option("--waypoints", profile.waypoints, "Waypoint CSV: numbered markers on the path");
-  profile_cmd->add_option("--safety", profile.profile.safety, "Half-height of the band around the path")
+  profile_cmd->add_option("--safety", profile.profile.safety, "Half-height of the band around the path (m)")
       ->capture_default_str();
-  profile_cmd->add_option("--max-agl", profile.profile.max_agl, "Ceiling above the ground (the DTM, else the DSM)")
+  profile_cmd->add_option("--max-agl", profile.profile.max_agl, "Ceiling above the ground (m; the DTM, else the DSM)")
       ->capture_default_str();
   profile_cmd->add_option("--title", profile.profile.title, "Title (default: the path's and the DSM's file names)");
   profile_cmd->add_option("--width", profile.profile.width, "Picture width, pixels")->capture_default_str();
   profile_cmd->add_option("--height", profile.profile.height, "Picture height, pixels")->capture_default_str();
   profile_cmd->add_flag("-q,--quiet", quiet, "No progress output and no summary line");
+  bool profile_json = false;
+  std::string profile_of;
+  profile_cmd->add_flag("--json", profile_json, "Print the summary as JSON");
+  profile_cmd->add_option("--of", profile_of, "Output format: png (the only one)");
 
   PlanJobOptions plan;
   std::string plan_stats;
@@ -241,24 +361,24 @@ int main(int argc, char** argv) {
                        "Obstacle mesh (.ply, .obj, .off) in a projected CRS, or a DSM (raster, VRT mosaic of a city): "
                        "planned along a corridor, window by window")
       ->required();
-  plan_cmd->add_option("--corridor-chunk", plan.corridor.chunk, "DSM input: longest piece of a leg in one window")
+  plan_cmd->add_option("--corridor-chunk", plan.corridor.chunk, "DSM input: longest piece of a leg in one window (m)")
       ->capture_default_str();
-  plan_cmd->add_option("--corridor-margin", plan.corridor.margin, "DSM input: flight area around a piece's box")
+  plan_cmd->add_option("--corridor-margin", plan.corridor.margin, "DSM input: flight area around a piece's box (m)")
       ->capture_default_str();
   plan_cmd->add_option("--max-error", plan.corridor.mesh.max_error,
-                       "DSM input: the windows' conservative bounded meshes' error bound")
+                       "DSM input: the windows' conservative bounded meshes' error bound (m)")
       ->capture_default_str();
   plan_cmd
       ->add_option("--waypoints", plan.waypoints,
                    "Waypoints: .csv (x,y,z in the mesh's CRS) or .geojson (WGS 84 lon, lat, ellipsoidal height)")
       ->required();
   plan_cmd->add_option("-o,--output", plan.output, "Path: .csv (x,y,z in the mesh's CRS), .geojson (WGS 84, ellipsoidal heights), or with heights "
-                       "above mean sea level: .plan (QGroundControl), .waypoints (QGC WPL 110), .kml")
+                       "above mean sea level: .plan (QGroundControl), .waypoints (QGC WPL 110), .kmz (DJI WPML), .kml")
       ->required();
-  plan_cmd->add_option("--safety", plan.plan.safety, "Least distance to the mesh")->capture_default_str();
-  plan_cmd->add_option("--spacing", plan.plan.spacing, "Relative sample distance: samples = volume / spacing^3")
+  plan_cmd->add_option("--safety", plan.plan.safety, "Least distance to the mesh, and with --dsm to the DSM's cells (m)")->capture_default_str();
+  plan_cmd->add_option("--spacing", plan.plan.spacing, "Sample distance (m): samples = volume / spacing^3")
       ->capture_default_str();
-  plan_cmd->add_option("--max-edge", plan.plan.max_edge, "Longest roadmap edge")->capture_default_str();
+  plan_cmd->add_option("--max-edge", plan.plan.max_edge, "Longest roadmap edge (m)")->capture_default_str();
   plan_cmd->add_option("--max-agl", plan.plan.max_agl,
                        "Ceiling, metres above the ground (the DTM, else the DSM's cells, else the mesh) for every point of the path")
       ->capture_default_str();
@@ -274,7 +394,7 @@ int main(int argc, char** argv) {
   int64_t seed = 1;  // signed: CLI11 would wrap -3 round to 2^64 - 3 as an unsigned
   plan_cmd->add_option("--seed", seed, "Random seed of rrtconnect (>= 0): the same seed, the same path")
       ->capture_default_str();
-  plan_cmd->add_option("--of", plan.format, "Path format, overriding the extension: csv, geojson, plan, waypoints, kml");
+  plan_cmd->add_option("--of", plan.format, "Path format, overriding the extension: csv, geojson, plan, waypoints, kmz, kml");
   bool plan_json = false;
   plan_cmd->add_flag("--json", plan_json, "Print the statistics as JSON instead of the summary line");
   plan_cmd->add_option("--roadmap", plan.roadmap,
@@ -285,7 +405,7 @@ int main(int argc, char** argv) {
   plan_cmd->add_option("--vertical-crs", plan.vertical.vertical_crs,
                        "Vertical CRS of the mesh's heights when the file does not say (e.g. EPSG:7837)");
   plan_cmd->add_flag("--allow-approximate-vertical", plan.vertical.allow_approximate_vertical,
-                     "Accept a ballpark height transformation (or an unknown vertical reference) for WGS 84 output");
+                     "Heights of an unknown or grid-less vertical datum taken as EGM96 heights (about 1 m off) for WGS 84 output");
   plan_cmd->add_option("--stats", plan_stats, "Write statistics as JSON to this file");
   plan_cmd->add_flag("-q,--quiet", quiet, "No progress output");
   std::string home, end, altitude_frame = "relative", firmware = "generic";
@@ -299,6 +419,7 @@ int main(int argc, char** argv) {
   plan_cmd->add_option("--firmware", firmware, "Missions: px4, ardupilot or generic")->capture_default_str();
   plan_cmd->add_option("--speed", plan.mission.format.speed, "Missions: speed along the route (m/s, (0, 100])")
       ->capture_default_str();
+  plan_cmd->add_flag("--extrude", plan.mission.format.extrude, "KML: a wall from the path and the waypoints down to the ground");
   double hover_speed = NAN;
   plan_cmd->add_option("--hover-speed", hover_speed, "Missions: the .plan's hoverSpeed (m/s, (0, 100]); default --speed");
 
@@ -313,8 +434,13 @@ int main(int argc, char** argv) {
   view_cmd->add_option("--viewer-dir", view.viewer_dir,
                        "The viewer's files (index.html, viewer.js, node_modules/three); default: web/viewer beside "
                        "the dsmplan binary");
+  bool view_json = false;
+  view_cmd->add_flag("--json", view_json, "Print the viewer's address as JSON ({\"url\": ...})");
+  view_cmd->add_flag("-q,--quiet", quiet, "Accepted for every command; the address is still printed");
 
   try {
+    refuse_unknown_names(app, argc, argv);
+    refuse_single_dash_long_options(app, argc, argv);
     app.parse(argc, argv);
     if (farm.active() && farm.rank() > 0) {  // a worker: makes blocks for rank 0, says nothing
       if (*simplify_cmd) farm.serve(simplify);
@@ -323,6 +449,9 @@ int main(int argc, char** argv) {
     ReleaseWorkers release{farm, farm.active() && *simplify_cmd};
     if (*info_cmd) {
       const RasterReport report = describe_raster(info);
+      if (!info_of.empty() && info_of != "json" && info_of != "text")
+        throw ArgumentError("--of", "info prints text or json, got '" + info_of + "'");
+      info_json = info_json || info_of == "json";
       std::fputs(info_json ? (to_json(report).dump(2) + "\n").c_str() : to_text(report).c_str(), stdout);
     }
     if (*grid_cmd) {
@@ -336,8 +465,10 @@ int main(int argc, char** argv) {
       }
       std::vector<NamedFile> inputs;
       for (const std::string& points : grid.inputs) inputs.push_back({"POINTS", points});
+      check_single_format(grid_of, {"gtiff", "geotiff", "tif", "tiff"});
       refuse_overwrites(inputs, {{"-o", grid.output}});
-      grid_to_geotiff(grid, terminal_progress(quiet));
+      const GridSummary summary = grid_to_geotiff(grid, terminal_progress(quiet));
+      if (grid_json) std::fputs((to_json(summary).dump(2) + "\n").c_str(), stdout);
     }
     if (*mesh_cmd) {
       if (mesh_res->count()) mesh.resolution = mesh_resolution;
@@ -347,6 +478,7 @@ int main(int argc, char** argv) {
       if (!stats_path.empty()) check_writable(stats_path);
       const MeshReport report = mesh_dsm(mesh, terminal_progress(quiet));
       write_stats(stats_path, to_json(report), mesh.output);
+      if (mesh_json) std::fputs((to_json(report).dump(2) + "\n").c_str(), stdout);
     }
     if (*simplify_cmd) {
       if (simplify_res->count()) simplify.resolution = simplify_resolution;
@@ -367,7 +499,10 @@ int main(int argc, char** argv) {
       if (farm.active()) simplify.bounded_engine = farm.master();
       const SimplifyReport report = simplify_job(simplify, terminal_progress(quiet));
       write_stats(simplify_stats, to_json(report), simplify.output);
-      std::fputs(simplify_json ? (to_json(report).dump(2) + "\n").c_str() : to_text(report).c_str(), stdout);
+      if (simplify_json)
+        std::fputs((to_json(report).dump(2) + "\n").c_str(), stdout);
+      else if (!quiet)
+        std::fputs(to_text(report).c_str(), stdout);
     }
     if (*render_cmd) {
       if (render_res->count()) render.resolution = render_resolution;
@@ -376,14 +511,20 @@ int main(int argc, char** argv) {
       std::vector<NamedFile> inputs{{"DSM", render.dsm}, {"--waypoints", render.waypoints}, {"--roadmap", render.roadmap}};
       for (const std::string& m : render.meshes) inputs.push_back({"--mesh", m});
       for (const std::string& p : render.paths) inputs.push_back({"--path", p});
+      check_single_format(render_of, {"png"});
       refuse_overwrites(inputs, {{"-o", render.output}});
-      render_job(render, terminal_progress(quiet));
+      const RenderReport report = render_job(render, terminal_progress(quiet));
+      if (render_json) std::fputs((to_json(report).dump(2) + "\n").c_str(), stdout);
     }
     if (*profile_cmd) {
       refuse_overwrites({{"DSM", profile.dsm}, {"--path", profile.path}, {"--dtm", profile.dtm}, {"--waypoints", profile.waypoints}},
                         {{"-o", profile.output}});
+      check_single_format(profile_of, {"png"});
       const ProfileReport report = profile_job(profile, terminal_progress(quiet));
-      if (!quiet) std::fputs(to_text(report).c_str(), stdout);
+      if (profile_json)
+        std::fputs((to_json(report).dump(2) + "\n").c_str(), stdout);
+      else if (!quiet)
+        std::fputs(to_text(report).c_str(), stdout);
     }
     if (*plan_cmd) {
       if (planner != "prm" && planner != "rrtconnect")
@@ -410,14 +551,23 @@ int main(int argc, char** argv) {
         std::fputs(to_text(report).c_str(), stdout);
     }
     if (*view_cmd) {
-      serve_view(view, [](const std::string& url) {
+      serve_view(view, [view_json](const std::string& url) {
         // Flushed: a script or test reading stdout through a pipe needs the URL now.
-        std::printf("Serving the 3D viewer at %s (Ctrl-C stops)\n", url.c_str());
+        if (view_json)
+          std::printf("%s\n", Json{{"url", url}}.dump().c_str());
+        else
+          std::printf("Serving the 3D viewer at %s (Ctrl-C stops)\n", url.c_str());
         std::fflush(stdout);
       });
     }
   } catch (const CLI::ParseError& error) {
-    return app.exit(error);
+    if (error.get_exit_code() == 0) return app.exit(error);  // --help, --version
+    // Usage errors: one line, exit 2.
+    std::string message = error.what();
+    if (message.empty()) message = "the command line is incomplete (dsmplan --help)";
+    return fail(message, 2);
+  } catch (const ArgumentError& error) {
+    return fail(error.what(), 2);  // a bad option value: a usage error too
   } catch (const Error& error) {
     return fail(error.what(), 1);
   } catch (const std::bad_alloc&) {

@@ -38,9 +38,9 @@ echo "Planning a path through the bundled waypoints on the conservative mesh (2 
 rm -f "$out/bounded_1m.roadmap"
 build/dsmplan plan "$out/bounded_1m.ply" --waypoints data/nrw-dom1/sample_waypoints.csv \
   -o "$out/path.csv" --roadmap "$out/bounded_1m.roadmap" --dsm "$dsm" --stats "$out/path.json"
-# The sample's heights are DHHN2016; without the GCG2016 geoid grid PROJ can only copy them
-# ("ballpark"): to the ellipsoid for GeoJSON (about 47 m off), to EGM96 mean sea level for the
-# missions and KML (near a metre off). Each file names that, and the run must allow it explicitly.
+# The sample's heights are DHHN2016; without the GCG2016 geoid grid PROJ could only copy them
+# ("ballpark", 47 m off on the ellipsoid): allowed explicitly, they are taken as EGM96 heights
+# instead, about a metre off in every format. Each file names that.
 for format in geojson plan waypoints kml; do
   build/dsmplan plan "$out/bounded_1m.ply" --waypoints data/nrw-dom1/sample_waypoints.csv \
     -o "$out/path.$format" --roadmap "$out/bounded_1m.roadmap" --dsm "$dsm" \

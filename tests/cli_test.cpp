@@ -8,6 +8,8 @@
 //   - bad inputs are written by the test itself, so it knows what is wrong with them.
 #include <cpl_conv.h>
 #include <cpl_error.h>
+#include <cpl_minixml.h>
+#include <cpl_vsi.h>
 #include <gdal.h>
 #include <gtest/gtest.h>
 #include <ogr_srs_api.h>
@@ -661,7 +663,7 @@ TEST(CliUsage, UnknownSubcommandOrMissingOptionFails) {
 TEST(CliSimplify, RealSampleVariantTwoAndBoundedReportTableTwoColumns) {
   TempDir out;
   const auto variant = run_cli({"simplify", testkit::data_path(kSample), "--res", "2", "--method", "variant2", "-o",
-                                out.path("v2.ply"), "--stats", out.path("v2.json"), "-q"});
+                                out.path("v2.ply"), "--stats", out.path("v2.json")});
   ASSERT_EQ(variant.exit_code, 0) << variant.err;
   const json v2 = json::parse(testkit::read_file(out.path("v2.json")));
   EXPECT_EQ(v2["vertices_in"], 250 * 250);
@@ -1138,21 +1140,23 @@ TEST(CliPlan, GeoJsonWaypointsAndPathAgreeWithTheCsvRun) {
   const auto csv_path = read_path_csv(out.path("p.csv"));
 
   // The same waypoints in lon/lat by GDAL's transformation (an independent route through PROJ);
-  // DHHN2016 heights go to the ellipsoid only by PROJ's ballpark here, which copies them.
+  // DHHN2016 heights have no grid here: allowed, they are taken as EGM96 heights, so the
+  // GeoJSON's ellipsoidal heights are GDAL's from UTM + EGM96 to WGS 84 3D.
   OGRSpatialReferenceH utm = OSRNewSpatialReference(nullptr), wgs = OSRNewSpatialReference(nullptr);
-  OSRImportFromEPSG(utm, 25832);
-  OSRImportFromEPSG(wgs, 4326);
+  OSRSetFromUserInput(utm, "EPSG:25832+5773");
+  OSRImportFromEPSG(wgs, 4979);
   OSRSetAxisMappingStrategy(utm, OAMS_TRADITIONAL_GIS_ORDER);
   OSRSetAxisMappingStrategy(wgs, OAMS_TRADITIONAL_GIS_ORDER);
   OGRCoordinateTransformationH to_wgs = OCTNewCoordinateTransformation(utm, wgs);
   json features = json::array();
   std::vector<std::array<double, 2>> lonlat;
   for (const auto& w : waypoints) {
-    double x = w[0], y = w[1];
-    ASSERT_TRUE(OCTTransform(to_wgs, 1, &x, &y, nullptr));
+    double x = w[0], y = w[1], z = w[2];
+    ASSERT_TRUE(OCTTransform(to_wgs, 1, &x, &y, &z));
+    ASSERT_GT(z - w[2], 40);  // the geoid's height: GDAL found the EGM96 grid
     lonlat.push_back({x, y});
     features.push_back({{"type", "Feature"}, {"properties", json::object()},
-                        {"geometry", {{"type", "Point"}, {"coordinates", {x, y, w[2]}}}}});
+                        {"geometry", {{"type", "Point"}, {"coordinates", {x, y, z}}}}});
   }
   OCTDestroyCoordinateTransformation(to_wgs);
   OSRDestroySpatialReference(utm);
@@ -1187,9 +1191,11 @@ TEST(CliPlan, GeoJsonWaypointsAndPathAgreeWithTheCsvRun) {
     const auto& ll = i == 0 ? lonlat.front() : lonlat.back();
     EXPECT_NEAR(c[i][0].get<double>(), ll[0], 2e-9);
     EXPECT_NEAR(c[i][1].get<double>(), ll[1], 2e-9);
-    EXPECT_NEAR(c[i][2].get<double>(), csv_path[i][2], 1e-3);  // ballpark: heights copied
+    // Taken as EGM96 heights, then through the EGM96 grid: the geoid's ~47 m added, not copied.
+    EXPECT_GT(c[i][2].get<double>() - csv_path[i][2], 40);
+    EXPECT_LT(c[i][2].get<double>() - csv_path[i][2], 55);
   }
-  EXPECT_NE(line["properties"]["transformation"].get<std::string>().find("ballpark"), std::string::npos);
+  EXPECT_NE(line["properties"]["transformation"].get<std::string>().find("taken as EGM96"), std::string::npos);
 
   TempDir none;
   expect_clean_failure(run(f.waypoints, none.path("p.geojson"), {"-q"}), none, "--vertical-crs", {"unknown"});
@@ -1625,6 +1631,32 @@ TEST(CliPlan, MissionItemsAreFewAndTheirStraightLinesKeepSafetyAndCeilingOnTheDs
       broken[4].xyz[2] = f.cell(broken[4].xyz[0], broken[4].xyz[1]) - 1;
       EXPECT_LT(fly(broken, f, 2.0).least_clearance, 0.5);
     }
+    if (end == "rtl") {  // the DJI mission holds the same points, read back by GDAL's zip and XML readers
+      ASSERT_EQ(f.plan(out.path("m.kmz"), {}).exit_code, 0);
+      const std::string wpml = "/vsizip/" + out.path("m.kmz") + "/wpmz/waylines.wpml";
+      VSILFILE* file = VSIFOpenL(wpml.c_str(), "rb");
+      ASSERT_TRUE(file) << wpml;
+      std::string xml;
+      char buffer[4096];
+      for (size_t got; (got = VSIFReadL(buffer, 1, sizeof buffer, file)) > 0;) xml.append(buffer, got);
+      VSIFCloseL(file);
+      CPLXMLNode* root = CPLParseXMLString(xml.c_str());
+      ASSERT_TRUE(root);
+      const CPLXMLNode* folder = CPLSearchXMLNode(root, "=Folder");
+      ASSERT_TRUE(folder);
+      std::vector<std::array<double, 2>> placemarks;
+      for (const CPLXMLNode* n = folder->psChild; n; n = n->psNext)
+        if (n->eType == CXT_Element && std::string(n->pszValue) == "Placemark") {
+          const char* coordinates = CPLGetXMLValue(n, "Point.coordinates", "");
+          double lon = 0, lat = 0;
+          ASSERT_EQ(std::sscanf(coordinates, "%lf,%lf", &lon, &lat), 2) << coordinates;
+          placemarks.push_back({lon, lat});
+        }
+      CPLDestroyXMLNode(root);
+      EXPECT_EQ(placemarks.size(), flight.positions);  // the takeoff's top, the waypoints, back above home
+      EXPECT_NEAR(placemarks.back()[0], placemarks.front()[0], 1e-9);
+      EXPECT_NEAR(placemarks.back()[1], placemarks.front()[1], 1e-9);
+    }
     if (end == "rtl") {  // back above home before the return
       const auto& back = items[items.size() - 2].xyz;
       EXPECT_NEAR(back[0], items[0].xyz[0], 1e-3);
@@ -1752,6 +1784,74 @@ TEST(CliBadInput, MissionHomeEndAndFirmwareRefusedInOneLine) {
                              testkit::data_path(kSample), "--dtm", f.in.path("dtm.tif"), "--vertical-crs", "EPSG:5773",
                              "--end", "land", "-q"});
   expect_clean_failure(land, out, "--end", {"under a roof"});
+}
+
+// ---- one command line convention -------------------------------------------------------------
+
+TEST(CliUsage, MistakesAreOneLineExitTwoWithTheNearestName) {
+  TempDir out;
+  const std::string dsm = testkit::data_path(kSample);
+  struct Case {
+    std::vector<std::string> args;
+    std::string says;
+  };
+  const std::vector<Case> cases{
+      {{"plan", "m.ply", "--saftey", "2"}, "unknown option --saftey for plan (did you mean --safety?)"},
+      {{"pln", "m.ply"}, "unknown command 'pln' (did you mean 'plan'?)"},
+      {{"simplfy", dsm}, "did you mean 'simplify'?"},
+      {{"xyzzy"}, "the commands: info, grid, mesh, simplify, render, profile, plan, view"},
+      {{}, "a command is needed"},
+      {{"mesh", dsm, "-of", "glb", "-o", out.path("x.ply")}, "-of: long options take two dashes: --of"},
+      {{"mesh", dsm, "-o", out.path("x.ply"), "--res", "abc"}, "--res"},
+      {{"mesh", dsm}, "--output is required"},
+      {{"info", dsm, "--bnd", "2"}, "did you mean --band?"},
+      {{"plan", "m.ply", "--waypoints", "w.csv", "-o", out.path("p.csv"), "--planner", "astar"}, "--planner"},
+      {{"render", dsm, "-o", out.path("x.png"), "--of", "jpeg"}, "png only"},
+      {{"info", dsm, "--of", "xml"}, "text or json"},
+  };
+  for (const Case& c : cases) {
+    const auto result = run_cli(c.args);
+    EXPECT_EQ(result.exit_code, 2) << c.says << ": " << result.err;
+    EXPECT_EQ(result.err.rfind("dsmplan: ", 0), 0u) << result.err;
+    EXPECT_EQ(std::count(result.err.begin(), result.err.end(), '\n'), 1) << result.err;
+    EXPECT_NE(result.err.find(c.says), std::string::npos) << result.err;
+    EXPECT_TRUE(out.files().empty());
+  }
+  // --crs overrides what the input states, for rasters as for points (gdal_translate -a_srs).
+  const auto info = run_cli({"info", dsm, "--crs", "EPSG:32632", "--json"});
+  ASSERT_EQ(info.exit_code, 0) << info.err;
+  EXPECT_EQ(json::parse(info.out)["crs"]["epsg"], 32632) << info.out;
+  // Help and version are not mistakes.
+  EXPECT_EQ(run_cli({"--version"}).exit_code, 0);
+  const auto help = run_cli({"plan", "--help"});
+  EXPECT_EQ(help.exit_code, 0);
+  for (const std::string unit : {"(m)", "m/s", "degrees"}) EXPECT_NE(help.out.find(unit), std::string::npos) << unit;
+}
+
+TEST(CliUsage, EveryCommandTakesJsonAndQuietSilencesItsSummary) {
+  TempDir out;
+  const std::string dsm = testkit::data_path(kSample);
+  const auto info = run_cli({"info", dsm, "--of", "json", "-q"});
+  ASSERT_EQ(info.exit_code, 0) << info.err;
+  EXPECT_EQ(json::parse(info.out)["width"], 500);
+  const auto mesh = run_cli({"mesh", dsm, "--res", "5", "-o", out.path("m.ply"), "--json", "-q"});
+  ASSERT_EQ(mesh.exit_code, 0) << mesh.err;
+  EXPECT_EQ(json::parse(mesh.out)["faces"], dsmplan::read_mesh(out.path("m.ply")).triangles.size());
+  // -q silences simplify's summary as it does plan's; --json still prints what was asked for.
+  const auto quiet = run_cli({"simplify", dsm, "--res", "5", "-o", out.path("s.ply"), "-q"});
+  ASSERT_EQ(quiet.exit_code, 0) << quiet.err;
+  EXPECT_EQ(quiet.out, "");
+  const auto simplify = run_cli({"simplify", dsm, "--res", "5", "-o", out.path("s2.ply"), "-q", "--json"});
+  EXPECT_EQ(json::parse(simplify.out)["output"], out.path("s2.ply"));
+  const auto render = run_cli({"render", dsm, "--res", "5", "-o", out.path("r.png"), "--of", "PNG", "--json", "-q"});
+  ASSERT_EQ(render.exit_code, 0) << render.err;
+  EXPECT_GT(json::parse(render.out)["width"].get<int>(), 0);
+  testkit::write_file(out.path("p.csv"), "x,y,z\n356320,5699270,160\n356700,5699700,170\n");
+  const auto profile = run_cli({"profile", dsm, "--path", out.path("p.csv"), "-o", out.path("p.png"), "--json", "-q"});
+  ASSERT_EQ(profile.exit_code, 0) << profile.err;
+  const json p = json::parse(profile.out);
+  EXPECT_NEAR(p["length_m"].get<double>(), std::hypot(380.0, 430.0), 1e-6);
+  EXPECT_EQ(p["ground"], "dsm");
 }
 
 // ---- GLB and --of -----------------------------------------------------------------------------
@@ -1965,7 +2065,7 @@ TEST(CliScale, PlanOnAMosaicAlongACorridor) {
   // Nothing else is accepted with a DSM input that only a mesh input has.
   const auto roadmap = run_cli({"plan", vrt, "--waypoints", waypoints, "-o", dir.path("x.csv"), "--roadmap",
                                 dir.path("r.roadmap"), "-q"});
-  EXPECT_EQ(roadmap.exit_code, 1);
+  EXPECT_EQ(roadmap.exit_code, 2);  // a usage error
   EXPECT_NE(roadmap.err.find("--roadmap"), std::string::npos) << roadmap.err;
   EXPECT_FALSE(std::filesystem::exists(dir.path("x.csv")));
 }
@@ -1991,7 +2091,7 @@ TEST(CliScale, MeshStreamedFromAMosaicIsTheWholeMesh) {
   EXPECT_EQ(edges_not_shared(dir.path("streamed.ply"), testkit::nrw_crop()), 0u);
   // A format that needs the whole mesh in memory is refused with --stream, before anything.
   const auto glb = run_cli({"mesh", vrt, "--stream", "-o", dir.path("x.glb"), "-q"});
-  EXPECT_EQ(glb.exit_code, 1);
+  EXPECT_EQ(glb.exit_code, 2);  // a usage error
   EXPECT_NE(glb.err.find("--stream"), std::string::npos) << glb.err;
 }
 

@@ -21,6 +21,7 @@
 #include <filesystem>
 #include <fstream>
 #include <limits>
+#include <map>
 #include <optional>
 #include <sstream>
 #include <vector>
@@ -971,15 +972,29 @@ TEST(Wgs84Transform, UnknownOrApproximateHeightsAreRefusedUnlessAllowed) {
   } catch (const ArgumentError& e) {
     EXPECT_NE(std::string(e.what()).find("approximate"), std::string::npos) << e.what();
   }
+  // Allowed, heights of a grid-less or unknown datum are taken as EGM96 heights and go through the
+  // EGM96 grid: exactly what naming EGM96 gives, never the ballpark's copy (47 m off here).
+  VerticalOptions egm96;
+  egm96.vertical_crs = "EPSG:5773";
+  const Wgs84Transform exact(utm32(), HeightReference::Ellipsoid, egm96);
   dhhn.allow_approximate_vertical = true;
-  const Wgs84Transform ballpark(utm32(), HeightReference::Ellipsoid, dhhn);
-  EXPECT_TRUE(ballpark.approximate_heights());
-  EXPECT_NE(ballpark.description().find("approximate"), std::string::npos);
   VerticalOptions unknown;
   unknown.allow_approximate_vertical = true;
-  const Wgs84Transform copied(utm32(), HeightReference::Ellipsoid, unknown);
-  EXPECT_EQ(copied.to_wgs84({356320, 5699270, 130})[2], 130);
-  EXPECT_NE(copied.description().find("unchanged"), std::string::npos);
+  for (const VerticalOptions& options : {dhhn, unknown}) {
+    const Wgs84Transform taken(utm32(), HeightReference::Ellipsoid, options);
+    EXPECT_TRUE(taken.approximate_heights());
+    EXPECT_NE(taken.description().find("taken as EGM96"), std::string::npos) << taken.description();
+    EXPECT_NE(taken.description().find("under 1 m"), std::string::npos) << taken.description();
+    for (const Point3& p : {Point3{356320, 5699270, 130}, Point3{357000, 5700000, 90}}) {
+      const Point3 g = taken.to_wgs84(p), e = exact.to_wgs84(p);
+      EXPECT_GT(g[2] - p[2], 40);  // the geoid's height, added
+      for (int k = 0; k < 3; ++k) EXPECT_NEAR(g[k], e[k], 1e-9);
+      const Point3 back = taken.from_wgs84(g);
+      EXPECT_LT(std::hypot(back[0] - p[0], back[1] - p[1], back[2] - p[2]), 1e-3);
+    }
+    const Wgs84Transform msl(utm32(), HeightReference::MeanSeaLevel, options);
+    EXPECT_NEAR(msl.to_wgs84({356320, 5699270, 130})[2], 130, 1e-6);  // EGM96 to EGM96
+  }
   VerticalOptions not_vertical;
   not_vertical.vertical_crs = "EPSG:4326";
   EXPECT_THROW(Wgs84Transform(utm32(), HeightReference::Ellipsoid, not_vertical), ArgumentError);
@@ -1322,6 +1337,43 @@ TEST(MissionText, KmlMatchesTheGoldenFileAndGdalReadsLonLatAbsoluteAltitudes) {
   ASSERT_EQ(points.size(), marks.size());
   for (size_t i = 0; i < marks.size(); ++i)
     for (int k = 0; k < 3; ++k) EXPECT_NEAR(points[i][0][k], marks[i][k], 1e-9);
+}
+
+TEST(MissionText, KmlStylesAndExtrusionAreWhatLibkmlReads) {
+  MissionOptions options;
+  options.extrude = true;
+  testkit::TempDir dir;
+  const std::string path = dir.path("styled.kml");
+  const std::vector<Point3> line{{6.933290123, 51.426401234, 177.5}, {6.9341, 51.4269, 180.25}};
+  write_text_file(path, path_to_kml(line, line, options));
+  GDALAllRegister();
+  const char* libkml[] = {"LIBKML", nullptr};  // libkml's own parser, not ours
+  GDALDatasetH ds = GDALOpenEx(path.c_str(), GDAL_OF_VECTOR, libkml, nullptr, nullptr);
+  ASSERT_TRUE(ds) << "libkml cannot read the KML";
+  std::map<std::string, std::string> styles;
+  if (OGRStyleTableH table = GDALDatasetGetStyleTable(ds)) {
+    OGR_STBL_ResetStyleStringReading(table);
+    while (const char* style = OGR_STBL_GetNextStyle(table)) styles[OGR_STBL_GetLastStyleName(table)] = style;
+  }
+  EXPECT_NE(styles["path"].find("PEN(c:#FF00FF"), std::string::npos) << styles["path"];  // magenta
+  EXPECT_NE(styles["path"].find("w:4"), std::string::npos) << styles["path"];
+  EXPECT_NE(styles["waypoint"].find("#00FFFF"), std::string::npos) << styles["waypoint"];  // cyan
+  size_t features = 0;
+  for (int l = 0; l < GDALDatasetGetLayerCount(ds); ++l) {
+    OGRLayerH layer = GDALDatasetGetLayer(ds, l);
+    while (OGRFeatureH feature = OGR_L_GetNextFeature(layer)) {
+      const std::string name = OGR_F_GetFieldAsString(feature, OGR_F_GetFieldIndex(feature, "Name"));
+      EXPECT_EQ(OGR_F_GetFieldAsInteger(feature, OGR_F_GetFieldIndex(feature, "extrude")), 1) << name;
+      EXPECT_EQ(std::string(OGR_F_GetStyleString(feature)), name == "path" ? "@path" : "@waypoint");
+      if (name != "path") EXPECT_EQ(name.rfind("waypoint ", 0), 0u) << name;
+      ++features;
+      OGR_F_Destroy(feature);
+    }
+  }
+  GDALClose(ds);
+  EXPECT_EQ(features, 3u);
+  // Without --extrude, no wall.
+  EXPECT_EQ(path_to_kml(line).find("<extrude>"), std::string::npos);
 }
 
 TEST(MissionText, RefusesWhatCannotFly) {
@@ -1699,4 +1751,312 @@ TEST(GlbValidator, RealMeshesHaveNoErrorsOrWarnings) {
   bool flagged = false;
   for (const auto& message : broken["messages"]) flagged |= message["code"] == "ACCESSOR_INDEX_TRIANGLE_DEGENERATE";
   EXPECT_TRUE(flagged) << broken.dump(1);
+}
+
+// ---- DJI WPML (.kmz) ------------------------------------------------------------------------
+// The archive is opened with GDAL's /vsizip/ (its own ZIP reader), the two documents parsed
+// with GDAL's CPLParseXMLString, and every number compared with the Mission it came from; the
+// ellipsoidal heights of WPML's WGS84 mode with GDAL's own EGM96 to WGS 84 transformation.
+#include <cpl_minixml.h>
+#include <cpl_string.h>
+#include <cpl_vsi.h>
+
+namespace {
+
+struct XmlDeleter {
+  void operator()(CPLXMLNode* node) const { CPLDestroyXMLNode(node); }
+};
+using XmlTree = std::unique_ptr<CPLXMLNode, XmlDeleter>;
+
+std::vector<std::string> vsi_dir(const std::string& path) {
+  char** list = VSIReadDir(path.c_str());
+  std::vector<std::string> names;
+  for (int i = 0; list && list[i]; ++i) names.push_back(list[i]);
+  CSLDestroy(list);
+  std::sort(names.begin(), names.end());
+  return names;
+}
+
+std::string vsi_read(const std::string& path) {
+  VSILFILE* file = VSIFOpenL(path.c_str(), "rb");
+  if (!file) return {};
+  std::string bytes;
+  char buffer[4096];
+  for (size_t n; (n = VSIFReadL(buffer, 1, sizeof buffer, file)) > 0;) bytes.append(buffer, n);
+  VSIFCloseL(file);
+  return bytes;
+}
+
+std::vector<const CPLXMLNode*> xml_children(const CPLXMLNode* parent, const std::string& name) {
+  std::vector<const CPLXMLNode*> found;
+  for (const CPLXMLNode* c = parent ? parent->psChild : nullptr; c; c = c->psNext)
+    if (c->eType == CXT_Element && name == c->pszValue) found.push_back(c);
+  return found;
+}
+
+std::string xml_text(const CPLXMLNode* node, const char* path) {
+  const char* value = CPLGetXMLValue(node, path, nullptr);
+  return value ? value : "<missing " + std::string(path) + ">";
+}
+
+double xml_number(const CPLXMLNode* node, const char* path) {
+  const char* value = CPLGetXMLValue(node, path, nullptr);
+  EXPECT_TRUE(value) << path;
+  return value ? std::stod(value) : NAN;
+}
+
+// GDAL's (PROJ's through OGR) EGM96 height to WGS 84 ellipsoidal height.
+double gdal_ellipsoidal(const Point3& lonlatamsl) {
+  static const std::unique_ptr<OGRCoordinateTransformation> t = [] {
+    OGRSpatialReference egm96, ellipsoid;
+    EXPECT_EQ(egm96.SetFromUserInput("EPSG:4326+5773"), OGRERR_NONE);
+    EXPECT_EQ(ellipsoid.importFromEPSG(4979), OGRERR_NONE);
+    egm96.SetAxisMappingStrategy(OAMS_TRADITIONAL_GIS_ORDER);
+    ellipsoid.SetAxisMappingStrategy(OAMS_TRADITIONAL_GIS_ORDER);
+    return std::unique_ptr<OGRCoordinateTransformation>(OGRCreateCoordinateTransformation(&egm96, &ellipsoid));
+  }();
+  EXPECT_TRUE(t);
+  double x = lonlatamsl[0], y = lonlatamsl[1], z = lonlatamsl[2];
+  EXPECT_TRUE(t && t->Transform(1, &x, &y, &z));
+  return z;
+}
+
+struct WpmlKmz {
+  XmlTree template_kml, waylines_wpml;
+  const CPLXMLNode* template_root = nullptr;
+  const CPLXMLNode* waylines_root = nullptr;
+};
+
+WpmlKmz open_wpml_kmz(const std::string& path) {
+  const std::string zip = "/vsizip/" + path;
+  EXPECT_EQ(vsi_dir(zip), (std::vector<std::string>{"wpmz"}));
+  EXPECT_EQ(vsi_dir(zip + "/wpmz"), (std::vector<std::string>{"template.kml", "waylines.wpml"}));
+  WpmlKmz kmz;
+  kmz.template_kml.reset(CPLParseXMLString(vsi_read(zip + "/wpmz/template.kml").c_str()));
+  kmz.waylines_wpml.reset(CPLParseXMLString(vsi_read(zip + "/wpmz/waylines.wpml").c_str()));
+  EXPECT_TRUE(kmz.template_kml && kmz.waylines_wpml) << CPLGetLastErrorMsg();
+  kmz.template_root = CPLGetXMLNode(kmz.template_kml.get(), "=kml");
+  kmz.waylines_root = CPLGetXMLNode(kmz.waylines_wpml.get(), "=kml");
+  EXPECT_TRUE(kmz.template_root && kmz.waylines_root);
+  return kmz;
+}
+
+// Everything a written mission must say, from the Mission and options alone.
+void expect_wpml_mission(const std::string& path, const Mission& mission, const MissionOptions& options) {
+  const WpmlKmz kmz = open_wpml_kmz(path);
+  if (!kmz.template_root || !kmz.waylines_root) return;
+  const bool relative = options.altitude_frame == AltitudeFrame::relative;
+  const char* finish = mission.end == MissionEnd::rtl    ? "goHome"
+                       : mission.end == MissionEnd::land ? "autoLand"
+                                                         : "noAction";
+  const double takeoff = mission.route[0][2] - mission.home[2];
+  for (const CPLXMLNode* root : {kmz.template_root, kmz.waylines_root}) {
+    EXPECT_EQ(xml_text(root, "xmlns"), "http://www.opengis.net/kml/2.2");
+    EXPECT_EQ(xml_text(root, "xmlns:wpml"), "http://www.dji.com/wpmz/1.0.2");
+    const CPLXMLNode* config = CPLGetXMLNode(root, "Document.wpml:missionConfig");
+    ASSERT_TRUE(config);
+    EXPECT_EQ(xml_text(config, "wpml:flyToWaylineMode"), "safely");
+    EXPECT_EQ(xml_text(config, "wpml:finishAction"), finish);
+    EXPECT_EQ(xml_text(config, "wpml:exitOnRCLost"), "executeLostAction");
+    EXPECT_EQ(xml_text(config, "wpml:executeRCLostAction"), "goBack");
+    EXPECT_NEAR(xml_number(config, "wpml:takeOffSecurityHeight"), takeoff, 1e-3);
+    EXPECT_NEAR(xml_number(config, "wpml:globalTransitionalSpeed"), options.speed, 1e-3);
+    EXPECT_TRUE(CPLGetXMLNode(config, "wpml:droneInfo.wpml:droneEnumValue"));
+    EXPECT_EQ(xml_children(CPLGetXMLNode(root, "Document"), "Folder").size(), 1u);
+  }
+
+  // waylines.wpml: what the aircraft flies.
+  const CPLXMLNode* folder = CPLGetXMLNode(kmz.waylines_root, "Document.Folder");
+  ASSERT_TRUE(folder);
+  EXPECT_EQ(xml_text(folder, "wpml:templateId"), "0");
+  EXPECT_EQ(xml_text(folder, "wpml:waylineId"), "0");
+  // DJI's execution modes are WGS84 (ellipsoidal) and relativeToStartPoint; there is no EGM96 one.
+  EXPECT_EQ(xml_text(folder, "wpml:executeHeightMode"), relative ? "relativeToStartPoint" : "WGS84");
+  EXPECT_NEAR(xml_number(folder, "wpml:autoFlightSpeed"), options.speed, 1e-3);
+  const auto placemarks = xml_children(folder, "Placemark");
+  ASSERT_EQ(placemarks.size(), mission.route.size());  // route[0], the takeoff's top, is waypoint 0
+  for (size_t i = 0; i < placemarks.size(); ++i) {
+    const CPLXMLNode* p = placemarks[i];
+    const Point3& q = mission.route[i];
+    const CPLStringList lonlat(CSLTokenizeString2(xml_text(p, "Point.coordinates").c_str(), ",", 0));
+    ASSERT_EQ(lonlat.size(), 2) << i;
+    EXPECT_NEAR(std::stod(lonlat[0]), q[0], 1e-9) << i;
+    EXPECT_NEAR(std::stod(lonlat[1]), q[1], 1e-9) << i;
+    EXPECT_EQ(xml_text(p, "wpml:index"), std::to_string(i));
+    const double height = relative ? q[2] - mission.home[2] : gdal_ellipsoidal(q);
+    EXPECT_NEAR(xml_number(p, "wpml:executeHeight"), height, 1e-3) << i;
+    if (!relative) {
+      // The geoid lies about 47 m above the ellipsoid here: an EGM96 height written as it is
+      // would fly that much too low.
+      EXPECT_GT(xml_number(p, "wpml:executeHeight") - q[2], 40) << i;
+      EXPECT_LT(xml_number(p, "wpml:executeHeight") - q[2], 55) << i;
+    }
+    EXPECT_NEAR(xml_number(p, "wpml:waypointSpeed"), options.speed, 1e-3) << i;
+    EXPECT_EQ(xml_text(p, "wpml:waypointHeadingParam.wpml:waypointHeadingMode"), "followWayline");
+    EXPECT_EQ(xml_text(p, "wpml:waypointTurnParam.wpml:waypointTurnMode"), "toPointAndStopWithDiscontinuityCurvature");
+    EXPECT_EQ(xml_text(p, "wpml:useStraightLine"), "1");
+  }
+  // Waypoint 0 is directly above home, as high as the takeoff climbs.
+  const CPLStringList first(CSLTokenizeString2(xml_text(placemarks[0], "Point.coordinates").c_str(), ",", 0));
+  EXPECT_NEAR(std::stod(first[0]), mission.home[0], 1e-7);
+  EXPECT_NEAR(std::stod(first[1]), mission.home[1], 1e-7);
+  if (relative) EXPECT_NEAR(xml_number(placemarks[0], "wpml:executeHeight"), takeoff, 1e-3);
+
+  // template.kml: the same route as an editable waypoint template, heights in its height mode
+  // and on the ellipsoid.
+  const CPLXMLNode* plan = CPLGetXMLNode(kmz.template_root, "Document.Folder");
+  ASSERT_TRUE(plan);
+  EXPECT_EQ(xml_text(plan, "wpml:templateType"), "waypoint");
+  EXPECT_EQ(xml_text(plan, "wpml:templateId"), "0");
+  EXPECT_EQ(xml_text(plan, "wpml:waylineCoordinateSysParam.wpml:coordinateMode"), "WGS84");
+  EXPECT_EQ(xml_text(plan, "wpml:waylineCoordinateSysParam.wpml:heightMode"),
+            relative ? "relativeToStartPoint" : "EGM96");
+  EXPECT_NEAR(xml_number(plan, "wpml:autoFlightSpeed"), options.speed, 1e-3);
+  EXPECT_EQ(xml_text(plan, "wpml:globalWaypointTurnMode"), "toPointAndStopWithDiscontinuityCurvature");
+  const CPLStringList reference(CSLTokenizeString2(
+      xml_text(kmz.template_root, "Document.wpml:missionConfig.wpml:takeOffRefPoint").c_str(), ",", 0));
+  ASSERT_EQ(reference.size(), 3);
+  EXPECT_NEAR(std::stod(reference[0]), mission.home[1], 1e-9);  // latitude first here
+  EXPECT_NEAR(std::stod(reference[1]), mission.home[0], 1e-9);
+  EXPECT_NEAR(std::stod(reference[2]), gdal_ellipsoidal(mission.home), 1e-3);
+  const auto points = xml_children(plan, "Placemark");
+  ASSERT_EQ(points.size(), mission.route.size());
+  for (size_t i = 0; i < points.size(); ++i) {
+    const Point3& q = mission.route[i];
+    EXPECT_EQ(xml_text(points[i], "wpml:index"), std::to_string(i));
+    EXPECT_EQ(xml_text(points[i], "wpml:useGlobalHeight"), "0");
+    EXPECT_NEAR(xml_number(points[i], "wpml:height"), relative ? q[2] - mission.home[2] : q[2], 1e-3) << i;
+    EXPECT_NEAR(xml_number(points[i], "wpml:ellipsoidHeight"), gdal_ellipsoidal(q), 1e-3) << i;
+    const CPLStringList lonlat(CSLTokenizeString2(xml_text(points[i], "Point.coordinates").c_str(), ",", 0));
+    ASSERT_EQ(lonlat.size(), 2) << i;
+    EXPECT_NEAR(std::stod(lonlat[0]), q[0], 1e-9) << i;
+    EXPECT_NEAR(std::stod(lonlat[1]), q[1], 1e-9) << i;
+  }
+}
+
+}  // namespace
+
+TEST(MissionWpml, EveryEndAndFrameReadsBackAsTheMission) {
+  testkit::TempDir dir;
+  for (const MissionEnd end : {MissionEnd::rtl, MissionEnd::land, MissionEnd::none})
+    for (const AltitudeFrame frame : {AltitudeFrame::relative, AltitudeFrame::amsl}) {
+      SCOPED_TRACE(testing::Message() << "end " << int(end) << " frame " << int(frame));
+      const Mission mission = sample_mission(end);
+      MissionOptions options;
+      options.altitude_frame = frame;
+      options.speed = 7.25;
+      const std::string path = dir.path("m" + std::to_string(int(end)) + std::to_string(int(frame)) + ".kmz");
+      write_wpml_kmz(mission, options, path);
+      expect_wpml_mission(path, mission, options);
+    }
+  EXPECT_EQ(dir.files().size(), 6u);  // no temporaries beside them
+}
+
+TEST(MissionWpml, ALongerRouteKeepsItsOrderAndOverwritesInPlace) {
+  Mission mission = sample_mission(MissionEnd::rtl);
+  for (int i = 1; i <= 40; ++i) mission.route.push_back({6.935 + 1e-5 * i, 51.4271 - 7e-6 * i, 179 + 0.125 * (i % 7)});
+  mission.route.push_back(mission.route.front());  // back above home, as the planner ends an rtl route
+  testkit::TempDir dir;
+  const std::string path = dir.path("long.kmz");
+  write_wpml_kmz(sample_mission(MissionEnd::none), {}, path);
+  write_wpml_kmz(mission, {}, path);
+  expect_wpml_mission(path, mission, {});
+  EXPECT_EQ(dir.files(), std::vector<std::string>{"long.kmz"});
+}
+
+// GDAL's KML drivers (KML, LIBKML) read the template's Placemarks as 2D points, in order: WPML's
+// coordinates are "longitude,latitude" only, and both drivers skip the wpml: elements (no fields
+// come of them), so the heights are checked through the XML above, not here.
+TEST(MissionWpml, GdalKmlReadsTheTemplatesPoints) {
+  const Mission mission = sample_mission(MissionEnd::land);
+  testkit::TempDir dir;
+  write_wpml_kmz(mission, {}, dir.path("m.kmz"));
+  const std::string kml = "/vsizip/" + dir.path("m.kmz") + "/wpmz/template.kml";
+  int drivers_tried = 0;
+  for (const char* driver : {"KML", "LIBKML"}) {
+    if (!GDALGetDriverByName(driver)) continue;
+    ++drivers_tried;
+    const char* const allowed[] = {driver, nullptr};
+    GDALDatasetH ds = GDALOpenEx(kml.c_str(), GDAL_OF_VECTOR | GDAL_OF_READONLY, allowed, nullptr, nullptr);
+    ASSERT_TRUE(ds) << driver << ": " << CPLGetLastErrorMsg();
+    std::vector<std::array<double, 2>> points;
+    for (int l = 0; l < GDALDatasetGetLayerCount(ds); ++l) {
+      OGRLayerH layer = GDALDatasetGetLayer(ds, l);
+      OGR_L_ResetReading(layer);
+      while (OGRFeatureH f = OGR_L_GetNextFeature(layer)) {
+        OGRGeometryH g = OGR_F_GetGeometryRef(f);
+        EXPECT_TRUE(g && OGR_G_GetGeometryType(g) == wkbPoint) << driver;  // 2D: no height in the coordinates
+        if (g) points.push_back({OGR_G_GetX(g, 0), OGR_G_GetY(g, 0)});
+        OGR_F_Destroy(f);
+      }
+    }
+    GDALClose(ds);
+    ASSERT_EQ(points.size(), mission.route.size()) << driver;
+    for (size_t i = 0; i < points.size(); ++i) {
+      EXPECT_NEAR(points[i][0], mission.route[i][0], 1e-9) << driver << " " << i;
+      EXPECT_NEAR(points[i][1], mission.route[i][1], 1e-9) << driver << " " << i;
+    }
+  }
+  EXPECT_GT(drivers_tried, 0) << "GDAL has neither the KML nor the LIBKML driver";
+}
+
+TEST(MissionWpml, RefusesWhatCannotFlyAndLeavesNothing) {
+  testkit::TempDir dir;
+  const std::string path = dir.path("m.kmz");
+  const auto refused = [&](const Mission& mission, const MissionOptions& options = {}) {
+    EXPECT_THROW(write_wpml_kmz(mission, options, path), ArgumentError);
+    EXPECT_TRUE(dir.files().empty()) << dir.files().front();
+  };
+  Mission m = sample_mission(MissionEnd::rtl);
+  m.route.clear();
+  refused(m);
+  m = sample_mission(MissionEnd::rtl);
+  m.route[1] = {356320, 5699270, 130};  // UTM, not degrees
+  refused(m);
+  m = sample_mission(MissionEnd::rtl);
+  m.route[2][2] = NAN;
+  refused(m);
+  m = sample_mission(MissionEnd::rtl);
+  m.home[1] = INFINITY;
+  refused(m);
+  m = sample_mission(MissionEnd::rtl);
+  m.route[0][0] += 1e-5;  // the takeoff's top not above home
+  refused(m);
+  m = sample_mission(MissionEnd::rtl);
+  m.route[0][2] = m.home[2] + 1.9;  // too low a takeoff
+  refused(m);
+  m = sample_mission(MissionEnd::land);
+  m.land = {NAN, NAN, NAN};
+  refused(m);
+  // autoLand lands where the route ends: a landing point elsewhere cannot be said in WPML.
+  m = sample_mission(MissionEnd::land);
+  m.land[0] += 1e-5;
+  refused(m);
+  for (const double speed : {0.0, -1.0, 101.0, double(NAN)}) {
+    MissionOptions options;
+    options.speed = speed;
+    refused(sample_mission(MissionEnd::rtl), options);
+    options = {};
+    options.hover_speed = speed;
+    refused(sample_mission(MissionEnd::rtl), options);
+  }
+
+  // A refused mission leaves an earlier file as it was.
+  write_wpml_kmz(sample_mission(MissionEnd::none), {}, path);
+  const std::string before = testkit::read_file(path);
+  m = sample_mission(MissionEnd::rtl);
+  m.route.clear();
+  EXPECT_THROW(write_wpml_kmz(m, {}, path), ArgumentError);
+  EXPECT_EQ(testkit::read_file(path), before);
+  EXPECT_EQ(dir.files(), std::vector<std::string>{"m.kmz"});
+}
+
+TEST(MissionWpml, UnwritablePathsAreOutputErrorsAndLeaveNothing) {
+  testkit::TempDir dir;
+  EXPECT_THROW(write_wpml_kmz(sample_mission(MissionEnd::rtl), {}, dir.path("missing/m.kmz")), OutputError);
+  EXPECT_TRUE(dir.files().empty());
+  std::filesystem::create_directory(dir.path("folder.kmz"));
+  EXPECT_THROW(write_wpml_kmz(sample_mission(MissionEnd::rtl), {}, dir.path("folder.kmz")), OutputError);
+  EXPECT_EQ(dir.files(), std::vector<std::string>{"folder.kmz"});
+  EXPECT_TRUE(std::filesystem::is_empty(dir.path("folder.kmz")));
 }

@@ -272,8 +272,10 @@ void write_png(const Image& image, const std::string& path);
 // is exact; the vertical part needs the data's vertical reference (from a compound CRS, or
 // VerticalOptions::vertical_crs) and a geoid grid PROJ has. Where PROJ has only a "ballpark"
 // operation (heights copied across datums: for Germany's DHHN2016 without the GCG2016 grid,
-// about 47 m wrong), construction fails unless allow_approximate_vertical; description() names
-// the operation used, and the tools print it.
+// about 47 m wrong), or the reference is unknown, construction fails unless
+// allow_approximate_vertical; then the heights are taken as EGM96 heights (EPSG:5773) and go
+// through PROJ's EGM96 grid: off by the difference between their datum and EGM96 (typically under
+// 1 m), never by the geoid's height. description() names the operation used, and the tools print it.
 
 enum class HeightReference {
   Ellipsoid,    ///< WGS 84 ellipsoidal height (EPSG:4979), GeoJSON's
@@ -282,7 +284,7 @@ enum class HeightReference {
 
 struct VerticalOptions {
   std::string vertical_crs;  ///< the heights' vertical CRS when the data does not say (e.g. "EPSG:7837")
-  bool allow_approximate_vertical = false;  ///< accept a ballpark height transformation, or an unknown reference
+  bool allow_approximate_vertical = false;  ///< take heights of an unknown or grid-less datum as EGM96 heights
 };
 
 class Wgs84Transform {
@@ -366,6 +368,7 @@ struct MissionOptions {
   int vehicle_type = 2;    ///< .plan: MAV_TYPE, 2 = quadrotor
   std::string name = "dsmplan path";  ///< KML: the Document's name
   std::string description;            ///< KML: the Document's description (e.g. the transformation), may be empty
+  bool extrude = false;               ///< KML: <extrude>1</extrude>, a wall from the path down to the ground
 };
 
 /// The mission items, in this order for both formats: MAV_CMD_NAV_TAKEOFF (22) at home to the
@@ -394,17 +397,23 @@ std::string mission_to_qgc_plan(const Mission& mission, const MissionOptions& op
 /// Latitude comes before longitude. Errors as mission_to_qgc_plan().
 std::string mission_to_qgc_wpl(const Mission& mission, const MissionOptions& options = {});
 
-/// A DJI WPML mission (.kmz, DJI's "WPML" specification, Cloud API / Mobile SDK): a ZIP holding
-/// wpmz/template.kml and wpmz/waylines.wpml, the same route as mission_to_qgc_plan() (takeoff
-/// height, speed, the waypoints, the end as the finish action: rtl goHome, land autoLand, none
-/// noAction), heights in the altitude frame (relative to the takeoff point, or EGM96). Written
-/// atomically to `path`. Errors as mission_to_qgc_plan(); OutputError when it cannot write.
+/// A DJI WPML mission (.kmz, DJI Cloud API "DJI WPML", namespace wpmz/1.0.2): a ZIP holding
+/// wpmz/template.kml and wpmz/waylines.wpml, the same route as mission_to_qgc_plan(): one
+/// Placemark per route point from the takeoff top on, flown in straight lines that stop at each
+/// point (toPointAndStopWithDiscontinuityCurvature); takeOffSecurityHeight the takeoff's height;
+/// finishAction goHome (rtl), autoLand (land) or noAction. Heights: relative to the start point,
+/// or for amsl executed as WGS 84 ellipsoidal heights through PROJ's EGM96 grid (WPML has no
+/// EGM96 execution mode; the template states EGM96). Written atomically to `path` (GDAL's zip).
+/// Errors as mission_to_qgc_plan(), and ArgumentError for a landing not under the last point or
+/// more than 65,536 points; OutputError when it cannot write.
 void write_wpml_kmz(const Mission& mission, const MissionOptions& options, const std::string& path);
 
 /// KML 2.2: a Document with a Placemark "path" whose LineString has <altitudeMode>absolute
 /// </altitudeMode> and "lon,lat,alt" tuples one a line, then a Point Placemark "waypoint k"
 /// (also absolute) for each of `marks` (may be empty). Without altitudeMode a viewer would clamp
-/// the path to the ground. Name and description are XML-escaped.
+/// the path to the ground. Styles: the path a magenta line 4 px wide (its extrusion translucent),
+/// the waypoints cyan; `extrude` adds a wall down to the ground under each. Name and
+/// description are XML-escaped.
 std::string path_to_kml(const std::vector<Point3>& lonlatamsl, const std::vector<Point3>& marks = {},
                         const MissionOptions& options = {});
 

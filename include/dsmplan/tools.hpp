@@ -77,6 +77,8 @@ struct GridOptions {
 /// Reads the point clouds, grids them (median or max per cell), optionally fills holes, writes
 /// the GeoTIFF atomically. Returns the written grid's summary.
 GridSummary grid_to_geotiff(const GridOptions& options, const Progress& progress = {});
+/// cells, valid, nodata, holes, z_min, z_max (null when there is no valid cell).
+Json to_json(const GridSummary& summary);
 
 // ---- dsmplan mesh ---------------------------------------------------------------------------
 
@@ -235,6 +237,9 @@ ProfileReport profile_job(const ProfileJobOptions& options, const Progress& prog
 /// at most 25.60 m above the DSM (at 294.8 m), ceiling DSM + 30 m kept with 4.40 m to spare"
 /// ("EXCEEDED by X m" when the path rises above the ceiling).
 std::string to_text(const ProfileReport& report);
+/// output, width, height, length_m, min_above_dsm_m (and _at_m), max_above_ground_m (and _at_m),
+/// ground ("dtm" or "dsm"), max_agl_m.
+Json to_json(const ProfileReport& report);
 
 // ---- dsmplan plan ---------------------------------------------------------------------------
 
@@ -275,7 +280,8 @@ struct PlanJobOptions {
   /// .geojson/.json an RFC 7946 LineString Feature (WGS 84, ellipsoidal heights); missions in
   /// WGS 84 with heights above mean sea level (EGM96): .plan a QGroundControl plan
   /// (mission_to_qgc_plan), .waypoints a "QGC WPL 110" text mission (mission_to_qgc_wpl), both
-  /// flyable (MissionJobOptions) with the fewest items whose straight lines keep the limits; .kml a KML 2.2 LineString
+  /// flyable (MissionJobOptions) with the fewest items whose straight lines keep the limits, and
+  /// .kmz the same mission for DJI aircraft (write_wpml_kmz); .kml a KML 2.2 LineString
   /// with altitudeMode absolute and the waypoints as Points (path_to_kml), every path point.
   std::string output;
   std::string format;     ///< csv, geojson, plan, waypoints or kml; empty: from the output's extension

@@ -222,6 +222,9 @@ std::string path_to_kml(const std::vector<Point3>& lonlatamsl, const std::vector
   check_points(lonlatamsl, "kml");
   if (!marks.empty()) check_points(marks, "kml");
   const auto tuple = [](const Point3& p) { return degrees(p[0]) + "," + degrees(p[1]) + "," + metres(p[2]); };
+  // KML 2.2's element order: extrude before altitudeMode before coordinates; KML colours are
+  // aabbggrr. The path magenta and the waypoints cyan, as the renderings and the 3D viewer draw them.
+  const std::string extrude = options.extrude ? "        <extrude>1</extrude>\n" : "";
   std::string text =
       "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n"
       "<kml xmlns=\"http://www.opengis.net/kml/2.2\">\n"
@@ -229,9 +232,27 @@ std::string path_to_kml(const std::vector<Point3>& lonlatamsl, const std::vector
       "    <name>" + xml_escaped(options.name) + "</name>\n";
   if (!options.description.empty())
     text += "    <description>" + xml_escaped(options.description) + "</description>\n";
-  text += "    <Placemark>\n"
+  text += "    <Style id=\"path\">\n"
+          "      <LineStyle>\n"
+          "        <color>ffff00ff</color>\n"
+          "        <width>4</width>\n"
+          "      </LineStyle>\n"
+          "      <PolyStyle>\n"
+          "        <color>40ff00ff</color>\n"
+          "      </PolyStyle>\n"
+          "    </Style>\n"
+          "    <Style id=\"waypoint\">\n"
+          "      <IconStyle>\n"
+          "        <color>ffffff00</color>\n"
+          "      </IconStyle>\n"
+          "      <LabelStyle>\n"
+          "        <color>ffffff00</color>\n"
+          "      </LabelStyle>\n"
+          "    </Style>\n"
+          "    <Placemark>\n"
           "      <name>path</name>\n"
-          "      <LineString>\n"
+          "      <styleUrl>#path</styleUrl>\n"
+          "      <LineString>\n" + extrude +
           "        <altitudeMode>absolute</altitudeMode>\n"
           "        <coordinates>\n";
   for (const Point3& p : lonlatamsl) text += "          " + tuple(p) + "\n";
@@ -241,7 +262,8 @@ std::string path_to_kml(const std::vector<Point3>& lonlatamsl, const std::vector
   for (size_t i = 0; i < marks.size(); ++i)
     text += "    <Placemark>\n"
             "      <name>waypoint " + std::to_string(i + 1) + "</name>\n"
-            "      <Point>\n"
+            "      <styleUrl>#waypoint</styleUrl>\n"
+            "      <Point>\n" + extrude +
             "        <altitudeMode>absolute</altitudeMode>\n"
             "        <coordinates>" + tuple(marks[i]) + "</coordinates>\n"
             "      </Point>\n"

@@ -3,6 +3,9 @@
 // whose grids are present (proj_create_operations with missing-grid operations discarded);
 // when that is only a "ballpark" one (heights copied across datums, metres to tens of metres
 // wrong: DHHN2016 to the ellipsoid is about 47 m at Muelheim), it is refused unless allowed.
+// Allowed, the heights are taken as EGM96 heights (EPSG:5773) and go through the EGM96 grid
+// (egm96_15.gtx, Debian's proj-data): a national height datum and EGM96 differ by the datum's
+// offset and EGM96's own error, about a metre, never by the geoid's tens of metres.
 // Axis order: proj_normalize_for_visualization, so longitude comes first whatever EPSG says.
 #include <proj.h>
 #include <proj_experimental.h>
@@ -45,7 +48,6 @@ const char* target_code(HeightReference target) {
 struct Wgs84Transform::State {
   std::unique_ptr<PJ_CONTEXT, ContextDeleter> ctx{proj_context_create()};
   Pj operation;
-  bool heights_copied = false;
 };
 
 Wgs84Transform::~Wgs84Transform() = default;
@@ -68,39 +70,68 @@ Wgs84Transform::Wgs84Transform(const Crs& crs, HeightReference target, const Ver
     source.reset(proj_create_compound_crs(ctx, "data", source.get(), vertical.get()));
     if (!source) throw ArgumentError("--vertical-crs", "cannot combine it with the data's CRS" + last_error(ctx));
   }
+  std::string why_egm96;  // set when the heights are taken as EGM96 heights
   if (!has_vertical && options.vertical_crs.empty()) {
     if (!options.allow_approximate_vertical)
       throw ArgumentError("--vertical-crs",
                           "the data's vertical reference is unknown, so its heights cannot be converted; name it "
-                          "(e.g. --vertical-crs EPSG:7837 for DHHN2016) or pass --allow-approximate-vertical to copy "
-                          "heights unchanged");
-    state_->heights_copied = true;
+                          "(e.g. --vertical-crs EPSG:7837 for DHHN2016) or pass --allow-approximate-vertical to take "
+                          "them as EGM96 heights (mean sea level, about a metre off)");
+    why_egm96 = "the data's vertical reference is unknown";
   }
-  Pj destination(proj_create(ctx, state_->heights_copied ? "EPSG:4326" : target_code(target)));
+  Pj destination(proj_create(ctx, target_code(target)));
   if (!destination) throw ArgumentError("crs", "PROJ cannot build the WGS 84 target" + last_error(ctx));
 
-  PJ_OPERATION_FACTORY_CONTEXT* factory = proj_create_operation_factory_context(ctx, nullptr);
-  proj_operation_factory_context_set_grid_availability_use(ctx, factory,
-                                                           PROJ_GRID_AVAILABILITY_DISCARD_OPERATION_IF_MISSING_GRID);
-  proj_operation_factory_context_set_spatial_criterion(ctx, factory,
-                                                       PROJ_SPATIAL_CRITERION_PARTIAL_INTERSECTION);
-  if (std::isfinite(area[0]))
-    proj_operation_factory_context_set_area_of_interest(ctx, factory, area[0], area[1], area[2], area[3]);
-  PJ_OBJ_LIST* list = proj_create_operations(ctx, source.get(), destination.get(), factory);
-  proj_operation_factory_context_destroy(factory);
-  const int count = list ? proj_list_get_count(list) : 0;
-  Pj best(count > 0 ? proj_list_get(ctx, list, 0) : nullptr);  // sorted best first
-  if (list) proj_list_destroy(list);
-  if (!best) throw ArgumentError("crs", "PROJ has no transformation from the data's CRS to WGS 84" + last_error(ctx));
+  const auto best_operation = [&](PJ* from) {
+    PJ_OPERATION_FACTORY_CONTEXT* factory = proj_create_operation_factory_context(ctx, nullptr);
+    proj_operation_factory_context_set_grid_availability_use(ctx, factory,
+                                                             PROJ_GRID_AVAILABILITY_DISCARD_OPERATION_IF_MISSING_GRID);
+    proj_operation_factory_context_set_spatial_criterion(ctx, factory, PROJ_SPATIAL_CRITERION_PARTIAL_INTERSECTION);
+    if (std::isfinite(area[0]))
+      proj_operation_factory_context_set_area_of_interest(ctx, factory, area[0], area[1], area[2], area[3]);
+    PJ_OBJ_LIST* list = proj_create_operations(ctx, from, destination.get(), factory);
+    proj_operation_factory_context_destroy(factory);
+    const int count = list ? proj_list_get_count(list) : 0;
+    Pj best(count > 0 ? proj_list_get(ctx, list, 0) : nullptr);  // sorted best first
+    if (list) proj_list_destroy(list);
+    if (!best) throw ArgumentError("crs", "PROJ has no transformation from the data's CRS to WGS 84" + last_error(ctx));
+    return best;
+  };
+  Pj best;
+  if (why_egm96.empty()) {
+    best = best_operation(source.get());
+    if (proj_coordoperation_has_ballpark_transformation(ctx, best.get())) {
+      const std::string name = proj_get_name(best.get()) ? proj_get_name(best.get()) : "unnamed";
+      if (!options.allow_approximate_vertical)
+        throw ArgumentError("--vertical-crs",
+                            "PROJ has only an approximate (ballpark) height transformation here ('" + name +
+                                "': heights copied across datums, off by the geoid's height, tens of metres); install "
+                                "the datum's geoid grid or pass --allow-approximate-vertical to take the heights as "
+                                "EGM96 heights (mean sea level, about a metre off)");
+      Pj vertical(proj_crs_get_sub_crs(ctx, source.get(), 1));
+      const char* datum = vertical ? proj_get_name(vertical.get()) : nullptr;
+      why_egm96 = std::string("PROJ has no grid from ") + (datum ? datum : "the data's height datum") + " here";
+    }
+  }
+  if (!why_egm96.empty()) {
+    Pj horizontal(proj_get_type(source.get()) == PJ_TYPE_COMPOUND_CRS ? proj_crs_get_sub_crs(ctx, source.get(), 0)
+                                                                      : proj_clone(ctx, source.get()));
+    Pj egm96(proj_create(ctx, "EPSG:5773"));
+    if (!horizontal || !egm96) throw ArgumentError("crs", "PROJ cannot build the EGM96 height reference" + last_error(ctx));
+    source.reset(proj_create_compound_crs(ctx, "data as EGM96", horizontal.get(), egm96.get()));
+    if (!source) throw ArgumentError("crs", "PROJ cannot combine the data's CRS with EGM96" + last_error(ctx));
+    best = best_operation(source.get());
+    if (proj_coordoperation_has_ballpark_transformation(ctx, best.get()))
+      throw ArgumentError("--allow-approximate-vertical",
+                          "PROJ has no EGM96 grid (egm96_15.gtx, Debian's proj-data) to take the heights through");
+    approximate_ = true;
+  }
   description_ = proj_get_name(best.get()) ? proj_get_name(best.get()) : "unnamed";
-  approximate_ = !state_->heights_copied && proj_coordoperation_has_ballpark_transformation(ctx, best.get());
-  if (approximate_ && !options.allow_approximate_vertical)
-    throw ArgumentError("--vertical-crs",
-                        "PROJ has only an approximate (ballpark) height transformation here ('" + description_ +
-                            "': heights copied across datums, off by the geoid's height, tens of metres); install "
-                            "the datum's geoid grid or pass --allow-approximate-vertical");
-  if (state_->heights_copied) {
-    description_ += "; heights copied unchanged (vertical reference unknown)";
+  if (approximate_) {
+    description_ += "; heights taken as EGM96 heights (mean sea level) because " + why_egm96 +
+                    " (approximate heights: off by the difference between the data's datum and EGM96, typically under "
+                    "1 m, never by the geoid's height) to " +
+                    (target == HeightReference::MeanSeaLevel ? "EGM96 height (mean sea level)" : "WGS 84 ellipsoidal height");
   } else {
     // PROJ's name leaves out a vertical step that is the identity (EGM96 to EGM96): say it.
     Pj vertical(proj_crs_get_sub_crs(ctx, source.get(), 1));
@@ -109,7 +140,6 @@ Wgs84Transform::Wgs84Transform(const Crs& crs, HeightReference target, const Ver
                     (target == HeightReference::MeanSeaLevel ? "EGM96 height (mean sea level)"
                                                              : "WGS 84 ellipsoidal height");
   }
-  if (approximate_) description_ += " (approximate heights)";
   state_->operation.reset(proj_normalize_for_visualization(ctx, best.get()));
   if (!state_->operation) throw ArgumentError("crs", "PROJ cannot order the axes longitude first" + last_error(ctx));
 }
@@ -117,7 +147,7 @@ Wgs84Transform::Wgs84Transform(const Crs& crs, HeightReference target, const Ver
 Point3 Wgs84Transform::apply(const Point3& p, bool forward) const {
   PJ_COORD c = proj_coord(p[0], p[1], p[2], 0);
   const PJ_COORD out = proj_trans(state_->operation.get(), forward ? PJ_FWD : PJ_INV, c);
-  Point3 r{out.xyz.x, out.xyz.y, state_->heights_copied ? p[2] : out.xyz.z};
+  Point3 r{out.xyz.x, out.xyz.y, out.xyz.z};
   for (double v : r)
     if (!std::isfinite(v))
       throw ArgumentError("crs", "PROJ cannot transform the point (" + std::to_string(p[0]) + ", " +

@@ -365,12 +365,13 @@ public:
     frame_.cell_x = gt[1];
     frame_.cell_y = std::abs(gt[5]);
     if (const std::string problem = frame_problem(frame_); !problem.empty()) throw InputError(path, "geotransform", problem);
+    // --crs overrides what the file states, as gdal_translate -a_srs and `grid --crs` do.
     const OGRSpatialReference* srs = dataset_->GetSpatialRef();
-    if (srs && !srs->IsEmpty()) {
-      describe(*srs, frame_.crs);
-    } else if (!options.assign_crs.empty()) {
+    if (!options.assign_crs.empty()) {
       frame_.crs.definition = options.assign_crs;
       resolve_crs(frame_.crs);
+    } else if (srs && !srs->IsEmpty()) {
+      describe(*srs, frame_.crs);
     } else if (!options.allow_no_crs) {
       throw InputError(path, "", "raster has no CRS; assign one with --crs (e.g. --crs EPSG:25832)");
     }

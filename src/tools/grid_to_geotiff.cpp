@@ -39,4 +39,10 @@ GridSummary grid_to_geotiff(const GridOptions& options, const Progress& progress
   return summarize(grid);
 }
 
+Json to_json(const GridSummary& summary) {
+  const auto number = [](double v) { return std::isnan(v) ? Json() : Json(v); };
+  return {{"cells", summary.cells}, {"valid", summary.valid},          {"nodata", summary.nodata},
+          {"holes", summary.holes}, {"z_min", number(summary.z_min)}, {"z_max", number(summary.z_max)}};
+}
+
 }  // namespace dsmplan

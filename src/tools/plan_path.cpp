@@ -133,18 +133,20 @@ PlanReport plan_job(const PlanJobOptions& options, const Progress& progress) {
   if (out_ext == "json") out_ext = "geojson";
   const bool geojson_out = out_ext == "geojson";
   // Missions and KML state heights above mean sea level (EGM96); GeoJSON above the ellipsoid.
-  const bool msl_out = out_ext == "plan" || out_ext == "waypoints" || out_ext == "kml";
+  const bool msl_out = out_ext == "plan" || out_ext == "waypoints" || out_ext == "kmz" || out_ext == "kml";
   if (!options.format.empty() && out_ext != "csv" && !geojson_out && !msl_out)
-    throw ArgumentError("--of", "unknown path format '" + options.format + "' (use csv, geojson, plan, waypoints or kml)");
+    throw ArgumentError("--of", "unknown path format '" + options.format + "' (use csv, geojson, plan, waypoints, kmz or kml)");
   if (out_ext != "csv" && !geojson_out && !msl_out)
     throw ArgumentError("-o", "the path is written as .csv (x,y,z in the mesh's CRS), .geojson (WGS 84), .plan "
-                              "(QGroundControl), .waypoints (QGC WPL 110) or .kml, got '" + options.output + "'");
+                              "(QGroundControl), .waypoints (QGC WPL 110), .kmz (DJI WPML) or .kml, got '" + options.output + "'");
   // Missions take off from home and end (MissionJobOptions); the other formats are the path alone.
-  const bool mission_out = out_ext == "plan" || out_ext == "waypoints";
+  const bool mission_out = out_ext == "plan" || out_ext == "waypoints" || out_ext == "kmz";
   if (!mission_out && (!std::isnan(options.mission.home[0]) || !std::isnan(options.mission.home[1])))
-    throw ArgumentError("--home", "applies to missions (.plan, .waypoints), not to a ." + out_ext + " path");
+    throw ArgumentError("--home", "applies to missions (.plan, .waypoints, .kmz), not to a ." + out_ext + " path");
+  if (options.mission.format.extrude && out_ext != "kml")
+    throw ArgumentError("--extrude", "applies to .kml paths, not to a ." + out_ext + " path");
   if (!mission_out && options.mission.end)
-    throw ArgumentError("--end", "applies to missions (.plan, .waypoints), not to a ." + out_ext + " path");
+    throw ArgumentError("--end", "applies to missions (.plan, .waypoints, .kmz), not to a ." + out_ext + " path");
   if (mission_out)
     for (const auto& [flag, speed] : {std::pair{"--speed", options.mission.format.speed},
                                       std::pair{"--hover-speed", options.mission.format.hover_speed}})
@@ -362,16 +364,18 @@ PlanReport plan_job(const PlanJobOptions& options, const Progress& progress) {
       mission.route.front() = to_msl->to_wgs84(site.takeoff_top);  // exactly above home
       mission.end = site.end;
       if (site.end == MissionEnd::land) mission.land = to_msl->to_wgs84(site.land);
-      const std::string text = out_ext == "plan" ? mission_to_qgc_plan(mission, options.mission.format)
-                                                 : mission_to_qgc_wpl(mission, options.mission.format);
       report.mission_items = 2 + (mission.route.size() - 1) + (site.end == MissionEnd::none ? 0 : 1);
       report.home = site.home;
       report.takeoff_height_m = site.takeoff_top[2] - site.home[2];
       report.mission_end = site.end == MissionEnd::rtl ? "rtl" : site.end == MissionEnd::land ? "land" : "none";
-      write_text_file(options.output, text);
+      if (out_ext == "kmz")
+        write_wpml_kmz(mission, options.mission.format, options.output);
+      else
+        write_text_file(options.output, out_ext == "plan" ? mission_to_qgc_plan(mission, options.mission.format)
+                                                          : mission_to_qgc_wpl(mission, options.mission.format));
     } else {
       for (const Point3& p : waypoints) marks.push_back(to_msl->to_wgs84(p));
-      MissionOptions kml;
+      MissionOptions kml = options.mission.format;
       kml.description = "dsmplan path from " + mesh.crs.name + "; heights above mean sea level (EGM96) by: " +
                         to_msl->description();
       write_text_file(options.output, path_to_kml(lonlatamsl, marks, kml));

@@ -150,4 +150,18 @@ std::string to_text(const ProfileReport& r) {
   return line;
 }
 
+Json to_json(const ProfileReport& r) {
+  const auto number = [](double v) { return std::isnan(v) ? Json() : Json(v); };
+  return {{"output", r.output},
+          {"width", r.width},
+          {"height", r.height},
+          {"length_m", r.length},
+          {"min_above_dsm_m", number(r.min_above_dsm)},
+          {"min_above_dsm_at_m", number(r.min_above_dsm_at)},
+          {"max_above_ground_m", number(r.max_above_ground)},
+          {"max_above_ground_at_m", number(r.max_above_ground_at)},
+          {"ground", r.ground_is_dtm ? "dtm" : "dsm"},
+          {"max_agl_m", number(r.max_agl)}};
+}
+
 }  // namespace dsmplan

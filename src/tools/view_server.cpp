@@ -152,10 +152,11 @@ void serve_view(const ViewOptions& options, const std::function<void(const std::
   int port = options.port;
   if (port == 0) {
     port = server.bind_to_any_port(options.host);
-    if (port < 0) throw ArgumentError("--host", "cannot listen on " + options.host);
+    // Not a usage error (exit 2) but the machine's state: an Error (exit 1).
+    if (port < 0) throw Error("--host: cannot listen on " + options.host);
   } else if (!server.bind_to_port(options.host, port)) {
-    throw ArgumentError("--port", "cannot listen on " + options.host + ":" + std::to_string(port) +
-                                      " (in use, or not an address of this machine)");
+    throw Error("--port: cannot listen on " + options.host + ":" + std::to_string(port) +
+                " (in use, or not an address of this machine)");
   }
   const std::string authority =
       (options.host.find(':') != std::string::npos ? "[" + options.host + "]" : options.host) + ":" + std::to_string(port);
