@@ -410,7 +410,7 @@ RenderOptions plain(std::optional<Window> window, double zoom = 4) {
   RenderOptions options;
   options.window = window;
   options.pixels_per_cell = zoom;
-  options.scale_bar = options.north_arrow = false;
+  options.scale_bar = options.north_arrow = options.legend = false;
   return options;
 }
 
@@ -550,6 +550,66 @@ TEST(Render, RealMeshAndDecorationsStayInsideThePicture) {
   // Title box top-left, north arrow box top-right: near white there.
   EXPECT_GT(brightness(image, 14, 14), 3 * 200);
   EXPECT_GT(brightness(image, image.width - 14, 14), 3 * 200);
+}
+
+TEST(Render, FurnitureIsNeverCoveredAndNumbersAvoidItAndEachOther) {
+  const Grid& grid = nrw_grid();
+  RenderOptions options;
+  options.window = Window{grid.x0 + 100, grid.y0 - 300, grid.x0 + 300, grid.y0 - 100};
+  options.pixels_per_cell = 3;
+  options.title = "furniture and numbers";
+  const Image bare = render_view(grid, nullptr, options);
+  std::map<std::string, ImageRegion> furniture;
+  for (const ImageRegion& r : bare.regions) furniture[r.what] = r;
+  for (const std::string what : {"title", "north arrow", "scale bar", "legend"}) ASSERT_TRUE(furniture.count(what)) << what;
+  const auto at = [&](double x, double y) {  // a pixel centre back in the CRS
+    return Point3{options.window->xmin + (x + 0.5) / 3, options.window->ymax - (y + 0.5) / 3, 150};
+  };
+  // A waypoint under the middle of every box (the bottom corners then stay as they are), and a
+  // tight cluster of twelve in the open.
+  MarkerLayer markers;
+  for (const auto& [what, r] : furniture) markers.points.push_back(at((r.x0 + r.x1) / 2.0, (r.y0 + r.y1) / 2.0));
+  for (int k = 0; k < 12; ++k) markers.points.push_back(at(260 + 24 * (k % 4), 260 + 24 * (k / 4)));
+  options.markers = {markers};
+  const Image busy = render_view(grid, nullptr, options);
+  std::vector<ImageRegion> labels;
+  for (const ImageRegion& r : busy.regions) {
+    EXPECT_TRUE(r.x0 >= 0 && r.y0 >= 0 && r.x1 <= busy.width && r.y1 <= busy.height) << r.what;
+    if (r.what.rfind("label ", 0) == 0) {
+      labels.push_back(r);
+      continue;
+    }
+    // Nothing covers a box and nothing shows through it: its pixels are those of the bare picture.
+    const ImageRegion& was = furniture.at(r.what);
+    ASSERT_EQ(r.x1 - r.x0, was.x1 - was.x0) << r.what;
+    for (int y = r.y0; y < r.y1; ++y)
+      for (int x = r.x0; x < r.x1; ++x)
+        ASSERT_EQ(std::memcmp(pixel(busy, x, y), pixel(bare, x - r.x0 + was.x0, y - r.y0 + was.y0), 3), 0)
+            << r.what << " covered at " << x << "," << y;
+  }
+  EXPECT_EQ(labels.size(), 12u);  // the cluster's; a disc under a box is hidden, and so is its number
+  const auto meets = [](const ImageRegion& a, const ImageRegion& b) {
+    return a.x0 < b.x1 && b.x0 < a.x1 && a.y0 < b.y1 && b.y0 < a.y1;
+  };
+  for (size_t i = 0; i < busy.regions.size(); ++i)
+    for (size_t j = i + 1; j < busy.regions.size(); ++j)
+      EXPECT_FALSE(meets(busy.regions[i], busy.regions[j])) << busy.regions[i].what << " meets " << busy.regions[j].what;
+
+  // One waypoint under the legend's left end, where the (narrower) scale bar would not reach:
+  // the two change corners, and the waypoint shows.
+  MarkerLayer one;
+  const ImageRegion &bar = furniture.at("scale bar"), &legend = furniture.at("legend");
+  const int wx = legend.x0 + 8, wy = legend.y1 - 8;
+  ASSERT_LT(wx + 8, busy.width - 6 * 2 - (bar.x1 - bar.x0));     // clear of the scale bar moved right
+  ASSERT_GT(wx - 8, bar.x0 + (legend.x1 - legend.x0));            // and of the legend moved left
+  one.points = {at(wx, wy)};
+  options.markers = {one};
+  options.title.clear();
+  const Image moved = render_view(grid, nullptr, options);
+  for (const ImageRegion& r : moved.regions)
+    if (r.what == "legend") EXPECT_LT(r.x1, moved.width / 2 + 40);
+  const uint8_t* p = pixel(moved, wx, wy);
+  EXPECT_TRUE(p[0] > 200 && p[1] > 150 && p[2] < 80) << int(p[0]) << "," << int(p[1]) << "," << int(p[2]);  // the disc's yellow
 }
 
 TEST(Render, NodataAndOutsideHaveTheirOwnColours) {

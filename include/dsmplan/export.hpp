@@ -131,9 +131,16 @@ Mesh read_mesh(const std::string& path, const Progress& progress = {});
 
 // ---- pictures -----------------------------------------------------------------------------
 
+/// Where a part of a picture lies, in pixels: [x0, x1) x [y0, y1).
+struct ImageRegion {
+  std::string what;  ///< "title", "north arrow", "scale bar", "legend", "label N"
+  int x0 = 0, y0 = 0, x1 = 0, y1 = 0;
+};
+
 struct Image {
   int width = 0, height = 0;
   std::vector<uint8_t> rgb;  ///< row-major from the top-left, 3 bytes (R, G, B) per pixel
+  std::vector<ImageRegion> regions;  ///< render_view(): the furniture and the labels, as laid out
 };
 
 struct Window {
@@ -169,6 +176,7 @@ struct RenderOptions {
   double pixels_per_cell = 4;    ///< zoom: pixels per cell along x (y keeps the same scale)
   bool edges = true;             ///< draw the mesh's triangle edges
   bool scale_bar = true, north_arrow = true;
+  bool legend = true;  ///< the height tint's ramp with its two ends in metres
   std::string title;  ///< drawn at the top-left (built-in 8x8 bitmap font, ASCII; others print as '?')
 };
 
@@ -184,8 +192,13 @@ struct RenderOptions {
 /// (crisp lines at even zooms), and they are drawn lighter the shorter they are and the more of
 /// the picture they would cover (a full-resolution mesh seen from afar). The scale bar
 /// (bottom-left, a round 1/2/5 x 10^k length, labelled in metres; left out for geographic CRSs),
-/// the north arrow (top-right) and the title (top-left, shortened with "..." when too long) sit
-/// on light boxes that grow with the picture and are left out when it is too small. The mesh must be in
+/// the height legend (the tint of flat ground from the 2nd to the 98th percentile, its ends in
+/// metres), the north arrow (top-right) and the title (top-left, shortened with "..." when too
+/// long) sit on light boxes that grow with the picture, are drawn over the map and the markers,
+/// and are left out when they do not fit. The scale bar and the legend take the bottom corners,
+/// scale bar left, unless the other way round covers fewer markers. Marker numbers are placed
+/// at the first of eight places around their disc that meets no box, no other number and no
+/// other disc (Image::regions records where each box and number went). The mesh must be in
 /// the DSM's CRS. Throws ArgumentError for: a window that is empty, not finite or does not
 /// overlap the grid ("--window"); pixels_per_cell not positive and finite ("--zoom"); a picture
 /// over 30000 pixels a side or 2^26 pixels ("--zoom"); a triangle naming a missing vertex

@@ -271,22 +271,44 @@ std::string metres(double length) {
   return buffer;
 }
 
-void draw_scale_bar(Canvas& canvas, const View& view, int s) {
+// ---- the furniture: title, north arrow, scale bar, height legend ------------------------------
+//
+// Each measures its box, then is drawn into it; the layout places the boxes in the corners
+// (title top-left, north arrow top-right, scale bar and legend the bottom corners, on the side
+// that covers fewer waypoints), draws them over the map, and places the waypoints' numbers where
+// they meet neither the furniture nor each other.
+
+struct Box {
+  int x0 = 0, y0 = 0, x1 = 0, y1 = 0;  // [x0, x1) x [y0, y1)
+  bool empty() const { return x1 <= x0 || y1 <= y0; }
+  bool meets(const Box& o) const { return !empty() && !o.empty() && x0 < o.x1 && o.x0 < x1 && y0 < o.y1 && o.y0 < y1; }
+  bool inside(int width, int height) const { return x0 >= 0 && y0 >= 0 && x1 <= width && y1 <= height; }
+};
+
+struct ScaleBar {
+  int bar = 0;
+  std::string label;
+};
+
+ScaleBar measure_scale_bar(const View& view) {
   // The longest 1, 2 or 5 x 10^k that takes at most a quarter of the width.
   const double target = 0.25 * view.width / view.scale;
   const double power = std::pow(10.0, std::floor(std::log10(target)));
   const double step = target / power >= 5 ? 5 : target / power >= 2 ? 2 : 1;
   const double length = step * power;
-  const int bar = static_cast<int>(std::lround(length * view.scale));
-  const std::string label = metres(length);
+  return {static_cast<int>(std::lround(length * view.scale)), metres(length)};
+}
+
+Box scale_bar_size(const ScaleBar& bar, int s) {
+  const int pad = 4 * s;
+  return {0, 0, std::max(bar.bar, text_width(bar.label, s)) + 2 * pad, pad + kGlyph * s + 2 * s + 4 * s + pad};
+}
+
+void draw_scale_bar(Canvas& canvas, const ScaleBar& scale, const Box& box, int s) {
   const int pad = 4 * s, bar_height = 4 * s;
-  const int box_w = std::max(bar, text_width(label, s)) + 2 * pad;
-  const int box_h = pad + kGlyph * s + 2 * s + bar_height + pad;
-  const int x0 = 6 * s, y0 = canvas.height() - 6 * s - box_h;
-  if (bar < 8 || x0 + box_w > canvas.width() || y0 < 0) return;  // no room on a tiny picture
-  canvas.fill(x0, y0, x0 + box_w, y0 + box_h, kPaper, 0.85f);
-  draw_text(canvas, x0 + pad, y0 + pad, label, kInk, s);
-  const int by = y0 + pad + kGlyph * s + 2 * s, bx = x0 + pad;
+  canvas.fill(box.x0, box.y0, box.x1, box.y1, kPaper, 1);
+  draw_text(canvas, box.x0 + pad, box.y0 + pad, scale.label, kInk, s);
+  const int by = box.y0 + pad + kGlyph * s + 2 * s, bx = box.x0 + pad, bar = scale.bar;
   // Four alternating quarters in a dark frame, like a map's.
   canvas.fill(bx, by, bx + bar, by + bar_height, kInk, 1);
   for (int q = 1; q < 4; q += 2) {
@@ -295,29 +317,60 @@ void draw_scale_bar(Canvas& canvas, const View& view, int s) {
   }
 }
 
-void draw_north_arrow(Canvas& canvas, int s) {
+struct Legend {
+  std::string low, high;  // the tint's ends, in metres
+};
+
+Box legend_size(const Legend& legend, int s) {
+  const int pad = 4 * s, ramp = 64 * s;
+  const int width = std::max({ramp, text_width("height", s), text_width(legend.low + " " + legend.high, s)});
+  return {0, 0, width + 2 * pad, pad + kGlyph * s + 2 * s + 6 * s + 2 * s + kGlyph * s + pad};
+}
+
+// The tint of flat ground from the low end to the high one, as the map shows it.
+void draw_legend(Canvas& canvas, const Legend& legend, const Box& box, int s) {
+  const int pad = 4 * s;
+  canvas.fill(box.x0, box.y0, box.x1, box.y1, kPaper, 1);
+  draw_text(canvas, box.x0 + pad, box.y0 + pad, "height", kInk, s);
+  const int x0 = box.x0 + pad, x1 = box.x1 - pad, y0 = box.y0 + pad + kGlyph * s + 2 * s, y1 = y0 + 6 * s;
+  for (int x = x0; x < x1; ++x) {
+    const float t = x1 - x0 > 1 ? static_cast<float>(x - x0) / (x1 - x0 - 1) : 0;
+    canvas.fill(x, y0, x + 1, y1, scaled(height_tint(t), 0.85f), 1);
+  }
+  const int text_y = y1 + 2 * s;
+  draw_text(canvas, x0, text_y, legend.low, kInk, s);
+  draw_text(canvas, x1 - text_width(legend.high, s), text_y, legend.high, kInk, s);
+}
+
+Box north_arrow_size(int s) {
+  const int pad = 4 * s;
+  return {0, 0, 10 * s + 2 * pad, pad + kGlyph * s + 2 * s + 16 * s + pad};
+}
+
+void draw_north_arrow(Canvas& canvas, const Box& box, int s) {
   const int pad = 4 * s, arrow_w = 10 * s, arrow_h = 16 * s;
-  const int box_w = arrow_w + 2 * pad, box_h = pad + kGlyph * s + 2 * s + arrow_h + pad;
-  const int x0 = canvas.width() - 6 * s - box_w, y0 = 6 * s;
-  if (x0 < 0 || y0 + box_h > canvas.height()) return;
-  canvas.fill(x0, y0, x0 + box_w, y0 + box_h, kPaper, 0.85f);
-  const double cx = x0 + box_w / 2.0;
-  draw_text(canvas, static_cast<int>(std::lround(cx - kGlyph * s / 2.0 + s / 2.0)), y0 + pad, "N", kInk, s);
-  const double top = y0 + pad + kGlyph * s + 2 * s, bottom = top + arrow_h, notch = bottom - arrow_h * 0.3;
+  canvas.fill(box.x0, box.y0, box.x1, box.y1, kPaper, 1);
+  const double cx = (box.x0 + box.x1) / 2.0;
+  draw_text(canvas, static_cast<int>(std::lround(cx - kGlyph * s / 2.0 + s / 2.0)), box.y0 + pad, "N", kInk, s);
+  const double top = box.y0 + pad + kGlyph * s + 2 * s, bottom = top + arrow_h, notch = bottom - arrow_h * 0.3;
   // The classic half-dark arrow: sun from the north-west lights its right half.
   fill_triangle(canvas, {cx, top, cx - arrow_w / 2.0, bottom, cx, notch}, kInk);
   fill_triangle(canvas, {cx, top, cx, notch, cx + arrow_w / 2.0, bottom}, Rgb{0.55f, 0.55f, 0.55f});
 }
 
-void draw_title(Canvas& canvas, std::string title, int s, int room) {
+// The title's text shortened to `room` pixels ("..."), and its box; an empty box when nothing fits.
+std::pair<std::string, Box> fit_title(std::string title, int& s, int room) {
   const int pad = 4 * s;
   if (text_width(title, s) + 2 * pad > room && s > 1) s = 1;
   const int fits = (room - 2 * pad) / (kGlyph * s);
-  if (fits < 4) return;
+  if (fits < 4) return {"", {}};
   if (static_cast<int>(title.size()) > fits) title = title.substr(0, fits - 3) + "...";
-  const int x0 = 6 * s, y0 = 6 * s;
-  canvas.fill(x0, y0, x0 + text_width(title, s) + 2 * pad, y0 + kGlyph * s + 2 * pad, kPaper, 0.85f);
-  draw_text(canvas, x0 + pad, y0 + pad, title, kInk, s);
+  return {title, {0, 0, text_width(title, s) + 2 * (4 * s), kGlyph * s + 2 * (4 * s)}};
+}
+
+void draw_title(Canvas& canvas, const std::string& title, const Box& box, int s) {
+  canvas.fill(box.x0, box.y0, box.x1, box.y1, kPaper, 1);
+  draw_text(canvas, box.x0 + 4 * s, box.y0 + 4 * s, title, kInk, s);
 }
 
 }  // namespace
@@ -368,15 +421,61 @@ void draw_lines(Canvas& canvas, const View& view, const LineLayer& layer) {
   }
 }
 
-void draw_markers(Canvas& canvas, const View& view, const MarkerLayer& layer, int s) {
-  for (size_t i = 0; i < layer.points.size(); ++i) {
-    const double cx = view.px(layer.points[i][0]), cy = view.py(layer.points[i][1]), r = layer.radius;
+void draw_markers(Canvas& canvas, const View& view, const MarkerLayer& layer) {
+  for (const Point3& p : layer.points) {
+    const double cx = view.px(p[0]), cy = view.py(p[1]), r = layer.radius;
     if (!(cx > -r && cy > -r && cx < view.width + r && cy < view.height + r)) continue;
     // Outlined dark: visible on light and dark ground alike.
     draw_disc(canvas, cx, cy, r, rgb(layer.colour), Rgb{0.1f, 0.1f, 0.1f});
-    if (layer.numbered)
-      draw_text(canvas, static_cast<int>(cx + r + 2), static_cast<int>(cy - kGlyph * s / 2), std::to_string(i + 1),
-                Rgb{0.1f, 0.1f, 0.1f}, s);
+  }
+}
+
+Box disc_box(const View& view, const Point3& p, double r) {
+  const double cx = view.px(p[0]), cy = view.py(p[1]);
+  return {static_cast<int>(std::floor(cx - r)), static_cast<int>(std::floor(cy - r)), static_cast<int>(std::ceil(cx + r)) + 1,
+          static_cast<int>(std::ceil(cy + r)) + 1};
+}
+
+// The numbers of the markers, each at the first of eight places around its disc that stays in
+// the picture and meets no furniture, no other number and no other disc; failing that, the place
+// that meets the fewest (furniture counting most). Greedy in marker order: O(markers^2).
+void draw_labels(Canvas& canvas, const View& view, const RenderOptions& options, const std::vector<Box>& furniture,
+                 int s, std::vector<ImageRegion>& regions) {
+  std::vector<Box> discs, placed;
+  for (const MarkerLayer& layer : options.markers)
+    for (const Point3& p : layer.points) discs.push_back(disc_box(view, p, layer.radius));
+  size_t disc = 0;
+  for (const MarkerLayer& layer : options.markers) {
+    for (size_t i = 0; i < layer.points.size(); ++i, ++disc) {
+      const Box& d = discs[disc];
+      const double cx = view.px(layer.points[i][0]), cy = view.py(layer.points[i][1]);
+      if (!layer.numbered || !(cx >= 0 && cy >= 0 && cx < view.width && cy < view.height)) continue;
+      // Under a box the disc is hidden, and so is its number.
+      const Box centre{static_cast<int>(cx), static_cast<int>(cy), static_cast<int>(cx) + 1, static_cast<int>(cy) + 1};
+      if (std::any_of(furniture.begin(), furniture.end(), [&](const Box& f) { return f.meets(centre); })) continue;
+      const std::string text = std::to_string(i + 1);
+      const int w = text_width(text, s), h = kGlyph * s, gap = 2;
+      const int mx = (d.x0 + d.x1) / 2 - w / 2, my = (d.y0 + d.y1) / 2 - h / 2;
+      const std::array<std::pair<int, int>, 8> at{{{d.x1 + gap, my}, {d.x0 - gap - w, my}, {mx, d.y0 - gap - h},
+                                                   {mx, d.y1 + gap}, {d.x1 + gap, d.y0 - gap - h}, {d.x0 - gap - w, d.y0 - gap - h},
+                                                   {d.x1 + gap, d.y1 + gap}, {d.x0 - gap - w, d.y1 + gap}}};
+      Box best;
+      int best_cost = INT32_MAX;
+      for (const auto& [x, y] : at) {
+        const Box label{x, y, x + w, y + h};
+        int cost = label.inside(view.width, view.height) ? 0 : 1000;
+        for (const Box& f : furniture) cost += label.meets(f) ? 100 : 0;
+        for (const Box& o : placed) cost += label.meets(o) ? 10 : 0;
+        for (size_t k = 0; k < discs.size(); ++k) cost += k != disc && label.meets(discs[k]) ? 1 : 0;
+        if (cost < best_cost) best = label, best_cost = cost;
+        if (cost == 0) break;
+      }
+      // A halo: readable on any ground.
+      canvas.fill(best.x0 - 1, best.y0 - 1, best.x1 + 1, best.y1 + 1, kPaper, 0.7f);
+      draw_text(canvas, best.x0, best.y0, text, Rgb{0.1f, 0.1f, 0.1f}, s);
+      placed.push_back(best);
+      regions.push_back({"label " + text, best.x0, best.y0, best.x1, best.y1});
+    }
   }
 }
 
@@ -388,20 +487,67 @@ Image render_view(const Grid& dsm, const Mesh* mesh, const RenderOptions& option
   Canvas canvas(view.width, view.height);
   draw_ground(canvas, dsm, view);
   if (mesh && options.edges) draw_edges(canvas, dsm, *mesh, view);
-  const int marker_scale = std::clamp(std::min(view.width, view.height) / 280, 1, 4);
   for (const LineLayer& layer : options.lines) draw_lines(canvas, view, layer);
-  // Decorations grow with the picture so they stay readable, and disappear when it is tiny.
-  const int s = std::clamp(std::min(view.width, view.height) / 280, 1, 4);
-  int title_room = view.width - 6 * s;
+  for (const MarkerLayer& layer : options.markers) draw_markers(canvas, view, layer);
+
+  // Furniture grows with the picture so it stays readable, and is left out when it does not fit.
+  int s = std::clamp(std::min(view.width, view.height) / 280, 1, 4);
+  const int margin = 6 * s;
+  std::vector<ImageRegion> regions;
+  std::vector<Box> furniture;
+  const auto place = [&](Box size, bool right, bool bottom) {
+    const int w = size.x1, h = size.y1;
+    Box box{right ? view.width - margin - w : margin, bottom ? view.height - margin - h : margin, 0, 0};
+    box.x1 = box.x0 + w, box.y1 = box.y0 + h;
+    return box;
+  };
+  const auto fits = [&](const Box& box) {
+    if (!box.inside(view.width, view.height)) return false;
+    for (const Box& f : furniture)
+      if (box.meets(f)) return false;
+    return true;
+  };
+  std::vector<Box> discs;
+  for (const MarkerLayer& layer : options.markers)
+    for (const Point3& p : layer.points) discs.push_back(disc_box(view, p, layer.radius));
+  const auto covered = [&](const Box& box) {
+    return std::count_if(discs.begin(), discs.end(), [&](const Box& d) { return box.meets(d); });
+  };
+
   if (options.north_arrow) {
-    draw_north_arrow(canvas, s);
-    title_room -= 10 * s + 8 * s + 6 * s;
+    const Box box = place(north_arrow_size(s), true, false);
+    if (fits(box)) draw_north_arrow(canvas, box, s), furniture.push_back(box), regions.push_back({"north arrow", box.x0, box.y0, box.x1, box.y1});
   }
-  if (options.scale_bar && !dsm.crs.geographic) draw_scale_bar(canvas, view, s);
-  if (!options.title.empty()) draw_title(canvas, options.title, s, title_room);
-  // Waypoints over everything: one under the scale bar must still show.
-  for (const MarkerLayer& layer : options.markers) draw_markers(canvas, view, layer, marker_scale);
-  return canvas.take();
+  if (!options.title.empty()) {
+    int title_s = s;
+    const int room = (furniture.empty() ? view.width : furniture.back().x0) - margin - 2 * s;
+    const auto [text, size] = fit_title(options.title, title_s, room);
+    const Box box = place(size, false, false);
+    if (!text.empty() && fits(box))
+      draw_title(canvas, text, box, title_s), furniture.push_back(box), regions.push_back({"title", box.x0, box.y0, box.x1, box.y1});
+  }
+  // The scale bar and the legend share the bottom corners: the arrangement covering fewer waypoints.
+  const bool scale_bar = options.scale_bar && !dsm.crs.geographic;
+  const ScaleBar bar = measure_scale_bar(view);
+  const auto [lo, hi] = height_range(dsm, cells_under(dsm, view.window));
+  const Legend legend{metres(std::round(lo * 10) / 10), metres(std::round(hi * 10) / 10)};
+  const Box bar_left = place(scale_bar_size(bar, s), false, true), bar_right = place(scale_bar_size(bar, s), true, true);
+  const Box legend_right = place(legend_size(legend, s), true, true), legend_left = place(legend_size(legend, s), false, true);
+  const bool swap = (scale_bar ? covered(bar_right) : 0) + (options.legend ? covered(legend_left) : 0) <
+                    (scale_bar ? covered(bar_left) : 0) + (options.legend ? covered(legend_right) : 0);
+  if (scale_bar && bar.bar >= 8) {
+    const Box box = swap ? bar_right : bar_left;
+    if (fits(box)) draw_scale_bar(canvas, bar, box, s), furniture.push_back(box), regions.push_back({"scale bar", box.x0, box.y0, box.x1, box.y1});
+  }
+  if (options.legend) {
+    const Box box = swap ? legend_left : legend_right;
+    if (fits(box)) draw_legend(canvas, legend, box, s), furniture.push_back(box), regions.push_back({"legend", box.x0, box.y0, box.x1, box.y1});
+  }
+  const int label_scale = std::clamp(std::min(view.width, view.height) / 280, 1, 4);
+  draw_labels(canvas, view, options, furniture, label_scale, regions);
+  Image image = canvas.take();
+  image.regions = std::move(regions);
+  return image;
 }
 
 Image side_by_side(const std::vector<Image>& panels, int gap) {
@@ -430,6 +576,10 @@ Image side_by_side(const std::vector<Image>& panels, int gap) {
     for (int r = 0; r < panel.height; ++r) {
       std::copy_n(panel.rgb.begin() + static_cast<ptrdiff_t>(r * row_bytes), row_bytes,
                   out.rgb.begin() + static_cast<ptrdiff_t>((static_cast<size_t>(r) * out.width + left) * 3));
+    }
+    for (ImageRegion region : panel.regions) {
+      region.x0 += left, region.x1 += left;
+      out.regions.push_back(region);
     }
     left += panel.width + gap;
   }
