@@ -915,6 +915,34 @@ TEST(CliBadInput, ProfileRefusesAPathOutsideTheDsmAndForeignTerrain) {
 
 namespace {
 
+// GDAL's transformation between two CRSs, longitude first for geographic ones: a route through
+// PROJ independent of dsmplan's Wgs84Transform.
+class GdalTransform {
+public:
+  GdalTransform(const char* from, const char* to)
+      : from_(OSRNewSpatialReference(nullptr)), to_(OSRNewSpatialReference(nullptr)) {
+    OSRSetFromUserInput(from_, from);
+    OSRSetFromUserInput(to_, to);
+    OSRSetAxisMappingStrategy(from_, OAMS_TRADITIONAL_GIS_ORDER);
+    OSRSetAxisMappingStrategy(to_, OAMS_TRADITIONAL_GIS_ORDER);
+    transform_ = OCTNewCoordinateTransformation(from_, to_);
+  }
+  ~GdalTransform() {
+    OCTDestroyCoordinateTransformation(transform_);
+    OSRDestroySpatialReference(from_);
+    OSRDestroySpatialReference(to_);
+  }
+  GdalTransform(const GdalTransform&) = delete;
+  GdalTransform& operator=(const GdalTransform&) = delete;
+  bool operator()(double& x, double& y, double* z = nullptr) const {
+    return transform_ && OCTTransform(transform_, 1, &x, &y, z);
+  }
+
+private:
+  OGRSpatialReferenceH from_, to_;
+  OGRCoordinateTransformationH transform_ = nullptr;
+};
+
 struct PlanFixture {
   TempDir in;
   std::string mesh = in.path("mesh.ply"), waypoints = in.path("wp.csv");
@@ -1142,25 +1170,17 @@ TEST(CliPlan, GeoJsonWaypointsAndPathAgreeWithTheCsvRun) {
   // The same waypoints in lon/lat by GDAL's transformation (an independent route through PROJ);
   // DHHN2016 heights have no grid here: allowed, they are taken as EGM96 heights, so the
   // GeoJSON's ellipsoidal heights are GDAL's from UTM + EGM96 to WGS 84 3D.
-  OGRSpatialReferenceH utm = OSRNewSpatialReference(nullptr), wgs = OSRNewSpatialReference(nullptr);
-  OSRSetFromUserInput(utm, "EPSG:25832+5773");
-  OSRImportFromEPSG(wgs, 4979);
-  OSRSetAxisMappingStrategy(utm, OAMS_TRADITIONAL_GIS_ORDER);
-  OSRSetAxisMappingStrategy(wgs, OAMS_TRADITIONAL_GIS_ORDER);
-  OGRCoordinateTransformationH to_wgs = OCTNewCoordinateTransformation(utm, wgs);
+  const GdalTransform to_wgs("EPSG:25832+5773", "EPSG:4979");
   json features = json::array();
   std::vector<std::array<double, 2>> lonlat;
   for (const auto& w : waypoints) {
     double x = w[0], y = w[1], z = w[2];
-    ASSERT_TRUE(OCTTransform(to_wgs, 1, &x, &y, &z));
+    ASSERT_TRUE(to_wgs(x, y, &z));
     ASSERT_GT(z - w[2], 40);  // the geoid's height: GDAL found the EGM96 grid
     lonlat.push_back({x, y});
     features.push_back({{"type", "Feature"}, {"properties", json::object()},
                         {"geometry", {{"type", "Point"}, {"coordinates", {x, y, z}}}}});
   }
-  OCTDestroyCoordinateTransformation(to_wgs);
-  OSRDestroySpatialReference(utm);
-  OSRDestroySpatialReference(wgs);
   const std::string geo_waypoints = f.in.path("wp.geojson");
   testkit::write_file(geo_waypoints, json{{"type", "FeatureCollection"}, {"features", features}}.dump());
   const std::vector<std::string> vertical{"--vertical-crs", "EPSG:7837", "--allow-approximate-vertical"};
@@ -1382,12 +1402,7 @@ struct MissionLine {
 // A .waypoints file read back: items (home first) with their positions in UTM, altitudes made
 // absolute with home's.
 std::vector<MissionLine> read_mission_utm(const std::string& path) {
-  OGRSpatialReferenceH utm = OSRNewSpatialReference(nullptr), wgs = OSRNewSpatialReference(nullptr);
-  OSRImportFromEPSG(utm, 25832);
-  OSRImportFromEPSG(wgs, 4326);
-  OSRSetAxisMappingStrategy(utm, OAMS_TRADITIONAL_GIS_ORDER);
-  OSRSetAxisMappingStrategy(wgs, OAMS_TRADITIONAL_GIS_ORDER);
-  OGRCoordinateTransformationH to_utm = OCTNewCoordinateTransformation(wgs, utm);
+  const GdalTransform to_utm("EPSG:4326", "EPSG:25832");
   std::vector<MissionLine> lines;
   std::istringstream wpl(testkit::read_file(path));
   std::string line;
@@ -1401,13 +1416,10 @@ std::vector<MissionLine> read_mission_utm(const std::string& path) {
     item.command = std::stoi(f[3]);
     item.frame = std::stoi(f[2]);
     double x = std::stod(f[9]), y = std::stod(f[8]);  // longitude, latitude
-    if (!OCTTransform(to_utm, 1, &x, &y, nullptr)) throw std::runtime_error("transform");
+    if (!to_utm(x, y)) throw std::runtime_error("transform");
     item.xyz = {x, y, std::stod(f[10]) + (item.frame == 3 ? lines.front().xyz[2] : 0)};
     lines.push_back(item);
   }
-  OCTDestroyCoordinateTransformation(to_utm);
-  OSRDestroySpatialReference(utm);
-  OSRDestroySpatialReference(wgs);
   return lines;
 }
 
@@ -1499,21 +1511,13 @@ TEST(CliPlan, MissionsAndKmlCarryTheWaypointsInLatLonAndMeanSeaLevelHeights) {
   EXPECT_EQ(stats["transformation"].get<std::string>().find("approximate"), std::string::npos);
   EXPECT_GE(stats["min_clearance_m"].get<double>(), 2.0 - 0.01);  // measured on the thinned path
 
-  OGRSpatialReferenceH utm = OSRNewSpatialReference(nullptr), wgs = OSRNewSpatialReference(nullptr);
-  OSRImportFromEPSG(utm, 25832);
-  OSRImportFromEPSG(wgs, 4326);
-  OSRSetAxisMappingStrategy(utm, OAMS_TRADITIONAL_GIS_ORDER);
-  OSRSetAxisMappingStrategy(wgs, OAMS_TRADITIONAL_GIS_ORDER);
-  OGRCoordinateTransformationH to_wgs = OCTNewCoordinateTransformation(utm, wgs);
+  const GdalTransform to_wgs("EPSG:25832", "EPSG:4326");
   std::vector<std::array<double, 3>> lonlath;
   for (const auto& w : waypoints) {
     double x = w[0], y = w[1];
-    ASSERT_TRUE(OCTTransform(to_wgs, 1, &x, &y, nullptr));
+    ASSERT_TRUE(to_wgs(x, y));
     lonlath.push_back({x, y, w[2]});
   }
-  OCTDestroyCoordinateTransformation(to_wgs);
-  OSRDestroySpatialReference(utm);
-  OSRDestroySpatialReference(wgs);
 
   const json plan = json::parse(testkit::read_file(out.path("m.plan")));
   EXPECT_EQ(plan["fileType"], "Plan");
@@ -1708,16 +1712,7 @@ TEST(CliPlan, MissionFromAHomeElsewhereLandsAtTheEndInAbsoluteAltitudes) {
 
   // The same home in degrees; the .plan says ArduPilot and its speed.
   double lon = spot[0], lat = spot[1];
-  OGRSpatialReferenceH utm = OSRNewSpatialReference(nullptr), wgs = OSRNewSpatialReference(nullptr);
-  OSRImportFromEPSG(utm, 25832);
-  OSRImportFromEPSG(wgs, 4326);
-  OSRSetAxisMappingStrategy(utm, OAMS_TRADITIONAL_GIS_ORDER);
-  OSRSetAxisMappingStrategy(wgs, OAMS_TRADITIONAL_GIS_ORDER);
-  OGRCoordinateTransformationH to_wgs = OCTNewCoordinateTransformation(utm, wgs);
-  ASSERT_TRUE(OCTTransform(to_wgs, 1, &lon, &lat, nullptr));
-  OCTDestroyCoordinateTransformation(to_wgs);
-  OSRDestroySpatialReference(utm);
-  OSRDestroySpatialReference(wgs);
+  ASSERT_TRUE(GdalTransform("EPSG:25832", "EPSG:4326")(lon, lat));
   std::snprintf(home, sizeof home, "%.10f,%.10f", lon, lat);
   ASSERT_EQ(f.plan(out.path("m.plan"), {"--home", home, "--firmware", "ardupilot", "--speed", "4"}).exit_code, 0);
   const json plan = json::parse(testkit::read_file(out.path("m.plan")));
