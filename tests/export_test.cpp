@@ -20,6 +20,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <limits>
 #include <map>
 #include <optional>
@@ -1436,36 +1437,35 @@ TEST(MissionText, KmlStylesAndExtrusionAreWhatLibkmlReads) {
   EXPECT_EQ(path_to_kml(line).find("<extrude>"), std::string::npos);
 }
 
+// Missions no autopilot can fly, with their options: every mission writer refuses each.
+std::vector<std::pair<Mission, MissionOptions>> unflyable_missions() {
+  std::vector<std::pair<Mission, MissionOptions>> cases;
+  const auto with = [&](MissionEnd end, const std::function<void(Mission&, MissionOptions&)>& spoil) {
+    Mission m = sample_mission(end);
+    MissionOptions options;
+    spoil(m, options);
+    cases.emplace_back(m, options);
+  };
+  with(MissionEnd::rtl, [](Mission& m, MissionOptions&) { m.route.clear(); });
+  with(MissionEnd::rtl, [](Mission& m, MissionOptions&) { m.route[1] = {356320, 5699270, 130}; });  // UTM, not degrees
+  with(MissionEnd::rtl, [](Mission& m, MissionOptions&) { m.route[2][2] = NAN; });
+  with(MissionEnd::rtl, [](Mission& m, MissionOptions&) { m.home[1] = INFINITY; });
+  with(MissionEnd::rtl, [](Mission& m, MissionOptions&) { m.route[0][0] += 1e-5; });  // the takeoff's top not above home
+  with(MissionEnd::rtl, [](Mission& m, MissionOptions&) { m.route[0][2] = m.home[2] + 1.9; });  // too low a takeoff
+  with(MissionEnd::land, [](Mission& m, MissionOptions&) { m.land = {NAN, NAN, NAN}; });
+  for (const double speed : {0.0, -1.0, 101.0, double(NAN)}) {
+    with(MissionEnd::rtl, [speed](Mission&, MissionOptions& o) { o.speed = speed; });
+    with(MissionEnd::rtl, [speed](Mission&, MissionOptions& o) { o.hover_speed = speed; });
+  }
+  return cases;
+}
+
 TEST(MissionText, RefusesWhatCannotFly) {
-  const auto refused = [](const Mission& mission, const MissionOptions& options = {}) {
+  for (const auto& [mission, options] : unflyable_missions()) {
     EXPECT_THROW(mission_to_qgc_plan(mission, options), ArgumentError);
     EXPECT_THROW(mission_to_qgc_wpl(mission, options), ArgumentError);
-  };
-  Mission m = sample_mission(MissionEnd::rtl);
-  m.route.clear();
-  refused(m);
+  }
   EXPECT_THROW(path_to_kml({}), ArgumentError);
-  m = sample_mission(MissionEnd::rtl);
-  m.route[1] = {356320, 5699270, 130};  // UTM, not degrees
-  refused(m);
-  m = sample_mission(MissionEnd::rtl);
-  m.route[2][2] = NAN;
-  refused(m);
-  m = sample_mission(MissionEnd::rtl);
-  m.route[0][0] += 1e-5;  // the takeoff's top not above home
-  refused(m);
-  m = sample_mission(MissionEnd::rtl);
-  m.route[0][2] = m.home[2] + 1.9;  // too low a takeoff
-  refused(m);
-  m = sample_mission(MissionEnd::land);
-  m.land = {NAN, NAN, NAN};
-  refused(m);
-  MissionOptions still;
-  still.hover_speed = 0;
-  refused(sample_mission(MissionEnd::rtl), still);
-  MissionOptions rocket;
-  rocket.speed = 101;
-  refused(sample_mission(MissionEnd::rtl), rocket);
 }
 
 TEST(MissionText, MeanSeaLevelRoundTripThroughTheWplTextLandsWithinAMillimetre) {
@@ -2067,39 +2067,11 @@ TEST(MissionWpml, RefusesWhatCannotFlyAndLeavesNothing) {
     EXPECT_THROW(write_wpml_kmz(mission, options, path), ArgumentError);
     EXPECT_TRUE(dir.files().empty()) << dir.files().front();
   };
-  Mission m = sample_mission(MissionEnd::rtl);
-  m.route.clear();
-  refused(m);
-  m = sample_mission(MissionEnd::rtl);
-  m.route[1] = {356320, 5699270, 130};  // UTM, not degrees
-  refused(m);
-  m = sample_mission(MissionEnd::rtl);
-  m.route[2][2] = NAN;
-  refused(m);
-  m = sample_mission(MissionEnd::rtl);
-  m.home[1] = INFINITY;
-  refused(m);
-  m = sample_mission(MissionEnd::rtl);
-  m.route[0][0] += 1e-5;  // the takeoff's top not above home
-  refused(m);
-  m = sample_mission(MissionEnd::rtl);
-  m.route[0][2] = m.home[2] + 1.9;  // too low a takeoff
-  refused(m);
-  m = sample_mission(MissionEnd::land);
-  m.land = {NAN, NAN, NAN};
-  refused(m);
+  for (const auto& [mission, options] : unflyable_missions()) refused(mission, options);
   // autoLand lands where the route ends: a landing point elsewhere cannot be said in WPML.
-  m = sample_mission(MissionEnd::land);
+  Mission m = sample_mission(MissionEnd::land);
   m.land[0] += 1e-5;
   refused(m);
-  for (const double speed : {0.0, -1.0, 101.0, double(NAN)}) {
-    MissionOptions options;
-    options.speed = speed;
-    refused(sample_mission(MissionEnd::rtl), options);
-    options = {};
-    options.hover_speed = speed;
-    refused(sample_mission(MissionEnd::rtl), options);
-  }
 
   // A refused mission leaves an earlier file as it was.
   write_wpml_kmz(sample_mission(MissionEnd::none), {}, path);
