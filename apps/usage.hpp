@@ -1,0 +1,25 @@
+// The command line's usage rules, shared by every command: unknown commands and options refused
+// with the nearest name, long options written with one dash refused, single-format --of checked.
+// Each throws CLI::ValidationError (a usage error: one line, exit 2) or ArgumentError.
+#pragma once
+
+#include <CLI/CLI.hpp>
+#include <string>
+#include <vector>
+
+namespace dsmplan::cli {
+
+/// Levenshtein distance of two names.
+size_t edit_distance(const std::string& a, const std::string& b);
+/// The name among `names` nearest `typed` when near enough to be a typo (at most a third of
+/// its letters, at least one, changed); empty otherwise.
+std::string nearest(const std::string& typed, const std::vector<std::string>& names);
+/// An unknown command or long option on the command line, refused before parsing (CLI11 would
+/// first complain of a missing required option), with the nearest name.
+void refuse_unknown_names(CLI::App& app, int argc, char** argv);
+/// "-of glb" would be read as "-o f": a long option's name after one dash is refused.
+void refuse_single_dash_long_options(CLI::App& app, int argc, char** argv);
+/// --of of a command that writes one format: one of `accepted` (any case), else ArgumentError.
+void check_single_format(const std::string& of, const std::vector<std::string>& accepted);
+
+}  // namespace dsmplan::cli
