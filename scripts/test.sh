@@ -5,6 +5,10 @@ cd "$(dirname "$0")/.."
 scripts/build.sh "$@"
 # The viewer's test (tests/view_test.cpp) screenshots the page with Debian's headless Chromium.
 scripts/deps.sh chromium
+# The files open where users open them (tests/export_test.cpp, OpensWhereUsersOpenIt):
+# CloudCompare, MeshLab and Blender, headless under Xvfb. Blender's glTF importer needs numpy,
+# which Debian's blender package leaves out.
+scripts/deps.sh cloudcompare meshlab blender python3-numpy xvfb xauth
 dir=build
 [ "${1:-}" = "--sanitize" ] && dir=build-sanitize
 # The Khronos glTF validator for the GLB tests, pinned by tests/gltf_validator/package-lock.json,

@@ -7,6 +7,7 @@
 #include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
 #include <CGAL/IO/polygon_soup_io.h>
 #include <gtest/gtest.h>
+#include <sys/wait.h>
 #include <gdal.h>
 #include <ogr_api.h>
 #include <ogr_spatialref.h>
@@ -17,6 +18,8 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -68,6 +71,114 @@ void expect_reads_back(const Mesh& mesh, const std::string& path) {
 }
 
 }  // namespace
+
+// ---- the programs users open the files with (Debian 12's, headless; scripts/test.sh installs them)
+
+namespace {
+
+bool have_program(const std::string& name) { return std::system(("command -v " + name + " >/dev/null 2>&1").c_str()) == 0; }
+
+// Runs a shell command, its output into `log`; the exit status.
+int run_logged(const std::string& command, const std::string& log) {
+  const int status = std::system((command + " >" + log + " 2>&1").c_str());
+  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+}
+
+// "element vertex N" and "element face N" of a PLY header, as the program that wrote it says.
+std::pair<long, long> ply_counts(const std::string& path) {
+  const std::string text = testkit::read_file(path);
+  const std::string header = text.substr(0, text.find("end_header"));
+  long vertices = -1, faces = -1;
+  std::istringstream in(header);
+  for (std::string line; std::getline(in, line);) {
+    std::sscanf(line.c_str(), "element vertex %ld", &vertices);
+    std::sscanf(line.c_str(), "element face %ld", &faces);
+  }
+  return {vertices, faces};
+}
+
+}  // namespace
+
+TEST(OpensWhereUsersOpenIt, CloudCompareReadsEveryMeshFormatWhole) {
+  if (!have_program("CloudCompare") || !have_program("xvfb-run")) GTEST_SKIP() << "CloudCompare or xvfb-run not installed";
+  const Mesh mesh = real_mesh();
+  testkit::TempDir dir;
+  for (const char* name : {"mesh.ply", "mesh.obj", "mesh.off"}) {
+    const std::string path = dir.path(name), out = dir.path(std::string(name) + ".cc.ply");
+    write_mesh(mesh, path, mesh_format_for(path));
+    // Opened and saved again as PLY by CloudCompare's command line: what it read, counted.
+    const int status = run_logged("xvfb-run -a CloudCompare -SILENT -NO_TIMESTAMP -O " + path +
+                                      " -M_EXPORT_FMT PLY -SAVE_MESHES FILE " + out,
+                                  dir.path("cc.log"));
+    ASSERT_EQ(status, 0) << testkit::read_file(dir.path("cc.log"));
+    const auto [vertices, faces] = ply_counts(out);
+    EXPECT_EQ(vertices, long(mesh.vertices.size())) << name;
+    EXPECT_EQ(faces, long(mesh.triangles.size())) << name;
+  }
+}
+
+TEST(OpensWhereUsersOpenIt, MeshLabReadsPlyAndOffWhole) {
+  if (!have_program("meshlabserver") || !have_program("xvfb-run")) GTEST_SKIP() << "meshlabserver or xvfb-run not installed";
+  const Mesh mesh = real_mesh();
+  testkit::TempDir dir;
+  // Not OBJ: Debian 12's meshlabserver (2020.09) aborts on every OBJ, a three-line triangle too
+  // (an assertion in vcglib's import_obj.h), whoever wrote it.
+  for (const char* name : {"mesh.ply", "mesh.off"}) {
+    const std::string path = dir.path(name), out = dir.path(std::string(name) + ".ml.ply");
+    write_mesh(mesh, path, mesh_format_for(path));
+    const int status = run_logged("xvfb-run -a meshlabserver -i " + path + " -o " + out, dir.path("ml.log"));
+    ASSERT_EQ(status, 0) << testkit::read_file(dir.path("ml.log"));
+    const auto [vertices, faces] = ply_counts(out);
+    EXPECT_EQ(vertices, long(mesh.vertices.size())) << name;
+    EXPECT_EQ(faces, long(mesh.triangles.size())) << name;
+  }
+}
+
+TEST(OpensWhereUsersOpenIt, BlenderImportsTheGlbInPlace) {
+  if (!have_program("blender")) GTEST_SKIP() << "blender not installed";
+  const Mesh mesh = real_mesh();
+  testkit::TempDir dir;
+  const std::string glb = dir.path("mesh.glb");
+  write_mesh(mesh, glb, MeshFormat::Glb);
+  // Blender's own glTF importer; the mesh's world box (Blender is z-up, as the CRS) printed.
+  testkit::write_file(dir.path("import.py"),
+                      "import numpy\n"
+                      "if not hasattr(numpy, 'bool'): numpy.bool = bool  # Debian 12: Blender 3.4's addon, numpy 1.24\n"
+                      "import bpy\n"
+                      "bpy.ops.wm.read_factory_settings(use_empty=True)\n"
+                      "bpy.ops.import_scene.gltf(filepath='" + glb + "')\n"
+                      "for o in bpy.context.scene.objects:\n"
+                      "    if o.type != 'MESH': continue\n"
+                      "    w = [o.matrix_world @ v.co for v in o.data.vertices]\n"
+                      "    print('MESH %d %d %.3f %.3f %.3f %.3f %.3f %.3f' % (len(o.data.vertices), len(o.data.polygons),\n"
+                      "          min(p.x for p in w), max(p.x for p in w), min(p.y for p in w), max(p.y for p in w),\n"
+                      "          min(p.z for p in w), max(p.z for p in w)))\n");
+  const int status = run_logged("blender -b --factory-startup --python " + dir.path("import.py"), dir.path("b.log"));
+  const std::string log = testkit::read_file(dir.path("b.log"));
+  ASSERT_EQ(status, 0) << log;
+  const size_t at = log.find("\nMESH ");
+  ASSERT_NE(at, std::string::npos) << log;
+  long vertices = 0, faces = 0;
+  double box[6];
+  ASSERT_EQ(std::sscanf(log.c_str() + at + 1, "MESH %ld %ld %lf %lf %lf %lf %lf %lf", &vertices, &faces, &box[0], &box[1],
+                        &box[2], &box[3], &box[4], &box[5]),
+            8);
+  EXPECT_EQ(vertices, long(mesh.vertices.size()));
+  EXPECT_EQ(faces, long(mesh.triangles.size()));
+  double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+  for (const Vertex& v : mesh.vertices) {
+    const double p[3] = {v.x, v.y, v.z};
+    for (int k = 0; k < 3; ++k) lo[k] = std::min(lo[k], p[k]), hi[k] = std::max(hi[k], p[k]);
+  }
+  // East, north and up where the CRS has them, the shape to the centimetre. Blender keeps world
+  // matrices in float32: at a northing of 5.7e6 m its steps are 0.5 m, and the root node's
+  // z-up-to-y-up quaternion in float32 moves heights by about 0.8 m there; hence the metre.
+  for (int k = 0; k < 3; ++k) {
+    EXPECT_NEAR(box[2 * k + 1] - box[2 * k], hi[k] - lo[k], 0.01) << "axis " << k;
+    EXPECT_NEAR(box[2 * k], lo[k], 1.0) << "axis " << k;
+    EXPECT_NEAR(box[2 * k + 1], hi[k], 1.0) << "axis " << k;
+  }
+}
 
 TEST(MeshWriter, EveryFormatReadsBackExactly) {
   const Mesh mesh = real_mesh();
