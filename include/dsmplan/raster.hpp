@@ -54,6 +54,18 @@ struct Grid {
   double center_y(int row) const { return y0 - (row + 0.5) * cell_y; }
   double x1() const { return x0 + width * cell_x; }   ///< east edge
   double y1() const { return y0 - height * cell_y; }  ///< south edge
+  /// The cell whose square holds (x, y), its west and north edges included: false outside.
+  bool cell_at(double x, double y, int& col, int& row) const {
+    const double c = std::floor((x - x0) / cell_x), r = std::floor((y0 - y) / cell_y);
+    if (!(c >= 0 && c < width && r >= 0 && r < height)) return false;
+    col = static_cast<int>(c), row = static_cast<int>(r);
+    return true;
+  }
+  /// The height of the cell under (x, y) (cell_at()); NaN outside the grid or on nodata.
+  float height_at(double x, double y) const {
+    int col = 0, row = 0;
+    return cell_at(x, y, col, row) ? at(col, row) : NAN;
+  }
 };
 
 /// A north-up raster read by windows: how a DSM larger than memory is processed in blocks

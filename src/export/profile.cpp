@@ -50,12 +50,6 @@ void check_grid(const Grid& grid, const char* name) {
   }
 }
 
-float height_at(const Grid& grid, double x, double y) {
-  const double c = std::floor((x - grid.x0) / grid.cell_x), r = std::floor((grid.y0 - y) / grid.cell_y);
-  if (!(c >= 0 && c < grid.width && r >= 0 && r < grid.height)) return NAN;
-  return grid.at(static_cast<int>(c), static_cast<int>(r));
-}
-
 // Calls visit(k, t0, t1, z) for the pieces of segment k (path[k] to path[k + 1]) that lie over
 // one cell of `grid` each, in order; t is the fraction along the segment, z the cell's height
 // (NaN: nodata or outside the grid). A segment without x,y length is one piece over its cell.
@@ -66,7 +60,7 @@ void walk_cells(const std::vector<Point3>& path, const Grid& grid, Visit&& visit
     const Point3 &p = path[k], &q = path[k + 1];
     const double dx = q[0] - p[0], dy = q[1] - p[1];
     if (dx == 0 && dy == 0) {
-      visit(k, 0.0, 1.0, height_at(grid, p[0], p[1]));
+      visit(k, 0.0, 1.0, grid.height_at(p[0], p[1]));
       continue;
     }
     cuts.assign({0.0, 1.0});
@@ -91,7 +85,7 @@ void walk_cells(const std::vector<Point3>& path, const Grid& grid, Visit&& visit
       const double t0 = cuts[i - 1], t1 = cuts[i];
       if (!(t1 > t0)) continue;
       const double tm = 0.5 * (t0 + t1);  // inside the piece: away from every boundary
-      visit(k, t0, t1, height_at(grid, p[0] + tm * dx, p[1] + tm * dy));
+      visit(k, t0, t1, grid.height_at(p[0] + tm * dx, p[1] + tm * dy));
     }
   }
 }

@@ -64,13 +64,6 @@ void check_vertical_legs(const MissionSite& site, const std::vector<Point3>& way
 /// the takeoff above --home, or the leg back above home (--end rtl).
 std::string mission_place(const PlanResult& result, const MissionSite& site, size_t user_waypoints);
 
-}  // namespace dsmplan::detail
-
-namespace dsmplan::detail {
-
-/// The height of the cell of `grid` under x, y; NaN outside it or on nodata.
-double height_at(const Grid& grid, double x, double y);
-
 /// check_vertical_legs() for a DSM read window by window (plan along a corridor): the columns
 /// around each vertical leg read from `dsm` (holes as high as their rim); no ceiling check (the
 /// takeoff top is as high above the ground as the first waypoint, which is checked).

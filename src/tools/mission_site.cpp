@@ -138,16 +138,6 @@ std::string mission_place(const PlanResult& result, const MissionSite& site, siz
   return {};
 }
 
-}  // namespace dsmplan::detail
-
-namespace dsmplan::detail {
-
-double height_at(const Grid& grid, double x, double y) {
-  const double u = (x - grid.x0) / grid.cell_x, v = (grid.y0 - y) / grid.cell_y;
-  if (!(u >= 0 && v >= 0 && u < grid.width && v < grid.height)) return NAN;
-  return grid.at(static_cast<int>(u), static_cast<int>(v));
-}
-
 void check_vertical_legs_in(GridSource& dsm, const MissionSite& site, const std::vector<Point3>& waypoints, double safety) {
   const Grid& frame = dsm.frame();
   const auto check = [&](const Point3& top, double ground, const char* flag, const char* what) {
@@ -162,7 +152,7 @@ void check_vertical_legs_in(GridSource& dsm, const MissionSite& site, const std:
     FlightLimits limits;
     limits.columns = &columns;
     limits.safety = safety;
-    check_vertical(top, ground, limits, [&](double x, double y) { return height_at(columns, x, y); }, flag, what);
+    check_vertical(top, ground, limits, [&](double x, double y) { return columns.height_at(x, y); }, flag, what);
   };
   check(site.takeoff_top, site.home[2], "--home", "climb from home");
   if (site.end == MissionEnd::land) check(waypoints.back(), site.land[2], "--end", "descent to land");

@@ -220,10 +220,9 @@ PlanReport plan_job(const PlanJobOptions& options, const Progress& progress) {
       along.finish_piece = [](const std::vector<Point3>& path) { return drop_straight_points(path, 0.01); };
       const auto ground_z = [&](double x, double y) {
         if (along.terrain) return -along.terrain->height_above({x, y, 0});
-        const Grid& frame = city->frame();
-        const double u = (x - frame.x0) / frame.cell_x, v = (frame.y0 - y) / frame.cell_y;
-        if (!(u >= 0 && v >= 0 && u < frame.width && v < frame.height)) return double(NAN);
-        return double(read_window(*city, static_cast<int>(u), static_cast<int>(v), 1, 1).z[0]);
+        int col = 0, row = 0;
+        if (!city->frame().cell_at(x, y, col, row)) return double(NAN);
+        return double(read_window(*city, col, row, 1, 1).z[0]);
       };
       site = detail::mission_site(options.mission, waypoints, ground_z, from_lonlat);
       detail::check_vertical_legs_in(*city, site, waypoints, options.plan.safety);
@@ -301,7 +300,7 @@ PlanReport plan_job(const PlanJobOptions& options, const Progress& progress) {
   if (mission_out) {
     const auto ground_z = [&](double x, double y) { return -ground.height_above({x, y, 0}); };
     site = detail::mission_site(options.mission, waypoints, ground_z, from_lonlat);
-    const auto dsm_z = [&](double x, double y) { return options.dsm.empty() ? NAN : detail::height_at(columns, x, y); };
+    const auto dsm_z = [&](double x, double y) { return options.dsm.empty() ? NAN : double(columns.height_at(x, y)); };
     detail::check_vertical_legs(site, waypoints, limits, dsm_z);
     route = detail::route_waypoints(waypoints, site);
   }
