@@ -33,15 +33,26 @@ Progress terminal_progress(bool quiet) {
 
 // --stats after the main output: when it cannot be written, the main output is removed too,
 // so a run leaves all its files or none.
-void write_stats(const std::string& stats, const Json& report, const std::string& output) {
+void write_stats(const std::string& stats, const Json& report, const std::vector<std::string>& outputs) {
   if (stats.empty()) return;
   try {
     write_text_file(stats, report.dump(2) + "\n");
   } catch (...) {
     std::error_code ignored;
-    std::filesystem::remove(output, ignored);
+    for (const std::string& output : outputs)
+      if (!output.empty()) std::filesystem::remove(output, ignored);
     throw;
   }
+}
+
+// --3dtiles and the heights it needs, on `dsmplan mesh` and `simplify`.
+void add_tileset_options(CLI::App* command, bool& tileset, VerticalOptions& vertical) {
+  command->add_flag("--3dtiles", tileset,
+                    "With a .glb: write a 3D Tiles 1.1 tileset.json beside it that places the mesh on the globe (Cesium)");
+  command->add_option("--vertical-crs", vertical.vertical_crs,
+                      "With --3dtiles: vertical CRS of the heights when the DSM does not say (e.g. EPSG:7837)");
+  command->add_flag("--allow-approximate-vertical", vertical.allow_approximate_vertical,
+                    "With --3dtiles: heights of an unknown or grid-less vertical datum taken as EGM96 heights (about 1 m off)");
 }
 
 // One line on stderr, on a line of its own; returns the exit code.
@@ -164,6 +175,7 @@ int main(int argc, char** argv) {
   mesh_cmd->add_option("--stats", stats_path, "Write statistics as JSON to this file");
   mesh_cmd->add_option("--band", mesh.read.band, "Band to read")->capture_default_str();
   mesh_cmd->add_option("--crs", mesh.read.assign_crs, kCrsHelp);
+  add_tileset_options(mesh_cmd, mesh.tileset, mesh.vertical);
   mesh_cmd->add_flag("-q,--quiet", quiet, "No progress output");
   bool mesh_json = false;
   mesh_cmd->add_flag("--json", mesh_json, "Print the statistics as JSON");
@@ -207,6 +219,7 @@ int main(int argc, char** argv) {
   simplify_cmd->add_flag("--json", simplify_json, "Print the statistics as JSON instead of the summary line");
   simplify_cmd->add_option("--band", simplify.read.band, "Band to read")->capture_default_str();
   simplify_cmd->add_option("--crs", simplify.read.assign_crs, kCrsHelp);
+  add_tileset_options(simplify_cmd, simplify.tileset, simplify.vertical);
   simplify_cmd->add_flag("-q,--quiet", quiet, "No progress output");
 
   RenderJobOptions render;
@@ -379,10 +392,12 @@ int main(int argc, char** argv) {
       if (mesh_res->count()) mesh.resolution = mesh_resolution;
       mesh.resampling = parse_resampling(resampling);
       if (!mesh_of.empty()) mesh.format = parse_mesh_format(mesh_of, "--of");
-      refuse_overwrites({{"DSM", mesh.input}}, {{"-o", mesh.output}, {"--stats", stats_path}});
+      const std::string mesh_tileset = mesh.tileset ? tileset_path_for(mesh.output) : "";
+      refuse_overwrites({{"DSM", mesh.input}},
+                        {{"-o", mesh.output}, {"--stats", stats_path}, {"--3dtiles", mesh_tileset}});
       if (!stats_path.empty()) check_writable(stats_path);
       const MeshReport report = mesh_dsm(mesh, terminal_progress(quiet));
-      write_stats(stats_path, to_json(report), mesh.output);
+      write_stats(stats_path, to_json(report), {mesh.output, mesh_tileset});
       if (mesh_json) std::fputs((to_json(report).dump(2) + "\n").c_str(), stdout);
     }
     if (*simplify_cmd) {
@@ -398,12 +413,13 @@ int main(int argc, char** argv) {
       } else if (simplify.method == SimplifyMethod::Bounded) {
         throw ArgumentError("--method bounded", "needs --max-error E");
       }
+      const std::string simplify_tileset = simplify.tileset ? tileset_path_for(simplify.output) : "";
       refuse_overwrites({{"INPUT", simplify.input}, {"--dsm", simplify.dsm}},
-                        {{"-o", simplify.output}, {"--stats", simplify_stats}});
+                        {{"-o", simplify.output}, {"--stats", simplify_stats}, {"--3dtiles", simplify_tileset}});
       if (!simplify_stats.empty()) check_writable(simplify_stats);
       if (farm.active()) simplify.bounded_engine = farm.master();
       const SimplifyReport report = simplify_job(simplify, terminal_progress(quiet));
-      write_stats(simplify_stats, to_json(report), simplify.output);
+      write_stats(simplify_stats, to_json(report), {simplify.output, simplify_tileset});
       if (simplify_json)
         std::fputs((to_json(report).dump(2) + "\n").c_str(), stdout);
       else if (!quiet)
@@ -449,7 +465,7 @@ int main(int argc, char** argv) {
                         {{"-o", plan.output}, {"--stats", plan_stats}, {"--roadmap", plan.roadmap}});
       if (!plan_stats.empty()) check_writable(plan_stats);
       const PlanReport report = plan_job(plan, terminal_progress(quiet));
-      write_stats(plan_stats, to_json(report), plan.output);
+      write_stats(plan_stats, to_json(report), {plan.output});
       if (plan_json)
         std::fputs((to_json(report).dump(2) + "\n").c_str(), stdout);
       else if (!quiet)

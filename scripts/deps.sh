@@ -3,7 +3,7 @@
 # With arguments, installs those packages instead (scripts/bench_deps.sh: the optional
 # benchmark dependencies), so there is one installer.
 set -euo pipefail
-packages=(cmake make g++ libcgal-dev libgmp-dev libmpfr-dev libgdal-dev libproj-dev
+packages=(cmake make g++ libcgal-dev libeigen3-dev libgmp-dev libmpfr-dev libgdal-dev libproj-dev
           libcli11-dev nlohmann-json3-dev libgtest-dev libgmock-dev libtbb-dev libpng-dev libtinygltf-dev
           libopenmpi-dev openmpi-bin libcpp-httplib-dev pkgconf)
 # The tests run the Khronos glTF validator (scripts/test.sh installs it with npm) and the 3D

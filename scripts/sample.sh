@@ -24,7 +24,10 @@ for method in variant1 variant2; do
 done
 build/dsmplan simplify "$dsm" --max-error 0.4 --conservative -o "$out/bounded_1m.ply" \
   --stats "$out/bounded_1m.json" -q
-build/dsmplan simplify "$dsm" --max-error 0.4 --conservative -o "$out/bounded_1m.glb" -q >/dev/null  # the same, glTF for 3D viewers
+# The same as glTF for 3D viewers, with a 3D Tiles tileset.json that puts it on the globe in
+# CesiumJS (heights DHHN2016, taken as EGM96: PROJ has no GCG2016 grid).
+build/dsmplan simplify "$dsm" --max-error 0.4 --conservative -o "$out/bounded_1m.glb" --3dtiles \
+  --vertical-crs EPSG:7837 --allow-approximate-vertical -q >/dev/null
 echo
 echo "Drawing a 150 m crop of the three meshes side by side (the paper's Figs 6 and 7):"
 build/dsmplan render "$dsm" --window 356500,5699450,356650,5699600 --zoom 4 \

@@ -14,4 +14,7 @@ dir=build
 # The Khronos glTF validator for the GLB tests, pinned by tests/gltf_validator/package-lock.json,
 # into $dir/npm (again only when the lock file changed).
 scripts/npm_pinned.sh tests/gltf_validator "$dir/npm" node_modules/gltf-validator
+# CesiumJS for the 3D Tiles test (a tileset of --3dtiles loaded in headless Chromium), pinned by
+# tests/cesium/package-lock.json, into $dir/cesium.
+scripts/npm_pinned.sh tests/cesium "$dir/cesium" node_modules/cesium/Build/Cesium/Cesium.js
 ctest --test-dir "$dir" --output-on-failure -j"$(nproc)"

@@ -422,6 +422,41 @@ TEST(CliMesh, ObjAndOffByExtension) {
   EXPECT_EQ(line, std::to_string(vertices) + " " + std::to_string(faces) + " 0");
 }
 
+// --3dtiles: the GLB and its tileset.json are one output, both or neither; the vertical reference
+// is refused before the work (the sample's GeoTIFF does not state its DHHN2016).
+TEST(CliMesh, ThreeDTilesWritesTheTilesetBesideTheGlbOrNothing) {
+  const std::string input = testkit::data_path(kSample);
+  TempDir out;
+  const auto ply = run_cli({"mesh", input, "--res", "10", "-o", out.path("m.ply"), "--3dtiles", "-q"});
+  EXPECT_EQ(ply.exit_code, 2) << ply.err;
+  EXPECT_NE(ply.err.find("--3dtiles"), std::string::npos) << ply.err;
+  EXPECT_NE(ply.err.find("m.glb"), std::string::npos) << ply.err;
+  const auto unknown = run_cli({"mesh", input, "--res", "10", "-o", out.path("m.glb"), "--3dtiles", "-q"});
+  EXPECT_NE(unknown.exit_code, 0);
+  EXPECT_EQ(std::count(unknown.err.begin(), unknown.err.end(), '\n'), 1) << unknown.err;
+  EXPECT_NE(unknown.err.find("--allow-approximate-vertical"), std::string::npos) << unknown.err;
+  // A --stats that cannot be written takes both files with it.
+  const auto stats = run_cli({"mesh", input, "--res", "10", "-o", out.path("m.glb"), "--3dtiles",
+                              "--allow-approximate-vertical", "--stats", out.path("m.glb") + "/s.json", "-q"});
+  EXPECT_NE(stats.exit_code, 0);
+  EXPECT_TRUE(out.files().empty()) << "left behind: " << out.files().size() << " files";
+
+  const auto simplified = run_cli({"simplify", input, "--res", "10", "--max-error", "0.5", "-o", out.path("s.glb"),
+                                   "--3dtiles", "--allow-approximate-vertical", "--json", "-q"});
+  ASSERT_EQ(simplified.exit_code, 0) << simplified.err;
+  const auto report = nlohmann::json::parse(simplified.out);
+  EXPECT_EQ(report["tileset"]["path"], out.path("tileset.json"));
+  EXPECT_NE(report["tileset"]["heights"].get<std::string>().find("EGM96"), std::string::npos);
+  const auto tileset = nlohmann::json::parse(testkit::read_file(out.path("tileset.json")));
+  EXPECT_EQ(tileset["root"]["content"]["uri"], "s.glb");
+  EXPECT_EQ(tileset["asset"]["version"], "1.1");
+  // The tileset is an output like the others: -o may not be it.
+  const auto clash = run_cli({"mesh", input, "--res", "10", "-o", out.path("s.glb"), "--3dtiles",
+                              "--allow-approximate-vertical", "--stats", out.path("tileset.json"), "-q"});
+  EXPECT_EQ(clash.exit_code, 2) << clash.err;
+  EXPECT_NE(clash.err.find("--3dtiles"), std::string::npos) << clash.err;
+}
+
 // ==== grid ==================================================================================
 
 TEST(CliGrid, DelftLasPairToGeoTiff) {

@@ -15,6 +15,7 @@
 // render_view() and write_png() draw a DSM and its mesh as a picture (the paper's Figures 6, 7).
 #pragma once
 
+#include <array>
 #include <cmath>
 #include <cstdint>
 #include <memory>
@@ -330,6 +331,42 @@ private:
   std::string description_;
   bool approximate_ = false;
 };
+
+// ---- 3D Tiles: a GLB placed on the globe (in the library dsmplan_gdal) ---------------------
+//
+// A 3D Tiles 1.1 tileset (OGC 22-025r4, "3D Tiles Specification 1.1") of one tile whose content
+// is a GLB of write_mesh(): what CesiumJS and other globe viewers open. The GLB keeps its
+// coordinates (the mesh's CRS, z up; the viewer undoes its root node's y-up turn, as the
+// specification's "glTF up-axis" section says); the tile's `transform` maps those coordinates
+// to Earth-centred, Earth-fixed ones (EPSG:4978, metres). A projected CRS is not a local
+// east-north-up frame (grid convergence, scale factor, the Earth's curvature), so the transform
+// is the affine map that fits PROJ's exact transform best (least squares) over the mesh's
+// bounding box, and its largest departure from PROJ's, measured on a lattice through the box,
+// is reported and bounded.
+
+/// The largest departure from PROJ's transform a tileset may have: the mesh's own default
+/// height step (--zstep 0.1 m). Reached by a mesh about 2.2 km across (the sagitta, (d/2)^2 / 2R).
+constexpr double kTilesetMaxPlacementError = 0.1;
+
+struct TilesetPlacement {
+  std::array<double, 16> transform{};  ///< column-major 4x4: CRS x, y, z (metres) to ECEF
+  std::array<double, 12> box{};        ///< boundingVolume.box in CRS coordinates: centre, 3 half-axes
+  double max_error_m = 0;              ///< largest |affine - PROJ| over a 9 x 9 x 3 lattice of the box
+  std::string heights;                 ///< the operation used (Wgs84Transform::description())
+};
+
+/// Fits the tile transform for `mesh` (its bounding box) through `to_ellipsoid` (a Wgs84Transform
+/// to HeightReference::Ellipsoid; WGS 84 geodetic to ECEF in closed form). Throws
+/// ArgumentError("--3dtiles") for a mesh without vertices, or when max_error_m would exceed
+/// kTilesetMaxPlacementError (the message gives the mesh's size and asks for smaller tiles);
+/// ArgumentError("crs") when PROJ cannot transform a corner. O(vertices) + 319 transforms.
+TilesetPlacement place_on_globe(const Mesh& mesh, const Wgs84Transform& to_ellipsoid);
+
+/// tileset.json text: asset.version "1.1", one root tile (refine ADD, geometricError 0) with the
+/// placement's transform and box and `content.uri` (the GLB's name relative to the tileset),
+/// tileset geometricError the box's diagonal; asset.extras names the CRS, the height operation
+/// and max_error_m.
+std::string tileset_json(const TilesetPlacement& placement, const std::string& content_uri, const Crs& crs);
 
 // ---- paths as files -----------------------------------------------------------------------
 

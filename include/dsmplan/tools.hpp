@@ -94,7 +94,21 @@ struct MeshJobOptions {
   /// O(width x band), any height. Chosen by itself for a raster whose mesh would not fit in
   /// memory (without --res, to .ply); the mesh is the same either way.
   bool stream = false;
+  /// `--3dtiles`: a 3D Tiles 1.1 tileset.json beside the GLB output (place_on_globe), its
+  /// heights made WGS 84 ellipsoidal through `vertical` (refused before the work when they cannot be).
+  bool tileset = false;
+  VerticalOptions vertical;  ///< --vertical-crs, --allow-approximate-vertical
 };
+
+/// What `--3dtiles` wrote: tileset.json beside the GLB.
+struct TilesetReport {
+  std::string path;
+  double max_placement_error_m = 0;  ///< TilesetPlacement::max_error_m
+  std::string heights;               ///< the PROJ operation the heights went through
+};
+
+/// Where `--3dtiles` writes the tileset of the GLB `output`: "tileset.json" in its folder.
+std::string tileset_path_for(const std::string& output);
 
 struct MeshReport {
   std::string input, output;
@@ -109,6 +123,7 @@ struct MeshReport {
   Crs crs;
   std::vector<std::pair<std::string, double>> seconds;  ///< read, resample, triangulate, write, total
   bool streamed = false;  ///< meshed band by band: holes were not counted (null)
+  std::optional<TilesetReport> tileset;
 };
 
 /// DSM raster -> resampled, quantized grid -> XY-3 Delaunay mesh -> mesh file. Refuses
@@ -117,7 +132,8 @@ MeshReport mesh_dsm(const MeshJobOptions& options, const Progress& progress = {}
 /// Keys: input, output, vertices, faces, cells, valid_cells, nodata_cells, holes (null when
 /// streamed), width, height, source_resolution, resolution, resampling, zstep, max_edge_length,
 /// file_bytes, dropped_triangles, crs, vertical, seconds {read, resample, triangulate, write,
-/// total} (streamed: read, triangulate and write are one pass, under triangulate), streamed.
+/// total} (streamed: read, triangulate and write are one pass, under triangulate), streamed,
+/// tileset {path, max_placement_error_m, heights} (null without --3dtiles).
 Json to_json(const MeshReport& report);
 
 // ---- dsmplan simplify -----------------------------------------------------------------------
@@ -146,6 +162,8 @@ struct SimplifyJobOptions {
   /// Who makes the blocks of the bounded mode when it streams (a DSM input without --res):
   /// empty = this process, on its threads; the dsmplan binary under mpirun sets MpiFarm's.
   BoundedEngine bounded_engine;
+  bool tileset = false;      ///< `--3dtiles`, as MeshJobOptions::tileset
+  VerticalOptions vertical;  ///< --vertical-crs, --allow-approximate-vertical (for --3dtiles)
 };
 
 struct SimplifyReport {
@@ -161,6 +179,7 @@ struct SimplifyReport {
   size_t dropped_triangles = 0;  ///< left out of a GLB as degenerate in float32 (write_mesh)
   Crs crs;
   std::vector<std::pair<std::string, double>> seconds;  ///< per stage, and total
+  std::optional<TilesetReport> tileset;
 };
 
 /// DSM (meshed as `dsmplan mesh` does) or mesh + DSM -> simplified mesh, certified against
@@ -170,7 +189,7 @@ SimplifyReport simplify_job(const SimplifyJobOptions& options, const Progress& p
 /// conservative, delaunay, source_resolution, resolution, vertices_in, vertices_out, reduction,
 /// removed_coplanar, removed_colinear, restored_colinear (null in the bounded mode), faces_in, faces_out,
 /// max_above_m, max_below_m, rms_m, certified_cells, uncovered_cells, dropped_triangles, crs, vertical,
-/// seconds {read, mesh, search, triangulate | simplify, certify, write, total}.
+/// seconds {read, mesh, search, triangulate | simplify, certify, write, total}, tileset (as dsmplan mesh's).
 Json to_json(const SimplifyReport& report);
 /// One summary line for people.
 std::string to_text(const SimplifyReport& report);

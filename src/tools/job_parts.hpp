@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <optional>
 #include <string>
 #include <utility>
 #include <vector>
@@ -13,6 +14,7 @@
 #include "core/text.hpp"
 #include "dsmplan/core.hpp"
 #include "dsmplan/export.hpp"
+#include "dsmplan/tools.hpp"
 
 namespace dsmplan {
 
@@ -83,5 +85,22 @@ inline void require_projected(const Crs& crs, const std::string& path, XY centre
   const std::string problem = metric_problem(crs, path, centre.x, centre.y);
   if (!problem.empty()) throw InputError(path, "", problem);
 }
+
+// ---- --3dtiles (tileset_beside.cpp) ----
+
+/// Before the work: ArgumentError("--3dtiles") unless the output is a GLB; OutputError when
+/// tileset_path_for(output) cannot be written. Nothing without `tileset`.
+void check_tileset_request(bool tileset, MeshFormat format, const std::string& output);
+
+/// With `tileset`, the transform to WGS 84 ellipsoidal heights the tileset needs, built as soon as
+/// the CRS is known so that an unknown vertical reference is refused before the work
+/// (Wgs84Transform's ArgumentError("--vertical-crs")); none without.
+std::optional<Wgs84Transform> tileset_heights(bool tileset, const Crs& crs, const VerticalOptions& vertical);
+
+/// write_mesh(), and with `heights` the tileset.json beside it (`report` filled); when the tileset
+/// cannot be written, the mesh file is removed again. Returns write_mesh()'s dropped triangles.
+size_t write_mesh_output(const Mesh& mesh, const std::string& output, MeshFormat format,
+                         const std::optional<Wgs84Transform>& heights, std::optional<TilesetReport>& report,
+                         const Progress& progress);
 
 }  // namespace dsmplan

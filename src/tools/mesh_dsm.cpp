@@ -54,6 +54,7 @@ MeshReport mesh_dsm(const MeshJobOptions& options, const Progress& progress) {
     throw ArgumentError("--res", "must be a positive number of CRS units");
   }
 
+  check_tileset_request(options.tileset, format, options.output);
   if (options.stream && (options.resolution || format != MeshFormat::Ply))
     throw ArgumentError("--stream", "writes a .ply of the raster as it is (no --res)");
   if (!options.resolution && format == MeshFormat::Ply) {
@@ -80,6 +81,7 @@ MeshReport mesh_dsm(const MeshJobOptions& options, const Progress& progress) {
   if (!options.resolution) read.extra_bytes_per_cell = kMeshBytesPerCell;
   Grid dsm = read_raster(options.input, read, sub_progress(progress, 0, 0.3));
   require_projected(dsm.crs, options.input, centre_of(dsm));
+  const std::optional<Wgs84Transform> tileset = tileset_heights(options.tileset, dsm.crs, options.vertical);
   report.seconds.emplace_back("read", clock.lap());
   report.source_resolution = dsm.cell_x;
   if (options.resolution && (*options.resolution != dsm.cell_x || *options.resolution != dsm.cell_y)) {
@@ -93,7 +95,8 @@ MeshReport mesh_dsm(const MeshJobOptions& options, const Progress& progress) {
   const Mesh mesh = triangulate_xy3(dsm, options.mesh, sub_progress(progress, 0.4, 0.7));
   require_triangles(mesh.triangles.size(), dsm.width, dsm.height, options.input);
   report.seconds.emplace_back("triangulate", clock.lap());
-  report.dropped_triangles = write_mesh(mesh, options.output, format, sub_progress(progress, 0.7, 1.0));
+  report.dropped_triangles =
+      write_mesh_output(mesh, options.output, format, tileset, report.tileset, sub_progress(progress, 0.7, 1.0));
   report.seconds.emplace_back("write", clock.lap());
   add_total(report.seconds);
 
@@ -131,7 +134,8 @@ Json to_json(const MeshReport& report) {
           {"crs", crs_json(report.crs)},
           {"vertical", vertical_json(report.crs)},
           {"seconds", seconds_json(report.seconds)},
-          {"streamed", report.streamed}};
+          {"streamed", report.streamed},
+          {"tileset", tileset_report_json(report.tileset)}};
 }
 
 }  // namespace dsmplan

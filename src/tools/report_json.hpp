@@ -11,6 +11,8 @@ Json crs_json(const Crs& crs);
 Json vertical_json(const Crs& crs);
 /// {stage: seconds, ...} in the order the stages ran.
 Json seconds_json(const std::vector<std::pair<std::string, double>>& seconds);
+/// {path, max_placement_error_m, heights} of --3dtiles, null without.
+Json tileset_report_json(const std::optional<TilesetReport>& tileset);
 /// Heights are stored as float32: the shortest decimal of that float (109.18, not 109.18000030517578).
 double as_stored(double height);
 

@@ -55,6 +55,7 @@ SimplifyReport simplify_streamed(const SimplifyJobOptions& options, MeshFormat f
   require_projected(frame.crs, options.input, centre_of(frame));
   report.source_resolution = report.resolution = frame.cell_x;
   report.crs = frame.crs;
+  const std::optional<Wgs84Transform> tileset = tileset_heights(options.tileset, frame.crs, options.vertical);
   report.seconds.emplace_back("read", clock.lap());
   report.seconds.emplace_back("mesh", 0.0);
   const Progress simplify_progress = sub_progress(progress, 0, format == MeshFormat::Ply ? 1.0 : 0.8);
@@ -82,7 +83,8 @@ SimplifyReport simplify_streamed(const SimplifyJobOptions& options, MeshFormat f
     report.seconds.emplace_back("simplify", clock.lap());
     report.seconds.emplace_back("certify", 0.0);
     require_triangles(output.triangles.size(), frame.width, frame.height, options.input);
-    report.dropped_triangles = write_mesh(output, options.output, format, sub_progress(progress, 0.8, 1.0));
+    report.dropped_triangles =
+        write_mesh_output(output, options.output, format, tileset, report.tileset, sub_progress(progress, 0.8, 1.0));
     report.seconds.emplace_back("write", clock.lap());
   }
   add_total(report.seconds);
@@ -127,6 +129,7 @@ SimplifyReport simplify_job(const SimplifyJobOptions& options, const Progress& p
     check_paper_options(options.paper);
     if (options.bounded.conservative) throw ArgumentError("--conservative", "needs the bounded mode (--max-error E)");
   }
+  check_tileset_request(options.tileset, format, options.output);
   const bool mesh_input = is_mesh_file(options.input);
   if (mesh_input && options.dsm.empty()) {
     throw ArgumentError("--dsm", options.input +
@@ -163,6 +166,8 @@ SimplifyReport simplify_job(const SimplifyJobOptions& options, const Progress& p
     if (!bounded) input = triangulate_xy3(dsm, options.mesh, sub_progress(progress, 0.15, 0.2));
     report.seconds.emplace_back("mesh", clock.lap());
   }
+  const std::optional<Wgs84Transform> tileset =
+      tileset_heights(options.tileset, mesh_input ? input.crs : dsm.crs, options.vertical);
   report.vertices_in = bounded ? summarize(dsm).valid : input.vertices.size();
   report.faces_in = bounded ? 0 : input.triangles.size();
 
@@ -192,7 +197,8 @@ SimplifyReport simplify_job(const SimplifyJobOptions& options, const Progress& p
   // The bounded mode certified its blocks as it made them (certify() on every tile).
   if (!bounded) report.error = certify(output, dsm, sub_progress(progress, 0.8, 0.9));
   report.seconds.emplace_back("certify", clock.lap());
-  report.dropped_triangles = write_mesh(output, options.output, format, sub_progress(progress, 0.9, 1.0));
+  report.dropped_triangles =
+      write_mesh_output(output, options.output, format, tileset, report.tileset, sub_progress(progress, 0.9, 1.0));
   report.seconds.emplace_back("write", clock.lap());
   add_total(report.seconds);
   report.vertices_out = output.vertices.size();
@@ -231,7 +237,8 @@ Json to_json(const SimplifyReport& report) {
           {"dropped_triangles", report.dropped_triangles},
           {"crs", crs_json(report.crs)},
           {"vertical", vertical_json(report.crs)},
-          {"seconds", seconds_json(report.seconds)}};
+          {"seconds", seconds_json(report.seconds)},
+          {"tileset", tileset_report_json(report.tileset)}};
 }
 
 std::string to_text(const SimplifyReport& report) {

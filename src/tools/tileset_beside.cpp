@@ -1,0 +1,49 @@
+// --3dtiles: the tileset.json that puts a GLB of `dsmplan mesh|simplify` on the globe (3D Tiles
+// 1.1, see place_on_globe() in dsmplan/export.hpp), written beside it. The two files are one
+// output: the tileset is computed before the GLB is written, and a tileset that cannot be
+// written takes the GLB with it.
+#include <filesystem>
+#include <system_error>
+
+#include "dsmplan/tools.hpp"
+#include "tools/job_parts.hpp"
+
+namespace dsmplan {
+
+std::string tileset_path_for(const std::string& output) {
+  return (std::filesystem::path(output).parent_path() / "tileset.json").string();
+}
+
+void check_tileset_request(bool tileset, MeshFormat format, const std::string& output) {
+  if (!tileset) return;
+  if (format != MeshFormat::Glb)
+    throw ArgumentError("--3dtiles", "places a GLB on the globe: write one (-o " +
+                                         std::filesystem::path(output).stem().string() + ".glb, or --of glb)");
+  check_writable(tileset_path_for(output));
+}
+
+std::optional<Wgs84Transform> tileset_heights(bool tileset, const Crs& crs, const VerticalOptions& vertical) {
+  if (!tileset) return std::nullopt;
+  return Wgs84Transform(crs, HeightReference::Ellipsoid, vertical);
+}
+
+size_t write_mesh_output(const Mesh& mesh, const std::string& output, MeshFormat format,
+                         const std::optional<Wgs84Transform>& heights, std::optional<TilesetReport>& report,
+                         const Progress& progress) {
+  if (!heights) return write_mesh(mesh, output, format, progress);
+  const TilesetPlacement placement = place_on_globe(mesh, *heights);
+  const std::string path = tileset_path_for(output);
+  const std::string uri = std::filesystem::path(output).filename().string();
+  const size_t dropped = write_mesh(mesh, output, format, progress);
+  try {
+    write_text_file(path, tileset_json(placement, uri, mesh.crs));
+  } catch (...) {
+    std::error_code ignored;
+    std::filesystem::remove(output, ignored);
+    throw;
+  }
+  report = TilesetReport{path, placement.max_error_m, placement.heights};
+  return dropped;
+}
+
+}  // namespace dsmplan
