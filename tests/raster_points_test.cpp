@@ -683,6 +683,24 @@ TEST(PointGrid, MedianOfEvenCountIsTheMeanOfTheMiddlePairAndMaxIsTheMaximum) {
   EXPECT_EQ(grid.at(1, 0), 5.0f);
 }
 
+// The up-front memory refusal counts what the caller holds beside the grid (the GeoTIFF writer's
+// GDAL cache, for dsmplan grid): a grid that fits alone is refused when the two together do not.
+TEST(PointGrid, MemoryRefusalCountsTheWritersBuffersToo) {
+  const PointCloud cloud = cloud_of({{0.5, 0.5, 1, 2}, {3.5, 0.5, 1, 2}});
+  GridPointsOptions options;
+  EXPECT_NO_THROW(dsmplan::grid_points({cloud}, options));
+  options.other_bytes = dsmplan::machine_memory_bytes();  // with the grid's few bytes: more than the machine
+  try {
+    dsmplan::grid_points({cloud}, options);
+    ADD_FAILURE() << "the writer's buffers were not counted";
+  } catch (const dsmplan::ArgumentError& e) {
+    EXPECT_NE(std::string(e.what()).find("needs about"), std::string::npos) << e.what();
+  }
+  // GDAL's cache, as the writer will use it, is capped at an eighth of the machine's memory.
+  EXPECT_GT(dsmplan::geotiff_buffer_bytes(), 0);
+  EXPECT_LE(dsmplan::geotiff_buffer_bytes(), dsmplan::machine_memory_bytes() / 8 + 1);
+}
+
 TEST(PointGrid, CrsMustAgreeAndTheKnownOneIsKept) {
   GridPointsOptions options;
   const PointCloud unknown = cloud_of({{0.5, 0.5, 1, 2}});

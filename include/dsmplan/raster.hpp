@@ -202,6 +202,9 @@ struct GridPointsOptions {
   /// When not empty: only points of these ASPRS classes are gridded (e.g. {2}, ground: a DTM).
   /// A class both kept and dropped is an ArgumentError (clear drop_classes to keep noise classes).
   std::vector<int> keep_classes;
+  /// Memory the caller will hold beside the grid while it lives (a writer's buffers, e.g.
+  /// geotiff_buffer_bytes()), counted in the up-front refusal.
+  double other_bytes = 0;
 };
 
 /// Grids point clouds (all in one CRS) into one DSM. The grid is aligned to multiples of the
@@ -297,7 +300,11 @@ std::string metric_problem(const Crs& crs, const std::string& path, double centr
                            bool units_only = false);
 
 /// Writes a Float32 GeoTIFF (DEFLATE, tiled, nodata -9999). Atomic: temp file + rename.
+/// Holds at most geotiff_buffer_bytes() beside the grid.
 void write_geotiff(const Grid& grid, const std::string& path, const Progress& progress = {});
+/// The memory GDAL's block cache may take while writing: GDAL_CACHEMAX, capped at an eighth of
+/// machine_memory_bytes() (so under ulimit -v too).
+double geotiff_buffer_bytes();
 
 /// GDAL's FillNodata (inverse-distance interpolation) for holes up to `max_distance` cells
 /// from valid data. Holes farther away stay holes.

@@ -35,7 +35,8 @@ struct NamedFile {
 
 /// ArgumentError naming the flag of the first output that is, or resolves to (through "..",
 /// symbolic and hard links), one of the inputs or another output: an output must never replace
-/// what the job reads, nor another output of the same run. Empty paths are skipped. Called
+/// what the job reads, nor another output of the same run. A VRT input's source rasters (GDAL's
+/// file list of it) count as inputs too ("DSM's source"). Empty paths are skipped. Called
 /// before any work. O(files^2) path resolutions.
 void refuse_overwrites(const std::vector<NamedFile>& inputs, const std::vector<NamedFile>& outputs);
 

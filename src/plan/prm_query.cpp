@@ -100,10 +100,20 @@ constexpr size_t kMaxRefinedSamples = 1000000;  // added samples a query, at mos
 // bench_table3 solves looks at 7e6. A count, not a clock: the same answer on every machine.
 constexpr size_t kMaxSearchWork = 100000000;
 constexpr int kMaxWiden = 5;                    // the region: at most 2^5 max_edge around the frontier
-// Lattice nodes one lattice search may make, at most (about 100 bytes each with their lookup,
-// and their queue entries: some 300 MB at most): a whole 1 km x 1 km tile under a 15 m ceiling
-// at 2.5 m is about 1.5 million.
+// Lattice nodes one lattice search may make, at most (kLatticeNodeBytes each with their lookup
+// and queue entries: under 400 MB): a whole 1 km x 1 km tile under a 15 m ceiling at 2.5 m is
+// about 1.5 million.
 constexpr size_t kMaxLatticeNodes = 2000000;
+// Memory an added sample and a lattice node hold at most, with their lookups, neighbour lists
+// and queue entries (rounded up from the structures below), for the bounds a machine's memory sets.
+constexpr double kRefinedSampleBytes = 256, kLatticeNodeBytes = 192;
+
+// At most `count`, and at most what a quarter of the machine's memory holds (ulimit -v and
+// cgroups included: machine_memory_bytes()), so that a small machine ends a search at its memory,
+// the reason in the message, rather than the kernel ending the process.
+size_t memory_bound(size_t count, double bytes_each) {
+  return static_cast<size_t>(std::min(double(count), std::floor(machine_memory_bytes() / 4 / bytes_each)));
+}
 
 // The roadmap with the samples a query adds to it, connected lazily. Level l (1..kMaxLevel)
 // continues the roadmap's Halton sequence from where build_roadmap() stopped to the count of
@@ -116,7 +126,9 @@ class Refinement {
 public:
   Refinement(const Roadmap& map, const PointGrid& base_grid, const detail::FlightSpace& space, const PlanOptions& options)
       : map_(map), base_grid_(base_grid), space_(space), index_(space.index()), o_(options),
-        nb_(static_cast<uint32_t>(map.nodes.size())) {
+        nb_(static_cast<uint32_t>(map.nodes.size())),
+        max_samples_(memory_bound(kMaxRefinedSamples, kRefinedSampleBytes)),
+        max_lattice_nodes_(memory_bound(kMaxLatticeNodes, kLatticeNodeBytes)) {
     const ClearanceIndex& index = index_;
     const ClearanceIndex::Footprint& e = index.footprint();
     wx_ = e.xmax - e.xmin, wy_ = e.ymax - e.ymin;
@@ -135,6 +147,17 @@ public:
   int rounds() const { return rounds_; }
   double finest_spacing() const { return o_.spacing / (1 << finest_); }
   size_t lattice_nodes() const { return lattice_nodes_; }
+  /// ", stopped at ... this machine's memory" when a bound the memory set (lower than the fixed
+  /// one) was reached; else empty.
+  std::string memory_note() const {
+    std::string note;
+    if (lattice_at_memory_)
+      note += ", a lattice search stopped at " + std::to_string(max_lattice_nodes_) + " nodes";
+    if (max_samples_ < kMaxRefinedSamples && nodes_.size() >= max_samples_)
+      note += ", stopped at " + std::to_string(max_samples_) + " added samples";
+    if (!note.empty()) note += ": what a quarter of this machine's memory (" + format_bytes(machine_memory_bytes()) + ") holds";
+    return note;
+  }
 
   // The points of a path from waypoint a (number ia in the query) to b, or empty; every edge on
   // it is clear (checked here or a roadmap edge).
@@ -147,12 +170,13 @@ public:
       const double side = std::min(o_.spacing / (1 << level), o_.max_edge / std::sqrt(3.0));
       if (side == previous) break;  // the same lattice again
       previous = side;
-      const detail::LatticeResult lattice = detail::lattice_path(space_, a, b, side, kMaxLatticeNodes);
+      const detail::LatticeResult lattice = detail::lattice_path(space_, a, b, side, max_lattice_nodes_);
       lattice_nodes_ += lattice.nodes;
+      if (lattice.out_of_work && max_lattice_nodes_ < kMaxLatticeNodes) lattice_at_memory_ = true;
       if (!lattice.path.empty()) return lattice.path;
     }
     for (int round = 1; s.path.empty() && round <= o_.refine_rounds; ++round) {
-      if (levels_ == 0 || nodes_.size() >= kMaxRefinedSamples || out_of_work()) break;
+      if (levels_ == 0 || nodes_.size() >= max_samples_ || out_of_work()) break;
       // The smaller component: s.closed is all of a's; b's is explored up to that size.
       Search t = search(b, ib, nullptr, 0, s.closed.size() + 1);
       const bool from_b = t.closed.size() <= s.closed.size();
@@ -402,7 +426,7 @@ private:
     });
     for (const auto& list : found)
       for (const auto& [i, p] : list) {
-        if (nodes_.size() >= kMaxRefinedSamples) break;
+        if (nodes_.size() >= max_samples_) break;
         level_ids_[level].push_back(static_cast<uint32_t>(nodes_.size()));
         nodes_.push_back(p);
         level_.push_back(static_cast<uint8_t>(level));
@@ -416,6 +440,8 @@ private:
   const ClearanceIndex& index_;
   const PlanOptions& o_;
   const uint32_t nb_;
+  const size_t max_samples_, max_lattice_nodes_;  // the fixed bounds, or less on a small machine
+  bool lattice_at_memory_ = false;
   double wx_ = 0, wy_ = 0;
   double count_[kMaxLevel + 1] = {};
   int levels_ = 0, finest_ = 0, rounds_ = 0;
@@ -472,7 +498,8 @@ PlanResult query_roadmap(const Roadmap& map, const ClearanceIndex& index, const 
         refined = " nor after " + std::to_string(refinement->rounds()) + " refinement rounds (" +
                   std::to_string(refinement->added()) + " samples added, spacing down to " +
                   format_number(refinement->finest_spacing()) +
-                  (refinement->out_of_work() ? ", stopped at its bound of 1e8 candidate edges searched" : "") + ")";
+                  (refinement->out_of_work() ? ", stopped at its bound of 1e8 candidate edges searched" : "") +
+                  refinement->memory_note() + ")";
       const std::string hint = "a smaller --spacing may give one";
       result.reason = lonely != SIZE_MAX ? "no roadmap sample within --max-edge " + format_number(options.max_edge) +
                                                " has a clear straight segment to waypoint " +

@@ -37,6 +37,11 @@ void init_gdal() {
     if (!CPLGetConfigOption("GDAL_NUM_THREADS", nullptr)) CPLSetConfigOption("GDAL_NUM_THREADS", "ALL_CPUS");
     // GDAL's own messages would be a second, unlocated line; ours name the file and place.
     CPLSetErrorHandler(CPLQuietErrorHandler);
+    // GDAL's block cache is 5 % of the physical memory by default, whatever ulimit -v or a
+    // cgroup allow: at most an eighth of what this process may use, so that the up-front memory
+    // checks that count it (geotiff_buffer_bytes()) hold.
+    const double cap = std::floor(machine_memory_bytes() / 8);
+    if (cap < double(GDALGetCacheMax64())) GDALSetCacheMax64(static_cast<GIntBig>(cap));
   });
 }
 
@@ -498,6 +503,11 @@ Grid read_raster(const std::string& path, const ReadRasterOptions& options, cons
     throw InputError(path, "", "no valid cell: every cell is nodata");
   }
   return grid;
+}
+
+double geotiff_buffer_bytes() {
+  init_gdal();
+  return double(GDALGetCacheMax64());
 }
 
 void write_geotiff(const Grid& grid, const std::string& path, const Progress& progress) {

@@ -1,6 +1,9 @@
 // The files of one run kept apart: no output may replace an input or another output.
+#include <gdal_priv.h>
 #include <sys/stat.h>
 
+#include <algorithm>
+#include <cctype>
 #include <filesystem>
 #include <string>
 #include <vector>
@@ -23,9 +26,26 @@ bool same_file(const std::string& a, const std::string& b) {
   return !ea && !eb && pa == pb;
 }
 
+// A VRT mosaic reads its source rasters: they are inputs too, named "<flag>'s source".
+std::vector<NamedFile> with_vrt_sources(const std::vector<NamedFile>& inputs) {
+  std::vector<NamedFile> all = inputs;
+  for (const NamedFile& in : inputs) {
+    std::string extension = std::filesystem::path(in.path).extension().string();
+    std::transform(extension.begin(), extension.end(), extension.begin(), [](unsigned char c) { return std::tolower(c); });
+    if (extension != ".vrt") continue;
+    GDALAllRegister();
+    std::unique_ptr<GDALDataset> vrt(GDALDataset::Open(in.path.c_str(), GDAL_OF_RASTER | GDAL_OF_READONLY));
+    if (!vrt) continue;  // the reader says what is wrong with it, in its own words
+    const CPLStringList files(vrt->GetFileList());
+    for (int k = 0; k < files.size(); ++k) all.push_back({in.flag + "'s source", files[k]});
+  }
+  return all;
+}
+
 }  // namespace
 
-void refuse_overwrites(const std::vector<NamedFile>& inputs, const std::vector<NamedFile>& outputs) {
+void refuse_overwrites(const std::vector<NamedFile>& given_inputs, const std::vector<NamedFile>& outputs) {
+  const std::vector<NamedFile> inputs = with_vrt_sources(given_inputs);
   for (size_t i = 0; i < outputs.size(); ++i) {
     const NamedFile& out = outputs[i];
     if (out.path.empty()) continue;

@@ -32,7 +32,9 @@ GridSummary grid_to_geotiff(const GridOptions& options, const Progress& progress
                                                (cloud.min_y + cloud.max_y) / 2, /*units_only=*/true);
     if (!problem.empty()) throw InputError(options.inputs[i], "", problem);
   }
-  Grid grid = grid_points(clouds, options.grid, sub_progress(progress, 0.6, 0.8));
+  GridPointsOptions grid_options = options.grid;
+  grid_options.other_bytes += geotiff_buffer_bytes();  // the GeoTIFF writer's, while the grid lives
+  Grid grid = grid_points(clouds, grid_options, sub_progress(progress, 0.6, 0.8));
   resolve_crs(grid.crs);
   if (options.fill_distance > 0) fill_holes(grid, options.fill_distance / options.grid.resolution);
   write_geotiff(grid, options.output, sub_progress(progress, 0.8, 1.0));
