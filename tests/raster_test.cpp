@@ -241,6 +241,30 @@ TEST(Resample, MedianIsTheBlockMedianByBruteForce) {
   EXPECT_THROW(resample(nrw(), 0.5, Resampling::Median), ArgumentError);
 }
 
+// Found by fuzz/fuzz_pipeline. Grids made in memory get the readers' checks: cells of 5e-324
+// made resample() index past its last block (ASan), and a corner at 1e308 with cells of -1 kept
+// simplify_bounded() on a GridView flipping edges forever; a --zstep of 5e-324 overflowed z / step
+// into infinite heights.
+TEST(Resample, GridsMadeInMemoryGetTheReadersChecks) {
+  Grid denormal(46, 19, 0, 0, 5e-324, 5e-324);
+  for (float& z : denormal.z) z = 100;
+  EXPECT_THROW(resample(denormal, 1e-323, Resampling::Median), ArgumentError);
+  Grid far(49, 19, 1.7e308, -6.3e307, 4e307, -1);
+  for (float& z : far.z) z = 100;
+  EXPECT_THROW(GridView view(far), ArgumentError);
+  Grid sentinel(4, 4, 0, 4, 1, 1);
+  for (float& z : sentinel.z) z = -3.4e38f;
+  EXPECT_THROW(GridView view(sentinel), ArgumentError);
+  EXPECT_THROW(resample(sentinel, 2, Resampling::Max), ArgumentError);
+  try {
+    HeightQuantizer quantize(5e-324);
+    FAIL() << "a 5e-324 step was accepted";
+  } catch (const ArgumentError& e) {
+    EXPECT_NE(std::string(e.what()).find("--zstep: must be at least 1e-6 and at most 100"), std::string::npos) << e.what();
+  }
+  EXPECT_EQ(quantize_height(123.456789, 1e-6), std::round(123.456789 * 1e6) / 1e6);
+}
+
 TEST(Quantize, MatchesDecimalRoundingOnRealHeights) {
   size_t checked = 0;
   for (size_t i = 0; i < nrw().cells(); i += 37) {

@@ -67,7 +67,7 @@ private:
 };
 
 struct MeshOptions {
-  double zstep = 0.1;  ///< vertical resolution: heights are quantized to multiples of it (<= 0: keep; at most 100, else ArgumentError)
+  double zstep = 0.1;  ///< vertical resolution: heights are quantized to multiples of it (<= 0: keep; else 1e-6 to 100, else ArgumentError)
   /// Longest x,y edge a triangle may have, in CRS units. 0 means 2.5 times the larger cell size,
   /// which bridges a single missing cell (edges of 2 cells) and leaves wider gaps open.
   /// Use infinity to keep the whole Delaunay triangulation.

@@ -85,7 +85,8 @@ public:
 /// cell size and CRS, its corner where the window lies. Preconditions and errors as read().
 Grid read_window(GridSource& source, int col0, int row0, int w, int h);
 
-/// A Grid in memory as a GridSource. It refers to `grid`, which must outlive it.
+/// A Grid in memory as a GridSource. It refers to `grid`, which must outlive it. Throws what
+/// check_grid() throws: the frame and heights a reader would have refused.
 class GridView : public GridSource {
 public:
   explicit GridView(const Grid& grid);
@@ -122,7 +123,7 @@ Resampling parse_resampling(const std::string& name);
 /// input's top-left corner and covers it completely: ceil(width*cell_x/resolution) columns.
 /// An output cell aggregates the valid input cells whose centres lie inside it; with none it
 /// is nodata. resolution equal to the input's returns a copy. Throws ArgumentError when
-/// resolution <= 0 or not finite. O(input cells).
+/// resolution <= 0 or not finite, and what check_grid() refuses. O(input cells).
 Grid resample(const Grid& grid, double resolution, Resampling method, const Progress& progress = {});
 
 /// No projected CRS reaches farther than this from its origin (CRS units).
@@ -134,7 +135,7 @@ constexpr double kMaxHeight = 1e5;
 /// ArgumentError("DSM", ...) for a grid the stages cannot work on: a georeference that is not
 /// finite, cells not positive, anything beyond kMaxCoordinate or cells finer than 1e-9 of it,
 /// or a height that is infinite or beyond kMaxHeight (NaN is nodata). The readers refuse the same
-/// with the file and cell named; triangulate_xy3() and simplify_bounded() call this for grids
+/// with the file and cell named; resample(), triangulate_xy3() and simplify_bounded() call this for grids
 /// made in memory. O(cells).
 void check_grid(const Grid& grid);
 /// Why a grid's georeference (positive cells assumed) is unusable: it reaches beyond

@@ -75,9 +75,12 @@ void check_grid(const Grid& grid) {
 }
 
 HeightQuantizer::HeightQuantizer(double step) : step_(step) {
-  // 0 or less keeps heights; NaN, infinity or a step coarser than 100 m would make them NaN or 0.
-  if (std::isnan(step) || step > 100)
-    throw ArgumentError("--zstep", "must be at most 100 (0 or less: keep the heights), got " + short_number(step));
+  // 0 or less keeps heights; NaN, infinity or a step coarser than 100 m would make them NaN or 0,
+  // and one finer than 1e-6 (below a float height's own resolution) overflows z / step: 5e-324
+  // made every height infinite (fuzz_pipeline).
+  if (std::isnan(step) || step > 100 || (step > 0 && step < 1e-6))
+    throw ArgumentError("--zstep", "must be at least 1e-6 and at most 100 (0 or less: keep the heights), got " +
+                                       short_number(step));
   if (!(step > 0)) return;
   const double per_unit = 1.0 / step;
   if (std::abs(per_unit - std::round(per_unit)) < 1e-9 * per_unit) per_unit_ = std::round(per_unit);
@@ -88,6 +91,10 @@ HeightQuantizer::HeightQuantizer(double step) : step_(step) {
 namespace dsmplan {
 
 GridView::GridView(const Grid& grid) : grid_(grid) {
+  // A grid made in memory may have any georeference and heights; the streamed stages trust a
+  // GridSource's frame as open_raster() checks it (a corner at 1e308 and cells of -1 kept
+  // simplify_bounded() flipping edges forever: fuzz_pipeline).
+  check_grid(grid);
   frame_ = Grid();
   frame_.width = grid.width;
   frame_.height = grid.height;

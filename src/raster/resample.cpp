@@ -86,6 +86,9 @@ Grid resample(const Grid& grid, double resolution, Resampling method, const Prog
   if (!(resolution > 0) || !std::isfinite(resolution)) {
     throw ArgumentError("--res", "must be a positive number of CRS units, got " + std::to_string(resolution));
   }
+  // A grid made in memory may have any georeference: cells of 5e-324 make (i + 0.5) * cell round
+  // onto the next block, past the last one (fuzz_pipeline). The readers refuse the same.
+  check_grid(grid);
   const double finest = std::max(grid.cell_x, grid.cell_y);
   if (resolution < finest * (1 - 1e-9)) {
     throw ArgumentError("--res", std::to_string(resolution) + " is finer than the DSM's cells (" +
