@@ -12,6 +12,7 @@
 #include <array>
 #include <cmath>
 #include <cstring>
+#include <limits>
 #include <map>
 #include <random>
 #include <set>
@@ -344,6 +345,30 @@ TEST(Xy3Streamed, BandsGiveTheWholeGridsMesh) {
       EXPECT_EQ(testkit::triangle_set(streamed.triangles), testkit::triangle_set(whole.triangles));
       EXPECT_EQ(result.triangles, whole.triangles.size());
       if (band == 7) EXPECT_LT(source.largest_rows, holes.height / 3);
+    }
+  }
+}
+
+// Found by fuzz/fuzz_pipeline (UBSan): --max-edge 1e6 over 1 m cells asked for a halo of 1e18
+// rows, cast to an int. More rows than the grid has are the whole grid: one band, the same mesh.
+TEST(Xy3Streamed, AHaloBeyondTheGridIsTheWholeGrid) {
+  Grid column(1, 64, -1e6, 0, 1, 1);
+  for (int r = 0; r < 64; ++r) column.z[column.index(0, r)] = 100.0f + r % 3;
+  Grid square(5, 9, 350000, 5600000, 1, 1);
+  for (size_t i = 0; i < square.z.size(); ++i) square.z[i] = 100.0f + float(i % 7);
+  for (const Grid* grid : {&column, &square}) {
+    for (int band : {0, 3, std::numeric_limits<int>::max()}) {
+      MeshOptions options;
+      options.max_edge_length = 1e6;
+      options.band_rows = band;
+      const Mesh whole = triangulate_xy3(*grid, options);
+      Mesh streamed;
+      MeshCollector sink(streamed);
+      GridView view(*grid);
+      const MeshStreamResult result = triangulate_xy3(view, sink, options);
+      EXPECT_EQ(result.bands, 1u);
+      ASSERT_EQ(streamed.vertices.size(), whole.vertices.size());
+      EXPECT_EQ(testkit::triangle_set(streamed.triangles), testkit::triangle_set(whole.triangles));
     }
   }
 }

@@ -17,9 +17,11 @@ MeshStreamResult triangulate_xy3(GridSource& dsm, MeshSink& sink, const MeshOpti
     throw ArgumentError("--max-edge", "must be finite to mesh a raster band by band");
   // Circumradius of a lattice triangle with edges <= L: abc / (4 area) <= L^3 / (4 * cell_x cell_y / 2).
   const double radius = std::pow(max_edge, 3) / (2 * frame.cell_x * frame.cell_y);
-  const int halo = static_cast<int>(std::ceil((max_edge + 2 * radius) / frame.cell_y)) + 2;
-  const int band = std::max(options.band_rows > 0 ? options.band_rows : 256,
-                            static_cast<int>(std::ceil(max_edge / frame.cell_y)) + 1);
+  // In rows, as doubles first: --max-edge 1e6 over 1 m cells asks for a halo of 1e18 rows, beyond
+  // an int (fuzz_pipeline); more rows than the grid has is the whole grid.
+  const auto rows = [&](double count) { return count < frame.height ? static_cast<int>(count) : frame.height; };
+  const int halo = rows(std::ceil((max_edge + 2 * radius) / frame.cell_y) + 2);
+  const int band = std::max(rows(options.band_rows > 0 ? options.band_rows : 256), rows(std::ceil(max_edge / frame.cell_y) + 1));
   MeshStreamResult result;
   std::vector<uint64_t> valid_before{0};  // valid cells in the rows above row r, for r <= rows read
   std::vector<Triangle> pending;          // a band's triangles wait for the next band's vertices
