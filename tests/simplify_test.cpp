@@ -978,6 +978,36 @@ TEST(SimplifyPaper, IsDelaunayWhereTheInputHasNoHoles) {
   EXPECT_EQ(error.max_below, 0.0);
 }
 
+// Found by fuzz/fuzz_pipeline. With a large --dco (1 m on 1 m cells; up to 1000 is allowed) the
+// corners of the outline passed as co-linear in 3D and were cut off: their cells were left outside
+// every triangle (and a mesh whose every vertex was marked dereferenced a null hint). Border
+// vertices now go only on the x,y line between their border neighbours.
+TEST(SimplifyPaper, ALargeDcoKeepsTheOutlinesCorners) {
+  const Grid flat = make_grid(6, 5, [](int, int) { return 100.0; });
+  Grid notched = flat;  // a concave corner and a diagonal border too
+  for (int r = 0; r < 2; ++r)
+    for (int c = 0; c < 2; ++c) notched.z[notched.index(c, r)] = Grid::nodata;
+  for (const Grid* grid : std::initializer_list<const Grid*>{&flat, &notched}) {
+    for (PaperVariant variant : {PaperVariant::One, PaperVariant::Two}) {
+      for (double dco : {1.0, 1000.0}) {
+        SCOPED_TRACE(std::string(to_string(variant)) + " dco " + std::to_string(dco));
+        const Mesh mesh = exact_mesh(*grid);
+        const PaperSimplifyResult result = simplify_paper(mesh, paper(variant, 10, dco));
+        check_2_5d(result.mesh, "simplified");
+        EXPECT_EQ(certify(result.mesh, *grid).uncovered, 0u);
+        EXPECT_EQ(certify(mesh, *grid).uncovered, 0u);
+      }
+    }
+  }
+  // Cells 25 x 1e6 m: dco 1000 is nothing across a row and everything along one.
+  Grid tall(3, 26, 500000, 1e9, 25, 1e6);
+  for (size_t i = 0; i < tall.z.size(); ++i) tall.z[i] = 100.0f + float(i % 4);
+  const Mesh mesh = exact_mesh(tall);
+  const PaperSimplifyResult result = simplify_paper(mesh, paper(PaperVariant::One, 10, 1000));
+  check_2_5d(result.mesh, "simplified");
+  EXPECT_EQ(certify(result.mesh, tall).uncovered, 0u);
+}
+
 TEST(SimplifyPaper, KeepsTheFootprint) {
   for (PaperVariant variant : {PaperVariant::One, PaperVariant::Two}) {
     SCOPED_TRACE(to_string(variant));

@@ -25,8 +25,9 @@
 //        definition names no order, and with dco = 1e-5 m only a straight line through A passes.
 //      - Border vertices (on an edge with one triangle: the DSM's outline and holes) have an open
 //        neighbour fan. They are never removed as co-planar, and as co-linear only between their
-//        two border neighbours: otherwise the mesh's footprint would shrink and cells near the
-//        outline would be left uncovered, with no surface for the planner to avoid.
+//        two border neighbours and on the x,y line between them, whatever dco allows in 3D:
+//        otherwise the mesh's footprint would shrink and cells near the outline would be left
+//        uncovered, with no surface for the planner to avoid.
 //      - A vertex without triangles (a lone valid cell in a hole) has no neighbours and stays.
 //      - Tolerances are compared with 1 nm of slack: heights in 0.1 m steps are decimals held in
 //        binary (112.7 - 112.3 = 0.4000000000000057), and "within 0.4 m" must not depend on
@@ -36,8 +37,9 @@
 //        edge; where it does not, the surface over the removed vertex can drop to the street
 //        beside a thin wall whose top rises (measured on the NRW tile: wall tops cut down).
 //        So after re-triangulation every removed co-linear vertex is located in the new mesh,
-//        and those the surface misses by more than dz are put back (inserted again, Delaunay
-//        kept), until none is; they count as kept (restored_colinear), not as removed.
+//        and those the surface misses by more than dz, or does not cover, are put back
+//        (inserted again, Delaunay kept), until none is; they count as kept
+//        (restored_colinear), not as removed.
 //      - Re-triangulation keeps the outline and holes: the survivors get a constrained Delaunay
 //        triangulation whose constraints are the input's border edges (between surviving border
 //        vertices), and only the faces inside the input's footprint are kept. Where the input

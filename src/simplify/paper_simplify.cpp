@@ -87,8 +87,11 @@ public:
 
   bool colinear(uint32_t a, const Ring& ring) const {
     if (ring.on_border()) {
-      // Only along the outline, so the footprint keeps its shape.
+      // Only along the outline, so the footprint keeps its shape: on the x,y line between its
+      // border neighbours too, whatever dco allows in 3D (dco 1 on 1 m cells cut corners of the
+      // outline, and the vertices there were left outside every triangle: fuzz_pipeline).
       return ring.border_next.size() == 1 && ring.border_previous.size() == 1 &&
+             on_line_xy(a, ring.border_previous[0], ring.border_next[0]) &&
              between(a, ring.border_previous[0], ring.border_next[0]);
     }
     const auto& n = ring.neighbours;
@@ -99,6 +102,13 @@ public:
   }
 
 private:
+  // A strictly between B and C in x,y, up to the rounding of CRS coordinates.
+  bool on_line_xy(uint32_t a, uint32_t b, uint32_t c) const {
+    const Vertex &A = mesh_.vertices[a], &B = mesh_.vertices[b], &C = mesh_.vertices[c];
+    const double bx = B.x - A.x, by = B.y - A.y, cx = C.x - A.x, cy = C.y - A.y;
+    return std::abs(bx * cy - cx * by) <= 1e-9 * std::hypot(bx, by) * std::hypot(cx, cy) && bx * cx + by * cy < 0;
+  }
+
   bool between(uint32_t a, uint32_t b, uint32_t c) const {
     const Vertex &A = mesh_.vertices[a], &B = mesh_.vertices[b], &C = mesh_.vertices[c];
     if (options_.variant == PaperVariant::Two && std::abs(B.z - C.z) <= options_.dco) return false;
@@ -225,7 +235,7 @@ PaperSimplifyResult simplify_paper(const Mesh& mesh, const PaperSimplifyOptions&
   // A co-linear vertex goes because it lies "on an edge between two neighbour vertices" (the
   // paper's Fig. 5); Delaunay need not keep that edge, and where it does not, the surface over
   // the vertex drops off its line (a wall top cut down to the street). Such vertices are put
-  // back, until the surface over every removed co-linear vertex is within dz of it.
+  // back, until the surface over every removed co-linear vertex is within dz of it (and covers it).
   // Each is looked up from a kept vertex near it (vertex handles outlive insertions; faces do not).
   std::vector<std::pair<uint32_t, Cdt::Vertex_handle>> colinear;
   Cdt::Vertex_handle near = points.empty() ? Cdt::Vertex_handle() : handle[points.front().second];
@@ -244,11 +254,20 @@ PaperSimplifyResult simplify_paper(const Mesh& mesh, const PaperSimplifyOptions&
     for (const auto& [v, hint] : colinear) {
       if (restored[v]) continue;
       const Vertex& p = mesh.vertices[v];
+      // No surface over it at all misses it too: survivors on one line or none (every vertex
+      // marked, the hint then null: fuzz_pipeline), or the vertex outside their hull.
+      if (cdt.dimension() < 2) {
+        off_line.push_back(v);
+        continue;
+      }
       Cdt::Locate_type type;
       int li;
       Cdt::Face_handle f = cdt.locate(Kernel::Point_2(p.x, p.y), type, li, hint->face());
       if (cdt.is_infinite(f) && type == Cdt::EDGE) f = f->neighbor(li);
-      if (cdt.is_infinite(f)) continue;
+      if (cdt.is_infinite(f)) {
+        off_line.push_back(v);
+        continue;
+      }
       const Vertex &a = mesh.vertices[f->vertex(0)->info()], &b = mesh.vertices[f->vertex(1)->info()],
                    &c = mesh.vertices[f->vertex(2)->info()];
       const double area = (b.x - a.x) * (c.y - a.y) - (c.x - a.x) * (b.y - a.y);
