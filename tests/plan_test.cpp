@@ -832,6 +832,9 @@ TEST(ColumnClearance, HandCases) {
   g.z[g.index(1, 1)] = Grid::nodata;                                                          // a hole is air
   EXPECT_NEAR(column_clearance(g, {1.5, 1.5, 4}, {1.5, 1.5, 4}, 100), std::hypot(4, 0.5), 1e-12);  // to the rim
   EXPECT_THROW(column_clearance(g, {0, 0, NAN}, {1, 1, 1}, 1), ArgumentError);
+  // Found by fuzz/fuzz_pipeline (UBSan): a segment 3e9 cells off the grid cast its cell indices
+  // to int. Far away is simply clear.
+  EXPECT_DOUBLE_EQ(column_clearance(g, {3e9, 1.5, 5}, {3e9, -3e9, 5}, 1000), 1000);
 }
 
 TEST(ColumnClearance, AgreesWithDenseSamplingOnTheRealDsm) {

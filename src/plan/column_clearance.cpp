@@ -72,11 +72,14 @@ double column_clearance(const Grid& dsm, const Point3& p_, const Point3& q_, dou
   double best2 = max_d * max_d;
   // Search the cells within r of the segment's box, r doubling: a cell outside lies more than
   // r away, so once the best is within r it is the answer.
+  // Cell indices clamped as doubles first: a segment far off the grid is billions of cells away,
+  // beyond an int (fuzz_pipeline).
+  const auto cell = [](double v, int count) { return static_cast<int>(std::clamp(std::floor(v), -1.0, double(count))); };
   for (double r = std::min(max_d, 2 * std::max(dsm.cell_x, dsm.cell_y));; r = std::min(max_d, 2 * r)) {
-    const int c0 = std::max(0, static_cast<int>(std::floor((xmin - r - dsm.x0) / dsm.cell_x)));
-    const int c1 = std::min(dsm.width - 1, static_cast<int>(std::floor((xmax + r - dsm.x0) / dsm.cell_x)));
-    const int r0 = std::max(0, static_cast<int>(std::floor((dsm.y0 - (ymax + r)) / dsm.cell_y)));
-    const int r1 = std::min(dsm.height - 1, static_cast<int>(std::floor((dsm.y0 - (ymin - r)) / dsm.cell_y)));
+    const int c0 = std::max(0, cell((xmin - r - dsm.x0) / dsm.cell_x, dsm.width));
+    const int c1 = std::min(dsm.width - 1, cell((xmax + r - dsm.x0) / dsm.cell_x, dsm.width));
+    const int r0 = std::max(0, cell((dsm.y0 - (ymax + r)) / dsm.cell_y, dsm.height));
+    const int r1 = std::min(dsm.height - 1, cell((dsm.y0 - (ymin - r)) / dsm.cell_y, dsm.height));
     for (int row = r0; row <= r1; ++row)
       for (int col = c0; col <= c1; ++col) {
         const float h = dsm.at(col, row);
