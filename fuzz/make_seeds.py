@@ -9,9 +9,13 @@ LAS seeds are a few dozen real points of data/delft-ahn3 under four valid header
 format 1 as delivered, 1.2 with a VLR, 1.3, 1.4 format 6); XYZ seeds are those points as text;
 meshes are small PLY (ascii/binary), OBJ and OFF files; waypoints come from
 data/nrw-dom1/sample_waypoints.csv; plus every tests/hostile/ fixture of the same kind.
+fuzz_pipeline reads its bytes through FuzzedDataProvider (grid size, georeference and options
+from the end, cell heights from the front), so its seeds are byte strings of a few sizes from a
+fixed random sequence: each decodes to some grid and options, and the fuzzer takes it from there.
 """
 import glob
 import os
+import random
 import shutil
 import struct
 
@@ -153,6 +157,12 @@ def roadmap_seeds():
     hostile("roadmap", "*.roadmap")
 
 
+def pipeline_seeds():
+    r = random.Random(21)
+    for i, size in enumerate([64, 128, 256, 512, 1024, 2048, 4096, 4096]):
+        put("pipeline", f"random_{i}_{size}.bin", bytes(r.getrandbits(8) for _ in range(size)))
+
+
 if __name__ == "__main__":
     las_seeds()
     hostile("las", "*.las")
@@ -160,3 +170,4 @@ if __name__ == "__main__":
     mesh_seeds()
     waypoint_seeds()
     roadmap_seeds()
+    pipeline_seeds()
