@@ -9,6 +9,8 @@ scripts/deps.sh chromium
 # CloudCompare, MeshLab and Blender, headless under Xvfb. Blender's glTF importer needs numpy,
 # which Debian's blender package leaves out.
 scripts/deps.sh cloudcompare meshlab blender python3-numpy xvfb xauth
+# The Python module's tests (tests/python): pytest, numpy, and GDAL's own Python bindings as the oracle.
+scripts/deps.sh python3-pytest python3-numpy python3-gdal
 dir=build
 [ "${1:-}" = "--sanitize" ] && dir=build-sanitize
 # The Khronos glTF validator for the GLB tests, pinned by tests/gltf_validator/package-lock.json,

@@ -1,0 +1,191 @@
+# The Python module (python/dsmplan_module.cpp) as a GIS user scripts it, on a crop of the real
+# NRW DSM. Oracles: GDAL's own Python bindings for the raster, brute force in numpy for the
+# certified error (every valid cell centre against the triangle above it) and for the path's
+# clearance (every 0.25 m of it against every triangle), a numpy reader of the PLY written.
+import os
+import re
+
+import numpy as np
+import pytest
+from osgeo import gdal
+
+import dsmplan
+
+gdal.UseExceptions()
+SAMPLE = os.path.join(os.environ.get("DSMPLAN_DATA_DIR", "data"), "nrw-dom1", "nrw_dom1_crop500m_1m.tif")
+
+
+@pytest.fixture(scope="module")
+def crop(tmp_path_factory):
+    """120 x 100 cells of the real DSM, with a block of nodata cut into it."""
+    path = str(tmp_path_factory.mktemp("dsm") / "crop.tif")
+    gdal.Translate(path, SAMPLE, srcWin=[200, 150, 120, 100], noData=-9999)
+    ds = gdal.Open(path, gdal.GA_Update)
+    band = ds.GetRasterBand(1)
+    heights = band.ReadAsArray()
+    heights[40:46, 60:70] = -9999
+    band.WriteArray(heights)
+    ds = None
+    return path
+
+
+def gdal_heights(path):
+    ds = gdal.Open(path)
+    band = ds.GetRasterBand(1)
+    heights = band.ReadAsArray().astype(np.float32)
+    heights[heights == band.GetNoDataValue()] = np.nan
+    return heights, ds.GetGeoTransform()
+
+
+def test_read_dsm_gives_gdals_heights_and_geotransform_without_a_copy(crop):
+    dsm = dsmplan.read_dsm(crop)
+    expected, transform = gdal_heights(crop)
+    heights = dsm.heights
+    assert heights.shape == (100, 120) and heights.dtype == np.float32
+    np.testing.assert_array_equal(heights, expected)  # NaN where GDAL has nodata, equal elsewhere
+    assert np.isnan(heights).sum() == 60
+    assert dsm.transform == pytest.approx(transform, abs=0)
+    assert "UTM zone 32N" in dsm.crs
+    assert not heights.flags["OWNDATA"]  # a view of the DSM's own memory
+    assert np.shares_memory(heights, dsm.heights)
+
+
+def cell_centres(transform, shape):
+    x0, cx, _, y0, _, ny = transform
+    cols, rows = np.meshgrid(np.arange(shape[1]), np.arange(shape[0]))
+    return x0 + (cols + 0.5) * cx, y0 + (rows + 0.5) * ny
+
+
+def mesh_height_at_cells(vertices, faces, xs, ys):
+    """The mesh's height above every cell centre (NaN where no triangle covers it), brute force."""
+    out = np.full(xs.shape, np.nan)
+    for a, b, c in vertices[faces]:
+        lo = np.minimum(np.minimum(a, b), c)
+        hi = np.maximum(np.maximum(a, b), c)
+        inside = (xs >= lo[0] - 1e-9) & (xs <= hi[0] + 1e-9) & (ys >= lo[1] - 1e-9) & (ys <= hi[1] + 1e-9)
+        if not inside.any():
+            continue
+        px, py = xs[inside], ys[inside]
+        det = (b[1] - c[1]) * (a[0] - c[0]) + (c[0] - b[0]) * (a[1] - c[1])
+        l1 = ((b[1] - c[1]) * (px - c[0]) + (c[0] - b[0]) * (py - c[1])) / det
+        l2 = ((c[1] - a[1]) * (px - c[0]) + (a[0] - c[0]) * (py - c[1])) / det
+        l3 = 1 - l1 - l2
+        hit = (l1 >= -1e-9) & (l2 >= -1e-9) & (l3 >= -1e-9)
+        z = l1 * a[2] + l2 * b[2] + l3 * c[2]
+        sub = out[inside]
+        sub[hit] = np.fmax(sub[hit], z[hit])  # on a shared edge both triangles give the same height
+        out[inside] = sub
+    return out
+
+
+def test_simplify_is_conservative_and_its_certificate_holds_cell_by_cell(crop):
+    dsm = dsmplan.read_dsm(crop)
+    mesh = dsmplan.simplify(dsm, max_error=0.4, conservative=True)
+    vertices, faces = mesh.vertices, mesh.faces
+    assert vertices.shape[1] == 3 and vertices.dtype == np.float64
+    assert faces.shape[1] == 3 and faces.max() < len(vertices)
+    assert not vertices.flags["OWNDATA"] and not faces.flags["OWNDATA"]
+    assert len(vertices) < 0.5 * np.isfinite(dsm.heights).sum()  # it did simplify
+    certified = mesh.certified
+    assert certified["max_below_m"] == 0 and 0 < certified["max_above_m"] <= 0.4
+
+    heights, transform = gdal_heights(crop)
+    xs, ys = cell_centres(transform, heights.shape)
+    above = mesh_height_at_cells(vertices, faces, xs, ys) - heights
+    valid = np.isfinite(heights)
+    assert np.isfinite(above[valid]).all(), "a valid cell no triangle covers"
+    assert above[valid].min() >= -1e-6  # never below the DSM
+    assert above[valid].max() <= 0.4 + 1e-6
+    assert above[valid].max() == pytest.approx(certified["max_above_m"], abs=1e-4)
+    assert dsmplan.mesh(dsm).certified is None
+
+
+def point_triangle_distances(p, a, b, c):
+    """Distance from point p to each triangle (a[i], b[i], c[i]) (Ericson, Real-Time Collision
+    Detection, 5.1.5), vectorised over the triangles."""
+    ab, ac, ap = b - a, c - a, p - a
+    d1, d2 = (ab * ap).sum(1), (ac * ap).sum(1)
+    bp = p - b
+    d3, d4 = (ab * bp).sum(1), (ac * bp).sum(1)
+    cp = p - c
+    d5, d6 = (ab * cp).sum(1), (ac * cp).sum(1)
+    vc, vb, va = d1 * d4 - d3 * d2, d5 * d2 - d1 * d6, d3 * d6 - d5 * d4
+    with np.errstate(divide="ignore", invalid="ignore"):
+        denom = 1 / (va + vb + vc)
+        q = a + ab * (vb * denom)[:, None] + ac * (vc * denom)[:, None]  # inside the face
+        t_ab = np.clip(d1 / (d1 - d3), 0, 1)
+        t_ac = np.clip(d2 / (d2 - d6), 0, 1)
+        t_bc = np.clip((d4 - d3) / ((d4 - d3) + (d5 - d6)), 0, 1)
+    cases = [
+        ((d1 <= 0) & (d2 <= 0), a),
+        ((d3 >= 0) & (d4 <= d3), b),
+        ((d6 >= 0) & (d5 <= d6), c),
+        ((vc <= 0) & (d1 >= 0) & (d3 <= 0), a + ab * t_ab[:, None]),
+        ((vb <= 0) & (d2 >= 0) & (d6 <= 0), a + ac * t_ac[:, None]),
+        ((va <= 0) & ((d4 - d3) >= 0) & ((d5 - d6) >= 0), b + (c - b) * t_bc[:, None]),
+    ]
+    for mask, point in reversed(cases):  # the first case that applies wins
+        q = np.where(mask[:, None], point, q)
+    return np.linalg.norm(p - q, axis=1)
+
+
+def test_plan_keeps_the_safety_distance_from_every_triangle(crop):
+    dsm = dsmplan.read_dsm(crop)
+    mesh = dsmplan.simplify(dsm, max_error=0.4, conservative=True)
+    x0, cx, _, y0, _, ny = dsm.transform
+    top = float(np.nanmax(dsm.heights))
+    waypoints = np.array([[x0 + 10, y0 - 10, top - 5], [x0 + 110, y0 - 90, top - 5]])
+    path = dsmplan.plan(mesh, waypoints, safety=2.0, max_agl=60.0, spacing=8.0)
+    assert path.shape[1] == 3 and path.dtype == np.float64 and len(path) >= 2
+    np.testing.assert_array_equal(path[0], waypoints[0])
+    np.testing.assert_array_equal(path[-1], waypoints[-1])
+    a, b, c = (mesh.vertices[mesh.faces[:, k]] for k in range(3))
+    nearest = np.inf
+    for p, q in zip(path[:-1], path[1:]):
+        steps = max(1, int(np.ceil(np.linalg.norm(q - p) / 0.25)))
+        for t in np.linspace(0, 1, steps + 1):
+            nearest = min(nearest, point_triangle_distances(p + t * (q - p), a, b, c).min())
+    assert nearest >= 2.0 - 1e-6
+    assert nearest < 10  # it flew among the buildings, not far above them
+
+
+def read_ply(path):
+    data = open(path, "rb").read()
+    end = data.index(b"end_header\n") + len(b"end_header\n")
+    header = data[:end].decode()
+    n = int(re.search(r"element vertex (\d+)", header).group(1))
+    m = int(re.search(r"element face (\d+)", header).group(1))
+    assert "property double x" in header and re.search(r"property list uchar uint(32)? vertex_indices", header)
+    vertices = np.frombuffer(data, "<f8", 3 * n, end).reshape(n, 3)
+    records = np.frombuffer(data, np.dtype([("count", "u1"), ("index", "<u4", 3)]), m, end + 24 * n)
+    assert (records["count"] == 3).all()
+    return header, vertices, records["index"]
+
+
+def test_write_gives_a_ply_with_the_mesh_and_its_crs(crop, tmp_path):
+    mesh = dsmplan.simplify(dsmplan.read_dsm(crop), max_error=0.4)
+    path = str(tmp_path / "mesh.ply")
+    mesh.write(path)
+    header, vertices, faces = read_ply(path)
+    np.testing.assert_array_equal(vertices, mesh.vertices)
+    np.testing.assert_array_equal(faces, mesh.faces)
+    assert "crs_epsg 25832" in header
+    assert os.listdir(tmp_path) == ["mesh.ply"]  # nothing else left behind
+
+
+def test_errors_are_dsmplan_errors_with_the_one_line_text(crop, tmp_path):
+    with pytest.raises(dsmplan.Error, match="no-such.tif"):
+        dsmplan.read_dsm(str(tmp_path / "no-such.tif"))
+    dsm = dsmplan.read_dsm(crop)
+    with pytest.raises(dsmplan.Error, match="max-error"):
+        dsmplan.simplify(dsm, max_error=0)
+    mesh = dsmplan.simplify(dsm, max_error=0.4)
+    x0, _, _, y0, _, _ = dsm.transform
+    underground = np.array([[x0 + 10, y0 - 10, -50.0], [x0 + 110, y0 - 90, 200.0]])
+    with pytest.raises(dsmplan.Error, match="waypoint 1") as caught:
+        dsmplan.plan(mesh, underground)
+    assert "\n" not in str(caught.value)
+    with pytest.raises(dsmplan.Error, match="K x 3"):
+        dsmplan.plan(mesh, np.zeros((2, 2)))
+    with pytest.raises(dsmplan.Error, match="unknown mesh format"):
+        mesh.write(str(tmp_path / "mesh.xyz"))
