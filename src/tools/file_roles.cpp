@@ -34,7 +34,9 @@ std::vector<NamedFile> with_vrt_sources(const std::vector<NamedFile>& inputs) {
     std::transform(extension.begin(), extension.end(), extension.begin(), [](unsigned char c) { return std::tolower(c); });
     if (extension != ".vrt") continue;
     GDALAllRegister();
+    CPLPushErrorHandler(CPLQuietErrorHandler);  // a broken VRT is the reader's to report, once
     std::unique_ptr<GDALDataset> vrt(GDALDataset::Open(in.path.c_str(), GDAL_OF_RASTER | GDAL_OF_READONLY));
+    CPLPopErrorHandler();
     if (!vrt) continue;  // the reader says what is wrong with it, in its own words
     const CPLStringList files(vrt->GetFileList());
     for (int k = 0; k < files.size(); ++k) all.push_back({in.flag + "'s source", files[k]});
