@@ -1077,17 +1077,18 @@ TEST(CliPlan, ThreeWaypointsGiveAPathCsvAndStats) {
   std::vector<std::string> expected{"path_length_m", "min_clearance_m", "roadmap_nodes",  "roadmap_edges",
                                     "seconds_load",  "seconds_roadmap", "seconds_query",  "seconds_smooth",
                                     "planner",       "roadmap_reused", "refined_samples", "max_agl_m",
-                                    "ground"};
+                                    "ground",        "seconds_read",   "seconds_index"};
   std::sort(expected.begin(), expected.end());
   EXPECT_EQ(keys, expected);
   EXPECT_EQ(s["ground"], "mesh floor");
+  EXPECT_NEAR(s["seconds_read"].get<double>() + s["seconds_index"].get<double>(), s["seconds_load"].get<double>(), 1e-9);
   EXPECT_LE(s["max_agl_m"].get<double>(), 120 + 0.05);
   EXPECT_NEAR(s["path_length_m"].get<double>(), length, 1e-6);
   EXPECT_GE(length, straight - 1e-6);
   EXPECT_GE(s["min_clearance_m"].get<double>(), 2.0);
   EXPECT_GT(s["roadmap_nodes"].get<long long>(), 0);
   EXPECT_GT(s["roadmap_edges"].get<long long>(), 0);
-  for (const char* key : {"seconds_load", "seconds_roadmap", "seconds_query", "seconds_smooth"})
+  for (const char* key : {"seconds_load", "seconds_read", "seconds_index", "seconds_roadmap", "seconds_query", "seconds_smooth"})
     EXPECT_GE(s[key].get<double>(), 0) << key;
 }
 

@@ -352,6 +352,9 @@ struct PlanReport {
   /// heights), then "; path by: " the missions' and KML's (to EGM96 heights); empty when none.
   std::string transformation;
   double seconds_load = 0, seconds_roadmap = 0, seconds_query = 0, seconds_smooth = 0;
+  /// seconds_load split: reading the files (mesh, DSM, DTM, a reused roadmap) and the rest
+  /// (the clearance index, the mesh's floor, the DSM's columns against the mesh).
+  double seconds_read = 0, seconds_index = 0;
   /// Missions: the items written (takeoff, speed, waypoints, end), home (x, y in the CRS, z its
   /// ground) and the height of the takeoff above it.
   size_t mission_items = 0;
@@ -371,8 +374,8 @@ struct PlanReport {
 /// closer to its columns than safety - dsm_tolerance_m InputError(DSM file). Nothing is
 /// written then. seconds_load includes reading a reused roadmap.
 PlanReport plan_job(const PlanJobOptions& options, const Progress& progress = {});
-/// Keys: path_length_m, min_clearance_m, roadmap_nodes, roadmap_edges, seconds_load,
-/// seconds_roadmap, seconds_query, seconds_smooth; min_clearance_dsm_m, dsm_tolerance_m,
+/// Keys: path_length_m, min_clearance_m, roadmap_nodes, roadmap_edges, seconds_load (=
+/// seconds_read + seconds_index), seconds_roadmap, seconds_query, seconds_smooth; min_clearance_dsm_m, dsm_tolerance_m,
 /// mesh_max_below_dsm_m with a DSM;
 /// roadmap_reused, refined_samples, planner; transformation when WGS 84 was involved.
 Json to_json(const PlanReport& report);

@@ -20,6 +20,7 @@
 #include <string_view>
 #include <vector>
 
+#include "core/huge_pages.hpp"
 #include "dsmplan/export.hpp"
 
 namespace dsmplan {
@@ -92,7 +93,7 @@ std::string read_whole_file(const std::string& path) {
   std::string bytes;
   try {
     const auto size = std::filesystem::file_size(path, ec);
-    if (!ec) bytes.reserve(size);
+    if (!ec) detail::reserve_on_huge_pages(bytes, size);
     char buffer[1 << 16];
     size_t got = 0;
     while ((got = std::fread(buffer, 1, sizeof buffer, file)) > 0) bytes.append(buffer, got);
@@ -508,6 +509,7 @@ private:
   void read_binary(Mesh& mesh) {
     pos_ = body_;
     for (const PlyElement& element : elements_) {
+      reserve_for(element, mesh);
       for (uint64_t i = 0; i < element.count; ++i) {
         progress_.at(pos_);
         const size_t record_start = pos_;
@@ -530,14 +532,14 @@ private:
             need(3 * type_size(p.type), element, i);
             std::array<double, 3> index{};
             for (double& v : index) v = binary_number(p.type);
-            mesh.triangles.push_back(triangle(index, i, byte_place(count_at)));
+            mesh.triangles.push_back(triangle(index, i, [&] { return byte_place(count_at); }));
           } else {
             // Compared by division: n * size could overflow for a lying count.
             if (n > (bytes_.size() - pos_) / type_size(p.type)) need(bytes_.size() - pos_ + 1, element, i);
             pos_ += n * type_size(p.type);
           }
         }
-        if (element.name == "vertex") mesh.vertices.push_back(vertex(xyz, i, byte_place(record_start)));
+        if (element.name == "vertex") mesh.vertices.push_back(vertex(xyz, i, [&] { return byte_place(record_start); }));
       }
     }
     if (pos_ != bytes_.size()) {
@@ -589,6 +591,7 @@ private:
     pos_ = body_;
     line_ = 1 + static_cast<size_t>(std::count(bytes_.begin(), bytes_.begin() + body_, '\n'));
     for (const PlyElement& element : elements_) {
+      reserve_for(element, mesh);
       for (uint64_t i = 0; i < element.count; ++i) {
         progress_.at(pos_);
         double xyz[3] = {0, 0, 0};
@@ -608,13 +611,13 @@ private:
             if (n != 3) fail(line_place(line_), triangle_problem(i, n));
             std::array<double, 3> index{};
             for (double& v : index) v = ascii_number(p.type, element, i);
-            mesh.triangles.push_back(triangle(index, i, line_place(line_)));
+            mesh.triangles.push_back(triangle(index, i, [&] { return line_place(line_); }));
           } else {
             // A list longer than the rest of the file cannot be there: word() stops at the end.
             for (uint64_t k = 0; k < n; ++k) ascii_number(p.type, element, i);
           }
         }
-        if (element.name == "vertex") mesh.vertices.push_back(vertex(xyz, i, line_place(record_line)));
+        if (element.name == "vertex") mesh.vertices.push_back(vertex(xyz, i, [&] { return line_place(record_line); }));
       }
     }
     while (pos_ < bytes_.size() && is_blank(bytes_[pos_])) {
@@ -628,25 +631,38 @@ private:
 
   // ---- shared ----
 
-  Vertex vertex(const double (&xyz)[3], uint64_t i, const std::string& place) const {
+  // Room for an element's records at once (no regrowth), never more than the rest of the file
+  // could hold at a byte per property: a lying count reserves nothing it could not fill.
+  void reserve_for(const PlyElement& element, Mesh& mesh) const {
+    const uint64_t most = (bytes_.size() - std::min(pos_, bytes_.size())) / std::max<size_t>(1, element.properties.size());
+    const auto records = static_cast<size_t>(std::min(element.count, most));
+    if (element.name == "vertex") detail::reserve_on_huge_pages(mesh.vertices, mesh.vertices.size() + records);
+    for (const PlyProperty& p : element.properties)
+      if (p.role == Role::Indices) detail::reserve_on_huge_pages(mesh.triangles, mesh.triangles.size() + records);
+  }
+
+  // `place` makes the message's place only when there is a message (millions of records).
+  template <class Place>
+  Vertex vertex(const double (&xyz)[3], uint64_t i, Place&& place) const {
     if (!std::isfinite(xyz[0]) || !std::isfinite(xyz[1]) || !std::isfinite(xyz[2])) {
-      fail(place, "vertex " + std::to_string(i) + " has a coordinate that is not a finite number");
+      fail(place(), "vertex " + std::to_string(i) + " has a coordinate that is not a finite number");
     }
     return {xyz[0], xyz[1], xyz[2]};
   }
 
-  Triangle triangle(const std::array<double, 3>& index, uint64_t face, const std::string& place) const {
+  template <class Place>
+  Triangle triangle(const std::array<double, 3>& index, uint64_t face, Place&& place) const {
     Triangle t{};
     for (int k = 0; k < 3; ++k) {
       if (!(index[k] >= 0 && index[k] < static_cast<double>(vertices_))) {
-        fail(place, "face " + std::to_string(face) + " refers to vertex " +
+        fail(place(), "face " + std::to_string(face) + " refers to vertex " +
                         std::to_string(static_cast<int64_t>(index[k])) + ", but there are " +
                         std::to_string(vertices_) + " vertices");
       }
       t[k] = static_cast<uint32_t>(index[k]);
     }
     if (t[0] == t[1] || t[1] == t[2] || t[0] == t[2]) {
-      fail(place, "face " + std::to_string(face) + " names the same vertex twice");
+      fail(place(), "face " + std::to_string(face) + " names the same vertex twice");
     }
     return t;
   }

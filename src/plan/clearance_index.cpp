@@ -13,6 +13,7 @@
 #include <limits>
 #include <string>
 
+#include "core/huge_pages.hpp"
 #include "dsmplan/plan.hpp"
 
 namespace dsmplan {
@@ -136,6 +137,7 @@ ClearanceIndex::ClearanceIndex(const Mesh& mesh, const ClearanceOptions& options
   if (tris.empty()) return;
   // Whole units: v - origin is then exact for any coordinate on the CRS's grid.
   for (int k = 0; k < 3; ++k) origin_[k] = std::round(0.5 * (lo[k] + hi[k]));
+  detail::reserve_on_huge_pages(verts_, nv);
   verts_.resize(nv);
   for (size_t i = 0; i < nv; ++i) {
     const Vertex& v = mesh.vertices[i];
@@ -171,7 +173,9 @@ ClearanceIndex::ClearanceIndex(const Mesh& mesh, const ClearanceOptions& options
   // they agree; both are parallel over triangles.
   const size_t nt = tris.size();
   if (nt >= UINT32_MAX) throw ArgumentError("mesh", "has 2^32 or more triangles");
-  std::vector<size_t> per_tri(nt + 1, 0);
+  std::vector<size_t> per_tri;
+  detail::reserve_on_huge_pages(per_tri, nt + 1);
+  per_tri.assign(nt + 1, 0);
   const double eps = margin_;
   auto each_bucket = [&](size_t t, auto&& fn) {
     ClipPoint tri[3];
@@ -200,8 +204,12 @@ ClearanceIndex::ClearanceIndex(const Mesh& mesh, const ClearanceOptions& options
   });
   for (size_t t = 0; t < nt; ++t) per_tri[t + 1] += per_tri[t];
   if (per_tri[nt] >= UINT32_MAX) throw ArgumentError("bucket_size", "too small: 2^32 or more bucket listings");
-  std::vector<uint32_t> pair_bucket(per_tri[nt]);
-  std::vector<double> pair_top(per_tri[nt]);
+  std::vector<uint32_t> pair_bucket;
+  std::vector<double> pair_top;
+  detail::reserve_on_huge_pages(pair_bucket, per_tri[nt]);
+  detail::reserve_on_huge_pages(pair_top, per_tri[nt]);
+  pair_bucket.resize(per_tri[nt]);
+  pair_top.resize(per_tri[nt]);
   tbb::parallel_for(tbb::blocked_range<size_t>(0, nt), [&](const tbb::blocked_range<size_t>& range) {
     for (size_t t = range.begin(); t != range.end(); ++t) {
       size_t k = per_tri[t];
@@ -213,11 +221,15 @@ ClearanceIndex::ClearanceIndex(const Mesh& mesh, const ClearanceOptions& options
   });
   // Counting sort by bucket; within a bucket triangles stay in mesh order (row-major for
   // triangulate_xy3, so neighbours in memory are neighbours in space).
+  detail::reserve_on_huge_pages(buckets_, buckets + 1);
   buckets_.assign(buckets + 1, {0, -INFINITY});
   for (uint32_t b : pair_bucket) ++buckets_[b + 1].start;
   for (size_t b = 0; b < buckets; ++b) buckets_[b + 1].start += buckets_[b].start;
+  detail::reserve_on_huge_pages(items_, pair_bucket.size());
   items_.resize(pair_bucket.size());
-  std::vector<uint32_t> fill(buckets);
+  std::vector<uint32_t> fill;
+  detail::reserve_on_huge_pages(fill, buckets);
+  fill.resize(buckets);
   for (size_t b = 0; b < buckets; ++b) fill[b] = buckets_[b].start;
   for (size_t t = 0; t < nt; ++t)
     for (size_t k = per_tri[t]; k < per_tri[t + 1]; ++k) {

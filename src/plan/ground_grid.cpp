@@ -1,10 +1,14 @@
 // The ground a ceiling counts from, and the exact greatest height of a segment above it: a
 // cell-by-cell walk of the segment (Amanatides & Woo, "A Fast Voxel Traversal Algorithm for Ray
 // Tracing", Eurographics 1987) over ground that is constant on each cell. See ground.hpp.
+#include <tbb/parallel_for.h>
+
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <cstring>
 
+#include "core/huge_pages.hpp"
 #include "dsmplan/ground.hpp"
 
 namespace dsmplan {
@@ -38,36 +42,45 @@ GroundGrid GroundGrid::floor_of(const Mesh& mesh, double cell) {
   if (!(wcells * hcells <= 4e8)) throw ArgumentError("cell", "gives more than 4e8 cells over the mesh");
   Grid floor(static_cast<int>(wcells), static_cast<int>(hcells), xmin, ymax, cell, cell);
   floor.crs = mesh.crs;
-  std::vector<double> low(floor.cells(), INFINITY);
-  for (const Triangle& t : mesh.triangles) {
-    const Vertex &a = mesh.vertices[t[0]], &b = mesh.vertices[t[1]], &c = mesh.vertices[t[2]];
-    const double lowest = std::min({a.z, b.z, c.z});
-    // The plane z = a.z + gx (x - a.x) + gy (y - a.y), when the triangle has one.
-    const double ux = b.x - a.x, uy = b.y - a.y, vx = c.x - a.x, vy = c.y - a.y;
-    const double det = ux * vy - uy * vx;
-    const bool planar = std::abs(det) > 1e-12 * (ux * ux + uy * uy + vx * vx + vy * vy);
-    const double gx = planar ? ((b.z - a.z) * vy - (c.z - a.z) * uy) / det : 0;
-    const double gy = planar ? ((c.z - a.z) * ux - (b.z - a.z) * vx) / det : 0;
-    const double bx0 = std::min({a.x, b.x, c.x}), bx1 = std::max({a.x, b.x, c.x});
-    const double by0 = std::min({a.y, b.y, c.y}), by1 = std::max({a.y, b.y, c.y});
-    const int c0 = std::max(0, static_cast<int>(std::floor((bx0 - xmin) / cell)));
-    const int c1 = std::min(floor.width - 1, static_cast<int>(std::floor((bx1 - xmin) / cell)));
-    const int r0 = std::max(0, static_cast<int>(std::floor((ymax - by1) / cell)));
-    const int r1 = std::min(floor.height - 1, static_cast<int>(std::floor((ymax - by0) / cell)));
-    for (int row = r0; row <= r1; ++row)
-      for (int col = c0; col <= c1; ++col) {
-        double value = lowest;
-        if (planar) {
-          // The plane is linear: over the rectangle where the cell meets the box, least at a corner.
-          const double x0 = std::max(bx0, xmin + col * cell), x1 = std::min(bx1, xmin + (col + 1) * cell);
-          const double y1 = std::min(by1, ymax - row * cell), y0 = std::max(by0, ymax - (row + 1) * cell);
-          const double plane = a.z + std::min(gx * (x0 - a.x), gx * (x1 - a.x)) + std::min(gy * (y0 - a.y), gy * (y1 - a.y));
-          value = std::max(value, plane);
+  std::vector<double> low;
+  detail::reserve_on_huge_pages(low, floor.cells());
+  low.assign(floor.cells(), INFINITY);
+  // Parallel over triangles; a cell two triangles share keeps the lower by an atomic minimum.
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, mesh.triangles.size()), [&](const tbb::blocked_range<size_t>& range) {
+    for (size_t k = range.begin(); k != range.end(); ++k) {
+      const Triangle& t = mesh.triangles[k];
+      const Vertex &a = mesh.vertices[t[0]], &b = mesh.vertices[t[1]], &c = mesh.vertices[t[2]];
+      const double lowest = std::min({a.z, b.z, c.z});
+      // The plane z = a.z + gx (x - a.x) + gy (y - a.y), when the triangle has one.
+      const double ux = b.x - a.x, uy = b.y - a.y, vx = c.x - a.x, vy = c.y - a.y;
+      const double det = ux * vy - uy * vx;
+      const bool planar = std::abs(det) > 1e-12 * (ux * ux + uy * uy + vx * vx + vy * vy);
+      const double gx = planar ? ((b.z - a.z) * vy - (c.z - a.z) * uy) / det : 0;
+      const double gy = planar ? ((c.z - a.z) * ux - (b.z - a.z) * vx) / det : 0;
+      const double bx0 = std::min({a.x, b.x, c.x}), bx1 = std::max({a.x, b.x, c.x});
+      const double by0 = std::min({a.y, b.y, c.y}), by1 = std::max({a.y, b.y, c.y});
+      const int c0 = std::max(0, static_cast<int>(std::floor((bx0 - xmin) / cell)));
+      const int c1 = std::min(floor.width - 1, static_cast<int>(std::floor((bx1 - xmin) / cell)));
+      const int r0 = std::max(0, static_cast<int>(std::floor((ymax - by1) / cell)));
+      const int r1 = std::min(floor.height - 1, static_cast<int>(std::floor((ymax - by0) / cell)));
+      for (int row = r0; row <= r1; ++row)
+        for (int col = c0; col <= c1; ++col) {
+          double value = lowest;
+          if (planar) {
+            // The plane is linear: over the rectangle where the cell meets the box, least at a corner.
+            const double x0 = std::max(bx0, xmin + col * cell), x1 = std::min(bx1, xmin + (col + 1) * cell);
+            const double y1 = std::min(by1, ymax - row * cell), y0 = std::max(by0, ymax - (row + 1) * cell);
+            const double plane =
+                a.z + std::min(gx * (x0 - a.x), gx * (x1 - a.x)) + std::min(gy * (y0 - a.y), gy * (y1 - a.y));
+            value = std::max(value, plane);
+          }
+          std::atomic_ref<double> slot(low[floor.index(col, row)]);
+          double seen = slot.load(std::memory_order_relaxed);
+          while (value < seen && !slot.compare_exchange_weak(seen, value, std::memory_order_relaxed)) {
+          }
         }
-        double& slot = low[floor.index(col, row)];
-        slot = std::min(slot, value);
-      }
-  }
+    }
+  });
   for (size_t i = 0; i < low.size(); ++i) {
     if (low[i] == INFINITY) continue;  // no triangle: a hole, filled from its rim below
     float f = static_cast<float>(low[i]);
@@ -88,9 +101,10 @@ double GroundGrid::max_height_above(const Point3& p, const Point3& q) const {
   if (empty()) return INFINITY;
   const Walk w(*this, p, q);
   if (!w.inside) return INFINITY;
-  const int col = std::min(static_cast<int>(w.pu), grid_.width - 1), row = std::min(static_cast<int>(w.pv), grid_.height - 1);
-  double best = std::max({walk(w, 0, 1, col, row, INFINITY), touching(w.pu, w.pv, p[2]),
-                          touching(w.pu + w.du, w.pv + w.dv, q[2])});
+  const int col = std::min(static_cast<int>(w.pu), grid_.width - 1),
+            row = std::min(static_cast<int>(w.pv), grid_.height - 1);
+  double best = std::max(
+      {walk(w, 0, 1, col, row, INFINITY), touching(w.pu, w.pv, p[2]), touching(w.pu + w.du, w.pv + w.dv, q[2])});
   // Along a line between two columns (rows) of cells: the other side's cells touch it all along.
   if (w.du == 0 && w.pu == std::floor(w.pu) && col > 0 && col == static_cast<int>(w.pu))
     best = std::max(best, walk(w, 0, 1, col - 1, row, INFINITY));
@@ -104,7 +118,8 @@ double GroundGrid::max_height_above(const Point3& p, const Point3& q) const {
 double GroundGrid::touching(double u, double v, double z) const {
   const int c = std::min(static_cast<int>(u), grid_.width - 1), r = std::min(static_cast<int>(v), grid_.height - 1);
   double best = z - cell_ground(c, r);
-  const bool on_u = u == std::floor(u) && u > 0 && u < grid_.width, on_v = v == std::floor(v) && v > 0 && v < grid_.height;
+  const bool on_u = u == std::floor(u) && u > 0 && u < grid_.width,
+             on_v = v == std::floor(v) && v > 0 && v < grid_.height;
   if (on_u) best = std::max(best, z - cell_ground(c - 1, r));
   if (on_v) best = std::max(best, z - cell_ground(c, r - 1));
   if (on_u && on_v) best = std::max(best, z - cell_ground(c - 1, r - 1));
@@ -173,8 +188,11 @@ bool GroundGrid::below_ceiling(const Point3& p, const Point3& q, double ceiling)
       // point is computed, so it is snapped to a line of cells within rounding: more cells,
       // never fewer.
       if (t > 0) {
-        auto snap = [](double x) { return std::abs(x - std::round(x)) <= 1e-9 * std::max(1.0, std::abs(x)) ? std::round(x) : x; };
-        if (touching(std::clamp(snap(u), 0.0, double(grid_.width)), std::clamp(snap(v), 0.0, double(grid_.height)), z_at(t)) > ceiling)
+        auto snap = [](double x) {
+          return std::abs(x - std::round(x)) <= 1e-9 * std::max(1.0, std::abs(x)) ? std::round(x) : x;
+        };
+        if (touching(std::clamp(snap(u), 0.0, double(grid_.width)), std::clamp(snap(v), 0.0, double(grid_.height)),
+                     z_at(t)) > ceiling)
           return false;
       }
       const int col = std::clamp(static_cast<int>(u), bc * block, std::min(bc * block + block, grid_.width) - 1);

@@ -168,7 +168,8 @@ PlanReport plan_job(const PlanJobOptions& options, const Progress& progress) {
     throw InputError(options.waypoints, "",
                      "a path needs at least two waypoints, the file has " + std::to_string(read_points.size()));
 
-  Stopwatch clock;
+  Stopwatch clock, reading;
+  double seconds_reading = 0;  // of the files, within seconds_load
   // A DSM (raster, VRT mosaic) instead of a mesh: planned along a corridor, window by window.
   const bool corridor = !is_mesh_file(options.mesh);
   std::unique_ptr<GridSource> city;
@@ -181,7 +182,9 @@ PlanReport plan_job(const PlanJobOptions& options, const Progress& progress) {
     city = open_raster(options.mesh);
     mesh.crs = city->frame().crs;
   } else {
+    reading.lap();
     mesh = read_mesh(options.mesh, sub_progress(progress, 0, 0.2));
+    seconds_reading += reading.lap();
     if (mesh.triangles.empty()) throw InputError(options.mesh, "", "the mesh has no triangles");
   }
   require_projected(mesh.crs, options.mesh, corridor ? centre_of(city->frame()) : centre_of(mesh));
@@ -261,7 +264,9 @@ PlanReport plan_job(const PlanJobOptions& options, const Progress& progress) {
   for (const Vertex& v : mesh.vertices)
     xmin = std::min(xmin, v.x), ymin = std::min(ymin, v.y), xmax = std::max(xmax, v.x), ymax = std::max(ymax, v.y);
   if (!options.dsm.empty()) {
+    reading.lap();
     Grid dsm = read_companion(options.dsm, "DSM", mesh.crs, xmin, ymin, xmax, ymax);
+    seconds_reading += reading.lap();
     columns = dsm;
     fill_holes_from_rim(columns, RimHeight::highest);
     // A waypoint above the ceiling is refused now, before the work on the mesh.
@@ -283,7 +288,10 @@ PlanReport plan_job(const PlanJobOptions& options, const Progress& progress) {
     for (Triangle t : holes.triangles) mesh.triangles.push_back({t[0] + offset, t[1] + offset, t[2] + offset});
   }
   if (!options.dtm.empty()) {
-    plan.ground = std::make_shared<GroundGrid>(read_companion(options.dtm, "DTM", mesh.crs, xmin, ymin, xmax, ymax));
+    reading.lap();
+    Grid dtm = read_companion(options.dtm, "DTM", mesh.crs, xmin, ymin, xmax, ymax);
+    seconds_reading += reading.lap();
+    plan.ground = std::make_shared<GroundGrid>(std::move(dtm));
     refuse_above_ceiling(waypoints, *plan.ground, options);
   }
   const ClearanceIndex index(mesh);
@@ -305,6 +313,7 @@ PlanReport plan_job(const PlanJobOptions& options, const Progress& progress) {
     route = detail::route_waypoints(waypoints, site);
   }
   report.seconds_load = clock.lap();
+  report.seconds_read = seconds_reading;
 
   // A roadmap file is reused when it exists (and fits this mesh, ground and options), else made.
   if (!options.roadmap.empty()) {
@@ -321,6 +330,7 @@ PlanReport plan_job(const PlanJobOptions& options, const Progress& progress) {
     result = query_roadmap(map, index, route, plan);
     result.seconds_roadmap = report.roadmap_reused ? 0 : seconds_roadmap;
     report.seconds_load += report.roadmap_reused ? seconds_roadmap : 0;
+    report.seconds_read += report.roadmap_reused ? seconds_roadmap : 0;
   } else {
     result = plan_path(index, route, plan, sub_progress(progress, 0.2, 0.9));
   }
@@ -399,6 +409,10 @@ Json to_json(const PlanReport& r) {
   j["roadmap_nodes"] = r.roadmap_nodes;
   j["roadmap_edges"] = r.roadmap_edges;
   j["seconds_load"] = r.seconds_load;
+  if (r.corridor_windows == 0) {  // a corridor reads and meshes its windows as it plans
+    j["seconds_read"] = r.seconds_read;
+    j["seconds_index"] = r.seconds_load - r.seconds_read;
+  }
   j["seconds_roadmap"] = r.seconds_roadmap;
   j["seconds_query"] = r.seconds_query;
   j["seconds_smooth"] = r.seconds_smooth;
