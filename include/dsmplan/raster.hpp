@@ -174,10 +174,12 @@ struct PointCloud {
   void add(double px, double py, double pz, uint8_t cls);
 };
 
-/// Reads an uncompressed LAS 1.0-1.4 file, point formats 0-10. Checks the header against the
-/// file (signature, sizes, point count x record length <= file size, scale factors); a header
-/// that lies gives InputError naming the field. CRS from the OGC WKT VLR/EVLR (record 2112) or
-/// the GeoTIFF key directory (record 34735, EPSG codes only). O(points).
+/// Reads a LAS 1.0-1.4 file, point formats 0-10, or a LAZ file (LASzip-compressed formats 0-3
+/// and 6-8, decoded by dsmplan's own decoder on all cores: dsmplan/laz.hpp) into the same points.
+/// Checks the header against the file (signature, sizes, point count x record length <= file
+/// size, scale factors; for LAZ the VLR and chunk table); a header that lies gives InputError
+/// naming the field. CRS from the OGC WKT VLR/EVLR (record 2112) or the GeoTIFF key directory
+/// (record 34735, EPSG codes only). O(points).
 PointCloud read_las(const std::string& path, const Progress& progress = {});
 
 /// Reads "x y z [class]" text lines (separators: blanks, comma, semicolon). Blank lines and

@@ -1,6 +1,8 @@
 // Reads uncompressed LAS point clouds following the ASPRS LAS 1.4 R15 specification
 // (public header block, VLRs, EVLRs, point data record formats 0-10; LAS 1.0-1.3 headers are
 // prefixes of the 1.4 one). Every header field is checked against the file before it is trusted.
+// LAZ (LASzip-compressed points: bit 7 or 6 of the point data format byte) is decoded by
+// dsmplan's own LASzip decoder (src/io/laz, include/dsmplan/laz.hpp) into the same records.
 #include <fcntl.h>
 #include <sys/stat.h>
 #include <unistd.h>
@@ -12,9 +14,11 @@
 #include <cerrno>
 #include <cmath>
 #include <cstring>
+#include <memory>
 #include <string>
 #include <vector>
 
+#include "dsmplan/laz.hpp"
 #include "dsmplan/raster.hpp"
 
 namespace dsmplan {
@@ -69,6 +73,7 @@ struct Header {
   double scale[3] = {}, offset[3] = {};
   uint64_t evlr_start = 0;
   uint32_t evlr_count = 0;
+  bool laz = false;  // LASzip-compressed points
 };
 
 class LasReader {
@@ -87,6 +92,7 @@ public:
 
   Header header() const;
   Crs crs(const Header& h) const;
+  std::vector<unsigned char> laszip_vlr(const Header& h) const;
   void points(const Header& h, PointCloud& cloud, const Progress& progress) const;
 
 private:
@@ -166,14 +172,13 @@ Header LasReader::header() const {
   h.vlr_count = u32(b + 100);
 
   const int format_byte = b[104];
-  if (format_byte & 0xC0)
-    fail(field(104, "point data format"),
-         "the points are LAZ-compressed, which dsmplan does not read; decompress the file first, "
-         "e.g. 'laszip -i in.laz -o out.las' or 'pdal translate in.laz out.las'");
-  if (format_byte > kMaxFormat)
-    fail(field(104, "point data format"),
-         "unknown point data format " + std::to_string(format_byte) + " (LAS 1.4 defines 0-10)");
-  h.format = format_byte;
+  // LASzip marks compressed points with bit 7 (and, in some writers, bit 6) of this byte.
+  h.laz = (format_byte & 0xC0) != 0;
+  const int format = format_byte & (h.laz ? 0x3F : 0xFF);
+  if (format > kMaxFormat)
+    fail(field(104, "point data format"), "unknown point data format " + std::to_string(format) +
+                                              (h.laz ? " (LAZ-compressed)" : "") + " (LAS 1.4 defines 0-10)");
+  h.format = format;
 
   h.record_length = u16(b + 105);
   if (h.record_length < kMinRecordLength[h.format])
@@ -195,12 +200,16 @@ Header LasReader::header() const {
                                           std::to_string(h.point_count) + " at byte 107");
     }
   }
-  const uint64_t room = (size_ - h.point_offset) / h.record_length;
+  // Compressed points have no fixed size: bound the count by what the coder could possibly
+  // pack into the bytes (the decoder checks the real count against its chunk table).
+  const uint64_t room =
+      h.laz ? (size_ - h.point_offset) * laz::kMaxPointsPerByte : (size_ - h.point_offset) / h.record_length;
   if (h.point_count > room)
     fail(field(count_byte, "point count"),
          std::to_string(h.point_count) + " points of " + std::to_string(h.record_length) + " bytes from byte " +
              std::to_string(h.point_offset) + " do not fit in the " + std::to_string(size_) +
-             "-byte file, which holds at most " + std::to_string(room) + " (truncated file?)");
+             "-byte file, which holds at most " + std::to_string(room) + (h.laz ? " compressed" : "") +
+             " (truncated file?)");
 
   static const char* axes[3] = {"x", "y", "z"};
   for (int i = 0; i < 3; ++i) {
@@ -216,7 +225,8 @@ Header LasReader::header() const {
   if (h.minor >= 4) {
     h.evlr_start = u64(b + 235);
     h.evlr_count = u32(b + 243);
-    const uint64_t point_end = h.point_offset + h.point_count * h.record_length;  // fits: <= size_
+    // Fits: <= size_. LAZ points end at the chunk table, which the decoder checks.
+    const uint64_t point_end = h.laz ? h.point_offset : h.point_offset + h.point_count * h.record_length;
     if (h.evlr_count > 0 && (h.evlr_start < point_end || h.evlr_start > size_))
       fail(field(235, "start of first EVLR"),
            std::to_string(h.evlr_start) + " is not between the end of the point data (byte " +
@@ -309,7 +319,52 @@ Crs LasReader::crs(const Header& h) const {
   return wkt.known() ? wkt : keys;
 }
 
+std::vector<unsigned char> LasReader::laszip_vlr(const Header& h) const {
+  // crs() has walked these records already: their lengths stay inside the VLR area.
+  uint64_t pos = h.header_size;
+  for (uint32_t k = 0; k < h.vlr_count; ++k) {
+    const std::string place = "VLR " + std::to_string(k + 1) + " at byte " + std::to_string(pos);
+    unsigned char record[kVlrHeader];
+    read(pos, record, kVlrHeader, place);
+    const uint64_t length = u16(record + 20);
+    if (strncmp(reinterpret_cast<const char*>(record + 2), laz::kLaszipUserId, 16) == 0 &&
+        u16(record + 18) == laz::kLaszipRecordId) {
+      std::vector<unsigned char> payload(length);
+      read(pos + kVlrHeader, payload.data(), length, place);
+      return payload;
+    }
+    pos += kVlrHeader + length;
+  }
+  fail(field(104, "point data format"),
+       "the points are LAZ-compressed, but the file has no 'laszip encoded' VLR (user id 'laszip encoded', record "
+       "22204) to say how");
+}
+
 void LasReader::points(const Header& h, PointCloud& cloud, const Progress& progress) const {
+  // LAZ: the decoder reads and checks the chunk table first, so a count the table does not back
+  // is refused before anything is reserved.
+  std::unique_ptr<laz::Decoder> decoder;
+  if (h.laz) {
+    try {
+      const std::vector<unsigned char> payload = laszip_vlr(h);
+      laz::PointSource source;
+      source.read_at = [this](uint64_t offset, void* buffer, size_t bytes) {
+        if (offset > size_ || bytes > size_ - offset)
+          fail("byte " + std::to_string(offset), "past the end of the " + std::to_string(size_) + "-byte file");
+        read(offset, buffer, bytes, "byte " + std::to_string(offset));
+      };
+      source.file_size = size_;
+      source.point_offset = h.point_offset;
+      source.point_count = h.point_count;
+      source.record_length = h.record_length;
+      source.points_end = h.evlr_count > 0 && h.evlr_start > h.point_offset ? h.evlr_start : size_;
+      decoder = std::make_unique<laz::Decoder>(
+          laz::parse_laszip_vlr(payload.data(), payload.size(), h.format, h.record_length), std::move(source));
+    } catch (const laz::LazError& e) {
+      fail(e.place(), e.problem());
+    }
+  }
+
   // A PointCloud keeps x, y, z as doubles and a class byte: 25 bytes a point, reserved exactly.
   // The count is already bounded by the file's size; a big enough file can still outgrow memory.
   require_memory(path_, std::to_string(h.point_count) + " points", double(h.point_count) * kBytesPerPoint);
@@ -322,11 +377,34 @@ void LasReader::points(const Header& h, PointCloud& cloud, const Progress& progr
   const size_t class_byte = h.format >= 6 ? 16 : 15;
   const uint8_t class_mask = h.format >= 6 ? 0xFF : 0x1F;
   const size_t length = h.record_length;
+  uint64_t next_report = kReportEvery;
+  if (decoder) {
+    uint64_t done = 0;
+    auto add_records = [&](const unsigned char* records, size_t n) {
+      for (size_t i = 0; i < n; ++i) {
+        const unsigned char* record = records + i * length;
+        cloud.add(i32(record) * h.scale[0] + h.offset[0], i32(record + 4) * h.scale[1] + h.offset[1],
+                  i32(record + 8) * h.scale[2] + h.offset[2], record[class_byte] & class_mask);
+      }
+      done += n;
+      if (done >= next_report) {
+        report(progress, static_cast<double>(done) / static_cast<double>(h.point_count));
+        next_report += kReportEvery;
+      }
+    };
+    try {
+      decoder->decode(add_records);
+    } catch (const laz::LazError& e) {
+      fail(e.place(), e.problem());
+    }
+    report(progress, 1.0);
+    return;
+  }
+
   const uint64_t block = std::max<uint64_t>(1, (uint64_t{4} << 20) / length);  // ~4 MB per read
   std::vector<unsigned char> buffer(static_cast<size_t>(std::min(block, std::max<uint64_t>(h.point_count, 1))) *
                                     length);
 
-  uint64_t next_report = kReportEvery;
   for (uint64_t done = 0; done < h.point_count;) {
     const size_t n = static_cast<size_t>(std::min(block, h.point_count - done));
     const uint64_t offset = h.point_offset + done * length;

@@ -145,7 +145,7 @@ PointCloud read_xyz(const std::string& path, const Progress& progress) {
 
 PointCloud read_points(const std::string& path, const Progress& progress) {
   const std::string extension = lower_case(std::filesystem::path(path).extension().string());
-  // .laz goes to read_las too: its header check explains that compressed points need decompressing.
+  // .laz goes to read_las too: it decodes LASzip-compressed points (src/io/laz).
   if (extension == ".las" || extension == ".laz") return read_las(path, progress);
   if (extension == ".xyz" || extension == ".txt" || extension == ".csv") return read_xyz(path, progress);
   throw InputError(path, "",

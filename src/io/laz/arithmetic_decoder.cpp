@@ -1,0 +1,184 @@
+// Adaptive models of the LASzip arithmetic coder and its integer decompressor, written for dsmplan
+// from the LASzip reference (github.com/LASzip/LASzip at ac3e9e9f: src/arithmeticmodel.cpp,
+// src/integercompressor.cpp, src/laszip_common_v2.hpp) and A. Said, "Introduction to Arithmetic
+// Coding Theory and Practice", HP Labs HPL-2004-76. The update schedules and scalings must match
+// the encoder's exactly, or every symbol after the first update decodes wrong.
+#include "laz_private.hpp"
+
+namespace dsmplan::laz::detail {
+
+namespace {
+constexpr uint32_t kBitLengthShift = 13, kBitMaxCount = 1u << kBitLengthShift;
+constexpr uint32_t kSymbolLengthShift = 15, kSymbolMaxCount = 1u << kSymbolLengthShift;
+}  // namespace
+
+void BitModel::update() {
+  if ((bit_count += update_cycle) > kBitMaxCount) {
+    bit_count = (bit_count + 1) >> 1;
+    bit_0_count = (bit_0_count + 1) >> 1;
+    if (bit_0_count == bit_count) ++bit_count;
+  }
+  const uint32_t scale = 0x80000000u / bit_count;
+  bit_0_prob = (bit_0_count * scale) >> (31 - kBitLengthShift);
+  update_cycle = (5 * update_cycle) >> 2;
+  if (update_cycle > 64) update_cycle = 64;
+  bits_until_update = update_cycle;
+}
+
+SymbolModel::SymbolModel(uint32_t n) : symbols(n), last_symbol(n - 1), distribution(n), symbol_count(n) {
+  if (symbols > 16) {
+    uint32_t table_bits = 3;
+    while (symbols > (1u << (table_bits + 2))) ++table_bits;
+    table_size = 1u << table_bits;
+    table_shift = kSymbolLengthShift - table_bits;
+    decoder_table.assign(table_size + 2, 0);
+  }
+  reset();
+}
+
+void SymbolModel::reset() {
+  total_count = 0;
+  update_cycle = symbols;
+  for (auto& count : symbol_count) count = 1;
+  update();
+  symbols_until_update = update_cycle = (symbols + 6) >> 1;
+}
+
+void SymbolModel::update() {
+  if ((total_count += update_cycle) > kSymbolMaxCount) {
+    total_count = 0;
+    for (auto& count : symbol_count) total_count += (count = (count + 1) >> 1);
+  }
+  const uint32_t scale = 0x80000000u / total_count;
+  uint32_t sum = 0;
+  if (decoder_table.empty()) {
+    for (uint32_t k = 0; k < symbols; ++k) {
+      distribution[k] = (scale * sum) >> (31 - kSymbolLengthShift);
+      sum += symbol_count[k];
+    }
+  } else {
+    uint32_t s = 0;
+    for (uint32_t k = 0; k < symbols; ++k) {
+      distribution[k] = (scale * sum) >> (31 - kSymbolLengthShift);
+      sum += symbol_count[k];
+      const uint32_t w = distribution[k] >> table_shift;
+      while (s < w) decoder_table[++s] = k - 1;
+    }
+    decoder_table[0] = 0;
+    while (s <= table_size) decoder_table[++s] = symbols - 1;
+  }
+  update_cycle = (5 * update_cycle) >> 2;
+  const uint32_t max_cycle = (symbols + 6) << 3;
+  if (update_cycle > max_cycle) update_cycle = max_cycle;
+  symbols_until_update = update_cycle;
+}
+
+IntegerDecompressor::IntegerDecompressor(uint32_t bits, uint32_t contexts, uint32_t bits_high, uint32_t range)
+    : bits_high_(bits_high) {
+  if (range) {
+    corr_range_ = range;
+    while (range) {
+      range >>= 1;
+      ++corr_bits_;
+    }
+    if (corr_range_ == (1u << (corr_bits_ - 1))) --corr_bits_;
+    corr_min_ = -static_cast<int32_t>(corr_range_ / 2);
+  } else if (bits && bits < 32) {
+    corr_bits_ = bits;
+    corr_range_ = 1u << bits;
+    corr_min_ = -static_cast<int32_t>(corr_range_ / 2);
+  } else {
+    corr_bits_ = 32;
+    corr_range_ = 0;
+    corr_min_ = INT32_MIN;
+  }
+  k_models_.reserve(contexts);
+  for (uint32_t i = 0; i < contexts; ++i) k_models_.emplace_back(corr_bits_ + 1);
+  corrector_models_.reserve(corr_bits_);
+  for (uint32_t k = 1; k <= corr_bits_; ++k)
+    corrector_models_.emplace_back(k <= bits_high_ ? 1u << k : 1u << bits_high_);
+}
+
+int32_t IntegerDecompressor::read_corrector(ArithmeticDecoder& decoder, SymbolModel& bits_model) {
+  k_ = decoder.decode_symbol(bits_model);
+  if (k_ == 0) return static_cast<int32_t>(decoder.decode_bit(zero_or_one_));
+  if (k_ >= 32) return corr_min_;
+  uint32_t c;
+  if (k_ <= bits_high_) {
+    c = decoder.decode_symbol(corrector_models_[k_ - 1]);
+  } else {
+    // The high bits through the model, the low ones raw.
+    const uint32_t low_bits = k_ - bits_high_;
+    c = decoder.decode_symbol(corrector_models_[k_ - 1]);
+    c = (c << low_bits) | decoder.read_bits(low_bits);
+  }
+  // c in [0, 2^k): the upper half are the positive correctors 2^(k-1)+1 .. 2^k, the lower half
+  // the negative ones -(2^k-1) .. -2^(k-1). Unsigned arithmetic: k = 31 must not overflow.
+  if (c >= (1u << (k_ - 1))) return static_cast<int32_t>(c + 1);
+  return static_cast<int32_t>(c - ((1u << k_) - 1));
+}
+
+int32_t IntegerDecompressor::decompress(ArithmeticDecoder& decoder, int32_t prediction, uint32_t context) {
+  const int32_t corrector = read_corrector(decoder, k_models_[context]);
+  if (corr_range_ == 0)  // 32 bits: the sum wraps around
+    return static_cast<int32_t>(static_cast<uint32_t>(prediction) + static_cast<uint32_t>(corrector));
+  int64_t real = int64_t{prediction} + corrector;
+  if (real < 0)
+    real += corr_range_;
+  else if (real >= int64_t{corr_range_})
+    real -= corr_range_;
+  return static_cast<int32_t>(real);
+}
+
+void Median5::add(int32_t v) {
+  int32_t* s = values_;
+  if (high_) {
+    if (v < s[2]) {
+      s[4] = s[3];
+      s[3] = s[2];
+      if (v < s[0]) {
+        s[2] = s[1];
+        s[1] = s[0];
+        s[0] = v;
+      } else if (v < s[1]) {
+        s[2] = s[1];
+        s[1] = v;
+      } else {
+        s[2] = v;
+      }
+    } else {
+      if (v < s[3]) {
+        s[4] = s[3];
+        s[3] = v;
+      } else {
+        s[4] = v;
+      }
+      high_ = false;
+    }
+  } else {
+    if (s[2] < v) {
+      s[0] = s[1];
+      s[1] = s[2];
+      if (s[4] < v) {
+        s[2] = s[3];
+        s[3] = s[4];
+        s[4] = v;
+      } else if (s[3] < v) {
+        s[2] = s[3];
+        s[3] = v;
+      } else {
+        s[2] = v;
+      }
+    } else {
+      if (s[1] < v) {
+        s[0] = s[1];
+        s[1] = v;
+      } else {
+        s[0] = v;
+      }
+      high_ = true;
+    }
+  }
+}
+
+}  // namespace dsmplan::laz::detail

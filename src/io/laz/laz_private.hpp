@@ -1,0 +1,252 @@
+// The LASzip decoder's inner parts: the arithmetic decoder and its adaptive models, the integer
+// decompressor, and the chunk decoders of the two LASzip layouts. Written for dsmplan from the
+// LASzip specification as its reference implementation states it (github.com/LASzip/LASzip,
+// commit ac3e9e9f: src/arithmeticdecoder.cpp, src/arithmeticmodel.cpp, src/integercompressor.cpp,
+// src/lasreadpoint.cpp, src/lasreaditemcompressed_v2.cpp, src/lasreaditemcompressed_v3.cpp,
+// src/laszip_common_v2.hpp, src/laszip_common_v3.hpp), which follows A. Said, "Introduction to
+// Arithmetic Coding Theory and Practice", HP Labs HPL-2004-76. No code is taken from LASzip: the
+// numbers (model sizes, contexts, update schedules) must match its encoder bit for bit, the code
+// around them is ours.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "dsmplan/laz.hpp"
+
+namespace dsmplan::laz::detail {
+
+// A stream the decoder cannot follow: thrown deep inside a chunk and turned into a LazError
+// naming the chunk, the point and the byte by the code that knows them.
+struct CorruptStream {
+  std::string problem;
+};
+
+// Bytes of one arithmetic-coded stream. Past its end it yields zeros and counts them: a valid
+// encoder pads its streams so that the decoder never reads past the end, so an overrun means a
+// truncated or lying chunk, reported after the point that caused it (never a read out of bounds).
+class ByteSource {
+public:
+  ByteSource() = default;
+  ByteSource(const uint8_t* begin, const uint8_t* end) : next_(begin), end_(end) {}
+  uint8_t get() {
+    if (next_ < end_) return *next_++;
+    ++overrun_;
+    return 0;
+  }
+  uint32_t overrun() const { return overrun_; }
+
+private:
+  const uint8_t* next_ = nullptr;
+  const uint8_t* end_ = nullptr;
+  uint32_t overrun_ = 0;
+};
+
+// Adaptive binary model (Said's "adaptive bit model"; 13-bit probabilities).
+struct BitModel {
+  uint32_t bit_0_count = 1, bit_count = 2, bit_0_prob = 1u << 12, update_cycle = 4, bits_until_update = 4;
+  void update();
+};
+
+// Adaptive multi-symbol model (15-bit cumulative distribution; a decoder look-up table for more
+// than 16 symbols, which only speeds up the search: the decoded symbol is the same either way).
+class SymbolModel {
+public:
+  explicit SymbolModel(uint32_t symbols);
+  void reset();  // back to the equiprobable start, as at the beginning of every chunk
+  void update();
+
+  uint32_t symbols;
+  uint32_t last_symbol;
+  uint32_t table_size = 0, table_shift = 0;
+  uint32_t total_count = 0, update_cycle = 0, symbols_until_update = 0;
+  std::vector<uint32_t> distribution, symbol_count, decoder_table;
+};
+
+class ArithmeticDecoder {
+public:
+  static constexpr uint32_t kMinLength = 0x01000000u;
+
+  void start(const uint8_t* begin, const uint8_t* end) {
+    source_ = ByteSource(begin, end);
+    length_ = 0xFFFFFFFFu;
+    value_ = uint32_t{source_.get()} << 24;
+    value_ |= uint32_t{source_.get()} << 16;
+    value_ |= uint32_t{source_.get()} << 8;
+    value_ |= uint32_t{source_.get()};
+  }
+  uint32_t overrun() const { return source_.overrun(); }
+
+  uint32_t decode_bit(BitModel& m) {
+    const uint32_t x = m.bit_0_prob * (length_ >> 13);
+    uint32_t bit;
+    if (value_ < x) {
+      bit = 0;
+      length_ = x;
+      ++m.bit_0_count;
+    } else {
+      bit = 1;
+      value_ -= x;
+      length_ -= x;
+    }
+    if (length_ < kMinLength) renormalize();
+    if (--m.bits_until_update == 0) m.update();
+    return bit;
+  }
+
+  uint32_t decode_symbol(SymbolModel& m) {
+    uint32_t symbol, x, y = length_;
+    if (!m.decoder_table.empty()) {
+      length_ >>= 15;
+      const uint32_t scaled = value_ / length_;
+      // A valid stream keeps value < length, so the index is at most table_size; a corrupt one
+      // must not read past the table.
+      uint32_t t = scaled >> m.table_shift;
+      if (t > m.table_size) t = m.table_size;
+      symbol = m.decoder_table[t];
+      uint32_t upper = m.decoder_table[t + 1] + 1;
+      while (upper > symbol + 1) {
+        const uint32_t middle = (symbol + upper) >> 1;
+        if (m.distribution[middle] > scaled)
+          upper = middle;
+        else
+          symbol = middle;
+      }
+      x = m.distribution[symbol] * length_;
+      if (symbol != m.last_symbol) y = m.distribution[symbol + 1] * length_;
+    } else {
+      x = symbol = 0;
+      length_ >>= 15;
+      uint32_t upper = m.symbols, middle = upper >> 1;
+      do {
+        const uint32_t z = length_ * m.distribution[middle];
+        if (z > value_) {
+          upper = middle;
+          y = z;
+        } else {
+          symbol = middle;
+          x = z;
+        }
+      } while ((middle = (symbol + upper) >> 1) != symbol);
+    }
+    value_ -= x;
+    length_ = y - x;
+    if (length_ < kMinLength) renormalize();
+    ++m.symbol_count[symbol];
+    if (--m.symbols_until_update == 0) m.update();
+    return symbol;
+  }
+
+  // Raw bits (uniform), at most 32.
+  uint32_t read_bits(uint32_t bits) {
+    if (bits > 19) {
+      const uint32_t low = read_short();
+      return (read_bits(bits - 16) << 16) | low;
+    }
+    length_ >>= bits;
+    const uint32_t value = value_ / length_;
+    value_ -= length_ * value;
+    if (length_ < kMinLength) renormalize();
+    if (value >= (1u << bits)) throw CorruptStream{"the arithmetic code is corrupt (raw bits out of range)"};
+    return value;
+  }
+  uint32_t read_short() { return read_bits(16); }
+  uint32_t read_int() {
+    const uint32_t low = read_short();
+    return (read_short() << 16) | low;
+  }
+
+private:
+  void renormalize() {
+    do {
+      value_ = (value_ << 8) | source_.get();
+    } while ((length_ <<= 8) < kMinLength);
+  }
+
+  uint32_t value_ = 0, length_ = 0;
+  ByteSource source_;
+};
+
+// LASzip's integer compressor, decoding side: a corrector c = real - prediction coded as its bit
+// length k (one symbol model per context) and then its value within that length class.
+class IntegerDecompressor {
+public:
+  explicit IntegerDecompressor(uint32_t bits = 16, uint32_t contexts = 1, uint32_t bits_high = 8, uint32_t range = 0);
+  int32_t decompress(ArithmeticDecoder& decoder, int32_t prediction, uint32_t context = 0);
+  // The bit length class of the last corrector: the next coordinate's context depends on it.
+  uint32_t k() const { return k_; }
+
+private:
+  int32_t read_corrector(ArithmeticDecoder& decoder, SymbolModel& bits_model);
+
+  uint32_t bits_high_;
+  uint32_t corr_bits_ = 0, corr_range_ = 0;
+  int32_t corr_min_ = 0;
+  uint32_t k_ = 0;
+  std::vector<SymbolModel> k_models_;          // per context
+  BitModel zero_or_one_;                       // k == 0: the corrector is 0 or 1
+  std::vector<SymbolModel> corrector_models_;  // index k-1 for k in 1..corr_bits
+};
+
+// The running median of the last five values (LASzip's StreamingMedian5): predicts x and y steps.
+class Median5 {
+public:
+  void add(int32_t v);
+  int32_t get() const { return values_[2]; }
+
+private:
+  int32_t values_[5] = {0, 0, 0, 0, 0};
+  bool high_ = true;
+};
+
+// GPS time of LASzip's GPSTIME11 v2 and POINT14 v3 (which differ only in the codes of the
+// "difference was zero" model): four interleaved time sequences, each predicted by its last
+// integer difference times a small multiplier.
+class GpsTimeState {
+public:
+  GpsTimeState(int version, uint64_t first_time_bits);
+  uint64_t decode(ArithmeticDecoder& decoder);  // the next time's bits
+  uint64_t current() const { return last_time_[last_]; }
+
+private:
+  int version_;
+  uint32_t last_ = 0, next_ = 0;
+  uint64_t last_time_[4] = {};
+  int32_t last_diff_[4] = {};
+  int32_t extreme_count_[4] = {};
+  SymbolModel multi_;
+  SymbolModel zero_diff_;
+  IntegerDecompressor diff_{32, 9};
+};
+
+// RGB of RGB12 v2 and RGB14/RGBNIR14 v3 (the same coding): `last` and `out` hold r, g, b.
+struct RgbModels {
+  SymbolModel byte_used{128};
+  SymbolModel diff[6] = {SymbolModel(256), SymbolModel(256), SymbolModel(256),
+                         SymbolModel(256), SymbolModel(256), SymbolModel(256)};
+};
+void decode_rgb(ArithmeticDecoder& decoder, RgbModels& models, const uint16_t last[3], uint16_t out[3]);
+
+// One chunk's points, decoded from its bytes. `records` receives count records of
+// record_length bytes. Throws CorruptStream (the point index within the chunk is in `done`).
+struct ChunkInput {
+  const uint8_t* bytes;
+  size_t size;
+  uint64_t count;
+};
+
+class ChunkDecoder {
+public:
+  virtual ~ChunkDecoder() = default;
+  // Decodes points [done, done + n) of the current chunk into `out`; begin() starts a chunk.
+  virtual void begin(const ChunkInput& input) = 0;
+  virtual void next(uint8_t* out, uint64_t n) = 0;
+  uint64_t done = 0;  // points of the current chunk decoded so far (for error messages)
+};
+
+std::unique_ptr<ChunkDecoder> make_pointwise_decoder(const std::vector<Item>& items, uint32_t record_length);
+std::unique_ptr<ChunkDecoder> make_layered_decoder(const std::vector<Item>& items, uint32_t record_length);
+
+}  // namespace dsmplan::laz::detail
