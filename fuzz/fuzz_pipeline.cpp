@@ -26,8 +26,8 @@
 //             ground; with the DSM's columns, column_clearance() >= safety - 1 cm as plan_path.cpp
 //             demands of what it writes.
 // Option values are drawn in the CLI's ranges and beyond; the planner's amount of work (samples,
-// RRT samples) is kept small, since a large one is slow by request, not a bug, and its query-time
-// refinement is off (see plan_on()).
+// RRT samples, the query-time refinement's bounds) is kept small, since a large one is slow by
+// request, not a bug (see plan_on()).
 #include <fuzzer/FuzzedDataProvider.h>
 
 #include <algorithm>
@@ -406,10 +406,13 @@ void plan_on(const Mesh& input, const Grid& grid, FuzzedDataProvider& in) {
   // The roadmap's sample count (build_roadmap()): beyond a few thousand the run is slow by
   // request, not by a bug.
   if (plan.spacing > 0 && volume / std::pow(plan.spacing, 3) > 4000) return;
-  // Refinement is off: its lattice searches (spacing / 2, / 4, / 8, up to 2 million nodes each
-  // by design) took 43 s under ASan on a 3 x 26-cell grid of 25 x 1e6 m cells (5.6 million
-  // nodes), so every such input would be a timeout. Its own fuzzing needs a smaller node cap.
-  plan.refine_rounds = 0;
+  // Refinement on, its work bounded as the samples are: at its default bounds (2 million
+  // lattice nodes a search, 1e8 candidate edges a leg) a search is slow by request, not by a
+  // bug (43 s under ASan on a 3 x 26-cell grid of 25 x 1e6 m cells, 5.6 million nodes).
+  plan.refine_rounds = in.ConsumeIntegralInRange<int>(0, 8);
+  plan.refine_max_lattice_nodes = 20000;
+  plan.refine_max_samples = 20000;
+  plan.refine_max_search_work = 300000;
   plan.connections = in.ConsumeIntegralInRange<int>(0, 12);
   plan.smooth = in.ConsumeBool();
   plan.spline = in.ConsumeBool();

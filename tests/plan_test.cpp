@@ -1327,6 +1327,32 @@ TEST(LowAltitude, RefinementIsBoundedAndSaysWhy) {
   EXPECT_THROW(plan_path(index, waypoints, options), ArgumentError);
 }
 
+TEST(LowAltitude, RefinementStopsAtItsWorkBoundsAndNamesThem) {
+  const Mesh& mesh = mesh_2m();
+  const ClearanceIndex index(mesh);
+  const auto waypoints = street_corners(mesh, index);
+  PlanOptions options;
+  options.max_agl = 10;  // solved with refinement (RefinementIsTheSameOnOneAndTwoThreads)
+  const PlanResult free = plan_path(index, waypoints, options);
+  ASSERT_EQ(free.status, PlanStatus::Solved) << free.reason;
+  // The same legs with bounds at their least: stopped at once, each bound reached named, held.
+  const auto bounded = [&](size_t PlanOptions::*bound, const std::string& named) {
+    PlanOptions o = options;
+    o.refine_max_lattice_nodes = 1;
+    o.*bound = 1;
+    const PlanResult r = plan_path(index, waypoints, o);
+    EXPECT_EQ(r.status, PlanStatus::NoPath);
+    for (const std::string& said : {std::string("a lattice search stopped at its bound of 1 nodes"), named})
+      EXPECT_NE(r.reason.find(said), std::string::npos) << said << " in: " << r.reason;
+    EXPECT_EQ(r.reason.find('\n'), std::string::npos);
+    return r;
+  };
+  EXPECT_LE(bounded(&PlanOptions::refine_max_samples, "stopped at its bound of 1 added samples").refined_samples, 1u);
+  bounded(&PlanOptions::refine_max_search_work, "stopped at its bound of 1 candidate edges searched");
+  options.refine_max_samples = 0;
+  EXPECT_THROW(plan_path(index, waypoints, options), ArgumentError);
+}
+
 // A 120 m square of ground at z = 0 with two walls 30 m tall across it, each with a 20 m gap at
 // opposite ends (or, closed, without it): under a 15 m ceiling a leg from the south to the north
 // must snake east through the first gap and west through the second.

@@ -286,9 +286,9 @@ private:
 //       3. The lazy A* again; repeat until solved or a bound. Rounds past the finest level
 //          widen the region to 2, 4, ... 32 times max_edge around the frontier (a street
 //          network at 10 m above ground is crossed that way). Bounds: refine_rounds rounds a
-//          leg, a level needing more than 4 million Halton indices is not used, at most 1
-//          million added samples a query, 1e8 candidate edges looked at by a leg's searches (a
-//          count, not a clock); a round at the finest level over the widest region
+//          leg, a level needing more than 4 million Halton indices is not used,
+//          refine_max_samples added samples a query, refine_max_search_work candidate edges
+//          looked at by a leg's searches; a round at the finest level over the widest region
 //          that adds nothing stops.
 //          Then NoPath, the reason naming the rounds, the samples added and the finest spacing.
 //     Deterministic: samples are tested in parallel and kept in index order, the searches are
@@ -324,6 +324,12 @@ struct PlanOptions {
   /// Query-time refinement where the roadmap fails a leg (see "Refinement" above): at most
   /// this many rounds; 0 turns it off (the roadmap alone, as the paper's planner).
   int refine_rounds = 8;
+  /// Refinement's bounds on its work: counts, not clocks, so the answer is the same on every
+  /// machine; the first two are lowered further to what a quarter of the machine's memory
+  /// holds. Reaching one ends the leg with NoPath, the bound named in the reason.
+  size_t refine_max_samples = 1000000;        ///< samples a query adds, at most
+  size_t refine_max_lattice_nodes = 2000000;  ///< nodes one lattice search makes, at most
+  size_t refine_max_search_work = 100000000;  ///< candidate edges a leg's lazy searches look at, at most
   /// The ground max_agl counts from (ground.hpp): the DTM, or the DSM's cells; null: the
   /// mesh's floor (ClearanceIndex::floor()). Every point of every path keeps
   /// height above it <= max_agl, not only the samples.

@@ -91,19 +91,16 @@ std::vector<Point3> astar(const Roadmap& map, const Point3& a, const Point3& b,
 
 // ---- refinement ---------------------------------------------------------------------------
 
-constexpr int kMaxLevel = 3;                   // finest spacing: spacing / 2^3
-constexpr double kMaxHaltonIndex = 4.0e6;      // a level needs at most this many Halton indices
-constexpr size_t kMaxRefinedSamples = 1000000;  // added samples a query, at most
-// Candidate edges the lazy searches of a leg may look at, at most: an impossible leg over a
-// million samples would otherwise be searched round after round for many minutes (a Delft leg
-// under a 15 m ceiling: over 10 minutes; 1e8 is about 50 s there). The hardest leg
-// bench_table3 solves looks at 7e6. A count, not a clock: the same answer on every machine.
-constexpr size_t kMaxSearchWork = 100000000;
-constexpr int kMaxWiden = 5;                    // the region: at most 2^5 max_edge around the frontier
-// Lattice nodes one lattice search may make, at most (kLatticeNodeBytes each with their lookup
-// and queue entries: under 400 MB): a whole 1 km x 1 km tile under a 15 m ceiling at 2.5 m is
-// about 1.5 million.
-constexpr size_t kMaxLatticeNodes = 2000000;
+constexpr int kMaxLevel = 3;               // finest spacing: spacing / 2^3
+constexpr double kMaxHaltonIndex = 4.0e6;  // a level needs at most this many Halton indices
+// PlanOptions::refine_max_search_work, the candidate edges the lazy searches of a leg may look
+// at: an impossible leg over a million samples would otherwise be searched round after round for
+// many minutes (a Delft leg under a 15 m ceiling: over 10 minutes; the default 1e8 is about 50 s
+// there). The hardest leg bench_table3 solves looks at 7e6.
+constexpr int kMaxWiden = 5;  // the region: at most 2^5 max_edge around the frontier
+// PlanOptions::refine_max_lattice_nodes (default 2 million, kLatticeNodeBytes each with their
+// lookup and queue entries: under 400 MB): a whole 1 km x 1 km tile under a 15 m ceiling at
+// 2.5 m is about 1.5 million.
 // Memory an added sample and a lattice node hold at most, with their lookups, neighbour lists
 // and queue entries (rounded up from the structures below), for the bounds a machine's memory sets.
 constexpr double kRefinedSampleBytes = 256, kLatticeNodeBytes = 192;
@@ -124,11 +121,16 @@ size_t memory_bound(size_t count, double bytes_each) {
 // Node numbers: the roadmap's, then the added samples in the order they were added.
 class Refinement {
 public:
-  Refinement(const Roadmap& map, const PointGrid& base_grid, const detail::FlightSpace& space, const PlanOptions& options)
-      : map_(map), base_grid_(base_grid), space_(space), index_(space.index()), o_(options),
+  Refinement(const Roadmap& map, const PointGrid& base_grid, const detail::FlightSpace& space,
+             const PlanOptions& options)
+      : map_(map),
+        base_grid_(base_grid),
+        space_(space),
+        index_(space.index()),
+        o_(options),
         nb_(static_cast<uint32_t>(map.nodes.size())),
-        max_samples_(memory_bound(kMaxRefinedSamples, kRefinedSampleBytes)),
-        max_lattice_nodes_(memory_bound(kMaxLatticeNodes, kLatticeNodeBytes)) {
+        max_samples_(memory_bound(options.refine_max_samples, kRefinedSampleBytes)),
+        max_lattice_nodes_(memory_bound(options.refine_max_lattice_nodes, kLatticeNodeBytes)) {
     const ClearanceIndex& index = index_;
     const ClearanceIndex::Footprint& e = index.footprint();
     wx_ = e.xmax - e.xmin, wy_ = e.ymax - e.ymin;
@@ -143,19 +145,23 @@ public:
   }
 
   size_t added() const { return nodes_.size(); }
-  bool out_of_work() const { return work_ >= kMaxSearchWork; }
+  bool out_of_work() const { return work_ >= o_.refine_max_search_work; }
   int rounds() const { return rounds_; }
   double finest_spacing() const { return o_.spacing / (1 << finest_); }
   size_t lattice_nodes() const { return lattice_nodes_; }
-  /// ", stopped at ... this machine's memory" when a bound the memory set (lower than the fixed
-  /// one) was reached; else empty.
-  std::string memory_note() const {
+  /// ", a lattice search stopped at N nodes", ", stopped at N added samples" for each bound of
+  /// those reached, with "(what a quarter of this machine's memory holds)" when the memory set it
+  /// lower than the option; else empty.
+  std::string bounds_note() const {
+    const std::string by_memory =
+        " (what a quarter of this machine's memory, " + format_bytes(machine_memory_bytes()) + ", holds)";
     std::string note;
-    if (lattice_at_memory_)
-      note += ", a lattice search stopped at " + std::to_string(max_lattice_nodes_) + " nodes";
-    if (max_samples_ < kMaxRefinedSamples && nodes_.size() >= max_samples_)
-      note += ", stopped at " + std::to_string(max_samples_) + " added samples";
-    if (!note.empty()) note += ": what a quarter of this machine's memory (" + format_bytes(machine_memory_bytes()) + ") holds";
+    if (lattice_at_bound_)
+      note += ", a lattice search stopped at its bound of " + std::to_string(max_lattice_nodes_) + " nodes" +
+              (max_lattice_nodes_ < o_.refine_max_lattice_nodes ? by_memory : "");
+    if (nodes_.size() >= max_samples_)
+      note += ", stopped at its bound of " + std::to_string(max_samples_) + " added samples" +
+              (max_samples_ < o_.refine_max_samples ? by_memory : "");
     return note;
   }
 
@@ -172,7 +178,7 @@ public:
       previous = side;
       const detail::LatticeResult lattice = detail::lattice_path(space_, a, b, side, max_lattice_nodes_);
       lattice_nodes_ += lattice.nodes;
-      if (lattice.out_of_work && max_lattice_nodes_ < kMaxLatticeNodes) lattice_at_memory_ = true;
+      if (lattice.out_of_work) lattice_at_bound_ = true;
       if (!lattice.path.empty()) return lattice.path;
     }
     for (int round = 1; s.path.empty() && round <= o_.refine_rounds; ++round) {
@@ -293,9 +299,7 @@ private:
     struct Entry {
       double f, g;
       uint32_t v, u;
-      bool operator>(const Entry& o) const {
-        return f != o.f ? f > o.f : v != o.v ? v > o.v : u > o.u;
-      }
+      bool operator>(const Entry& o) const { return f != o.f ? f > o.f : v != o.v ? v > o.v : u > o.u; }
     };
     std::priority_queue<Entry, std::vector<Entry>, std::greater<>> open;
     auto push = [&](uint32_t u, double gu, uint32_t v, double w, int known) {
@@ -315,9 +319,7 @@ private:
       if (closed[v]) continue;
       if (u != UINT32_MAX && !(u < nb_ && v < nb_)) {
         // Not a roadmap edge (those were measured when the roadmap was built): measure it now.
-        const bool ok = u == S   ? clear(wa, v, a, pt(v))
-                        : v == G ? clear(u, wb, pt(u), *b)
-                                 : clear(u, v, pt(u), pt(v));
+        const bool ok = u == S ? clear(wa, v, a, pt(v)) : v == G ? clear(u, wb, pt(u), *b) : clear(u, v, pt(u), pt(v));
         if (!ok) continue;
       }
       closed[v] = 1;
@@ -441,7 +443,7 @@ private:
   const PlanOptions& o_;
   const uint32_t nb_;
   const size_t max_samples_, max_lattice_nodes_;  // the fixed bounds, or less on a small machine
-  bool lattice_at_memory_ = false;
+  bool lattice_at_bound_ = false;
   double wx_ = 0, wy_ = 0;
   double count_[kMaxLevel + 1] = {};
   int levels_ = 0, finest_ = 0, rounds_ = 0;
@@ -470,7 +472,8 @@ PlanResult query_roadmap(const Roadmap& map, const ClearanceIndex& index, const 
   const PointGrid grid(map.nodes, all_nodes(map.nodes.size()), options.max_edge);
   std::vector<std::vector<std::pair<double, uint32_t>>> links(waypoints.size());
   std::vector<std::vector<Point3>> legs;
-  for (size_t i = 0; i < waypoints.size(); ++i) links[i] = detail::roadmap_links(waypoints[i], map, grid, space, options);
+  for (size_t i = 0; i < waypoints.size(); ++i)
+    links[i] = detail::roadmap_links(waypoints[i], map, grid, space, options);
   std::unique_ptr<Refinement> refinement;  // made when a leg first needs it
   for (size_t i = 0; i + 1 < waypoints.size(); ++i) {
     const Point3 &a = waypoints[i], &b = waypoints[i + 1];
@@ -495,18 +498,21 @@ PlanResult query_roadmap(const Roadmap& map, const ClearanceIndex& index, const 
       const size_t lonely = links[i].empty() ? i : links[i + 1].empty() ? i + 1 : SIZE_MAX;
       std::string refined;
       if (refinement)
-        refined = " nor after " + std::to_string(refinement->rounds()) + " refinement rounds (" +
-                  std::to_string(refinement->added()) + " samples added, spacing down to " +
-                  format_number(refinement->finest_spacing()) +
-                  (refinement->out_of_work() ? ", stopped at its bound of 1e8 candidate edges searched" : "") +
-                  refinement->memory_note() + ")";
+        refined =
+            " nor after " + std::to_string(refinement->rounds()) + " refinement rounds (" +
+            std::to_string(refinement->added()) + " samples added, spacing down to " +
+            format_number(refinement->finest_spacing()) +
+            (refinement->out_of_work() ? ", stopped at its bound of " + std::to_string(options.refine_max_search_work) +
+                                             " candidate edges searched"
+                                       : "") +
+            refinement->bounds_note() + ")";
       const std::string hint = "a smaller --spacing may give one";
-      result.reason = lonely != SIZE_MAX ? "no roadmap sample within --max-edge " + format_number(options.max_edge) +
-                                               " has a clear straight segment to waypoint " +
-                                               std::to_string(lonely + 1) + refined + "; " + hint
-                                         : "no path within the roadmap (" + std::to_string(map.nodes.size()) +
-                                               " samples)" + refined +
-                                               "; a smaller --spacing or a larger --max-edge may find one";
+      result.reason = lonely != SIZE_MAX
+                          ? "no roadmap sample within --max-edge " + format_number(options.max_edge) +
+                                " has a clear straight segment to waypoint " + std::to_string(lonely + 1) + refined +
+                                "; " + hint
+                          : "no path within the roadmap (" + std::to_string(map.nodes.size()) + " samples)" + refined +
+                                "; a smaller --spacing or a larger --max-edge may find one";
       result.seconds_query = clock.lap();
       return result;
     }

@@ -35,6 +35,8 @@ void check_plan_options(const PlanOptions& o) {
   if (o.connections < 1) throw ArgumentError("connections", "must be at least 1");
   if (o.threads < 0) throw ArgumentError("--threads", "must be >= 0");
   if (o.refine_rounds < 0) throw ArgumentError("--refine-rounds", "must be >= 0");
+  if (o.refine_max_samples < 1 || o.refine_max_lattice_nodes < 1 || o.refine_max_search_work < 1)
+    throw ArgumentError("refine_max_samples", "refinement's bounds (samples, lattice nodes, search work) must be >= 1");
 }
 
 Roadmap build_roadmap(const ClearanceIndex& index, const PlanOptions& options, const Progress& progress) {
@@ -73,7 +75,8 @@ Roadmap build_roadmap(const ClearanceIndex& index, const PlanOptions& options, c
         const size_t k = i - r.begin();
         if (std::isnan(g[k])) continue;
         // Under the ceiling by construction; kept when clear of the mesh.
-        if (space.place(x[k], y[k], g[k], halton(i + 1, 5), candidates[i]) && index.point_clear(candidates[i], options.safety))
+        if (space.place(x[k], y[k], g[k], halton(i + 1, 5), candidates[i]) &&
+            index.point_clear(candidates[i], options.safety))
           room[i] = std::max(options.safety, index.clearance_bound(candidates[i], cap));
         else
           room[i] = -1;
@@ -182,7 +185,8 @@ Roadmap build_roadmap(const ClearanceIndex& index, const PlanOptions& options, c
           // exact check can only agree: the same edges, most of them high above the roofs
           // without reading a triangle.
           // The ceiling is measured on every edge: the balls say nothing of it.
-          if ((std::max(p[2], map.nodes[q.id][2]) - node_low[i] <= options.max_agl || space.below_ceiling(p, map.nodes[q.id])) &&
+          if ((std::max(p[2], map.nodes[q.id][2]) - node_low[i] <= options.max_agl ||
+               space.below_ceiling(p, map.nodes[q.id])) &&
               (node_room[i] + q.room - std::sqrt(q.length2) >= 2 * options.safety + certificate_slack ||
                index.segment_clear(p, map.nodes[q.id], options.safety)))
             edges.push_back(q.id);
