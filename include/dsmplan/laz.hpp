@@ -27,7 +27,8 @@
 // sizes against the point format and record length), the chunk table (inside the file, version
 // 0, chunk sizes that add up to exactly the compressed bytes, counts that add up to the header's
 // point count), and every chunk (first point and layer sizes inside the chunk, point count equal
-// to the table's, arithmetic code that does not run past the chunk's end). A corrupt file never
+// to the table's, arithmetic code that ends exactly at the chunk's end, as LASzip's encoder
+// makes it: bytes left over mean a count that lies). A corrupt file never
 // makes it read out of bounds, loop or allocate beyond what the file can justify: every count is
 // bounded by the file's size (at most kMaxPointsPerByte points per compressed byte, far above
 // what the coder can reach).
@@ -130,6 +131,11 @@ public:
   Decoder& operator=(Decoder&&) noexcept;
 
   uint64_t chunk_count() const;
+  /// The chunk table as read: where each chunk is and which points it holds.
+  struct Chunk {
+    uint64_t offset = 0, bytes = 0, first_point = 0, count = 0;
+  };
+  std::vector<Chunk> chunks() const;
   /// Decodes every point once into `sink`. Throws LazError on a corrupt chunk (records of the
   /// chunks before it may already have reached the sink).
   void decode(const RecordSink& sink, const DecodeOptions& options = {}) const;

@@ -208,7 +208,7 @@ Header LasReader::header() const {
     fail(field(count_byte, "point count"),
          std::to_string(h.point_count) + " points of " + std::to_string(h.record_length) + " bytes from byte " +
              std::to_string(h.point_offset) + " do not fit in the " + std::to_string(size_) +
-             "-byte file, which holds at most " + std::to_string(room) + (h.laz ? " compressed" : "") +
+             "-byte file, which holds at most " + std::to_string(room) + (h.laz ? " compressed points" : "") +
              " (truncated file?)");
 
   static const char* axes[3] = {"x", "y", "z"};

@@ -37,6 +37,7 @@ public:
     return 0;
   }
   uint32_t overrun() const { return overrun_; }
+  size_t remaining() const { return static_cast<size_t>(end_ - next_); }
 
 private:
   const uint8_t* next_ = nullptr;
@@ -78,6 +79,7 @@ public:
     value_ |= uint32_t{source_.get()};
   }
   uint32_t overrun() const { return source_.overrun(); }
+  size_t remaining() const { return source_.remaining(); }
 
   uint32_t decode_bit(BitModel& m) {
     const uint32_t x = m.bit_0_prob * (length_ >> 13);

@@ -14,6 +14,7 @@
 #include <algorithm>
 #include <cerrno>
 #include <cstring>
+#include <exception>
 
 #include "laz_private.hpp"
 
@@ -265,7 +266,8 @@ void Decoder::State::read_chunk_table() {
   }
   if (decoder.overrun() > 0) throw LazError(place, "its entries run past the end of the file (truncated file?)");
   if (offset != table_at)
-    throw LazError(place, "its " + std::to_string(number) + " chunks add up to " +
+    throw LazError(place, "its " + std::to_string(number) +
+                              (number == 1 ? " chunk adds up to " : " chunks add up to ") +
                               std::to_string(offset - chunks_start) + " bytes, but the compressed points take " +
                               std::to_string(compressed) + " (bytes " + std::to_string(chunks_start) + "-" +
                               std::to_string(table_at) + ")");
@@ -290,7 +292,9 @@ void Decoder::State::decode_chunk(size_t index, std::vector<uint8_t>& compressed
     decoder->begin({compressed.data(), compressed.size(), c.count});
     decoder->next(records.data(), c.count);
   } catch (const CorruptStream& e) {
-    throw LazError(chunk_place(index) + ", point " + std::to_string(c.first_point + decoder->done + 1), e.problem);
+    // After the last point (bytes left over) the place is the last point.
+    const uint64_t point = c.first_point + std::min(decoder->done, c.count - 1) + 1;
+    throw LazError(chunk_place(index) + ", point " + std::to_string(point), e.problem);
   }
 }
 
@@ -304,6 +308,12 @@ Decoder::Decoder(Decoder&&) noexcept = default;
 Decoder& Decoder::operator=(Decoder&&) noexcept = default;
 
 uint64_t Decoder::chunk_count() const { return state_->chunks.size(); }
+
+std::vector<Decoder::Chunk> Decoder::chunks() const {
+  std::vector<Chunk> list;
+  for (const ChunkEntry& c : state_->chunks) list.push_back({c.offset, c.bytes, c.first_point, c.count});
+  return list;
+}
 
 void Decoder::decode(const RecordSink& sink, const DecodeOptions& options) const {
   const State& s = *state_;
@@ -344,34 +354,42 @@ void Decoder::decode(const RecordSink& sink, const DecodeOptions& options) const
   }
 
   // Read in order, decode in parallel, hand over in order: at most 2 x threads + 1 chunks live.
+  // A chunk's error travels with it to the in-order stage, so that the first broken chunk in
+  // file order is the one reported, whichever thread met its error first.
   struct Job {
     size_t index = 0;
     std::vector<uint8_t> compressed, records;
+    std::exception_ptr error;
   };
+  using JobPtr = std::shared_ptr<Job>;
   size_t next_chunk = 0;
+  auto next_job = [&](tbb::flow_control& control) -> JobPtr {
+    if (next_chunk == n) {
+      control.stop();
+      return nullptr;
+    }
+    auto job = std::make_shared<Job>();
+    job->index = next_chunk++;
+    return job;
+  };
+  auto decode_job = [&](JobPtr job) {
+    try {
+      s.decode_chunk(job->index, job->compressed, job->records);
+    } catch (...) {
+      job->error = std::current_exception();
+    }
+    return job;
+  };
+  auto hand_over = [&](JobPtr job) {
+    if (job->error) std::rethrow_exception(job->error);
+    sink(job->records.data(), s.chunks[job->index].count);
+  };
   tbb::task_arena arena(threads);
   arena.execute([&] {
-    tbb::parallel_pipeline(
-        static_cast<size_t>(2 * threads + 1),
-        tbb::make_filter<void, std::shared_ptr<Job>>(tbb::filter_mode::serial_in_order,
-                                                     [&](tbb::flow_control& control) -> std::shared_ptr<Job> {
-                                                       if (next_chunk == n) {
-                                                         control.stop();
-                                                         return nullptr;
-                                                       }
-                                                       auto job = std::make_shared<Job>();
-                                                       job->index = next_chunk++;
-                                                       return job;
-                                                     }) &
-            tbb::make_filter<std::shared_ptr<Job>, std::shared_ptr<Job>>(tbb::filter_mode::parallel,
-                                                                         [&](std::shared_ptr<Job> job) {
-                                                                           s.decode_chunk(job->index, job->compressed,
-                                                                                          job->records);
-                                                                           return job;
-                                                                         }) &
-            tbb::make_filter<std::shared_ptr<Job>, void>(
-                tbb::filter_mode::serial_in_order,
-                [&](std::shared_ptr<Job> job) { sink(job->records.data(), s.chunks[job->index].count); }));
+    tbb::parallel_pipeline(static_cast<size_t>(2 * threads + 1),
+                           tbb::make_filter<void, JobPtr>(tbb::filter_mode::serial_in_order, next_job) &
+                               tbb::make_filter<JobPtr, JobPtr>(tbb::filter_mode::parallel, decode_job) &
+                               tbb::make_filter<JobPtr, void>(tbb::filter_mode::serial_in_order, hand_over));
   });
 }
 

@@ -197,6 +197,12 @@ public:
       }
       ++done;
     }
+    // LASzip's encoder ends a stream so that its decoder stops exactly at the last byte: bytes
+    // left over mean the chunk holds more points than the table or header says.
+    if (done == input_.count && input_.count > 1 && decoder_.remaining() > 0)
+      throw CorruptStream{std::to_string(decoder_.remaining()) +
+                          " compressed bytes are left after the chunk's last point (a point count or chunk size "
+                          "that lies)"};
   }
 
 private:

@@ -397,6 +397,13 @@ public:
       }
       ++done;
     }
+    // As in the point-wise chunks, a layer that is not used up exactly betrays a lying count.
+    if (done == input_.count && input_.count > 1)
+      for (const Layer* layer : all_layers_)
+        if (layer->changed && layer->decoder.remaining() > 0)
+          throw CorruptStream{std::to_string(layer->decoder.remaining()) +
+                              " bytes of a layer are left after the chunk's last point (a point count or layer "
+                              "size that lies)"};
   }
 
 private:
