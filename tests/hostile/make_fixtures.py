@@ -339,10 +339,36 @@ def waypoint_fixtures():
     out("plain.txt", b"an ordinary file: outputs under it cannot be created\n")
 
 
+# ---- LAZ ------------------------------------------------------------------------------------
+
+def laz_fixtures():
+    """Copies of laspy's LAZ test files (data/laz-conformance/) wrong in one known way."""
+    conformance = os.path.join(REPO, "data", "laz-conformance")
+    with open(os.path.join(conformance, "simple.laz"), "rb") as f:
+        simple = f.read()
+    with open(os.path.join(conformance, "1_4_w_evlr.laz"), "rb") as f:
+        layered = f.read()
+    assert struct.unpack_from("<I", simple, 96)[0] == 333 and struct.unpack_from("<I", layered, 96)[0] == 2399
+    vlr = 227 + 54  # simple.laz: the "laszip encoded" VLR is its only one
+    assert simple[227 + 2:227 + 16] == b"laszip encoded"
+
+    out("laz_truncated.laz", simple[:len(simple) * 6 // 10])  # the chunk table is gone
+    h = bytearray(simple)
+    struct.pack_into("<H", h, vlr, 9)  # compressor 9
+    out("laz_bad_compressor.laz", bytes(h))
+    h = bytearray(simple)
+    struct.pack_into("<H", h, vlr + 34 + 6, 42)  # item 2: type 42 instead of GPSTIME11
+    out("laz_unknown_item.laz", bytes(h))
+    h = bytearray(layered)
+    struct.pack_into("<I", h, 2399 + 8 + 30, 999)  # the layered chunk's own count: 999, table 1000
+    out("laz_chunk_count_lies.laz", bytes(h))
+
+
 def main():
     if len(sys.argv) != 2:
         sys.exit(__doc__)
     las_fixtures()
+    laz_fixtures()
     xyz_fixtures()
     raster_fixtures()
     waypoint_fixtures()
