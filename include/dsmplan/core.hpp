@@ -62,8 +62,10 @@ Progress sub_progress(const Progress& parent, double begin, double end);
 /// Memory. Before a large allocation (a raster's cells, a point cloud, a mesh) the readers and
 /// jobs estimate the bytes they will need and call require_memory(), so that an input too big for
 /// the machine is refused with the figure instead of being killed by the kernel part-way.
-/// The machine's memory: physical memory, or the cgroup's limit or the process's address-space
-/// limit (ulimit -v) when that is lower.
+/// The machine's memory: physical memory, or the cgroup's limit, the process's address-space
+/// limit (ulimit -v) or the environment's DSMPLAN_MAX_MEMORY (bytes, or with K, M, G, T in
+/// binary steps: "4G") when that is lower. A DSMPLAN_MAX_MEMORY that is not such a size is an
+/// ArgumentError naming it.
 double machine_memory_bytes();
 /// "3.6 TB", "23 GB", "512 bytes" (binary steps, as free(1) counts).
 std::string format_bytes(double bytes);

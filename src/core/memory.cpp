@@ -3,8 +3,10 @@
 #include <sys/resource.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <fstream>
 #include <string>
 
@@ -20,6 +22,24 @@ double machine_memory_bytes() {
     std::ifstream in(limit_file);
     double limit = 0;
     if (in >> limit && limit > 0 && limit < bytes) bytes = limit;
+  }
+  // A limit the user sets for dsmplan alone (a shared machine; or a program under
+  // AddressSanitizer, whose shadow memory rules out ulimit -v).
+  if (const char* limit = std::getenv("DSMPLAN_MAX_MEMORY"); limit && *limit) {
+    char* end = nullptr;
+    const double value = std::strtod(limit, &end);
+    const std::string unit(end);
+    const double scale = unit.empty()  ? 1
+                         : unit == "K" ? 0x1p10
+                         : unit == "M" ? 0x1p20
+                         : unit == "G" ? 0x1p30
+                         : unit == "T" ? 0x1p40
+                                       : 0;
+    if (!(value > 0) || !std::isfinite(value) || scale == 0)
+      throw ArgumentError("DSMPLAN_MAX_MEMORY",
+                          "must be a positive number of bytes, optionally with K, M, G or T, not '" +
+                              std::string(limit).substr(0, 40) + "'");
+    bytes = std::min(bytes, value * scale);
   }
   // So is a limit on the address space (ulimit -v): past it, allocation fails.
   rlimit address_space{};
