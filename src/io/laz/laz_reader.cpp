@@ -286,11 +286,19 @@ void Decoder::State::decode_chunk(size_t index, std::vector<uint8_t>& compressed
   const ChunkEntry& c = chunks[index];
   compressed.resize(c.bytes);
   source.read_at(c.offset, compressed.data(), compressed.size());
-  records.resize(c.count * source.record_length);
   auto decoder = make_chunk_decoder();
   try {
     decoder->begin({compressed.data(), compressed.size(), c.count});
-    decoder->next(records.data(), c.count);
+    // The records grow with the points decoded, so that a count that lies costs memory only for
+    // the points decoded before the stream gives it away.
+    constexpr uint64_t kSlice = 8192;
+    records.clear();
+    for (uint64_t done = 0; done < c.count;) {
+      const uint64_t n = std::min(kSlice, c.count - done);
+      records.resize((done + n) * source.record_length);
+      decoder->next(records.data() + done * source.record_length, n);
+      done += n;
+    }
   } catch (const CorruptStream& e) {
     // After the last point (bytes left over) the place is the last point.
     const uint64_t point = c.first_point + std::min(decoder->done, c.count - 1) + 1;
