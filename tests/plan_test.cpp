@@ -1349,6 +1349,16 @@ TEST(LowAltitude, RefinementStopsAtItsWorkBoundsAndNamesThem) {
   };
   EXPECT_LE(bounded(&PlanOptions::refine_max_samples, "stopped at its bound of 1 added samples").refined_samples, 1u);
   bounded(&PlanOptions::refine_max_search_work, "stopped at its bound of 1 candidate edges searched");
+  // On a machine with little memory (DSMPLAN_MAX_MEMORY, as ulimit -v would say it) the bounds
+  // are what a quarter of it holds, and the reason says so: the refusal, not the kernel's kill.
+  const Roadmap map = build_roadmap(index, options);
+  ::setenv("DSMPLAN_MAX_MEMORY", "64K", 1);
+  const PlanResult small = query_roadmap(map, index, waypoints, options);
+  ::unsetenv("DSMPLAN_MAX_MEMORY");
+  ASSERT_EQ(small.status, PlanStatus::NoPath);
+  EXPECT_NE(small.reason.find("(what a quarter of this machine's memory, 64 kB, holds)"), std::string::npos)
+      << small.reason;
+  EXPECT_LE(small.refined_samples, 65536 / 4 / 256);
   options.refine_max_samples = 0;
   EXPECT_THROW(plan_path(index, waypoints, options), ArgumentError);
 }
