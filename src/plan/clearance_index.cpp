@@ -9,6 +9,7 @@
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <limits>
 #include <string>
@@ -169,41 +170,37 @@ ClearanceIndex::ClearanceIndex(const Mesh& mesh, const ClearanceOptions& options
   // at the automatic bucket size), coarser only where that would exceed 5e7 cells.
   floor_ = GroundGrid::floor_of(mesh, std::max(cell_ / 4, std::sqrt(std::max(wx * wy, 1e-12) / 5e7)));
 
-  // Pass 1 counts the listings per triangle; pass 2 writes them. Both clip the same way, so
-  // they agree; both are parallel over triangles.
+  // Pass 1 counts the buckets each triangle's box meets; pass 2 clips the triangle to each of
+  // them and lists it where it is (a bucket its box meets but it misses gets kUnlisted), both
+  // parallel over triangles; pass 3 scatters the listings into their buckets, in parallel
+  // (each bucket's order is set by the sort below, so the scatter's order does not matter).
   const size_t nt = tris.size();
   if (nt >= UINT32_MAX) throw ArgumentError("mesh", "has 2^32 or more triangles");
   std::vector<size_t> per_tri;
   detail::reserve_on_huge_pages(per_tri, nt + 1);
   per_tri.assign(nt + 1, 0);
   const double eps = margin_;
-  auto each_bucket = [&](size_t t, auto&& fn) {
-    ClipPoint tri[3];
-    double bx0 = INFINITY, bx1 = -INFINITY, by0 = INFINITY, by1 = -INFINITY, top = lowest;
-    for (int k = 0; k < 3; ++k) {
-      const LocalVertex& v = verts_[tris[t][k]];
-      tri[k] = {v.x, v.y, v.z};
+  struct Box {
+    int c0, c1, r0, r1;
+  };
+  auto box_of = [&](size_t t) {
+    double bx0 = INFINITY, bx1 = -INFINITY, by0 = INFINITY, by1 = -INFINITY;
+    for (uint32_t i : tris[t]) {
+      const LocalVertex& v = verts_[i];
       bx0 = std::min(bx0, v.x), bx1 = std::max(bx1, v.x), by0 = std::min(by0, v.y), by1 = std::max(by1, v.y);
-      top = std::max(top, v.z);
     }
-    const int c0 = clamp_index((bx0 - eps - gx0_) / cell_, cols_), c1 = clamp_index((bx1 + eps - gx0_) / cell_, cols_);
-    const int r0 = clamp_index((by0 - eps - gy0_) / cell_, rows_), r1 = clamp_index((by1 + eps - gy0_) / cell_, rows_);
-    if (c0 == c1 && r0 == r1) {
-      fn(static_cast<size_t>(r0) * cols_ + c0, top);
-      return;
-    }
-    for (int r = r0; r <= r1; ++r)
-      for (int c = c0; c <= c1; ++c) {
-        const double x0 = gx0_ + c * cell_, y0 = gy0_ + r * cell_;
-        const double z = clipped_top(tri, x0 - eps, x0 + cell_ + eps, y0 - eps, y0 + cell_ + eps);
-        if (z > lowest) fn(static_cast<size_t>(r) * cols_ + c, z);
-      }
+    return Box{clamp_index((bx0 - eps - gx0_) / cell_, cols_), clamp_index((bx1 + eps - gx0_) / cell_, cols_),
+               clamp_index((by0 - eps - gy0_) / cell_, rows_), clamp_index((by1 + eps - gy0_) / cell_, rows_)};
   };
   tbb::parallel_for(tbb::blocked_range<size_t>(0, nt), [&](const tbb::blocked_range<size_t>& range) {
-    for (size_t t = range.begin(); t != range.end(); ++t) each_bucket(t, [&](size_t, double) { ++per_tri[t + 1]; });
+    for (size_t t = range.begin(); t != range.end(); ++t) {
+      const Box b = box_of(t);
+      per_tri[t + 1] = size_t(b.c1 - b.c0 + 1) * size_t(b.r1 - b.r0 + 1);
+    }
   });
   for (size_t t = 0; t < nt; ++t) per_tri[t + 1] += per_tri[t];
   if (per_tri[nt] >= UINT32_MAX) throw ArgumentError("bucket_size", "too small: 2^32 or more bucket listings");
+  constexpr uint32_t kUnlisted = UINT32_MAX;
   std::vector<uint32_t> pair_bucket;
   std::vector<double> pair_top;
   detail::reserve_on_huge_pages(pair_bucket, per_tri[nt]);
@@ -213,46 +210,62 @@ ClearanceIndex::ClearanceIndex(const Mesh& mesh, const ClearanceOptions& options
   tbb::parallel_for(tbb::blocked_range<size_t>(0, nt), [&](const tbb::blocked_range<size_t>& range) {
     for (size_t t = range.begin(); t != range.end(); ++t) {
       size_t k = per_tri[t];
-      each_bucket(t, [&](size_t b, double z) {
-        pair_bucket[k] = static_cast<uint32_t>(b);
-        pair_top[k++] = z;
-      });
+      const bool one_bucket = per_tri[t + 1] - k == 1;  // then no clipping: the whole triangle is in it
+      const Box b = box_of(t);
+      ClipPoint tri[3];
+      double top = lowest;
+      for (int i = 0; i < 3; ++i) {
+        const LocalVertex& v = verts_[tris[t][i]];
+        tri[i] = {v.x, v.y, v.z};
+        top = std::max(top, v.z);
+      }
+      for (int r = b.r0; r <= b.r1; ++r)
+        for (int c = b.c0; c <= b.c1; ++c, ++k) {
+          double z = top;
+          if (!one_bucket) {
+            const double x0 = gx0_ + c * cell_, y0 = gy0_ + r * cell_;
+            z = clipped_top(tri, x0 - eps, x0 + cell_ + eps, y0 - eps, y0 + cell_ + eps);
+          }
+          pair_bucket[k] = z > lowest ? static_cast<uint32_t>(static_cast<size_t>(r) * cols_ + c) : kUnlisted;
+          pair_top[k] = z;
+        }
     }
   });
-  // Counting sort by bucket; within a bucket triangles stay in mesh order (row-major for
-  // triangulate_xy3, so neighbours in memory are neighbours in space).
   detail::reserve_on_huge_pages(buckets_, buckets + 1);
   buckets_.assign(buckets + 1, {0, -INFINITY});
-  for (uint32_t b : pair_bucket) ++buckets_[b + 1].start;
+  for (uint32_t b : pair_bucket)
+    if (b != kUnlisted) ++buckets_[b + 1].start;
   for (size_t b = 0; b < buckets; ++b) buckets_[b + 1].start += buckets_[b].start;
-  detail::reserve_on_huge_pages(items_, pair_bucket.size());
-  items_.resize(pair_bucket.size());
+  detail::reserve_on_huge_pages(items_, buckets_[buckets].start);
+  items_.resize(buckets_[buckets].start);
   std::vector<uint32_t> fill;
   detail::reserve_on_huge_pages(fill, buckets);
   fill.resize(buckets);
   for (size_t b = 0; b < buckets; ++b) fill[b] = buckets_[b].start;
-  for (size_t t = 0; t < nt; ++t)
-    for (size_t k = per_tri[t]; k < per_tri[t + 1]; ++k) {
-      const uint32_t b = pair_bucket[k];
-      const float top = round_up(pair_top[k]);
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, nt), [&](const tbb::blocked_range<size_t>& range) {
+    for (size_t t = range.begin(); t != range.end(); ++t) {
       const LocalVertex& A = verts_[tris[t][0]];
       const LocalVertex& B = verts_[tris[t][1]];
       const LocalVertex& C = verts_[tris[t][2]];
-      items_[fill[b]++] = {tris[t],
-                           top,
-                           round_down(std::min({A.x, B.x, C.x})),
-                           round_up(std::max({A.x, B.x, C.x})),
-                           round_down(std::min({A.y, B.y, C.y})),
-                           round_up(std::max({A.y, B.y, C.y}))};
-      buckets_[b].top = std::max(buckets_[b].top, top);
+      const float x0 = round_down(std::min({A.x, B.x, C.x})), x1 = round_up(std::max({A.x, B.x, C.x}));
+      const float y0 = round_down(std::min({A.y, B.y, C.y})), y1 = round_up(std::max({A.y, B.y, C.y}));
+      for (size_t k = per_tri[t]; k < per_tri[t + 1]; ++k) {
+        const uint32_t b = pair_bucket[k];
+        if (b == kUnlisted) continue;
+        const uint32_t at = std::atomic_ref<uint32_t>(fill[b]).fetch_add(1, std::memory_order_relaxed);
+        items_[at] = {tris[t], round_up(pair_top[k]), x0, x1, y0, y1};
+      }
     }
+  });
   // Highest first: a query stops reading a bucket at the first triangle that is low enough,
   // so the street under a segment passing beside a roof is never read.
   tbb::parallel_for(tbb::blocked_range<size_t>(0, buckets), [&](const tbb::blocked_range<size_t>& range) {
-    for (size_t b = range.begin(); b != range.end(); ++b)
+    for (size_t b = range.begin(); b != range.end(); ++b) {
       std::sort(
           items_.begin() + buckets_[b].start, items_.begin() + buckets_[b + 1].start,
           [](const Listing& x, const Listing& y) { return x.top != y.top ? x.top > y.top : x.corners < y.corners; });
+      if (buckets_[b + 1].start > buckets_[b].start) buckets_[b].top = items_[buckets_[b].start].top;
+    }
   });
   // The coarse level of the height pyramid: one small array that stays in cache.
   block_cols_ = (cols_ + block - 1) / block;
