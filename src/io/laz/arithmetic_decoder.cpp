@@ -92,42 +92,8 @@ IntegerDecompressor::IntegerDecompressor(uint32_t bits, uint32_t contexts, uint3
     corr_range_ = 0;
     corr_min_ = INT32_MIN;
   }
-  k_models_.reserve(contexts);
-  for (uint32_t i = 0; i < contexts; ++i) k_models_.emplace_back(corr_bits_ + 1);
-  corrector_models_.reserve(corr_bits_);
-  for (uint32_t k = 1; k <= corr_bits_; ++k)
-    corrector_models_.emplace_back(k <= bits_high_ ? 1u << k : 1u << bits_high_);
-}
-
-int32_t IntegerDecompressor::read_corrector(ArithmeticDecoder& decoder, SymbolModel& bits_model) {
-  k_ = decoder.decode_symbol(bits_model);
-  if (k_ == 0) return static_cast<int32_t>(decoder.decode_bit(zero_or_one_));
-  if (k_ >= 32) return corr_min_;
-  uint32_t c;
-  if (k_ <= bits_high_) {
-    c = decoder.decode_symbol(corrector_models_[k_ - 1]);
-  } else {
-    // The high bits through the model, the low ones raw.
-    const uint32_t low_bits = k_ - bits_high_;
-    c = decoder.decode_symbol(corrector_models_[k_ - 1]);
-    c = (c << low_bits) | decoder.read_bits(low_bits);
-  }
-  // c in [0, 2^k): the upper half are the positive correctors 2^(k-1)+1 .. 2^k, the lower half
-  // the negative ones -(2^k-1) .. -2^(k-1). Unsigned arithmetic: k = 31 must not overflow.
-  if (c >= (1u << (k_ - 1))) return static_cast<int32_t>(c + 1);
-  return static_cast<int32_t>(c - ((1u << k_) - 1));
-}
-
-int32_t IntegerDecompressor::decompress(ArithmeticDecoder& decoder, int32_t prediction, uint32_t context) {
-  const int32_t corrector = read_corrector(decoder, k_models_[context]);
-  if (corr_range_ == 0)  // 32 bits: the sum wraps around
-    return static_cast<int32_t>(static_cast<uint32_t>(prediction) + static_cast<uint32_t>(corrector));
-  int64_t real = int64_t{prediction} + corrector;
-  if (real < 0)
-    real += corr_range_;
-  else if (real >= int64_t{corr_range_})
-    real -= corr_range_;
-  return static_cast<int32_t>(real);
+  k_models_.resize(contexts);
+  corrector_models_.resize(corr_bits_);
 }
 
 void Median5::add(int32_t v) {

@@ -176,20 +176,57 @@ private:
 class IntegerDecompressor {
 public:
   explicit IntegerDecompressor(uint32_t bits = 16, uint32_t contexts = 1, uint32_t bits_high = 8, uint32_t range = 0);
-  int32_t decompress(ArithmeticDecoder& decoder, int32_t prediction, uint32_t context = 0);
+
+  int32_t decompress(ArithmeticDecoder& decoder, int32_t prediction, uint32_t context = 0) {
+    const int32_t corrector = read_corrector(decoder, k_model(context));
+    if (corr_range_ == 0)  // 32 bits: the sum wraps around
+      return static_cast<int32_t>(static_cast<uint32_t>(prediction) + static_cast<uint32_t>(corrector));
+    int64_t real = int64_t{prediction} + corrector;
+    if (real < 0)
+      real += corr_range_;
+    else if (real >= int64_t{corr_range_})
+      real -= corr_range_;
+    return static_cast<int32_t>(real);
+  }
   // The bit length class of the last corrector: the next coordinate's context depends on it.
   uint32_t k() const { return k_; }
 
 private:
-  int32_t read_corrector(ArithmeticDecoder& decoder, SymbolModel& bits_model);
+  // Models come into being when first used: a fresh model is what LASzip's per-chunk reset
+  // makes of an existing one, and most of the 32 length classes never occur in a chunk.
+  SymbolModel& k_model(uint32_t context) {
+    auto& m = k_models_[context];
+    if (!m) m = std::make_unique<SymbolModel>(corr_bits_ + 1);
+    return *m;
+  }
+  SymbolModel& corrector_model(uint32_t k) {
+    auto& m = corrector_models_[k - 1];
+    if (!m) m = std::make_unique<SymbolModel>(k <= bits_high_ ? 1u << k : 1u << bits_high_);
+    return *m;
+  }
+
+  int32_t read_corrector(ArithmeticDecoder& decoder, SymbolModel& bits_model) {
+    k_ = decoder.decode_symbol(bits_model);
+    if (k_ == 0) return static_cast<int32_t>(decoder.decode_bit(zero_or_one_));
+    if (k_ >= 32) return corr_min_;
+    uint32_t c = decoder.decode_symbol(corrector_model(k_));
+    if (k_ > bits_high_) {  // the high bits through the model, the low ones raw
+      const uint32_t low_bits = k_ - bits_high_;
+      c = (c << low_bits) | decoder.read_bits(low_bits);
+    }
+    // c in [0, 2^k): the upper half are the positive correctors 2^(k-1)+1 .. 2^k, the lower half
+    // the negative ones -(2^k-1) .. -2^(k-1). Unsigned arithmetic: k = 31 must not overflow.
+    if (c >= (1u << (k_ - 1))) return static_cast<int32_t>(c + 1);
+    return static_cast<int32_t>(c - ((1u << k_) - 1));
+  }
 
   uint32_t bits_high_;
   uint32_t corr_bits_ = 0, corr_range_ = 0;
   int32_t corr_min_ = 0;
   uint32_t k_ = 0;
-  std::vector<SymbolModel> k_models_;          // per context
-  BitModel zero_or_one_;                       // k == 0: the corrector is 0 or 1
-  std::vector<SymbolModel> corrector_models_;  // index k-1 for k in 1..corr_bits
+  std::vector<std::unique_ptr<SymbolModel>> k_models_;          // per context
+  BitModel zero_or_one_;                                        // k == 0: the corrector is 0 or 1
+  std::vector<std::unique_ptr<SymbolModel>> corrector_models_;  // index k-1 for k in 1..corr_bits
 };
 
 // The running median of the last five values (LASzip's StreamingMedian5): predicts x and y steps.
