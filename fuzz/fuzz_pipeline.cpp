@@ -461,8 +461,11 @@ void plan_on(const Mesh& input, const Grid& grid, FuzzedDataProvider& in) {
 void pipeline(FuzzedDataProvider& in) {
   Grid grid = make_grid(in);
   if (verbose())
-    std::fprintf(stderr, "grid %d x %d, corner %.17g %.17g, cells %.17g x %.17g\n", grid.width, grid.height, grid.x0,
-                 grid.y0, grid.cell_x, grid.cell_y);
+  {
+    const GridSummary summary = summarize(grid);
+    std::fprintf(stderr, "grid %d x %d, corner %.17g %.17g, cells %.17g x %.17g, z %.17g to %.17g\n", grid.width,
+                 grid.height, grid.x0, grid.y0, grid.cell_x, grid.cell_y, summary.z_min, summary.z_max);
+  }
   // mesh --res R --resampling M
   if (in.ConsumeIntegralInRange<int>(0, 3) == 0) {
     const double res = pick(in, {2 * grid.cell_x, 3 * grid.cell_x, 1.5 * grid.cell_x, grid.cell_x, 0.5 * grid.cell_x,

@@ -1061,6 +1061,30 @@ TEST(Certify, OneTriangleByHand) {
   expect_same_error(error, brute_certify(mesh, grid));
 }
 
+// Far from the CRS origin with thin cells, vertex coordinates miss the cell centres by rounding
+// (5.7e6 m in y: about 1e-9 m), and a wall-steep triangle (126 m over a 0.1 m cell) turns that
+// into micrometres of height at the centres inside it. The certified error is of the mesh on
+// the lattice, as its vertices are placed: exactly the plane through the three centres (found
+// by the pipeline fuzzer: it reported 0.0005 where the mesh was 0.00050047 above).
+TEST(Certify, FarFromTheOriginTheLatticeIsExact) {
+  Grid grid = make_grid(9, 9, [](int, int) { return 0.0; });
+  grid.x0 = -1000000, grid.y0 = 5700000, grid.cell_x = 1, grid.cell_y = 0.1;
+  // The plane z = 42 - 126 * row / 8 over the triangle (0,0), (8,0), (0,8): exactly 42 - 15.75 row.
+  Mesh mesh;
+  mesh.vertices = {{grid.center_x(0), grid.center_y(0), 42},
+                   {grid.center_x(8), grid.center_y(0), 42},
+                   {grid.center_x(0), grid.center_y(8), -84}};
+  mesh.triangles = {{0, 2, 1}};
+  for (int r = 0; r < 9; ++r)
+    for (int c = 0; c < 9; ++c) grid.z[grid.index(c, r)] = static_cast<float>(42 - 15.75 * r - (c + r <= 8 ? 0.0005 : 0));
+  double expected = -INFINITY;  // the plane (exact in doubles here) less the stored float heights
+  for (int r = 0; r < 9; ++r)
+    for (int c = 0; c + r <= 8; ++c) expected = std::max(expected, 42 - 15.75 * r - double(grid.z[grid.index(c, r)]));
+  const VerticalError error = certify(mesh, grid);
+  EXPECT_EQ(error.cells, 45u);
+  EXPECT_NEAR(error.max_above, expected, 1e-12);
+}
+
 TEST(Certify, MatchesPointLocationOnRealSimplifiedMeshes) {
   const Grid& crop = testkit::nrw_crop();
   const Grid& delft = testkit::delft_grid();

@@ -20,6 +20,17 @@ struct LatticeTriangle {
 // units, relative to the triangle's doubled area) is still "on the edge".
 constexpr double on_edge_tolerance = 1e-9;
 
+// A vertex this near a cell centre (in lattice units) is at it: the simplifiers put every vertex
+// on a centre, and CRS coordinates far from the origin (1e6 m and more, with 0.1 m cells) miss it
+// by rounding, which a steep triangle (a wall: 100 m over a cell) turns into micrometres of
+// height at the next centre, enough for the reported error to understate the mesh's own.
+constexpr double at_centre = 1e-6;
+
+double snapped(double lattice) {
+  const double centre = std::round(lattice);
+  return std::abs(lattice - centre) <= at_centre ? centre : lattice;
+}
+
 }  // namespace
 
 VerticalError certify(const Mesh& mesh, const Grid& dsm, const Progress& progress) {
@@ -31,8 +42,8 @@ VerticalError certify(const Mesh& mesh, const Grid& dsm, const Progress& progres
     LatticeTriangle tri;
     for (int k = 0; k < 3; ++k) {
       const Vertex& p = mesh.vertices[mesh.triangles[t][k]];
-      tri.u[k] = (p.x - u0) / dsm.cell_x;
-      tri.v[k] = (v0 - p.y) / dsm.cell_y;
+      tri.u[k] = snapped((p.x - u0) / dsm.cell_x);
+      tri.v[k] = snapped((v0 - p.y) / dsm.cell_y);
       tri.z[k] = p.z;
     }
     // Barycentric weights from edge functions taken relative to vertex 0 (small numbers).
