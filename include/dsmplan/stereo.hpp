@@ -33,9 +33,9 @@
 // The disparity range is [min_disparity, min_disparity + num_disparities).
 //
 // Guarantees. The result does not depend on the number of threads nor on the instruction set
-// (the SIMD kernels, AVX2 when the CPU has it else SSE2, compute the same integers as a scalar
-// reference). Costs and sums are 16-bit integers that cannot overflow under the limits checked on
-// the options (P2 <= 1000).
+// (the SIMD kernels, AVX2 (with AVX-512's VPOPCNTQ where there) when the CPU has it else SSE2,
+// compute the same integers as a scalar reference). Costs and sums are 16-bit integers that cannot overflow under the
+// limits checked on the options (P2 <= 1000).
 //
 // Errors: ArgumentError (include/dsmplan/core.hpp) naming the argument for images of different
 // sizes, empty images, bit depths other than 8 and 16, a disparity range that does not fit the
@@ -46,8 +46,8 @@
 // 16 saturated 16-bit operations per pixel and disparity, 8 or 16 at a time). Memory, with D16 =
 // D rounded up to a multiple of 16:
 //   2 bytes per pixel and disparity (2·W·H·D16: the half of the paths' sum the first of the two
-//   sweeps leaves for the second), plus about 28·W·(D16 + 16) bytes of row buffers, plus 20 bytes
-//   per pixel (census, outputs).
+//   sweeps leaves for the second), plus about 28·W·(D16 + 16) bytes of row buffers, plus 28 bytes
+//   per pixel (census, intensities, outputs).
 // When that exceeds the memory bound (max_memory_bytes, default half the machine's memory), the
 // image is matched in horizontal bands of rows that overlap by band_overlap rows above and below;
 // each band keeps its central rows. Paths are then cut at the band's ends: the result can differ
@@ -92,7 +92,7 @@ struct SgmOptions {
   int paths = 8;                            ///< 8 (the axes and diagonals) or 4 (the axes only)
   /// Penalties, in census bits (a cost is 0..census_width·census_height - 1): P1 for a disparity
   /// step of 1, P2 for larger steps on a flat path. 1 <= P1 < P2 <= 1000.
-  int p1 = 25, p2 = 400;  ///< chosen on Aloe (bench/README.md, "SGM (issue 16)")
+  int p1 = 30, p2 = 600;  ///< chosen on Aloe (bench/README.md, "SGM (issue 16)")
   bool adapt_p2 = true;   ///< P2 divided by 1 + |intensity step| / intensity_unit (see above)
   /// Grey levels per unit of the P2 adaptation; 0: 1 for 8-bit images and, for 16-bit ones,
   /// max(1, largest pixel value of the two images / 255), so a 12-bit image acts as an 8-bit one.

@@ -66,8 +66,9 @@ int adapted_p2(const SgmOptions& options, double intensity_unit, unsigned step);
 
 // ---- sgm_aggregate.cpp -----------------------------------------------------------------------
 
-enum class Simd { sse2, avx2 };
-Simd best_simd();  ///< AVX2 when this CPU has it, else SSE2
+enum class Simd { sse2, avx2, avx2_vpopcnt };
+/// AVX2 with VPOPCNTQ, AVX2, SSE2: the best this CPU has
+Simd best_simd();
 const char* simd_name(Simd simd);
 
 /// Receives the finished sums S of row y: W x D16 values, pixel-major (the D16 - D padding
