@@ -41,6 +41,7 @@
 #include <set>
 #include <vector>
 
+#include "dsmplan/columns.hpp"
 #include "dsmplan/mesh.hpp"
 #include "dsmplan/plan.hpp"
 #include "dsmplan/raster.hpp"

@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "dsmplan/plan.hpp"
+#include "dsmplan/roadmap_file.hpp"
 #include "fuzz_file.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {

@@ -32,8 +32,9 @@
 #include <string>
 #include <vector>
 
-#include "dsmplan/plan.hpp"
+#include "dsmplan/columns.hpp"
 #include "dsmplan/export.hpp"
+#include "dsmplan/plan.hpp"
 #include "dsmplan/raster.hpp"
 #include "testkit.hpp"
 

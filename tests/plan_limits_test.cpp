@@ -12,6 +12,7 @@
 #include <cmath>
 #include <random>
 
+#include "dsmplan/columns.hpp"
 #include "dsmplan/plan.hpp"
 #include "dsmplan/simplify.hpp"
 #include "dsmplan/tools.hpp"

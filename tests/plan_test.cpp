@@ -21,6 +21,9 @@
 #include "dsmplan/mesh.hpp"
 #include "dsmplan/raster.hpp"
 #include "dsmplan/simplify.hpp"
+#include "dsmplan/roadmap_file.hpp"
+#include "dsmplan/corridor.hpp"
+#include "dsmplan/columns.hpp"
 #include "street_point.hpp"
 #include "testkit.hpp"
 

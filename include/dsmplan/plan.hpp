@@ -1,78 +1,11 @@
 // dsmplan/plan.hpp: stage 4, paths for a drone over the obstacle mesh (Adolf & Hirschmueller,
 // Section 5: sampling-based planning on the polygonal surface with a 2 m safety distance).
 //
-// As OMPL separates them, the planner has three parts: the planner (roadmap, search), the
-// validity checker (is a state, is a straight motion, at least the safety distance away from
-// every triangle?) and the path simplifier. This header holds the validity checker, the part
-// every other one relies on to be exactly right.
+// As OMPL separates them, the planner has three parts: the planner (roadmap, search: here),
+// the validity checker (clearance.hpp, with the ceiling of ground.hpp) and the path simplifier
+// (here). Above the planner: corridor.hpp (a city too large to mesh whole), columns.hpp (a plan
+// held to the DSM's own columns), roadmap_file.hpp (a roadmap kept for many queries).
 //
-// ---- clearance ---------------------------------------------------------------------------
-//
-// Distances are Euclidean in 3D, in CRS units; they assume the vertical unit equals the
-// horizontal one (metres for every dataset dsmplan ships with; not so for a geographic CRS).
-//
-// segment_triangle_distance(): the exact distance between a closed segment and a closed
-// triangle (Ericson, Real-Time Collision Detection, 2005, ch. 5; Eberly, "Distance Between
-// Segment and Triangle", Geometric Tools). Not a sample: when they do not intersect, the
-// closest pair has an endpoint of the segment or a point on an edge of the triangle, so the
-// distance is the least of two point-triangle and three segment-segment distances, each in
-// closed form. Degenerate input is handled: a segment whose ends coincide is a point; a
-// triangle of zero area (collinear or coincident corners) is the union of its edges. Exact up
-// to floating-point rounding (about 1e-15 of the coordinates' magnitude): subtract a nearby
-// origin from CRS coordinates first (ClearanceIndex does), a UTM northing is about 5.7e6.
-//
-// ClearanceIndex: a mesh made ready for many queries.
-//   - Coordinates are stored relative to origin(), the centre of the mesh's bounding box
-//     rounded to whole units, so the subtraction is exact for every vertex and query point on
-//     the CRS's own grid, and the arithmetic works on numbers of about the mesh's size.
-//   - segment_clear(p, q, d) is true iff every point of the segment is at distance >= d from
-//     every triangle (touching at exactly d is clear): the distance compared is the one
-//     clearance() returns, so segment_clear(p, q, d) == (clearance(p, q, m) >= d) for m >= d,
-//     to the last bit. It decides with the exact distance of
-//     every triangle it cannot rule out by a bound that is itself conservative (every quick
-//     reject keeps a margin of 1e-9 of the mesh's size), so it agrees with brute force over all
-//     triangles (tests/plan_test.cpp: zero disagreements on thousands of random segments).
-//   - Acceleration: a uniform x,y grid of square buckets. A triangle is listed in every bucket
-//     its x,y footprint overlaps (exact clipping, not its bounding box) with the highest point
-//     of its part inside the bucket, highest first, and each bucket keeps the highest point of
-//     the mesh inside it (clipped too, so a big sloped triangle of a simplified mesh does not
-//     raise its neighbours' buckets). Blocks of 4 x 4 buckets keep the highest point of their
-//     buckets: a two-level maximum pyramid (Tevs, Ihrke & Seidel, "Maximum mipmaps for fast,
-//     accurate, and scalable dynamic height field rendering", I3D 2008), small enough to stay
-//     in cache. A query visits only the blocks within d of the segment's x,y projection, row
-//     by row, and skips a block, unread, whose highest point is at least d below the part of
-//     the segment passing within d of it; in the others it does the same bucket by bucket,
-//     and stops reading a bucket's list at the
-//     first triangle that low, so the street under a segment beside a roof is never read. A
-//     triangle left is then skipped by its x,y box, its height and its plane (both ends of the
-//     nearby part of the segment at least d on one side), and only then measured exactly; one
-//     listed in several buckets is measured once.
-//     Why not a BVH: the mesh is 2.5D, so a column of the grid holds one sheet of surface and
-//     its height bound is tight, whereas the boxes of a hierarchy around walls are tall and
-//     overlap every segment passing beside them. Measured by bench/plan_collision.cpp on the
-//     NRW 1 m tile (1,996,002 triangles, one thread of the 2-core machine), random 20-35 m
-//     segments with both ends 2-120 m above ground, d = 2 m, segment_clear() per second:
-//                                         build    2-120 m   2-10 m   10-30 m   30-120 m
-//       this index (4 m buckets)          0.56 s   4.7 M     0.43 M   2.6 M     22.7 M
-//       BVH (median split, 4 a leaf)      1.43 s   1.3 M     0.12 M   0.69 M    14.7 M
-//       brute force (all triangles)       -        6.0 a second
-//     (97 % of those segments are clear, 44 % of the 2-10 m ones; the BVH and brute force
-//     agree with the index on every one.) Two threads (TBB): 8.5 M/s, 0.79 M/s at 2-10 m.
-//     The blocks took the 30-120 m band from 12.9 M to 23 M a second; each triangle's ball
-//     (centroid, farthest corner), tested before its exact distance, the rest of the gain.
-//   - Bucket size: by default sqrt(32 * footprint area / triangles), 32 triangles a bucket on
-//     average (4 m at 1 m cells: 1.54 listings a triangle). The benchmark's sweep: 1 m buckets
-//     are 25 % slower over all heights (3.7 listings a triangle); 2-8 m stay within 10 % of the
-//     best on every band; 16 m loses 30 % near the ground.
-//     ClearanceOptions::bucket_size overrides it (enlarged when it would make more than four
-//     buckets a triangle).
-//   - Thread-safe: every query is const and allocates nothing; share one index among threads.
-//   - Memory (memory_bytes()): 24 bytes a vertex, 32 a listing (it carries its triangle's
-//     corners, so a query reads the vertices without a second miss), 8 a bucket; the mesh's
-//     own triangle list is not kept: 123 MB for the NRW tile at 1 m.
-//
-// Errors: ArgumentError for a negative or NaN distance, a non-finite query point, or a mesh
-// with a triangle index out of range or a non-finite vertex. See core.hpp.
 #pragma once
 
 #include <array>
@@ -84,129 +17,12 @@
 #include <string>
 #include <vector>
 
+#include "dsmplan/clearance.hpp"
 #include "dsmplan/core.hpp"
 #include "dsmplan/ground.hpp"
 #include "dsmplan/mesh.hpp"
-#include "dsmplan/raster.hpp"
-#include "dsmplan/simplify.hpp"
 
 namespace dsmplan {
-
-/// Exact distance between the segment [p, q] and the triangle (a, b, c); 0 when they touch or
-/// intersect. See the top of this header. O(1).
-double segment_triangle_distance(const Point3& p, const Point3& q, const Point3& a, const Point3& b, const Point3& c);
-
-/// The square of segment_triangle_distance(), without the square root (what comparisons with a
-/// squared threshold need).
-double segment_triangle_squared_distance(const Point3& p, const Point3& q, const Point3& a, const Point3& b,
-                                         const Point3& c);
-
-struct ClearanceOptions {
-  /// Side of a bucket of the x,y grid, CRS units; 0 = automatic (about 32 triangles a bucket).
-  double bucket_size = 0;
-  /// xmin, ymin, xmax, ymax (CRS units): footprint(), the planners' flight area, is clipped to
-  /// it, while every triangle still counts as an obstacle. The corridor planner meshes a margin
-  /// around the area it flies in, so nothing beyond a window's edge can come unseen within the
-  /// safety distance. Default: no clipping.
-  std::array<double, 4> flight_area{-INFINITY, -INFINITY, INFINITY, INFINITY};
-};
-
-class ClearanceIndex {
-public:
-  /// Builds the index of `mesh` (any triangle soup; 2.5D meshes are what it is fast for).
-  /// Throws ArgumentError for an index out of range, a non-finite vertex, a bad bucket_size, or
-  /// 2^32 or more triangles or bucket listings.
-  /// Time O(triangles + buckets) (parallel), memory see the top of this header.
-  explicit ClearanceIndex(const Mesh& mesh, const ClearanceOptions& options = {});
-
-  /// True iff `p` is at distance >= d from every triangle.
-  bool point_clear(const Point3& p, double d) const { return segment_clear(p, p, d); }
-
-  /// True iff the segment [p, q] keeps distance >= d from every triangle (exact, no sampling).
-  /// Throws ArgumentError when d < 0 or NaN, or p, q are not finite. An empty mesh is clear.
-  /// Time O(buckets within d of the segment + triangles in those that the height bound keeps).
-  bool segment_clear(const Point3& p, const Point3& q, double d) const;
-
-  /// min(max_d, distance from the segment [p, q] to the mesh): the exact distance when it is
-  /// below max_d. Same errors and cost as segment_clear(p, q, max_d).
-  double clearance(const Point3& p, const Point3& q, double max_d) const;
-
-  /// A lower bound of the clearance of point p, at most max_d, from the buckets' highest points
-  /// alone (no triangle is read): min(R, p.z - the highest point within R horizontally),
-  /// the best of R = max_d, max_d/2, max_d/4; 0 when p is not above everything near it.
-  /// O((max_d / bucket_size)^2 / 16 + max_d / bucket_size): whole blocks read at once. The
-  /// roadmap uses it to certify edges without checking them.
-  double clearance_bound(const Point3& p, double max_d) const;
-
-  /// The mesh's height at (x, y): the highest triangle whose x,y footprint contains the point
-  /// (on a shared edge the neighbours agree), interpolated linearly; NaN where no triangle
-  /// covers it. O(triangles in one bucket).
-  double ground(double x, double y) const;
-
-  /// ground() of n points: z[i] = ground(x[i], y[i]), the same answers. For many scattered
-  /// points it is several times faster: the memory reads of later points are issued while
-  /// earlier ones are computed (software prefetching), so their latencies overlap.
-  void ground(const double* x, const double* y, double* z, size_t n) const;
-
-  /// The x,y bounding box of the triangles' vertices, in CRS coordinates (lone vertices left
-  /// out), clipped to ClearanceOptions::flight_area; empty (min > max) for a mesh without
-  /// triangles.
-  struct Footprint {
-    double xmin = INFINITY, ymin = INFINITY, xmax = -INFINITY, ymax = -INFINITY;
-  };
-  const Footprint& footprint() const { return footprint_; }
-  const Point3& origin() const { return origin_; }  ///< CRS point subtracted from all coordinates
-  double bucket_size() const { return cell_; }
-  int bucket_columns() const { return cols_; }
-  int bucket_rows() const { return rows_; }
-  size_t triangles() const { return triangles_; }
-  /// The mesh's floor (GroundGrid::floor_of() on cells of a quarter bucket): the ground a
-  /// ceiling counts from when a plan has no DSM or DTM.
-  const GroundGrid& floor() const { return floor_; }
-  size_t bucket_listings() const { return items_.size(); }  ///< sum of triangles over buckets
-  /// Bytes the index holds: its vertices, listings, buckets and blocks.
-  size_t memory_bytes() const {
-    return verts_.capacity() * sizeof(LocalVertex) + items_.capacity() * sizeof(Listing) +
-           buckets_.capacity() * sizeof(Bucket) + block_top_.capacity() * sizeof(float) +
-           floor_.grid().z.capacity() * sizeof(float);
-  }
-
-private:
-  struct LocalVertex {
-    double x, y, z;
-  };
-  size_t bucket_at(double X, double Y) const;  ///< of a local point; SIZE_MAX outside the grid
-  double ground_in(size_t bucket, double X, double Y) const;
-  template <bool Measure>
-  double visit(const Point3& p, const Point3& q, double d) const;
-
-  Point3 origin_{0, 0, 0};
-  Footprint footprint_;
-  std::vector<LocalVertex> verts_;
-  size_t triangles_ = 0;
-  double cell_ = 1, gx0_ = 0, gy0_ = 0;  ///< bucket (0,0) starts at local (gx0_, gy0_)
-  int cols_ = 0, rows_ = 0;
-  struct Listing {
-    std::array<uint32_t, 3> corners;  ///< the triangle's vertices: no second read to find them
-    float top;             ///< highest point of the triangle inside the bucket, rounded up
-    float x0, x1, y0, y1;  ///< the triangle's x,y bounding box, rounded outwards
-  };
-  struct Bucket {
-    uint32_t start;  ///< bucket b lists items_[start of b, start of b + 1), highest first
-    float top;       ///< highest mesh point in the bucket, rounded up (-inf when empty)
-  };
-  std::vector<Bucket> buckets_;  ///< one more than there are buckets, for the last one's end
-  std::vector<Listing> items_;
-  bool box_holds(const Listing& item, double X, double Y) const;  ///< local point in its x,y box
-  static constexpr int block = 4;  ///< buckets a side of a block, the pyramid's coarse level
-  int block_cols_ = 0, block_rows_ = 0;
-  std::vector<float> block_top_;  ///< highest point of each block of block x block buckets
-  /// The highest point in buckets [r0, r1] x [c0, c1], whole blocks read from block_top_.
-  double highest(int r0, int r1, int c0, int c1) const;
-  double zmin_ = 0, zmax_ = 0;  ///< lowest and highest vertex
-  GroundGrid floor_;
-  double margin_ = 0;           ///< conservative slack of the quick rejects
-};
 
 // ---- the planner: roadmap, query, smoothing -----------------------------------------------
 //
@@ -295,10 +111,6 @@ private:
 //     sequential with ties broken by node number. Times: bench/README.md (bench_table3).
 // Every segment of a returned path satisfies segment_clear(p, q, safety) and the ceiling (checked once more
 // before it is returned; tests/plan_test.cpp re-verifies it by brute force over all triangles).
-// Measured on the NRW 1 m tile (1,996,002 triangles, 2 cores), defaults, 3 waypoints 30 m above
-// the ground at opposite corners and the middle: 14,510 samples kept, 124,018 edges, roadmap
-// 0.020 s, a 3-leg query 0.0023 s (bench_plan_ompl), smoothing < 0.1 ms (reading the PLY and
-// indexing it: 1.1 s).
 
 /// Which planner plan_path() runs: the paper's roadmap (multi-query, see above) or RRT-Connect
 /// (single-query, see plan_rrt_connect() below).
@@ -391,123 +203,6 @@ PlanResult query_roadmap(const Roadmap& roadmap, const ClearanceIndex& index, co
 PlanResult plan_path(const ClearanceIndex& index, const std::vector<Point3>& waypoints, const PlanOptions& options = {},
                      const Progress& progress = {});
 
-// ---- clearance to the raw DSM ------------------------------------------------------------
-
-/// min(max_d, the distance from the segment [p, q] to the DSM taken as solid columns): every
-/// valid cell is a box over its square from -infinity up to its height; nodata cells are empty
-/// air. Exact (the segment-box distance is minimised in closed form on each piece where the
-/// segment enters or leaves a slab). An independent check of a path planned on a mesh: the
-/// columns stand up to half a cell beyond the mesh's vertices at the cell centres, so over a
-/// wall this distance can be below the mesh clearance by up to half a cell diagonal.
-/// Throws ArgumentError for a non-finite point or max_d < 0.
-/// Time O(cells within the distance found of the segment's box; doubling search from 2 cells).
-double column_clearance(const Grid& dsm, const Point3& p, const Point3& q, double max_d);
-
-// ---- holding a mesh plan to the DSM's columns ---------------------------------------------
-//
-// With the DSM known, dsmplan guarantees more than clearance to its mesh: every point of the
-// path keeps `safety` from the DSM's columns themselves, at any cell size and with nothing
-// subtracted. `columns` is the DSM with its holes filled from their rim (fill_holes_from_rim(),
-// RimHeight::highest): unknown space is as high as the highest cell around it, so no path
-// passes through a hole lower than the hole's rim. The planner is run on the mesh plus
-// hole_columns() (exact boxes) with the safety distance widened by column_margin() (of the
-// valid cells), and the written path is
-// measured against the columns with column_clearance() (src/tools/plan_path.cpp).
-// Without a DSM (`plan MESH` alone) the guarantee is the mesh's: clearance to its triangles.
-
-/// The widening of the safety distance on `mesh` under which clearance to the mesh bounds
-/// clearance to the columns of `dsm`'s valid cells (its holes are hole_columns()' part): the
-/// smaller of the most a column rises above the mesh (certify_columns(); only when the mesh
-/// covers every column) and sqrt((cell diagonal / 2)^2 + E^2) with E the mesh's certified depth
-/// below the cell centres. 0.71 m for a conservative mesh of a 1 m DSM. O(cells + triangles x
-/// edge length in cells). The two measurements it rests on go to `columns_above` and
-/// `below_centres` when they are not null.
-double column_margin(const Mesh& mesh, const Grid& dsm, ColumnError* columns_above = nullptr,
-                     VerticalError* below_centres = nullptr);
-
-/// The columns of the cells that are nodata in `dsm` but have a height in `columns` (its holes
-/// filled), as triangles in `dsm`'s CRS: each cell's top, and walls down to 1 m below the
-/// lowest column on the sides that face no other such cell. Empty when `dsm` has no hole. O(cells).
-Mesh hole_columns(const Grid& dsm, const Grid& columns);
-
-// ---- a tiled city: planning along a corridor ---------------------------------------------
-//
-// A DSM too large to mesh whole (a VRT mosaic of a city) is planned over piece by piece, never
-// holding more than two windows of it. Every leg is cut into pieces of at most `chunk` (x,y);
-// a piece flies inside the x,y box of its two ends widened by `margin`, over the conservative
-// bounded mesh (simplify_bounded(), conservative, max_error) of that box widened again by
-// safety + 2 cells, so that every obstacle within the safety distance of the flight area is in
-// the window. The point where two pieces meet (a "via" point, on the straight line of the leg)
-// is put at the lowest height, in whole metres above safety over the higher of the two
-// windows' surfaces, that keeps the safety distance from both windows' meshes and stays under
-// max_agl; the path passes through it. Each piece is planned by plan_path() on its window and
-// measured there: clearance to the window's mesh, and to the window's DSM columns
-// (column_clearance()). Rectangular windows keep every straight segment of a piece over known
-// ground. Memory: two windows, O((chunk + 2 margin)^2 cells) whatever the city's size.
-
-struct CorridorOptions {
-  BoundedSimplifyOptions mesh;  ///< the windows' meshes; conservative is forced on
-  double chunk = 1000;          ///< longest piece of a leg planned in one window (x,y), CRS units
-  double margin = 150;          ///< flight area around a piece's x,y box, CRS units
-  /// Applied to each piece's path before it is measured and joined (the tool drops the points
-  /// on straight runs for missions); empty: none.
-  std::function<std::vector<Point3>(const std::vector<Point3>&)> finish_piece;
-  /// The ground --max-agl counts from (a DTM); null: each window's DSM cells.
-  std::shared_ptr<const GroundGrid> terrain;
-};
-
-struct CorridorResult {
-  PlanResult plan;                ///< the path through all waypoints; status, place and reason as plan_path()
-  size_t windows = 0;             ///< pieces planned (one window each)
-  size_t largest_window_cells = 0;
-  VerticalError mesh_error;       ///< the windows' meshes against the DSM, merged (certified per tile)
-  double min_clearance_m = 0;     ///< least clearance of the path to its windows' meshes
-  double min_clearance_dsm_m = 0; ///< least clearance to the DSM columns (holes as high as their rim)
-  double max_agl_m = -INFINITY;   ///< greatest height of the path above the ground (exact)
-  double safety_margin_m = 0;     ///< the largest widening of the safety distance on a window's mesh (column_margin())
-  double seconds_windows = 0;     ///< reading and meshing the windows
-};
-
-/// Plans through `waypoints` (CRS coordinates) over `dsm` along a corridor (see above). Throws
-/// ArgumentError for bad options (chunk or margin <= 0) and what simplify_bounded() throws for
-/// a window; a waypoint outside the DSM or no safe via point gives status InvalidWaypoint/NoPath
-/// with the place and the reason, like plan_path().
-CorridorResult plan_corridor(GridSource& dsm, const std::vector<Point3>& waypoints, const PlanOptions& plan,
-                             const CorridorOptions& options, const Progress& progress = {});
-
-// ---- multi-query: the roadmap file ---------------------------------------------------------
-//
-// A roadmap is built once and queried many times (Kavraki et al. 1996). write_roadmap() keeps
-// it with what it depends on: the mesh's fingerprint and the four options that shape it
-// (safety, spacing, max_edge, max_agl); read_roadmap() gives it back only when all of them are
-// what this run uses, so a roadmap is never used on a mesh or with a safety distance it was not
-// checked against. The format is dsmplan's own (src/plan/roadmap_file.cpp), 28 bytes a node
-// and 8 an edge, with a checksum; a file from a machine of the other byte order is refused.
-
-/// A 64-bit hash of the mesh's vertices (their exact bits) and triangles. O(mesh).
-uint64_t mesh_fingerprint(const Mesh& mesh);
-
-/// Writes `map` atomically (the whole file or nothing). OutputError when it cannot.
-void write_roadmap(const std::string& path, const Roadmap& map, uint64_t mesh_fingerprint,
-                   const PlanOptions& options);
-
-/// Reads a roadmap written by write_roadmap(). InputError(path, place, why) when the file
-/// cannot be read, is not a roadmap file, is truncated or damaged (checksum), declares counts
-/// that do not fit its size, has an edge to a node that does not exist, was built for another
-/// mesh ("built for another mesh") or with other options ("was built with --spacing 20, this
-/// run asks for 15"). O(file size).
-Roadmap read_roadmap(const std::string& path, uint64_t mesh_fingerprint, const PlanOptions& options);
-
-/// What a roadmap file says it was built for.
-struct RoadmapHeader {
-  uint64_t mesh_fingerprint = 0;
-  double safety = 0, spacing = 0, max_edge = 0, max_agl = 0;
-};
-
-/// Reads a roadmap file without asking what it was built for (to draw it, say); the same checks
-/// of the file itself as above. `header` (may be null) receives what it was built for.
-Roadmap read_roadmap(const std::string& path, RoadmapHeader* header);
-
 // ---- RRT-Connect --------------------------------------------------------------------------
 //
 // Kuffner & LaValle, "RRT-Connect: An Efficient Approach to Single-Query Path Planning", ICRA
@@ -533,14 +228,8 @@ Roadmap read_roadmap(const std::string& path, RoadmapHeader* header);
 //   - PlanResult: roadmap_nodes, roadmap_edges are the nodes and edges of all trees grown,
 //     summed over the legs (roots included; a tree of n nodes has n - 1 edges); seconds_roadmap
 //     is 0 (there is no roadmap), seconds_query the trees' growth, seconds_smooth finish_path().
-// Measured on the NRW 1 m tile (1,996,002 triangles, one thread), 3 waypoints 10 m above the
-// surface at the south-west corner, the middle and the north-east corner, defaults but
-// max_agl 30, seeds 1-5: trees of 71-101 nodes grown in 2-7 ms, paths of 1308-1498 m (the PRM:
-// 3,296 samples, roadmap 0.07-0.12 s, 1292 m). With max_agl 15 every seed found a path
-// (1383-1523 m, 2-16 ms) where the PRM needs spacing 12 (0.35 s, 1291 m). Random trees give
-// longer paths than a dense roadmap after the same smoothing; they need no roadmap and find
-// narrow passages a sparse one misses. A leg it cannot fly costs about 13 us a sample there
-// (the 20,000 of the default: 0.2-0.5 s, 6,000-9,000 nodes).
+// Random trees give longer paths than a dense roadmap after the same smoothing; they need no
+// roadmap and find narrow passages a sparse one misses (bench/README.md, "RRT-Connect").
 // Errors as plan_path(); ArgumentError("rrt_max_samples") when it is below 1.
 // Time per leg O(samples * (nearest search + segment_clear)); the nearest search visits the
 // grid's cells around the query until no unvisited cell can hold a nearer node.

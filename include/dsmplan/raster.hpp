@@ -222,7 +222,7 @@ Grid grid_points(const std::vector<PointCloud>& clouds, const GridPointsOptions&
 
 // ---- the DSM as solid columns --------------------------------------------------------------
 //
-// What dsmplan guarantees a path against (plan.hpp) is the DSM read literally: every valid cell
+// What dsmplan guarantees a path against (columns.hpp) is the DSM read literally: every valid cell
 // a box over its whole square, from below up to its height. Nodata is unknown space.
 
 /// Which height of its rim a nodata region takes: `highest` for obstacles (no path passes

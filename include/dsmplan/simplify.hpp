@@ -232,7 +232,7 @@ BoundedStreamResult simplify_bounded(GridSource& dsm, const BoundedSimplifyOptio
 VerticalError certify(const Mesh& mesh, const Grid& dsm, const Progress& progress = {});
 
 /// How a mesh lies against the DSM taken as solid columns (each valid cell a box over its
-/// whole square, up to its height), the reading plan.hpp's guarantees are stated in.
+/// whole square, up to its height), the reading columns.hpp's guarantees are stated in.
 struct ColumnError {
   /// The most any column rises above the mesh, anywhere over its square (0: the mesh encloses
   /// every column it covers). Exact: see src/simplify/certify_columns.cpp.

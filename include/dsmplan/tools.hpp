@@ -16,6 +16,7 @@
 #include <vector>
 
 #include "dsmplan/core.hpp"
+#include "dsmplan/corridor.hpp"
 #include "dsmplan/export.hpp"
 #include "dsmplan/mesh.hpp"
 #include "dsmplan/plan.hpp"

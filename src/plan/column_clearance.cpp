@@ -9,6 +9,7 @@
 #include <array>
 #include <cmath>
 
+#include "dsmplan/columns.hpp"
 #include "dsmplan/plan.hpp"
 
 namespace dsmplan {

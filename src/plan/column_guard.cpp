@@ -12,6 +12,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "dsmplan/columns.hpp"
 #include "dsmplan/plan.hpp"
 
 namespace dsmplan {

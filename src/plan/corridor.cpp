@@ -1,4 +1,4 @@
-// Planning over a tiled city along a corridor (see "a tiled city" in dsmplan/plan.hpp): each
+// Planning over a tiled city along a corridor (see dsmplan/corridor.hpp): each
 // leg cut into pieces, each piece planned by the PRM of plan_path() (Kavraki, Svestka, Latombe
 // & Overmars 1996) on the conservative bounded mesh of its own window of the DSM, read from the
 // GridSource window by window, so that a city never has to be meshed or held whole.
@@ -8,6 +8,8 @@
 #include <memory>
 #include <string>
 
+#include "dsmplan/columns.hpp"
+#include "dsmplan/corridor.hpp"
 #include "dsmplan/plan.hpp"
 #include "plan/path_parts.hpp"
 

@@ -19,6 +19,7 @@
 
 #include "core/atomic_file.hpp"
 #include "dsmplan/plan.hpp"
+#include "dsmplan/roadmap_file.hpp"
 
 namespace dsmplan {
 

@@ -9,7 +9,7 @@
 //     on either side of the line where it crosses;
 //   - vertices: against the one, two or four cells whose closed square holds them.
 // A mesh that lies on or above every column everywhere has max_below 0: a clearance measured
-// on it is then a lower bound of the clearance to the columns (plan.hpp).
+// on it is then a lower bound of the clearance to the columns (columns.hpp).
 #include <algorithm>
 #include <cmath>
 

@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include "dsmplan/columns.hpp"
 #include "dsmplan/plan.hpp"
 #include "dsmplan/tools.hpp"
 

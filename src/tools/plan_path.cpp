@@ -9,8 +9,11 @@
 #include <optional>
 #include <string>
 
+#include "dsmplan/columns.hpp"
+#include "dsmplan/corridor.hpp"
 #include "dsmplan/export.hpp"
 #include "dsmplan/plan.hpp"
+#include "dsmplan/roadmap_file.hpp"
 #include "dsmplan/simplify.hpp"
 #include "dsmplan/tools.hpp"
 #include "tools/mission_parts.hpp"
@@ -258,7 +261,7 @@ PlanReport plan_job(const PlanJobOptions& options, const Progress& progress) {
   PlanOptions plan = options.plan;
   double half_diagonal = INFINITY;
   // The DSM's columns, holes as high as their rim: what the path must keep `safety` from
-  // (plan.hpp, "holding a mesh plan to the DSM's columns").
+  // (columns.hpp, "holding a mesh plan to the DSM's columns").
   Grid columns;
   double xmin = INFINITY, ymin = INFINITY, xmax = -INFINITY, ymax = -INFINITY;
   for (const Vertex& v : mesh.vertices)

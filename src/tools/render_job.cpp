@@ -8,6 +8,7 @@
 #include "core/text.hpp"
 #include "dsmplan/export.hpp"
 #include "dsmplan/plan.hpp"
+#include "dsmplan/roadmap_file.hpp"
 #include "dsmplan/tools.hpp"
 
 namespace dsmplan {
