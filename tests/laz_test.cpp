@@ -489,10 +489,10 @@ TEST(Laz, LyingChunkTables) {
   std::string layered = testkit::read_file(pairs()[3].laz);
   const size_t chunk = get<uint32_t>(layered, 96) + 8;
   bytes = layered;
-  put<uint32_t>(bytes, chunk + 30, 999);
+  put<uint32_t>(bytes, chunk + 30, 777);
   testkit::write_file(dir.path("layer_count.laz"), bytes);
   expect_refused(dir.path("layer_count.laz"),
-                 {"chunk 1 of 1 at byte 2407, point 1", "the chunk says it holds 999 points, the chunk table 1000"});
+                 {"chunk 1 of 1 at byte 2407, point 1", "the chunk says it holds 777 points, the chunk table 1000"});
   bytes = layered;
   put<uint32_t>(bytes, chunk + 34 + 4, get<uint32_t>(bytes, chunk + 34 + 4) + 100000);
   testkit::write_file(dir.path("layer_size.laz"), bytes);

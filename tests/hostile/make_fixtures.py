@@ -360,7 +360,7 @@ def laz_fixtures():
     struct.pack_into("<H", h, vlr + 34 + 6, 42)  # item 2: type 42 instead of GPSTIME11
     out("laz_unknown_item.laz", bytes(h))
     h = bytearray(layered)
-    struct.pack_into("<I", h, 2399 + 8 + 30, 999)  # the layered chunk's own count: 999, table 1000
+    struct.pack_into("<I", h, 2399 + 8 + 30, 777)  # the layered chunk's own count: 777, table 1000
     out("laz_chunk_count_lies.laz", bytes(h))
 
 

@@ -355,7 +355,9 @@ public:
                           std::to_string(header) + " of its first point and layer table"};
     const uint8_t* p = input.bytes + record_length_;
     const uint32_t count = load_u32(p);
-    if (count != input.count)
+    // LASzip writes the chunk's point count here; its specification's text says "remaining"
+    // points (one fewer): either is taken, anything else is a lie.
+    if (count != input.count && uint64_t{count} + 1 != input.count)
       throw CorruptStream{"the chunk says it holds " + std::to_string(count) + " points, the chunk table " +
                           std::to_string(input.count)};
     p += 4;
