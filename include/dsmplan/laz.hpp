@@ -1,6 +1,7 @@
 // dsmplan/laz.hpp: a decoder of LAZ, the LASzip-compressed LAS point cloud, written in this
-// project from the LASzip specification ("LAZ Specification 1.4", ASPRS/rapidlasso, and the
-// reference implementation github.com/LASzip/LASzip it describes). dsmplan's LAS reader
+// project from the LASzip specification: "LASzip for LAS 1.4 (native extension)" (design/
+// specification.rst) and the reference implementation in github.com/LASzip/LASzip (commit
+// ac3e9e9f; the files each source names). No LASzip code is copied. dsmplan's LAS reader
 // (read_las, read_points, `dsmplan grid`) uses it for every file whose point data format byte
 // has the LASzip bit (7) set; this header is for tests, benchmarks, fuzzing and other tools.
 //
