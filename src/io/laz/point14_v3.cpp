@@ -1,12 +1,13 @@
 // LASzip's layered chunked compression of LAS 1.4 points (compressor 3: point formats 6-10),
 // items POINT14, RGB14, RGBNIR14 and BYTE14 at version 3, written for dsmplan from the reference
 // implementation's decoder (github.com/LASzip/LASzip at ac3e9e9f: src/lasreaditemcompressed_v3.cpp,
-// src/laszip_common_v3.hpp, src/lasreadpoint.cpp) and its
-// specification of the layout (design/specification.rst, "LASzip for LAS 1.4 (native extension)"). A chunk is its first
-// point as raw record bytes, the chunk's point count, the byte size of every layer, then the layers: each field group
-// (x/y and returns, z, classification, flags, intensity, ...) is its own arithmetic-coded stream, and an empty layer
-// means the field never changes within the chunk. Every item keeps one set of models per scanner channel (four
-// "contexts"), switched by the POINT14 item.
+// src/laszip_common_v3.hpp, src/lasreadpoint.cpp) and its specification of the layout
+// (design/specification.rst, "LASzip for LAS 1.4 (native extension)"). A chunk is its first point
+// as raw record bytes, the chunk's point count, the byte size of every layer, then the layers:
+// each field group (x/y and returns, z, classification, flags, intensity, ...) is its own
+// arithmetic-coded stream, and an empty layer means the field never changes within the chunk.
+// Every item keeps one set of models per scanner channel (four "contexts"), switched by the
+// POINT14 item.
 #include <array>
 #include <cstring>
 
