@@ -34,15 +34,7 @@ Progress terminal_progress(bool quiet) {
 // --stats after the main output: when it cannot be written, the main output is removed too,
 // so a run leaves all its files or none.
 void write_stats(const std::string& stats, const Json& report, const std::vector<std::string>& outputs) {
-  if (stats.empty()) return;
-  try {
-    write_text_file(stats, report.dump(2) + "\n");
-  } catch (...) {
-    std::error_code ignored;
-    for (const std::string& output : outputs)
-      if (!output.empty()) std::filesystem::remove(output, ignored);
-    throw;
-  }
+  if (!stats.empty()) write_text_file_or_remove(stats, report.dump(2) + "\n", outputs);
 }
 
 // --3dtiles and the heights it needs, on `dsmplan mesh` and `simplify`.

@@ -99,6 +99,11 @@ private:
 
 /// Writes `text` to `path` atomically (temporary file + rename). OutputError on failure.
 void write_text_file(const std::string& path, const std::string& text);
+/// write_text_file(), the last part of a result of several files (a mesh and its tileset.json,
+/// outputs and their --stats): when it fails, the parts written before it (`written`; empty
+/// names skipped) are removed too, then the error is rethrown. All or nothing.
+void write_text_file_or_remove(const std::string& path, const std::string& text,
+                               const std::vector<std::string>& written);
 
 /// OutputError now when `path` could not be written (its temporary file is created next to it
 /// and removed): for a second output written after the main one (--stats), so that a bad path

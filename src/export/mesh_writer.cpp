@@ -213,6 +213,18 @@ void write_text_file(const std::string& path, const std::string& text) {
   file.commit();
 }
 
+void write_text_file_or_remove(const std::string& path, const std::string& text,
+                               const std::vector<std::string>& written) {
+  try {
+    write_text_file(path, text);
+  } catch (...) {
+    std::error_code ignored;
+    for (const std::string& part : written)
+      if (!part.empty()) std::filesystem::remove(part, ignored);
+    throw;
+  }
+}
+
 // Counts up to 2^64 fit in 20 characters.
 constexpr size_t stream_count_width = 20;
 

@@ -35,13 +35,7 @@ size_t write_mesh_output(const Mesh& mesh, const std::string& output, MeshFormat
   const std::string path = tileset_path_for(output);
   const std::string uri = std::filesystem::path(output).filename().string();
   const size_t dropped = write_mesh(mesh, output, format, progress);
-  try {
-    write_text_file(path, tileset_json(placement, uri, mesh.crs));
-  } catch (...) {
-    std::error_code ignored;
-    std::filesystem::remove(output, ignored);
-    throw;
-  }
+  write_text_file_or_remove(path, tileset_json(placement, uri, mesh.crs), {output});
   report = TilesetReport{path, placement.max_error_m, placement.heights};
   return dropped;
 }
