@@ -12,6 +12,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <atomic>
 #include <cerrno>
 #include <cstring>
 #include <exception>
@@ -363,7 +364,8 @@ void Decoder::decode(const RecordSink& sink, const DecodeOptions& options) const
 
   // Read in order, decode in parallel, hand over in order: at most 2 x threads + 1 chunks live.
   // A chunk's error travels with it to the in-order stage, so that the first broken chunk in
-  // file order is the one reported, whichever thread met its error first.
+  // file order is the one reported, whichever thread met its error first. Nothing is thrown
+  // inside the pipeline: a cancelled TBB pipeline does not free the items it holds.
   struct Job {
     size_t index = 0;
     std::vector<uint8_t> compressed, records;
@@ -371,8 +373,10 @@ void Decoder::decode(const RecordSink& sink, const DecodeOptions& options) const
   };
   using JobPtr = std::shared_ptr<Job>;
   size_t next_chunk = 0;
+  std::atomic<bool> failed{false};
+  std::exception_ptr first_error;
   auto next_job = [&](tbb::flow_control& control) -> JobPtr {
-    if (next_chunk == n) {
+    if (next_chunk == n || failed) {
       control.stop();
       return nullptr;
     }
@@ -381,6 +385,7 @@ void Decoder::decode(const RecordSink& sink, const DecodeOptions& options) const
     return job;
   };
   auto decode_job = [&](JobPtr job) {
+    if (failed) return job;
     try {
       s.decode_chunk(job->index, job->compressed, job->records);
     } catch (...) {
@@ -389,8 +394,14 @@ void Decoder::decode(const RecordSink& sink, const DecodeOptions& options) const
     return job;
   };
   auto hand_over = [&](JobPtr job) {
-    if (job->error) std::rethrow_exception(job->error);
-    sink(job->records.data(), s.chunks[job->index].count);
+    if (failed) return;
+    try {
+      if (job->error) std::rethrow_exception(job->error);
+      sink(job->records.data(), s.chunks[job->index].count);
+    } catch (...) {
+      first_error = std::current_exception();
+      failed = true;
+    }
   };
   tbb::task_arena arena(threads);
   arena.execute([&] {
@@ -399,6 +410,7 @@ void Decoder::decode(const RecordSink& sink, const DecodeOptions& options) const
                                tbb::make_filter<JobPtr, JobPtr>(tbb::filter_mode::parallel, decode_job) &
                                tbb::make_filter<JobPtr, void>(tbb::filter_mode::serial_in_order, hand_over));
   });
+  if (first_error) std::rethrow_exception(first_error);
 }
 
 LazFile read_laz_header(const std::function<void(uint64_t, void*, size_t)>& read_at, uint64_t file_size) {
