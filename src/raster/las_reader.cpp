@@ -377,21 +377,21 @@ void LasReader::points(const Header& h, PointCloud& cloud, const Progress& progr
   const size_t class_byte = h.format >= 6 ? 16 : 15;
   const uint8_t class_mask = h.format >= 6 ? 0xFF : 0x1F;
   const size_t length = h.record_length;
-  uint64_t next_report = kReportEvery;
+  // Records into the cloud, however they arrive (decoded LAZ chunks or blocks read from the LAS).
+  uint64_t done = 0, next_report = kReportEvery;
+  auto add_records = [&](const unsigned char* records, size_t n) {
+    for (size_t i = 0; i < n; ++i) {
+      const unsigned char* record = records + i * length;
+      cloud.add(i32(record) * h.scale[0] + h.offset[0], i32(record + 4) * h.scale[1] + h.offset[1],
+                i32(record + 8) * h.scale[2] + h.offset[2], record[class_byte] & class_mask);
+    }
+    done += n;
+    if (done >= next_report) {
+      report(progress, static_cast<double>(done) / static_cast<double>(h.point_count));
+      next_report += kReportEvery;
+    }
+  };
   if (decoder) {
-    uint64_t done = 0;
-    auto add_records = [&](const unsigned char* records, size_t n) {
-      for (size_t i = 0; i < n; ++i) {
-        const unsigned char* record = records + i * length;
-        cloud.add(i32(record) * h.scale[0] + h.offset[0], i32(record + 4) * h.scale[1] + h.offset[1],
-                  i32(record + 8) * h.scale[2] + h.offset[2], record[class_byte] & class_mask);
-      }
-      done += n;
-      if (done >= next_report) {
-        report(progress, static_cast<double>(done) / static_cast<double>(h.point_count));
-        next_report += kReportEvery;
-      }
-    };
     try {
       decoder->decode(add_records);
     } catch (const laz::LazError& e) {
@@ -404,22 +404,12 @@ void LasReader::points(const Header& h, PointCloud& cloud, const Progress& progr
   const uint64_t block = std::max<uint64_t>(1, (uint64_t{4} << 20) / length);  // ~4 MB per read
   std::vector<unsigned char> buffer(static_cast<size_t>(std::min(block, std::max<uint64_t>(h.point_count, 1))) *
                                     length);
-
-  for (uint64_t done = 0; done < h.point_count;) {
+  while (done < h.point_count) {
     const size_t n = static_cast<size_t>(std::min(block, h.point_count - done));
     const uint64_t offset = h.point_offset + done * length;
     read(offset, buffer.data(), n * length,
          "point " + std::to_string(done + 1) + " (byte " + std::to_string(offset) + ")");
-    for (size_t i = 0; i < n; ++i) {
-      const unsigned char* record = buffer.data() + i * length;
-      cloud.add(i32(record) * h.scale[0] + h.offset[0], i32(record + 4) * h.scale[1] + h.offset[1],
-                i32(record + 8) * h.scale[2] + h.offset[2], record[class_byte] & class_mask);
-    }
-    done += n;
-    if (done >= next_report) {
-      report(progress, static_cast<double>(done) / static_cast<double>(h.point_count));
-      next_report += kReportEvery;
-    }
+    add_records(buffer.data(), n);
   }
   report(progress, 1.0);
 }

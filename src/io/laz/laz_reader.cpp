@@ -26,14 +26,11 @@ using detail::ChunkDecoder;
 using detail::ChunkInput;
 using detail::CorruptStream;
 using detail::IntegerDecompressor;
+using detail::load_u16;
+using detail::load_u32;
+using detail::load_u64;
 
 namespace {
-
-uint16_t u16(const uint8_t* p) { return static_cast<uint16_t>(p[0] | p[1] << 8); }
-uint32_t u32(const uint8_t* p) {
-  return uint32_t{p[0]} | uint32_t{p[1]} << 8 | uint32_t{p[2]} << 16 | uint32_t{p[3]} << 24;
-}
-uint64_t u64(const uint8_t* p) { return uint64_t{u32(p)} | uint64_t{u32(p + 4)} << 32; }
 
 std::string item_name(uint16_t type) {
   switch (type) {
@@ -109,19 +106,20 @@ LaszipVlr parse_laszip_vlr(const uint8_t* payload, size_t bytes, int point_forma
   const std::string place = "laszip VLR";
   if (bytes < 34) throw LazError(place, std::to_string(bytes) + " bytes, fewer than the 34 of its fixed part");
   LaszipVlr vlr;
-  vlr.compressor = u16(payload);
-  vlr.coder = u16(payload + 2);
+  vlr.compressor = load_u16(payload);
+  vlr.coder = load_u16(payload + 2);
   vlr.version_major = payload[4];
   vlr.version_minor = payload[5];
-  vlr.version_revision = u16(payload + 6);
-  vlr.options = u32(payload + 8);
-  vlr.chunk_size = u32(payload + 12);
-  const uint16_t item_count = u16(payload + 32);
+  vlr.version_revision = load_u16(payload + 6);
+  vlr.options = load_u32(payload + 8);
+  vlr.chunk_size = load_u32(payload + 12);
+  const uint16_t item_count = load_u16(payload + 32);
   if (34 + 6 * size_t{item_count} > bytes)
     throw LazError(place, "says it lists " + std::to_string(item_count) + " items, but its " + std::to_string(bytes) +
                               " bytes hold " + std::to_string((bytes - 34) / 6));
   for (uint16_t i = 0; i < item_count; ++i)
-    vlr.items.push_back({u16(payload + 34 + 6 * i), u16(payload + 36 + 6 * i), u16(payload + 38 + 6 * i)});
+    vlr.items.push_back(
+        {load_u16(payload + 34 + 6 * i), load_u16(payload + 36 + 6 * i), load_u16(payload + 38 + 6 * i)});
 
   if (vlr.compressor == 0 || vlr.compressor > 3)
     throw LazError(place, "unknown compressor " + std::to_string(vlr.compressor) +
@@ -212,11 +210,11 @@ void Decoder::State::read_chunk_table() {
   if (chunks_start > size) throw LazError(pointer_place, "the file ends before it (truncated file)");
   uint8_t b[8];
   source.read_at(source.point_offset, b, 8);
-  int64_t table = static_cast<int64_t>(u64(b));
+  int64_t table = static_cast<int64_t>(load_u64(b));
   if (table == -1) {  // the writer could not seek back: the offset is the file's last 8 bytes
     if (size < chunks_start + 8) throw LazError(pointer_place, "is -1 (at the end), but the file ends too soon");
     source.read_at(size - 8, b, 8);
-    table = static_cast<int64_t>(u64(b));
+    table = static_cast<int64_t>(load_u64(b));
   }
   if (table == static_cast<int64_t>(chunks_start) && count > 0)
     throw LazError(pointer_place, "no chunk table was written (the compressor was interrupted?)");
@@ -227,7 +225,7 @@ void Decoder::State::read_chunk_table() {
   const uint64_t table_at = static_cast<uint64_t>(table);
   const std::string place = "chunk table at byte " + std::to_string(table_at);
   source.read_at(table_at, b, 8);
-  const uint32_t version = u32(b), number = u32(b + 4);
+  const uint32_t version = load_u32(b), number = load_u32(b + 4);
   if (version != 0) throw LazError(place, "version " + std::to_string(version) + " (LASzip writes 0)");
   const uint64_t compressed = table_at - chunks_start;
   if (count == 0 && number == 0) return;
@@ -421,18 +419,18 @@ LazFile read_laz_header(const std::function<void(uint64_t, void*, size_t)>& read
   if (std::memcmp(h, "LASF", 4) != 0) throw LazError("byte 0 (signature)", "not a LAS/LAZ file");
   const int minor = h[25];
   LazFile f;
-  const uint16_t header_size = u16(h + 94);
-  f.point_offset = u32(h + 96);
-  const uint32_t vlr_count = u32(h + 100);
+  const uint16_t header_size = load_u16(h + 94);
+  f.point_offset = load_u32(h + 96);
+  const uint32_t vlr_count = load_u32(h + 100);
   f.point_format = h[104] & 0x3F;
   const bool compressed = (h[104] & 0xC0) != 0;
-  f.record_length = u16(h + 105);
-  f.point_count = u32(h + 107);
+  f.record_length = load_u16(h + 105);
+  f.point_count = load_u32(h + 107);
   f.points_end = file_size;
   if (minor >= 4 && file_size >= 375) {
-    if (f.point_count == 0) f.point_count = u64(h + 247);
-    const uint64_t evlr_start = u64(h + 235);
-    if (u32(h + 243) > 0 && evlr_start > f.point_offset && evlr_start <= file_size) f.points_end = evlr_start;
+    if (f.point_count == 0) f.point_count = load_u64(h + 247);
+    const uint64_t evlr_start = load_u64(h + 235);
+    if (load_u32(h + 243) > 0 && evlr_start > f.point_offset && evlr_start <= file_size) f.points_end = evlr_start;
   }
   if (f.point_offset > file_size || header_size > f.point_offset)
     throw LazError("byte 96 (offset to point data)", std::to_string(f.point_offset) + " is not inside the file");
@@ -448,10 +446,10 @@ LazFile read_laz_header(const std::function<void(uint64_t, void*, size_t)>& read
     uint8_t record[54];
     if (pos + 54 > f.point_offset) throw LazError(place, "runs past the start of the point data");
     read_at(pos, record, 54);
-    const uint64_t length = u16(record + 20);
+    const uint64_t length = load_u16(record + 20);
     if (pos + 54 + length > f.point_offset) throw LazError(place, "runs past the start of the point data");
     if (strncmp(reinterpret_cast<const char*>(record + 2), kLaszipUserId, 16) == 0 &&
-        u16(record + 18) == kLaszipRecordId) {
+        load_u16(record + 18) == kLaszipRecordId) {
       std::vector<uint8_t> payload(length);
       read_at(pos + 54, payload.data(), payload.size());
       f.laszip = std::make_unique<LaszipVlr>(
