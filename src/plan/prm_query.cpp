@@ -93,13 +93,12 @@ std::vector<Point3> astar(const Roadmap& map, const Point3& a, const Point3& b,
 
 constexpr int kMaxLevel = 3;               // finest spacing: spacing / 2^3
 constexpr double kMaxHaltonIndex = 4.0e6;  // a level needs at most this many Halton indices
-// PlanOptions::refine_max_search_work, the candidate edges the lazy searches of a leg may look
-// at: an impossible leg over a million samples would otherwise be searched round after round for
-// many minutes (a Delft leg under a 15 m ceiling: over 10 minutes; the default 1e8 is about 50 s
-// there). The hardest leg bench_table3 solves looks at 7e6.
-constexpr int kMaxWiden = 5;  // the region: at most 2^5 max_edge around the frontier
-// PlanOptions::refine_max_lattice_nodes (default 2 million, kLatticeNodeBytes each with their
-// lookup and queue entries: under 400 MB): a whole 1 km x 1 km tile under a 15 m ceiling at
+constexpr int kMaxWiden = 5;               // the region: at most 2^5 max_edge around the frontier
+// The work bounds are PlanOptions (plan.hpp). Their defaults: refine_max_search_work 1e8, since an
+// impossible leg over a million samples would otherwise be searched round after round for many
+// minutes (a Delft leg under a 15 m ceiling: over 10 minutes; 1e8 is about 50 s there), while the
+// hardest leg bench_table3 solves looks at 7e6; refine_max_lattice_nodes 2 million
+// (kLatticeNodeBytes each: under 400 MB), since a whole 1 km x 1 km tile under a 15 m ceiling at
 // 2.5 m is about 1.5 million.
 // Memory an added sample and a lattice node hold at most, with their lookups, neighbour lists
 // and queue entries (rounded up from the structures below), for the bounds a machine's memory sets.
