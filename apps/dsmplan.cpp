@@ -125,7 +125,7 @@ int main(int argc, char** argv) {
   bool keep_all_classes = false;
   CLI::App* grid_cmd =
       app.add_subcommand("grid", "Grid point clouds (LAS, XYZ) into a GeoTIFF DSM, median height per cell");
-  grid_cmd->add_option("POINTS", grid.inputs, "LAS 1.0-1.4 (uncompressed) or XYZ text files")->required();
+  grid_cmd->add_option("POINTS", grid.inputs, "LAS or LAZ 1.0-1.4, or XYZ text files")->required();
   grid_cmd->add_option("-o,--output", grid.output, "Output GeoTIFF")->required();
   grid_cmd->add_option("--res", grid.grid.resolution, "Cell size (CRS units: m for a projected CRS in metres)")->required();
   grid_cmd->add_option("--fusion", fusion, "Height per cell: median or max")->capture_default_str();

@@ -63,13 +63,17 @@ TEST(Tools, RasterReportKeepsItsKeys) {
   expect_keys(json["vertical"], {"name", "unit"});
 }
 
-TEST(Tools, GridSummaryIsTheWrittenGeoTiff) {
+// The written GeoTIFF is what the summary says, and the vertical datum survives whether the compound
+// CRS is named by its parts or by its own code (EPSG:7415 lost it once).
+class GridKeepsTheCompoundCrs : public ::testing::TestWithParam<const char*> {};
+
+TEST_P(GridKeepsTheCompoundCrs, GridSummaryIsTheWrittenGeoTiff) {
   testkit::TempDir dir;
   GridOptions options;
   options.inputs = {testkit::data_path("delft-ahn3/ahn3_cropped_1.las"),
                     testkit::data_path("delft-ahn3/ahn3_cropped_2.las")};
   options.output = dir.path("dsm.tif");
-  options.crs = "EPSG:28992+5709";
+  options.crs = GetParam();
   options.grid.resolution = 1;
   const GridSummary written = grid_to_geotiff(options);
   const Grid read_back = read_raster(options.output);
@@ -80,6 +84,8 @@ TEST(Tools, GridSummaryIsTheWrittenGeoTiff) {
   EXPECT_EQ(read_back.crs.vertical_name, "NAP height");
   EXPECT_EQ(read_back.crs.epsg, 28992);
 }
+
+INSTANTIATE_TEST_SUITE_P(Tools, GridKeepsTheCompoundCrs, ::testing::Values("EPSG:28992+5709", "EPSG:7415"));
 
 // The simplify report is the written mesh, its keys are Table 2's columns and the certified
 // error, and that error is the one the written file (read back) has against the DSM.

@@ -531,6 +531,15 @@ void write_geotiff(const Grid& grid, const std::string& path, const Progress& pr
     OGRSpatialReference srs;
     if (srs.SetFromUserInput(grid.crs.wkt.empty() ? grid.crs.definition.c_str() : grid.crs.wkt.c_str()) ==
         OGRERR_NONE) {
+      // GeoTIFF stores a compound CRS as the codes of its parts: from the WKT of a compound
+      // with one code of its own (EPSG:7415, RD New + NAP height) GDAL writes no vertical keys,
+      // and the heights' datum would be lost. Its EPSG definition carries the parts' codes.
+      const char* authority = srs.GetAuthorityName(nullptr);
+      const char* code = srs.GetAuthorityCode(nullptr);
+      if (srs.IsCompound() && authority && code && EQUAL(authority, "EPSG")) {
+        OGRSpatialReference by_code;
+        if (by_code.importFromEPSG(std::atoi(code)) == OGRERR_NONE) srs = by_code;
+      }
       dataset->SetSpatialRef(&srs);
     }
   }
