@@ -12,7 +12,13 @@
 #include <vector>
 
 #include "dsmplan/export.hpp"
+#include "dsmplan/mission.hpp"
+#include "dsmplan/picture.hpp"
+#include "dsmplan/wgs84.hpp"
+#include "dsmplan/mpi_farm.hpp"
+#include "dsmplan/plan_job.hpp"
 #include "dsmplan/tools.hpp"
+#include "dsmplan/view.hpp"
 #include "usage.hpp"
 
 using namespace dsmplan;

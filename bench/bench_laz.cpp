@@ -16,7 +16,7 @@
 
 #include "bench_kit.hpp"
 #include "dsmplan/laz.hpp"
-#include "dsmplan/raster.hpp"
+#include "dsmplan/points.hpp"
 
 namespace {
 

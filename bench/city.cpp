@@ -26,6 +26,7 @@
 #include "dsmplan/export.hpp"
 #include "dsmplan/mesh.hpp"
 #include "dsmplan/raster.hpp"
+#include "dsmplan/raster_io.hpp"
 #include "dsmplan/simplify.hpp"
 
 using namespace dsmplan;

@@ -32,6 +32,7 @@
 #include "dsmplan/mesh.hpp"
 #include "dsmplan/plan.hpp"
 #include "dsmplan/raster.hpp"
+#include "dsmplan/raster_io.hpp"
 
 using namespace dsmplan;
 using namespace bench;

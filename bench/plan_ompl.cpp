@@ -101,6 +101,7 @@
 #include "dsmplan/plan.hpp"
 #include "plan/prm_parts.hpp"
 #include "dsmplan/raster.hpp"
+#include "dsmplan/raster_io.hpp"
 
 using namespace dsmplan;
 using namespace bench;

@@ -33,6 +33,7 @@
 
 #include "bench_kit.hpp"
 #include "dsmplan/raster.hpp"
+#include "dsmplan/raster_io.hpp"
 #include "dsmplan/tools.hpp"
 
 extern char** environ;

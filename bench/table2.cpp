@@ -30,9 +30,10 @@
 #include <vector>
 
 #include "bench_kit.hpp"
-#include "dsmplan/export.hpp"
+#include "dsmplan/picture.hpp"
 #include "dsmplan/mesh.hpp"
 #include "dsmplan/raster.hpp"
+#include "dsmplan/raster_io.hpp"
 #include "dsmplan/simplify.hpp"
 #include "greedy_baseline.hpp"
 

@@ -35,6 +35,7 @@
 #include "dsmplan/mesh.hpp"
 #include "dsmplan/plan.hpp"
 #include "dsmplan/raster.hpp"
+#include "dsmplan/raster_io.hpp"
 #include "dsmplan/simplify.hpp"
 #include "street_point.hpp"
 

@@ -17,8 +17,9 @@
 
 #include "bench_kit.hpp"
 #include "dsmplan/raster.hpp"
+#include "dsmplan/raster_io.hpp"
 #include "dsmplan/simplify.hpp"
-#include "dsmplan/tools.hpp"
+#include "dsmplan/plan_job.hpp"
 
 using namespace dsmplan;
 using namespace bench;

@@ -1,5 +1,5 @@
 // libFuzzer target: dsmplan::read_xyz on arbitrary bytes (a file named *.xyz).
-#include "dsmplan/raster.hpp"
+#include "dsmplan/points.hpp"
 #include "fuzz_file.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {

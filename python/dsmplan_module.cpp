@@ -22,6 +22,7 @@
 #include "dsmplan/mesh.hpp"
 #include "dsmplan/plan.hpp"
 #include "dsmplan/raster.hpp"
+#include "dsmplan/raster_io.hpp"
 #include "dsmplan/simplify.hpp"
 
 namespace py = pybind11;

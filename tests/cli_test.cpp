@@ -34,8 +34,10 @@
 
 #include "dsmplan/columns.hpp"
 #include "dsmplan/export.hpp"
+#include "dsmplan/wgs84.hpp"
 #include "dsmplan/plan.hpp"
 #include "dsmplan/raster.hpp"
+#include "dsmplan/raster_io.hpp"
 #include "testkit.hpp"
 
 using nlohmann::json;

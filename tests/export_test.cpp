@@ -3,6 +3,9 @@
 // read_mesh must give back exactly what write_mesh wrote and refuse broken files; pictures must
 // have the promised size, change only where edges are drawn, and read back through libpng.
 #include "dsmplan/export.hpp"
+#include "dsmplan/mission.hpp"
+#include "dsmplan/picture.hpp"
+#include "dsmplan/wgs84.hpp"
 
 #include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
 #include <CGAL/IO/polygon_soup_io.h>
@@ -32,6 +35,7 @@
 
 #include "dsmplan/mesh.hpp"
 #include "dsmplan/raster.hpp"
+#include "dsmplan/raster_io.hpp"
 #include "dsmplan/simplify.hpp"
 #include "testkit.hpp"
 

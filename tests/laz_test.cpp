@@ -23,7 +23,7 @@
 #include <vector>
 
 #include "dsmplan/core.hpp"
-#include "dsmplan/raster.hpp"
+#include "dsmplan/points.hpp"
 #include "testkit.hpp"
 
 namespace {

@@ -20,6 +20,7 @@
 
 #include "dsmplan/mesh.hpp"
 #include "dsmplan/raster.hpp"
+#include "dsmplan/raster_io.hpp"
 #include "dsmplan/simplify.hpp"
 #include "dsmplan/roadmap_file.hpp"
 #include "dsmplan/corridor.hpp"

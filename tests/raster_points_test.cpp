@@ -23,7 +23,9 @@
 
 #include <filesystem>
 
+#include "dsmplan/points.hpp"
 #include "dsmplan/raster.hpp"
+#include "dsmplan/raster_io.hpp"
 #include "dsmplan/tools.hpp"
 #include "testkit.hpp"
 

@@ -12,7 +12,9 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "dsmplan/points.hpp"
 #include "dsmplan/raster.hpp"
+#include "dsmplan/raster_io.hpp"
 
 extern char** environ;
 

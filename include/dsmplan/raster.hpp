@@ -6,9 +6,10 @@
 // (metres for every dataset dsmplan ships with); NaN marks nodata, which becomes a hole.
 //
 // Sources:
-//   read_raster()  any single-band GDAL raster (GeoTIFF, VRT mosaic, ESRI ASCII grid, ...);
+//   read_raster()  any single-band GDAL raster (GeoTIFF, VRT mosaic, ESRI ASCII grid, ...):
+//                  raster_io.hpp, with CRSs, units and GeoTIFF output;
 //   read_las(), read_xyz() + grid_points()  point clouds gridded with the median (or max) per cell,
-//                  the fusion rule of Adolf & Hirschmueller, Section 2.
+//                  the fusion rule of Adolf & Hirschmueller, Section 2: points.hpp.
 // Transforms (all O(cells), no GDAL involved):
 //   resample()     block aggregation to a coarser resolution (median by default, max conservative);
 //   quantize_height()  the vertical resolution of Table 1 (0.1 m steps).
@@ -161,65 +162,6 @@ private:
 
 inline double quantize_height(double z, double step) { return HeightQuantizer(step)(z); }
 
-// ---- point clouds ------------------------------------------------------------------------
-
-struct PointCloud {
-  std::vector<double> x, y, z;
-  std::vector<uint8_t> classification;  ///< ASPRS class per point (0 when the source has none)
-  Crs crs;                              ///< from the file (LAS WKT or GeoTIFF keys); may be unknown
-  double min_x = INFINITY, min_y = INFINITY, min_z = INFINITY;
-  double max_x = -INFINITY, max_y = -INFINITY, max_z = -INFINITY;
-
-  size_t size() const { return x.size(); }
-  void add(double px, double py, double pz, uint8_t cls);
-};
-
-/// Reads a LAS 1.0-1.4 file, point formats 0-10, or a LAZ file (LASzip-compressed formats 0-3
-/// and 6-8, decoded by dsmplan's own decoder on all cores: dsmplan/laz.hpp) into the same points.
-/// Checks the header against the file (signature, sizes, point count x record length <= file
-/// size, scale factors; for LAZ the VLR and chunk table); a header that lies gives InputError
-/// naming the field. CRS from the OGC WKT VLR/EVLR (record 2112) or the GeoTIFF key directory
-/// (record 34735, EPSG codes only). O(points).
-PointCloud read_las(const std::string& path, const Progress& progress = {});
-
-/// Reads "x y z [class]" text lines (separators: blanks, comma, semicolon). Blank lines and
-/// lines starting with '#' are skipped, as is a first line without any digit (a column header).
-/// A line that does not parse gives InputError with its line number. No CRS.
-PointCloud read_xyz(const std::string& path, const Progress& progress = {});
-
-/// read_las or read_xyz by extension (.las / .xyz, .txt, .csv); InputError for anything else.
-PointCloud read_points(const std::string& path, const Progress& progress = {});
-
-enum class Fusion {
-  Median,  ///< median height of the points in a cell (mean of the two middle ones when even)
-  Max
-};
-const char* to_string(Fusion);
-/// Parses "median" or "max"; throws ArgumentError otherwise.
-Fusion parse_fusion(const std::string& name);
-
-struct GridPointsOptions {
-  double resolution = 1.0;  ///< cell size, CRS units, > 0
-  Fusion fusion = Fusion::Median;
-  std::vector<int> drop_classes = {7, 18};  ///< ASPRS low/high noise by default
-  /// When not empty: only points of these ASPRS classes are gridded (e.g. {2}, ground: a DTM).
-  /// A class both kept and dropped is an ArgumentError (clear drop_classes to keep noise classes).
-  std::vector<int> keep_classes;
-  /// Memory the caller will hold beside the grid while it lives (a writer's buffers, e.g.
-  /// geotiff_buffer_bytes()), counted in the up-front refusal.
-  double other_bytes = 0;
-};
-
-/// Grids point clouds (all in one CRS) into one DSM. The grid is aligned to multiples of the
-/// resolution and just covers the kept points; a point on a cell's west/north edge belongs to
-/// that cell (up to floating-point rounding of x/resolution). At most 2^31-1 cells. Cells
-/// without points are nodata (filling holes is a separate, explicit step). Throws ArgumentError
-/// for resolution <= 0, a class outside 0-255 or in both keep_classes and drop_classes,
-/// InputError when no point is left after filtering.
-/// O(points log points-per-cell).
-Grid grid_points(const std::vector<PointCloud>& clouds, const GridPointsOptions& options,
-                 const Progress& progress = {});
-
 // ---- the DSM as solid columns --------------------------------------------------------------
 //
 // What dsmplan guarantees a path against (columns.hpp) is the DSM read literally: every valid cell
@@ -241,76 +183,5 @@ size_t fill_holes_from_rim(Grid& grid, RimHeight rule);
 /// simplify_bounded(column_envelope(dsm), conservative) builds such a surface, and
 /// certify_columns() (simplify.hpp) measures any mesh against the columns exactly. O(cells).
 Grid column_envelope(const Grid& dsm);
-
-// ---- GDAL I/O (the only part of this module that needs GDAL/PROJ) -------------------------
-
-struct ReadRasterOptions {
-  int band = 1;
-  std::string assign_crs;  ///< CRS of the raster, overriding what it states ("EPSG:25832", WKT, ...), as gdal_translate -a_srs
-  bool allow_no_crs = false;
-  /// Describe x, y or heights in a unit other than the metre instead of refusing them (`info`).
-  bool allow_other_units = false;
-  /// Memory the caller will need per cell of this raster beyond the cell's 4-byte height (e.g.
-  /// for the mesh it will make of it): the total is checked against the machine before reading.
-  double extra_bytes_per_cell = 0;
-};
-
-/// Reads one band of any GDAL raster. Declared nodata becomes NaN. Throws InputError when the
-/// file is missing or not a raster, has no cells or no valid cell, has a rotated geotransform,
-/// has NaN (not declared nodata) or infinite heights (naming the first cell and its
-/// coordinates), has no CRS and none is assigned, has x, y or heights in a unit other than the
-/// metre (metric_problem(), units only; unless options.allow_other_units), or would need more
-/// memory than the machine has (4 bytes a cell, 5 with a mask band, plus
-/// options.extra_bytes_per_cell), before reading. The vertical unit is the compound CRS's, or
-/// the band's unit type (GDALGetRasterUnitType) when the CRS has none or it is not metres. O(cells).
-Grid read_raster(const std::string& path, const ReadRasterOptions& options = {}, const Progress& progress = {});
-
-/// Opens one band of any GDAL raster for reading by windows (GridSource), with the checks of
-/// read_raster() that need no cells (file, band, geotransform, CRS) done here and the per-cell
-/// ones (NaN, infinity) done on each window read. Memory: GDAL's block cache only, whatever the
-/// raster's size. VRT mosaics are read through, window by window.
-std::unique_ptr<GridSource> open_raster(const std::string& path, const ReadRasterOptions& options = {});
-
-/// Fills `crs.name`, `crs.epsg`, `crs.wkt` and the vertical fields from `crs.definition`
-/// (PROJ via GDAL's OGRSpatialReference). Throws ArgumentError when it cannot be parsed.
-void resolve_crs(Crs& crs);
-
-// ---- units: dsmplan measures in metres ----------------------------------------------------
-
-/// Metres per `unit`, a unit's name or abbreviation as CRSs and raster bands spell it ("metre",
-/// "m", "ft", "foot", "US survey foot", "ftUS", "us-ft", ... and every linear unit of PROJ's
-/// database; case, '_' and '-' do not matter); 0 when it names no known length unit.
-double unit_metres(const std::string& unit);
-
-/// Fills what `crs` does not say yet of its units from its WKT (or definition) and names:
-/// geographic, linear_unit, linear_unit_m (and the vertical ones of a compound CRS), and
-/// vertical_unit_m from vertical_unit. For a Crs read from a mesh header (name, EPSG, WKT).
-void resolve_units(Crs& crs);
-
-/// "EPSG:326zz" (north) or "EPSG:327zz" (south): the WGS 84 / UTM zone holding the point (x, y)
-/// of `crs`, zone = floor((longitude + 180) / 6) + 1. Empty when it cannot be transformed.
-std::string utm_epsg_at(const Crs& crs, double x, double y);
-
-/// Why dsmplan cannot measure in `crs`: x, y must be metres of a projected CRS, heights metres
-/// (or of unknown unit). Empty when they are; otherwise one line for InputError(path, "", ...)
-/// naming the unit and a way out, e.g. "CRS 'NAD83 / Virginia North (ftUS)' has horizontal unit
-/// US survey foot (0.3048006 m): dsmplan measures in metres; reproject first, e.g. gdalwarp
-/// -t_srs EPSG:32618 dsm_ft.tif dsm_m.tif". The example's UTM zone is that of (centre_x,
-/// centre_y), the data's centre in `crs`; the example suits `path` by its extension (gdalwarp
-/// for rasters, PDAL for point clouds, remaking a mesh from its DSM). `units_only`: a geographic
-/// CRS passes (its degrees are the caller's to refuse). Never converts: refusing is the choice.
-std::string metric_problem(const Crs& crs, const std::string& path, double centre_x, double centre_y,
-                           bool units_only = false);
-
-/// Writes a Float32 GeoTIFF (DEFLATE, tiled, nodata -9999). Atomic: temp file + rename.
-/// Holds at most geotiff_buffer_bytes() beside the grid.
-void write_geotiff(const Grid& grid, const std::string& path, const Progress& progress = {});
-/// The memory GDAL's block cache may take while writing: GDAL_CACHEMAX, capped at an eighth of
-/// machine_memory_bytes() (so under ulimit -v too).
-double geotiff_buffer_bytes();
-
-/// GDAL's FillNodata (inverse-distance interpolation) for holes up to `max_distance` cells
-/// from valid data. Holes farther away stay holes.
-void fill_holes(Grid& grid, double max_distance, const Progress& progress = {});
 
 }  // namespace dsmplan

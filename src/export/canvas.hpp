@@ -12,7 +12,7 @@
 #include <utility>
 #include <vector>
 
-#include "dsmplan/export.hpp"
+#include "dsmplan/picture.hpp"
 
 namespace dsmplan::draw {
 

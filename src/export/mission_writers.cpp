@@ -35,7 +35,8 @@
 #include <cstdio>
 #include <string>
 
-#include "dsmplan/export.hpp"
+#include "dsmplan/mission.hpp"
+#include "dsmplan/wgs84.hpp"
 
 namespace dsmplan {
 

@@ -4,7 +4,8 @@
 #include <cstdio>
 #include <string>
 
-#include "dsmplan/export.hpp"
+#include "dsmplan/mission.hpp"
+#include "dsmplan/wgs84.hpp"
 
 namespace dsmplan {
 

@@ -11,7 +11,7 @@
 #include <vector>
 
 #include "core/atomic_file.hpp"
-#include "dsmplan/export.hpp"
+#include "dsmplan/picture.hpp"
 
 namespace dsmplan {
 

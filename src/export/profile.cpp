@@ -22,7 +22,7 @@
 #include <vector>
 
 #include "core/text.hpp"
-#include "dsmplan/export.hpp"
+#include "dsmplan/picture.hpp"
 #include "export/canvas.hpp"
 
 namespace dsmplan {

@@ -14,7 +14,7 @@
 #include <string>
 #include <vector>
 
-#include "dsmplan/export.hpp"
+#include "dsmplan/picture.hpp"
 #include "export/canvas.hpp"
 
 namespace dsmplan {

@@ -16,6 +16,7 @@
 
 #include "core/text.hpp"
 #include "dsmplan/export.hpp"
+#include "dsmplan/wgs84.hpp"
 
 namespace dsmplan {
 

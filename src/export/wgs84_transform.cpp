@@ -14,7 +14,7 @@
 #include <memory>
 #include <string>
 
-#include "dsmplan/export.hpp"
+#include "dsmplan/wgs84.hpp"
 
 namespace dsmplan {
 

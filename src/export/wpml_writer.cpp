@@ -49,7 +49,8 @@
 #include <vector>
 
 #include "core/atomic_file.hpp"
-#include "dsmplan/export.hpp"
+#include "dsmplan/mission.hpp"
+#include "dsmplan/wgs84.hpp"
 
 namespace dsmplan {
 

@@ -22,6 +22,7 @@
 #include "core/atomic_file.hpp"
 #include "core/text.hpp"
 #include "dsmplan/raster.hpp"
+#include "dsmplan/raster_io.hpp"
 
 namespace dsmplan {
 

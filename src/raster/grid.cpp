@@ -6,6 +6,7 @@
 
 #include "core/text.hpp"
 #include "dsmplan/raster.hpp"
+#include "dsmplan/raster_io.hpp"
 
 namespace dsmplan {
 

@@ -19,7 +19,7 @@
 #include <vector>
 
 #include "dsmplan/laz.hpp"
-#include "dsmplan/raster.hpp"
+#include "dsmplan/points.hpp"
 
 namespace dsmplan {
 

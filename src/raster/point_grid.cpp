@@ -11,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "dsmplan/points.hpp"
 #include "dsmplan/raster.hpp"
 
 namespace dsmplan {

@@ -14,7 +14,7 @@
 #include <vector>
 
 #include "core/text.hpp"
-#include "dsmplan/raster.hpp"
+#include "dsmplan/points.hpp"
 
 namespace dsmplan {
 namespace {

@@ -14,6 +14,7 @@
 #include "core/text.hpp"
 #include "dsmplan/core.hpp"
 #include "dsmplan/export.hpp"
+#include "dsmplan/wgs84.hpp"
 #include "dsmplan/tools.hpp"
 
 namespace dsmplan {

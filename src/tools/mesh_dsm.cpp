@@ -4,6 +4,7 @@
 #include <filesystem>
 
 #include "dsmplan/export.hpp"
+#include "dsmplan/wgs84.hpp"
 #include "dsmplan/tools.hpp"
 #include "tools/job_parts.hpp"
 #include "tools/report_json.hpp"

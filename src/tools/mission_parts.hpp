@@ -9,7 +9,7 @@
 
 #include "dsmplan/columns.hpp"
 #include "dsmplan/plan.hpp"
-#include "dsmplan/tools.hpp"
+#include "dsmplan/plan_job.hpp"
 
 namespace dsmplan::detail {
 

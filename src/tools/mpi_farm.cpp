@@ -11,6 +11,7 @@
 #include <map>
 #include <thread>
 
+#include "dsmplan/mpi_farm.hpp"
 #include "dsmplan/tools.hpp"
 
 namespace dsmplan {

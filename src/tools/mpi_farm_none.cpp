@@ -1,4 +1,5 @@
 // dsmplan built without MPI: the farm is never active (see "MPI" in dsmplan/tools.hpp).
+#include "dsmplan/mpi_farm.hpp"
 #include "dsmplan/tools.hpp"
 
 namespace dsmplan {

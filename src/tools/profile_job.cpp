@@ -6,7 +6,8 @@
 #include <filesystem>
 
 #include "core/text.hpp"
-#include "dsmplan/export.hpp"
+#include "dsmplan/picture.hpp"
+#include "dsmplan/plan_job.hpp"
 #include "dsmplan/tools.hpp"
 #include "tools/job_parts.hpp"
 

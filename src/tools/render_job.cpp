@@ -7,8 +7,10 @@
 
 #include "core/text.hpp"
 #include "dsmplan/export.hpp"
+#include "dsmplan/picture.hpp"
 #include "dsmplan/plan.hpp"
 #include "dsmplan/roadmap_file.hpp"
+#include "dsmplan/plan_job.hpp"
 #include "dsmplan/tools.hpp"
 
 namespace dsmplan {

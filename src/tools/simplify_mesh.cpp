@@ -6,6 +6,7 @@
 #include <cstdio>
 
 #include "dsmplan/export.hpp"
+#include "dsmplan/wgs84.hpp"
 #include "dsmplan/simplify.hpp"
 #include "dsmplan/tools.hpp"
 #include "tools/job_parts.hpp"

@@ -9,7 +9,8 @@
 #include <map>
 #include <sstream>
 
-#include "dsmplan/tools.hpp"
+#include "dsmplan/plan_job.hpp"
+#include "dsmplan/view.hpp"
 #include "core/text.hpp"
 
 namespace dsmplan {

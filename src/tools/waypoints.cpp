@@ -9,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include "dsmplan/plan_job.hpp"
 #include "dsmplan/tools.hpp"
 
 namespace dsmplan {

@@ -1,6 +1,7 @@
 // Reads a DSM, meshes and simplifies it with the installed dsmplan, and prints what it got.
 #include <dsmplan/mesh.hpp>
 #include <dsmplan/raster.hpp>
+#include <dsmplan/raster_io.hpp>
 #include <dsmplan/simplify.hpp>
 
 #include <cstdio>
