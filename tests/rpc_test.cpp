@@ -159,6 +159,25 @@ std::vector<GeoPoint> ground_grid(const RpcCamera& cam, int n) {
   return points;
 }
 
+// A regular longitude/latitude grid over the crop's footprint (its corners localized at the mean
+// height, widened by 10 %) at five heights: ground points that localize() did not make.
+std::vector<GeoPoint> lon_lat_grid(const RpcCamera& cam, int n) {
+  const RpcModel& m = cam.model();
+  double lon0 = 1e9, lon1 = -1e9, lat0 = 1e9, lat1 = -1e9;
+  for (const PixelPoint& c : {PixelPoint{0, 0}, PixelPoint{kCropSize, 0}, PixelPoint{0, kCropSize}, PixelPoint{kCropSize, kCropSize}}) {
+    const GeoPoint g = cam.localize(c, m.height_off);
+    lon0 = std::min(lon0, g.lon), lon1 = std::max(lon1, g.lon), lat0 = std::min(lat0, g.lat), lat1 = std::max(lat1, g.lat);
+  }
+  const double wl = 0.1 * (lon1 - lon0), wt = 0.1 * (lat1 - lat0);
+  lon0 -= wl, lon1 += wl, lat0 -= wt, lat1 += wt;
+  std::vector<GeoPoint> points;
+  for (double hn : {-0.9, -0.4, 0.0, 0.5, 0.95})
+    for (int j = 0; j < n; ++j)
+      for (int i = 0; i < n; ++i)
+        points.push_back({lon0 + (lon1 - lon0) * i / (n - 1), lat0 + (lat1 - lat0) * j / (n - 1), m.height_off + hn * m.height_scale});
+  return points;
+}
+
 TEST(Rpc, ProjectAgreesWithGdalsTransformer) {
   double worst = 0;
   for (const char* name : kImages) {
@@ -172,6 +191,153 @@ TEST(Rpc, ProjectAgreesWithGdalsTransformer) {
   }
   std::printf("ground -> image, largest difference from GDAL's RPC transformer: %.2e px\n", worst);
   EXPECT_LT(worst, 0.01);
+}
+
+TEST(Rpc, RoundTripBelowOneCentimetre) {
+  // ground -> image -> ground at the same height, over every crop and the model's height range.
+  double worst = 0;
+  for (const char* name : kImages) {
+    const RpcCamera cam = dsmplan::read_rpc_camera(data(std::string(name) + ".tif"));
+    for (const GeoPoint& g : lon_lat_grid(cam, 21)) {
+      EXPECT_TRUE(cam.in_domain(g));
+      const GeoPoint back = cam.localize(cam.project(g), g.height);
+      worst = std::max(worst, metres(g, back));
+    }
+  }
+  std::printf("round trip ground -> image -> ground, largest error: %.3g m\n", worst);
+  EXPECT_LT(worst, 0.01);
+}
+
+TEST(Rpc, LocalizeHitsThePixelAndTheJacobianIsTheDerivative) {
+  const RpcCamera cam = dsmplan::read_rpc_camera(data("post_event_img2.tif"));
+  double worst_px = 0, worst_rel = 0;
+  for (const GeoPoint& g : ground_grid(cam, 5)) {
+    const auto J = cam.jacobian(g);
+    const double e = 1e-6;  // degrees (~0.1 m): central differences are good to ~1e-8 relative
+    const PixelPoint xp = cam.project({g.lon + e, g.lat, g.height}), xm = cam.project({g.lon - e, g.lat, g.height});
+    const PixelPoint yp = cam.project({g.lon, g.lat + e, g.height}), ym = cam.project({g.lon, g.lat - e, g.height});
+    const double numeric[4] = {(xp.col - xm.col) / (2 * e), (yp.col - ym.col) / (2 * e), (xp.row - xm.row) / (2 * e),
+                               (yp.row - ym.row) / (2 * e)};
+    const double scale = std::max({std::abs(J[0]), std::abs(J[1]), std::abs(J[2]), std::abs(J[3])});
+    for (int k = 0; k < 4; ++k) worst_rel = std::max(worst_rel, std::abs(J[k] - numeric[k]) / scale);
+  }
+  for (int j = 0; j <= 10; ++j)
+    for (int i = 0; i <= 10; ++i) {
+      const PixelPoint target{i * 100.0, j * 100.0};
+      for (double h : {0.0, 475.0, 950.0}) {
+        const PixelPoint back = cam.project(cam.localize(target, h));
+        worst_px = std::max(worst_px, std::hypot(back.col - target.col, back.row - target.row));
+      }
+    }
+  EXPECT_LT(worst_px, 1e-6);
+  EXPECT_LT(worst_rel, 1e-6);
+}
+
+TEST(Rpc, CropShiftsTheImageAndNotTheGround) {
+  const RpcCamera cam = dsmplan::read_rpc_camera(data("pre_event_img1.tif"));
+  const RpcCamera window = cam.crop(200, 300);
+  const GeoPoint g = cam.localize({500.5, 600.5}, 600);
+  const PixelPoint p = window.project(g);
+  EXPECT_NEAR(p.col, 300.5, 1e-9);
+  EXPECT_NEAR(p.row, 300.5, 1e-9);
+}
+
+TEST(Rpc, GeoTiffRpcTagsReadAsTheGeom) {
+  // The .geom's numbers written into a GeoTIFF's RPC tags by GDAL, read back through GDAL's RPC
+  // domain: the same model (to the 15 significant digits GDAL prints).
+  const RpcModel geom = dsmplan::read_ossim_geom(data("pre_event_img2.geom"));
+  Scratch scratch;
+  const std::string tif = scratch.path("with_rpc.tif");
+  {
+    GDALDriver* driver = GetGDALDriverManager()->GetDriverByName("GTiff");
+    GDALDataset* ds = driver->Create(tif.c_str(), 8, 8, 1, GDT_UInt16, nullptr);
+    ASSERT_NE(ds, nullptr);
+    GDALRPCInfoV2 info{};
+    info.dfLINE_OFF = geom.line_off, info.dfSAMP_OFF = geom.samp_off, info.dfLAT_OFF = geom.lat_off;
+    info.dfLONG_OFF = geom.long_off, info.dfHEIGHT_OFF = geom.height_off;
+    info.dfLINE_SCALE = geom.line_scale, info.dfSAMP_SCALE = geom.samp_scale, info.dfLAT_SCALE = geom.lat_scale;
+    info.dfLONG_SCALE = geom.long_scale, info.dfHEIGHT_SCALE = geom.height_scale;
+    for (int i = 0; i < 20; ++i) {
+      info.adfLINE_NUM_COEFF[i] = geom.line_num[i], info.adfLINE_DEN_COEFF[i] = geom.line_den[i];
+      info.adfSAMP_NUM_COEFF[i] = geom.samp_num[i], info.adfSAMP_DEN_COEFF[i] = geom.samp_den[i];
+    }
+    info.dfMIN_LONG = -180, info.dfMIN_LAT = -90, info.dfMAX_LONG = 180, info.dfMAX_LAT = 90;
+    char** md = RPCInfoV2ToMD(&info);
+    ds->SetMetadata(md, "RPC");
+    CSLDestroy(md);
+    GDALClose(ds);
+  }
+  const RpcCamera cam = dsmplan::read_rpc_camera(tif);  // no .geom beside it: GDAL's domain
+  EXPECT_EQ(cam.sensor_col(), 0);
+  const RpcCamera reference(geom);
+  for (const GeoPoint& g : ground_grid(RpcCamera(geom, 12099, 5109), 4)) {
+    const PixelPoint a = cam.project(g), b = reference.project(g);
+    EXPECT_NEAR(a.col, b.col, 1e-6);
+    EXPECT_NEAR(a.row, b.row, 1e-6);
+  }
+}
+
+// --- Bad input: one line naming the file and the key.
+
+std::string geom_with(const std::string& key, const std::string& value) {
+  std::string text = read_text(data("pre_event_img1.geom")), out;
+  std::istringstream in(text);
+  for (std::string line; std::getline(in, line);) {
+    if (line.rfind(key + ":", 0) == 0) {
+      if (value.empty()) continue;  // drop the line
+      line = key + ": " + value;
+    }
+    out += line + "\n";
+  }
+  return out;
+}
+
+TEST(RpcBadInput, GeomWithAMissingCoefficient) {
+  Scratch scratch;
+  const std::string path = scratch.path("missing.geom");
+  write_text(path, geom_with("samp_den_coeff_07", ""));
+  const std::string message = input_error([&] { dsmplan::read_ossim_geom(path); });
+  EXPECT_EQ(message, path + ": samp_den_coeff_07: missing");
+}
+
+TEST(RpcBadInput, GeomWithANonNumericCoefficient) {
+  Scratch scratch;
+  const std::string path = scratch.path("nan.geom");
+  write_text(path, geom_with("line_num_coeff_12", "1.2e-4x"));
+  EXPECT_EQ(input_error([&] { dsmplan::read_ossim_geom(path); }), path + ": line_num_coeff_12: not a number: \"1.2e-4x\"");
+  write_text(path, geom_with("lat_scale", "nan"));
+  EXPECT_EQ(input_error([&] { dsmplan::read_ossim_geom(path); }), path + ": lat_scale: not a number: \"nan\"");
+  write_text(path, geom_with("height_scale", "0"));
+  EXPECT_EQ(input_error([&] { dsmplan::read_ossim_geom(path); }), path + ": height_scale: is zero (a scale divides)");
+  write_text(path, geom_with("polynomial_format", "A"));
+  EXPECT_EQ(input_error([&] { dsmplan::read_ossim_geom(path); }),
+            path + ": polynomial_format: is \"A\"; only B (RPC00B) is read");
+  const std::string message = input_error([&] { dsmplan::read_ossim_geom(scratch.path("none.geom")); });
+  EXPECT_EQ(message, scratch.path("none.geom") + ": no such file");
+  for (const std::string& m : {message}) EXPECT_EQ(m.find('\n'), std::string::npos);
+}
+
+TEST(RpcBadInput, ImageWithoutRpc) {
+  // A GeoTIFF with neither RPC tags nor a .geom beside it (a copy of a crop without its .geom).
+  Scratch scratch;
+  const std::string tif = scratch.path("no_rpc.tif");
+  fs::copy_file(data("post_event_img1.tif"), tif);
+  EXPECT_EQ(input_error([&] { dsmplan::read_rpc_camera(tif); }),
+            tif + ": has no RPC (no RPC tags, _RPC.TXT, .RPB or .geom beside it)");
+  // A .geom beside it, but the crop's transform is not on the pixel grid.
+  const std::string shifted = scratch.path("shifted.tif");
+  {
+    GDALDriver* driver = GetGDALDriverManager()->GetDriverByName("GTiff");
+    GDALDataset* ds = driver->Create(shifted.c_str(), 8, 8, 1, GDT_UInt16, nullptr);
+    ASSERT_NE(ds, nullptr);
+    double gt[6] = {100.25, 1, 0, 50.5, 0, 1};
+    ds->SetGeoTransform(gt);
+    GDALClose(ds);
+  }
+  fs::copy_file(data("post_event_img1.geom"), scratch.path("shifted.geom"));
+  EXPECT_EQ(input_error([&] { dsmplan::read_rpc_camera(shifted); }),
+            shifted + ": transform: column origin 100.250000 is neither whole nor half: not a crop cut on the "
+                      "scene's pixel grid");
 }
 
 }  // namespace
