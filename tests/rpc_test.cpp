@@ -107,7 +107,7 @@ TEST(Rpc, ReadsTheFourGeomFiles) {
 TEST(Rpc, SensorOffsetsOfTheCropsBothConventions) {
   // Transform origins in the files: 12114.5 5511.5 / 12098.5 5108.5 / 12978.5 6897.5 (Airbus's
   // XPAND crops, pixel centres on whole numbers) and 12815 7219 (written through GDAL, corners).
-  const double expected[4][2] = {{12115, 5512}, {12099, 5109}, {12979, 6898}, {12815, 7219}};
+  const double expected[4][2] = {{12115, 5512}, {12099, 5109}, {12979, 6898}, {12816, 7220}};
   for (int i = 0; i < 4; ++i) {
     const auto off = dsmplan::read_sensor_offset(data(std::string(kImages[i]) + ".tif"));
     EXPECT_EQ(off[0], expected[i][0]) << kImages[i];
@@ -274,6 +274,141 @@ TEST(Rpc, GeoTiffRpcTagsReadAsTheGeom) {
     const PixelPoint a = cam.project(g), b = reference.project(g);
     EXPECT_NEAR(a.col, b.col, 1e-6);
     EXPECT_NEAR(a.row, b.row, 1e-6);
+  }
+}
+
+// --- The half-pixel convention of the crops' offsets, proven on the pairs.
+//
+// The two images of a pair see the same ground, so a feature at pA in image A appears in image B
+// on the RPC epipolar curve h -> B.project(A.localize(pA, h)), up to the pair's relative pointing
+// error (small for two images of one pass: the same orbit and attitude model, a minute apart).
+// Tie points found by correlation (13 x 13 normalised cross-correlation, searched along the curve
+// and across it, refined to 0.05 px) measure the distance across the curve. Along-track stereo
+// has its parallax along the rows, so the distance across the curve is mostly in columns: a
+// misread half pixel in a column offset moves every tie point by about 0.5 px across the curve.
+
+struct Picture {
+  int width = 0, height = 0;
+  std::vector<float> v;
+  // Bilinear value at a GDAL position (pixel centres at i + 0.5); false outside.
+  bool at(double col, double row, float& out) const {
+    const double x = col - 0.5, y = row - 0.5;
+    const int x0 = static_cast<int>(std::floor(x)), y0 = static_cast<int>(std::floor(y));
+    if (x0 < 0 || y0 < 0 || x0 + 1 >= width || y0 + 1 >= height) return false;
+    const double fx = x - x0, fy = y - y0;
+    const float* p = &v[static_cast<size_t>(y0) * width + x0];
+    out = static_cast<float>((1 - fy) * ((1 - fx) * p[0] + fx * p[1]) + fy * ((1 - fx) * p[width] + fx * p[width + 1]));
+    return true;
+  }
+};
+
+Picture read_picture(const std::string& path) {
+  GDALDataset* ds = static_cast<GDALDataset*>(GDALOpen(path.c_str(), GA_ReadOnly));
+  EXPECT_NE(ds, nullptr) << path;
+  Picture p;
+  if (!ds) return p;
+  p.width = ds->GetRasterXSize(), p.height = ds->GetRasterYSize();
+  p.v.resize(static_cast<size_t>(p.width) * p.height);
+  EXPECT_EQ(ds->GetRasterBand(1)->RasterIO(GF_Read, 0, 0, p.width, p.height, p.v.data(), p.width, p.height, GDT_Float32, 0, 0, nullptr), CE_None);
+  GDALClose(ds);
+  return p;
+}
+
+constexpr int kHalf = 6;  // 13 x 13 patches
+
+// NCC of A's patch (mean-free, unit norm, given) against B's patch centred at (col, row).
+double ncc(const std::vector<double>& a, const Picture& B, double col, double row) {
+  std::vector<double> b;
+  b.reserve(a.size());
+  double mean = 0;
+  for (int dy = -kHalf; dy <= kHalf; ++dy)
+    for (int dx = -kHalf; dx <= kHalf; ++dx) {
+      float value;
+      if (!B.at(col + dx, row + dy, value)) return -1;
+      b.push_back(value), mean += value;
+    }
+  mean /= static_cast<double>(b.size());
+  double dotp = 0, norm = 0;
+  for (size_t i = 0; i < b.size(); ++i) dotp += a[i] * (b[i] - mean), norm += (b[i] - mean) * (b[i] - mean);
+  return norm > 0 ? dotp / std::sqrt(norm) : -1;
+}
+
+struct TieResiduals {
+  std::vector<double> across;  // signed distance across the epipolar curve, px
+  double normal_col = 0, normal_row = 0;  // the unit normal of the curve (direction of `across`)
+  double px_per_m = 0;                    // the curve's length per metre of height
+};
+
+TieResiduals tie_point_residuals(const std::string& a_name, const std::string& b_name) {
+  const RpcCamera camA = dsmplan::read_rpc_camera(data(a_name + ".tif")), camB = dsmplan::read_rpc_camera(data(b_name + ".tif"));
+  const Picture A = read_picture(data(a_name + ".tif")), B = read_picture(data(b_name + ".tif"));
+  TieResiduals out;
+  const double h0 = 400, h1 = 1000;  // ellipsoidal heights searched (the city lies at ~500-800 m)
+  for (int j = 0; j < 8; ++j)
+    for (int i = 0; i < 8; ++i) {
+      const PixelPoint pa{150.5 + 100 * i, 150.5 + 100 * j};
+      std::vector<double> a;
+      double mean = 0;
+      for (int dy = -kHalf; dy <= kHalf; ++dy)
+        for (int dx = -kHalf; dx <= kHalf; ++dx) {
+          float value;
+          A.at(pa.col + dx, pa.row + dy, value);
+          a.push_back(value), mean += value;
+        }
+      mean /= static_cast<double>(a.size());
+      double norm = 0;
+      for (double& x : a) x -= mean, norm += x * x;
+      if (norm < 1e-6 * static_cast<double>(a.size()) * 100) continue;  // flat patch: no texture
+      for (double& x : a) x /= std::sqrt(norm);
+      auto curve = [&](double h) { return camB.project(camA.localize(pa, h)); };
+      const PixelPoint e0 = curve(h0), e1 = curve(h1);
+      const double len = std::hypot(e1.col - e0.col, e1.row - e0.row);
+      const double nc = -(e1.row - e0.row) / len, nr = (e1.col - e0.col) / len;
+      out.normal_col = nc, out.normal_row = nr, out.px_per_m = len / (h1 - h0);
+      // Coarse: every 1.5 m of height (0.9 px along the curve), every pixel across; then fine
+      // around the best: 0.1 m (0.06 px) along, 0.05 px across.
+      double best = -2, best_h = 0, best_s = 0;
+      auto search = [&](double ha, double hb, double hstep, double sa, double sb, double sstep) {
+        for (double h = ha; h <= hb + 1e-9; h += hstep) {
+          const PixelPoint q = curve(h);
+          for (double s = sa; s <= sb + 1e-9; s += sstep) {
+            const double c = ncc(a, B, q.col + s * nc, q.row + s * nr);
+            if (c > best) best = c, best_h = h, best_s = s;
+          }
+        }
+      };
+      search(h0, h1, 1.5, -3, 3, 1);
+      const double coarse_h = best_h, coarse_s = best_s;
+      search(coarse_h - 1.5, coarse_h + 1.5, 0.1, coarse_s - 0.8, coarse_s + 0.8, 0.05);
+      // Distinct and not at the edge of the search across.
+      if (best > 0.9 && std::abs(best_s) < 2.5 && best_h > h0 + 5 && best_h < h1 - 5) out.across.push_back(best_s);
+    }
+  return out;
+}
+
+TEST(RpcSensorOffset, TiePointsMeetTheEpipolarCurveOnBothPairs) {
+  // The pre-event crops are both Airbus's (origins .5), the post-event pair one of each (img1 .5,
+  // img2 .0, written through GDAL): the post-event pair tests the reading of the one against the
+  // other, the pre-event pair shows how small a pass's relative pointing error is.
+  for (const auto& [a, b] : {std::pair<std::string, std::string>{"pre_event_img1", "pre_event_img2"},
+                             std::pair<std::string, std::string>{"post_event_img1", "post_event_img2"}}) {
+    const TieResiduals r = tie_point_residuals(a, b);
+    ASSERT_GE(r.across.size(), 20u) << a;
+    std::vector<double> sorted = r.across;
+    std::sort(sorted.begin(), sorted.end());
+    const double m = sorted[sorted.size() / 2];
+    const double q1 = sorted[sorted.size() / 4], q3 = sorted[3 * sorted.size() / 4];
+    std::printf("%s / %s: %zu tie points (NCC > 0.9), distance across the epipolar curve: median %.3f px, "
+                "quartiles %.3f %.3f (curve normal %.2f %.2f, %.2f px per m of height)\n",
+                a.c_str(), b.c_str(), r.across.size(), m, q1, q3, r.normal_col, r.normal_row, r.px_per_m);
+    EXPECT_LT(std::abs(m), 0.3) << a;
+    // B's offset read half a pixel or a pixel otherwise (on both axes) moves B's curve by that
+    // much: the tie points would lie off it by m + d (n_col + n_row).
+    for (double d : {-1.0, -0.5, 0.5, 1.0}) {
+      const double other = m + d * (r.normal_col + r.normal_row);
+      std::printf("  B's offset %+.1f px: median distance %.3f px\n", d, other);
+      EXPECT_GT(std::abs(other), std::abs(m) + 0.3) << a << " offset " << d;
+    }
   }
 }
 

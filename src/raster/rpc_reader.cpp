@@ -187,12 +187,15 @@ std::array<double, 2> read_sensor_offset(const std::string& raster_path) {
   for (int axis = 0; axis < 2; ++axis) {
     const double origin = gt[axis * 3];
     const double fraction = origin - std::floor(origin);
-    // Fraction .5: scene pixel centres on whole numbers (the RPC's convention), the crop's first
-    // pixel k has its corner at k - 0.5. Fraction 0: GDAL's convention, the corner at k.
+    // Fraction .5: Airbus's writer, whose transform gives the RPC's own position (Pléiades RPCs
+    // put the centre of the scene's first pixel at 1, the corner of the crop's first pixel at
+    // sample k + 1 - 0.5 for a crop starting at the scene's (0-based) pixel k); fraction 0: GDAL's
+    // convention (the corner at k; the RPC's position of that corner is k + 1 - 0.5). Proven on
+    // the pairs by tie points (tests/rpc_test.cpp, RpcSensorOffset).
     if (std::abs(fraction - 0.5) < 1e-6)
       offset[axis] = origin + 0.5;
     else if (fraction < 1e-6 || fraction > 1 - 1e-6)
-      offset[axis] = std::round(origin);
+      offset[axis] = std::round(origin) + 1;
     else
       throw InputError(raster_path, "transform",
                        std::string(axis == 0 ? "column" : "row") + " origin " + std::to_string(origin) +
