@@ -36,6 +36,13 @@ using dsmplan::PixelPoint;
 using dsmplan::RpcCamera;
 using dsmplan::RpcModel;
 
+// The tests call GDAL directly (as the oracle and to write test files), each possibly alone
+// (ctest runs one test per process): register the drivers before any of them.
+const bool kGdalRegistered = [] {
+  GDALAllRegister();
+  return true;
+}();
+
 const char* const kImages[] = {"pre_event_img1", "pre_event_img2", "post_event_img1", "post_event_img2"};
 
 std::string data(const std::string& name) { return std::string(DSMPLAN_DATA_DIR) + "/pleiades-kahramanmaras/" + name; }
@@ -250,6 +257,7 @@ TEST(Rpc, GeoTiffRpcTagsReadAsTheGeom) {
   const std::string tif = scratch.path("with_rpc.tif");
   {
     GDALDriver* driver = GetGDALDriverManager()->GetDriverByName("GTiff");
+    ASSERT_NE(driver, nullptr);
     GDALDataset* ds = driver->Create(tif.c_str(), 8, 8, 1, GDT_UInt16, nullptr);
     ASSERT_NE(ds, nullptr);
     GDALRPCInfoV2 info{};
@@ -463,6 +471,7 @@ TEST(RpcBadInput, ImageWithoutRpc) {
   const std::string shifted = scratch.path("shifted.tif");
   {
     GDALDriver* driver = GetGDALDriverManager()->GetDriverByName("GTiff");
+    ASSERT_NE(driver, nullptr);
     GDALDataset* ds = driver->Create(shifted.c_str(), 8, 8, 1, GDT_UInt16, nullptr);
     ASSERT_NE(ds, nullptr);
     double gt[6] = {100.25, 1, 0, 50.5, 0, 1};
