@@ -27,6 +27,7 @@
 #include <vector>
 
 #include "dsmplan/core.hpp"
+#include "dsmplan/tools.hpp"
 
 namespace {
 
@@ -482,6 +483,44 @@ TEST(RpcBadInput, ImageWithoutRpc) {
   EXPECT_EQ(input_error([&] { dsmplan::read_rpc_camera(shifted); }),
             shifted + ": transform: column origin 100.250000 is neither whole nor half: not a crop cut on the "
                       "scene's pixel grid");
+}
+
+// --- dsmplan info on a satellite image: the camera beside the raster's numbers.
+
+TEST(RpcInfo, DescribesTheCamera) {
+  dsmplan::InfoOptions options;
+  options.input = data("post_event_img2.tif");
+  const dsmplan::RasterReport report = dsmplan::describe_raster(options);
+  ASSERT_TRUE(report.rpc.has_value());
+  EXPECT_EQ(report.rpc->source, data("post_event_img2.geom"));
+  EXPECT_EQ(report.rpc->sensor_col, 12816);
+  EXPECT_EQ(report.rpc->sensor_row, 7220);
+  EXPECT_EQ(report.rpc->height_min, -50);
+  EXPECT_EQ(report.rpc->height_max, 1000);
+  // The corners at 475 m: a 1000 x 1000 crop of 0.5 m pixels is about 500 m a side.
+  const auto& c = report.rpc->corners;
+  const double side = metres({c[0].lon, c[0].lat, 0}, {c[1].lon, c[1].lat, 0});
+  EXPECT_GT(side, 400);
+  EXPECT_LT(side, 650);
+  const dsmplan::Json json = dsmplan::to_json(report);
+  EXPECT_EQ(json["rpc"]["sensor_offset"][0], 12816);
+  EXPECT_EQ(json["rpc"]["footprint"]["corners"].size(), 4u);
+  EXPECT_NE(dsmplan::to_text(report).find("RPC:         from " + data("post_event_img2.geom") + ", sensor offset 12816 7220 px"),
+            std::string::npos)
+      << dsmplan::to_text(report);
+}
+
+TEST(RpcInfo, ADsmHasNoCameraAndABadGeomIsOneLine) {
+  dsmplan::InfoOptions options;
+  options.input = std::string(DSMPLAN_DATA_DIR) + "/nrw-dom1/nrw_dom1_crop500m_1m.tif";
+  const dsmplan::RasterReport report = dsmplan::describe_raster(options);
+  EXPECT_FALSE(report.rpc.has_value());
+  EXPECT_TRUE(dsmplan::to_json(report)["rpc"].is_null());
+  Scratch scratch;
+  options.input = scratch.path("crop.tif");
+  fs::copy_file(data("pre_event_img1.tif"), options.input);
+  write_text(scratch.path("crop.geom"), geom_with("long_scale", ""));
+  EXPECT_EQ(input_error([&] { dsmplan::describe_raster(options); }), scratch.path("crop.geom") + ": long_scale: missing");
 }
 
 }  // namespace

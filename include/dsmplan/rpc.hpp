@@ -110,6 +110,10 @@ RpcModel read_gdal_rpc(const std::string& raster_path);
 /// shift by a whole or half pixel.
 std::array<double, 2> read_sensor_offset(const std::string& raster_path);
 
+/// Whether the image has an RPC: a `.geom` beside it or GDAL's RPC domain not empty (no check
+/// of the numbers; read_rpc_camera does that).
+bool has_rpc(const std::string& raster_path);
+
 /// The camera of an image: its RPC from a `.geom` beside it (IMG.geom for IMG.tif) when there is
 /// one, else from GDAL's RPC domain; and its sensor offset.
 ///

@@ -7,6 +7,7 @@
 #include <cpl_conv.h>
 #include <cpl_error.h>
 #include <cpl_string.h>
+#include <cpl_vsi.h>
 #include <gdal.h>
 #include <gdal_priv.h>
 
@@ -123,7 +124,8 @@ struct DatasetCloser {
 
 std::unique_ptr<GDALDataset, DatasetCloser> open_raster(const std::string& path) {
   init_gdal_quietly();
-  if (!std::filesystem::exists(path)) throw InputError(path, "", "no such file");
+  VSIStatBufL stat;  // GDAL's stat: /vsizip/, /vsicurl/ ... paths are files too
+  if (VSIStatL(path.c_str(), &stat) != 0) throw InputError(path, "", "no such file");
   std::unique_ptr<GDALDataset, DatasetCloser> ds(
       GDALDataset::Open(path.c_str(), GDAL_OF_RASTER | GDAL_OF_READONLY, nullptr, nullptr, nullptr));
   if (!ds) throw InputError(path, "", "not a raster GDAL can read");
@@ -202,6 +204,13 @@ std::array<double, 2> read_sensor_offset(const std::string& raster_path) {
                            " is neither whole nor half: not a crop cut on the scene's pixel grid");
   }
   return offset;
+}
+
+bool has_rpc(const std::string& raster_path) {
+  if (std::filesystem::exists(std::filesystem::path(raster_path).replace_extension(".geom"))) return true;
+  auto ds = open_raster(raster_path);
+  char** md = ds->GetMetadata("RPC");
+  return md && CSLCount(md) > 0;
 }
 
 RpcCamera read_rpc_camera(const std::string& raster_path) {
