@@ -8,6 +8,7 @@
 // Errors: as in core.hpp. Every option is checked before any long work starts.
 #pragma once
 
+#include <array>
 #include <functional>
 #include <nlohmann/json.hpp>
 #include <optional>
@@ -26,6 +27,7 @@
 #include "dsmplan/points.hpp"
 #include "dsmplan/raster.hpp"
 #include "dsmplan/raster_io.hpp"
+#include "dsmplan/rpc.hpp"
 #include "dsmplan/simplify.hpp"
 
 namespace dsmplan {
@@ -60,13 +62,25 @@ struct RasterReport {
   double xmin = 0, ymin = 0, xmax = 0, ymax = 0;  ///< outer edges of the cells, CRS units
   Crs crs;
   GridSummary summary;
+  /// A satellite image's RPC camera (include/dsmplan/rpc.hpp), when it has one: where it was
+  /// read from, the crop's sensor offset, the model's height range (HEIGHT_OFF -/+ HEIGHT_SCALE,
+  /// metres above the WGS 84 ellipsoid) and the image's four corners localized at HEIGHT_OFF.
+  struct Rpc {
+    std::string source;
+    double sensor_col = 0, sensor_row = 0;
+    double height_min = 0, height_max = 0, footprint_height = 0;
+    std::array<GeoPoint, 4> corners{};  ///< top-left, top-right, bottom-right, bottom-left
+  };
+  std::optional<Rpc> rpc;
 };
 
+/// Throws what read_rpc_camera throws for an image whose RPC is there but bad.
 RasterReport describe_raster(const InfoOptions& options);
 /// Keys: file, width, height, resolution [x,y], extent {xmin,ymin,xmax,ymax}, crs {name,epsg,wkt},
 /// vertical {name,unit}, units {horizontal, horizontal_m, vertical, vertical_m} (unit names and
 /// metres per unit, null when not known; info shows a CRS in feet, the other tools refuse it),
-/// cells, valid_cells, nodata_cells, holes, height_range [min,max].
+/// cells, valid_cells, nodata_cells, holes, height_range [min,max], rpc (null, or {source,
+/// sensor_offset [col,row], height_range [min,max], footprint {height, corners [[lon,lat] x4]}}).
 Json to_json(const RasterReport& report);
 /// The same for people, one "Label: value" line each.
 std::string to_text(const RasterReport& report);

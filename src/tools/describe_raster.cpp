@@ -1,5 +1,7 @@
 // dsmplan info: what a DSM raster holds, read through GDAL.
+#include <algorithm>
 #include <cstdio>
+#include <filesystem>
 
 #include "dsmplan/tools.hpp"
 #include "tools/report_json.hpp"
@@ -26,6 +28,17 @@ Json units_json(const Crs& crs) {
           {"vertical_m", metres(crs.vertical_unit_m)}};
 }
 
+Json rpc_json(const RasterReport& report) {
+  if (!report.rpc) return nullptr;
+  const RasterReport::Rpc& rpc = *report.rpc;
+  Json corners = Json::array();
+  for (const GeoPoint& c : rpc.corners) corners.push_back({c.lon, c.lat});
+  return {{"source", rpc.source},
+          {"sensor_offset", {rpc.sensor_col, rpc.sensor_row}},
+          {"height_range", {rpc.height_min, rpc.height_max}},
+          {"footprint", {{"height", rpc.footprint_height}, {"corners", corners}}}};
+}
+
 }  // namespace
 
 RasterReport describe_raster(const InfoOptions& options) {
@@ -45,6 +58,22 @@ RasterReport describe_raster(const InfoOptions& options) {
   report.ymax = grid.y0;
   report.crs = grid.crs;
   report.summary = summarize(grid);
+  if (has_rpc(options.input)) {
+    const RpcCamera camera = read_rpc_camera(options.input);
+    const RpcModel& m = camera.model();
+    RasterReport::Rpc rpc;
+    const auto geom = std::filesystem::path(options.input).replace_extension(".geom");
+    rpc.source = std::filesystem::exists(geom) ? geom.string() : "GDAL RPC metadata";
+    rpc.sensor_col = camera.sensor_col();
+    rpc.sensor_row = camera.sensor_row();
+    rpc.height_min = m.height_off - std::abs(m.height_scale);
+    rpc.height_max = m.height_off + std::abs(m.height_scale);
+    rpc.footprint_height = m.height_off;
+    const double w = grid.width, h = grid.height;
+    const PixelPoint corners[4] = {{0, 0}, {w, 0}, {w, h}, {0, h}};
+    for (int i = 0; i < 4; ++i) rpc.corners[i] = camera.localize(corners[i], m.height_off);
+    report.rpc = rpc;
+  }
   return report;
 }
 
@@ -62,7 +91,8 @@ Json to_json(const RasterReport& report) {
           {"valid_cells", summary.valid},
           {"nodata_cells", summary.nodata},
           {"holes", summary.holes},
-          {"height_range", {as_stored(summary.z_min), as_stored(summary.z_max)}}};
+          {"height_range", {as_stored(summary.z_min), as_stored(summary.z_max)}},
+          {"rpc", rpc_json(report)}};
 }
 
 std::string to_text(const RasterReport& report) {
@@ -87,7 +117,20 @@ std::string to_text(const RasterReport& report) {
                 report.input.c_str(), report.width, report.height, report.cell_x, report.cell_y, report.xmin,
                 report.xmax, report.ymin, report.ymax, crs_text.c_str(), vertical.c_str(), summary.nodata,
                 summary.cells, summary.holes, as_stored(summary.z_min), as_stored(summary.z_max));
-  return text;
+  std::string out = text;
+  if (report.rpc) {
+    const RasterReport::Rpc& rpc = *report.rpc;
+    double lon0 = 1e9, lon1 = -1e9, lat0 = 1e9, lat1 = -1e9;
+    for (const GeoPoint& c : rpc.corners)
+      lon0 = std::min(lon0, c.lon), lon1 = std::max(lon1, c.lon), lat0 = std::min(lat0, c.lat), lat1 = std::max(lat1, c.lat);
+    std::snprintf(text, sizeof text,
+                  "RPC:         from %s, sensor offset %.10g %.10g px, heights %.10g .. %.10g m (WGS 84 ellipsoid)\n"
+                  "Footprint:   lon %.6f .. %.6f, lat %.6f .. %.6f (corners at %.10g m)\n",
+                  rpc.source.c_str(), rpc.sensor_col, rpc.sensor_row, rpc.height_min, rpc.height_max, lon0, lon1, lat0,
+                  lat1, rpc.footprint_height);
+    out += text;
+  }
+  return out;
 }
 
 }  // namespace dsmplan
