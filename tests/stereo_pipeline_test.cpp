@@ -20,6 +20,13 @@
 #include <vector>
 
 #include "dsmplan/stereo_frames.hpp"
+
+#include <gdal_priv.h>
+
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <string>
+#include "dsmplan/tools.hpp"
 #include "testkit.hpp"
 
 using namespace dsmplan;
@@ -162,7 +169,7 @@ GreyImage smooth_image(int w, int h) {
 
 }  // namespace
 
-TEST(FrameCamera, UndistortInvertsDistortAndProjectFollowsTheFormula) {
+TEST(StereoCamera, UndistortInvertsDistortAndProjectFollowsTheFormula) {
   FrameCamera c = nadir_camera(300, 400, {0, 0, 100}, 0.05, -0.03, -0.08, 0.002);
   c.distortion = {-0.08, 0.02, 0.002, -0.001, 0.004};
   for (double x = -0.4; x <= 0.4; x += 0.1)
@@ -195,7 +202,7 @@ TEST(FrameCamera, UndistortInvertsDistortAndProjectFollowsTheFormula) {
   EXPECT_FALSE(project(c, {0, 0, 200}, u, v));  // behind the camera
 }
 
-TEST(FrameCamera, CheckCameraRefusesANonOrthonormalRotation) {
+TEST(StereoCamera, CheckCameraRefusesANonOrthonormalRotation) {
   FrameCamera c = nadir_camera(100, 100, {0, 0, 100});
   EXPECT_NO_THROW(check_camera(c, "camera 0"));
   c.rotation[0][1] = 0.1;
@@ -205,7 +212,7 @@ TEST(FrameCamera, CheckCameraRefusesANonOrthonormalRotation) {
   EXPECT_THROW(check_camera(c, "camera 0"), ArgumentError);
 }
 
-TEST(Rectification, PointsShareARowAndTriangulateBack) {
+TEST(StereoRectification, PointsShareARowAndTriangulateBack) {
   // Two tilted cameras with distortion, baseline mostly along x with some y and z.
   const FrameCamera a = nadir_camera(240, 380, {100, 200, 150}, 0.04, -0.06, -0.05, 0.001);
   const FrameCamera b = nadir_camera(220, 400, {130, 206, 152}, -0.03, 0.05, 0.03, -0.001);
@@ -257,7 +264,7 @@ TEST(Rectification, PointsShareARowAndTriangulateBack) {
   EXPECT_LT(worst_value, 0.05) << "resampled value vs the original's";
 }
 
-TEST(Fusion, MedianPerCellNodataWhereNothingFell) {
+TEST(StereoFusion, MedianPerCellNodataWhereNothingFell) {
   Grid grid = dsm_grid({0, 0, 3, 2}, 1.0);
   ASSERT_EQ(grid.width, 3);
   ASSERT_EQ(grid.height, 2);
@@ -270,7 +277,7 @@ TEST(Fusion, MedianPerCellNodataWhereNothingFell) {
   EXPECT_TRUE(std::isnan(grid.at(0, 1)));
 }
 
-TEST(PairSelection, ExplicitAndAuto) {
+TEST(StereoPairs, ExplicitAndAuto) {
   const auto pairs = parse_pairs("0-1,2-1", 3);
   ASSERT_EQ(pairs.size(), 2u);
   EXPECT_EQ(pairs[1], std::make_pair(2, 1));
@@ -292,50 +299,91 @@ TEST(PairSelection, ExplicitAndAuto) {
   EXPECT_EQ(footprint_overlap(cameras[0], cameras[4], 0), 0.0);
 }
 
-TEST(FramePipeline, RenderedNrwCropBackToItsDsm) {
-  // 40 m x 40 m of the real DSM (1 m cells) in the middle of the 500 m crop.
-  const Grid& nrw = testkit::nrw_crop();
-  const int c0 = nrw.width / 2 - 20, r0 = nrw.height / 2 - 20, n = 40;
-  Grid truth(n, n, nrw.x0 + c0 * nrw.cell_x, nrw.y0 - r0 * nrw.cell_y, nrw.cell_x, nrw.cell_y);
-  for (int r = 0; r < n; ++r)
-    for (int c = 0; c < n; ++c) truth.z[truth.index(c, r)] = nrw.at(c0 + c, r0 + r);
-  const auto [lo, hi] = std::minmax_element(truth.z.begin(), truth.z.end());
-  const ColumnScene scene{truth, *lo, *hi};
-  const double xc = truth.x0 + n / 2.0, yc = truth.y0 - n / 2.0, zc = *lo + 110;
-  // Base 24 m at 110 m (B/H 0.22); 240 x 240 pixels, 0.3 m on the ground; the right camera tilted
-  // and with lens distortion.
-  const std::vector<FrameCamera> cameras{nadir_camera(240, 380, {xc - 12, yc, zc}),
-                                         nadir_camera(240, 380, {xc + 12, yc + 1, zc + 2}, 0.02, -0.03, -0.04, 0.0005)};
-  const auto start = std::chrono::steady_clock::now();
-  const std::vector<GreyImage> images{render(scene, cameras[0], 1), render(scene, cameras[1], 2)};
-  const double render_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+namespace {
+
+// 40 m x 40 m of the real DSM (1 m cells) in the middle of the 500 m crop, seen by two cameras:
+// base 24 m at 110 m over the lowest cell (B/H 0.22), 240 x 240 pixels, 0.3 m on the ground; the
+// right camera tilted and with lens distortion. Rendered once per test binary.
+struct RenderedPair {
+  Grid truth;
+  double lo = 0, hi = 0;
+  std::vector<FrameCamera> cameras;
+  std::vector<GreyImage> images;
+  double render_seconds = 0;
+};
+
+const RenderedPair& rendered_pair() {
+  static const RenderedPair pair = [] {
+    RenderedPair p;
+    const Grid& nrw = testkit::nrw_crop();
+    const int c0 = nrw.width / 2 - 20, r0 = nrw.height / 2 - 20, n = 40;
+    p.truth = Grid(n, n, nrw.x0 + c0 * nrw.cell_x, nrw.y0 - r0 * nrw.cell_y, nrw.cell_x, nrw.cell_y);
+    p.truth.crs = nrw.crs;
+    for (int r = 0; r < n; ++r)
+      for (int c = 0; c < n; ++c) p.truth.z[p.truth.index(c, r)] = nrw.at(c0 + c, r0 + r);
+    const auto [lo, hi] = std::minmax_element(p.truth.z.begin(), p.truth.z.end());
+    p.lo = *lo;
+    p.hi = *hi;
+    const ColumnScene scene{p.truth, p.lo, p.hi};
+    const double xc = p.truth.x0 + n / 2.0, yc = p.truth.y0 - n / 2.0, zc = p.lo + 110;
+    p.cameras = {nadir_camera(240, 380, {xc - 12, yc, zc}),
+                 nadir_camera(240, 380, {xc + 12, yc + 1, zc + 2}, 0.02, -0.03, -0.04, 0.0005)};
+    const auto start = std::chrono::steady_clock::now();
+    p.images = {render(scene, p.cameras[0], 1), render(scene, p.cameras[1], 2)};
+    p.render_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    return p;
+  }();
+  return pair;
+}
+
+// Completeness and |error| quantiles of `dsm` against `truth` (same grid).
+struct DsmErrors {
+  double completeness = 0, median = 0, over1 = 0, over3 = 0;
+};
+DsmErrors dsm_errors(const Grid& dsm, const Grid& truth) {
+  std::vector<double> errors;
+  for (int r = 0; r < truth.height; ++r)
+    for (int c = 0; c < truth.width; ++c)
+      if (dsm.valid(c, r)) errors.push_back(std::abs(dsm.at(c, r) - truth.at(c, r)));
+  DsmErrors e;
+  if (errors.empty()) return e;
+  std::sort(errors.begin(), errors.end());
+  const double count = static_cast<double>(errors.size());
+  e.completeness = count / truth.cells();
+  e.median = errors[errors.size() / 2];
+  e.over1 = (errors.end() - std::upper_bound(errors.begin(), errors.end(), 1.0)) / count;
+  e.over3 = (errors.end() - std::upper_bound(errors.begin(), errors.end(), 3.0)) / count;
+  return e;
+}
+
+}  // namespace
+
+TEST(StereoPipeline, RenderedNrwCropBackToItsDsm) {
+  const RenderedPair& scene = rendered_pair();
+  const Grid& truth = scene.truth;
+  const std::vector<FrameCamera>& cameras = scene.cameras;
+  const std::vector<GreyImage>& images = scene.images;
+  const int n = truth.width;
+  const double lo = scene.lo, hi = scene.hi, render_seconds = scene.render_seconds;
 
   FrameStereoOptions options;
-  options.rectify.min_height = *lo;
-  options.rectify.max_height = *hi;
+  options.rectify.min_height = lo;
+  options.rectify.max_height = hi;
   Grid dsm = dsm_grid({truth.x0, truth.y1(), truth.x1(), truth.y0}, 1.0);
   PairSelectionOptions selection;
-  selection.ground_height = *lo;
+  selection.ground_height = lo;
   const auto pairs = select_pairs_auto(cameras, selection);
   ASSERT_EQ(pairs.size(), 1u);
   const FrameStereoStats stats = stereo_dsm(cameras, images, pairs, dsm, options);
   ASSERT_EQ(dsm.width, n);
   ASSERT_EQ(dsm.height, n);
 
-  std::vector<double> errors;
-  for (int r = 0; r < n; ++r)
-    for (int c = 0; c < n; ++c)
-      if (dsm.valid(c, r)) errors.push_back(std::abs(dsm.at(c, r) - truth.at(c, r)));
-  ASSERT_FALSE(errors.empty());
-  std::sort(errors.begin(), errors.end());
-  const double completeness = static_cast<double>(errors.size()) / (n * n);
-  const double median = errors[errors.size() / 2];
-  const double over1 = static_cast<double>(errors.end() - std::upper_bound(errors.begin(), errors.end(), 1.0)) / errors.size();
-  const double over3 = static_cast<double>(errors.end() - std::upper_bound(errors.begin(), errors.end(), 3.0)) / errors.size();
+  const DsmErrors e = dsm_errors(dsm, truth);
+  const double completeness = e.completeness, median = e.median, over1 = e.over1, over3 = e.over3;
   std::printf("NRW crop 40 m x 40 m (heights %.1f..%.1f m): completeness %.1f %%, median |error| %.3f m, "
               "> 1 m %.1f %%, > 3 m %.1f %%; %zu points, render %.2f s, rectify %.3f s, match %.3f s, "
               "triangulate %.3f s, fuse %.3f s\n",
-              *lo, *hi, 100 * completeness, median, 100 * over1, 100 * over3, stats.points, render_seconds,
+              lo, hi, 100 * completeness, median, 100 * over1, 100 * over3, stats.points, render_seconds,
               stats.seconds_rectify, stats.seconds_match, stats.seconds_triangulate, stats.seconds_fuse);
   EXPECT_GT(completeness, 0.85);
   EXPECT_LT(median, 0.3);
@@ -343,7 +391,7 @@ TEST(FramePipeline, RenderedNrwCropBackToItsDsm) {
   EXPECT_LT(over3, 0.05);
 }
 
-TEST(FramePipeline, RefusesWrongImageSizeAndCamerasWithoutOverlap) {
+TEST(StereoPipeline, RefusesWrongImageSizeAndCamerasWithoutOverlap) {
   const std::vector<FrameCamera> cameras{nadir_camera(64, 100, {0, 0, 100}), nadir_camera(64, 100, {20, 0, 100})};
   std::vector<GreyImage> images{smooth_image(64, 64), smooth_image(63, 64)};
   FrameStereoOptions options;
@@ -358,4 +406,167 @@ TEST(FramePipeline, RefusesWrongImageSizeAndCamerasWithoutOverlap) {
   PairSelectionOptions selection;
   const std::vector<FrameCamera> apart{nadir_camera(64, 100, {0, 0, 100}), nadir_camera(64, 100, {900, 0, 100})};
   EXPECT_TRUE(select_pairs_auto(apart, selection).empty());
+}
+
+// ---- dsmplan stereo: the command line ------------------------------------------------------
+
+namespace {
+
+// `image` as an 8-bit PNG (grey, or three equal RGB bands) through GDAL.
+void write_png(const GreyImage& image, const std::string& path, int bands = 1) {
+  GDALDriver* mem = GetGDALDriverManager()->GetDriverByName("MEM");
+  GDALDriver* png = GetGDALDriverManager()->GetDriverByName("PNG");
+  ASSERT_TRUE(mem && png);
+  std::unique_ptr<GDALDataset> data(mem->Create("", image.width, image.height, bands, GDT_Byte, nullptr));
+  std::vector<std::uint8_t> bytes(image.pixels.size());
+  for (size_t i = 0; i < bytes.size(); ++i) bytes[i] = static_cast<std::uint8_t>(std::clamp(image.pixels[i], 0.0f, 255.0f));
+  for (int b = 1; b <= bands; ++b)
+    ASSERT_EQ(data->GetRasterBand(b)->RasterIO(GF_Write, 0, 0, image.width, image.height, bytes.data(), image.width,
+                                               image.height, GDT_Byte, 0, 0),
+              CE_None);
+  std::unique_ptr<GDALDataset> out(png->CreateCopy(path.c_str(), data.get(), FALSE, nullptr, nullptr, nullptr));
+  ASSERT_TRUE(out);
+}
+
+nlohmann::json camera_json(const FrameCamera& c, const std::string& image) {
+  nlohmann::json rotation = nlohmann::json::array();
+  for (const auto& row : c.rotation) rotation.push_back({row[0], row[1], row[2]});
+  return {{"image", image}, {"width", c.width}, {"height", c.height}, {"fx", c.fx}, {"fy", c.fy}, {"cx", c.cx},
+          {"cy", c.cy}, {"distortion", c.distortion}, {"rotation", rotation}, {"center", c.center}};
+}
+
+// The rendered pair as files: img_0.png (grey), img_1.png (RGB), cameras.json.
+nlohmann::json write_pair_files(const testkit::TempDir& dir) {
+  const RenderedPair& scene = rendered_pair();
+  write_png(scene.images[0], dir.path("img_0.png"), 1);
+  write_png(scene.images[1], dir.path("img_1.png"), 3);
+  return {{"crs", "EPSG:25832"},
+          {"height_range", {scene.lo, scene.hi}},
+          {"cameras", {camera_json(scene.cameras[0], "img_0.png"), camera_json(scene.cameras[1], "img_1.png")}}};
+}
+
+void write_json(const nlohmann::json& json, const std::string& path) { testkit::write_file(path, json.dump(1)); }
+
+std::string bounds_of(const Grid& g) {
+  return std::to_string(g.x0) + "," + std::to_string(g.y1()) + "," + std::to_string(g.x1()) + "," + std::to_string(g.y0);
+}
+
+}  // namespace
+
+TEST(StereoCli, WritesTheDsmAndItsStats) {
+  testkit::TempDir dir;
+  write_json(write_pair_files(dir), dir.path("cameras.json"));
+  const RenderedPair& scene = rendered_pair();
+  const auto result = testkit::run_cli({"stereo", "--cameras", dir.path("cameras.json"), "-o", dir.path("dsm.tif"),
+                                        "--res", "1", "--bounds", bounds_of(scene.truth), "--stats",
+                                        dir.path("stats.json"), "-q"});
+  ASSERT_EQ(result.exit_code, 0) << result.err;
+  const Grid dsm = read_raster(dir.path("dsm.tif"));
+  ASSERT_EQ(dsm.width, scene.truth.width);
+  ASSERT_EQ(dsm.height, scene.truth.height);
+  EXPECT_NEAR(dsm.x0, scene.truth.x0, 1e-6);
+  EXPECT_NEAR(dsm.y0, scene.truth.y0, 1e-6);
+  EXPECT_EQ(dsm.crs.epsg, 25832);
+  const DsmErrors e = dsm_errors(dsm, scene.truth);
+  std::printf("CLI: completeness %.1f %%, median |error| %.3f m, > 1 m %.1f %%, > 3 m %.1f %%\n", 100 * e.completeness,
+              e.median, 100 * e.over1, 100 * e.over3);
+  EXPECT_GT(e.completeness, 0.85);
+  EXPECT_LT(e.median, 0.3);
+  const auto stats = nlohmann::json::parse(testkit::read_file(dir.path("stats.json")));
+  EXPECT_EQ(stats["pairs"], nlohmann::json::parse("[[0,1]]"));
+  EXPECT_GT(stats["points"].get<double>(), 10000);
+  for (const char* stage : {"read", "rectify", "match", "triangulate", "fuse", "write", "total"})
+    EXPECT_TRUE(stats["seconds"].contains(stage)) << stage;
+  EXPECT_EQ(stats["dsm"]["valid"].get<double>(), e.completeness * dsm.cells());
+}
+
+TEST(StereoCli, BadInputOneLineNoOutput) {
+  testkit::TempDir dir;
+  const nlohmann::json good = write_pair_files(dir);
+  const RenderedPair& scene = rendered_pair();
+  struct Case {
+    std::string name;
+    nlohmann::json json;
+    std::vector<std::string> extra;
+    std::string expected;  // in the message
+  };
+  std::vector<Case> cases;
+  {
+    nlohmann::json j = good;
+    j["cameras"][1]["image"] = "missing.png";
+    cases.push_back({"missing image", j, {}, "missing.png: camera 1: image does not exist"});
+  }
+  {
+    nlohmann::json j = good;
+    j["cameras"][0]["fx"] = "wide";
+    cases.push_back({"bad field", j, {}, "cameras[0].fx: must be a finite number"});
+  }
+  {
+    nlohmann::json j = good;
+    j["cameras"][0].erase("center");
+    cases.push_back({"missing key", j, {}, "cameras[0].center: missing"});
+  }
+  {
+    nlohmann::json j = good;
+    j["cameras"][1]["width"] = 241;
+    cases.push_back({"size", j, {}, "camera 1: image is 240 x 240, the camera says 241 x 240"});
+  }
+  {
+    nlohmann::json j = good;
+    j["cameras"][1]["rotation"][0][1] = 0.2;
+    cases.push_back({"rotation", j, {}, "cameras[1]: rotation is not orthonormal"});
+  }
+  {
+    nlohmann::json j = good;
+    j["cameras"][1]["center"][0] = scene.cameras[1].center[0] + 5000;
+    cases.push_back({"apart, auto", j, {}, "no two cameras overlap"});
+    cases.push_back({"apart, explicit", j, {"--pairs", "0-1"}, "cameras 0 and 1: see nothing in common"});
+  }
+  cases.push_back({"bounds outside", good, {"--bounds", "0,0,10,10"}, "--bounds: lies outside"});
+  cases.push_back({"bad pairs", good, {"--pairs", "0-2"}, "--pairs"});
+  testkit::write_file(dir.path("broken.json"), "{\"crs\": ");
+  // In process (stereo_job, what the binary calls) for every case; through the binary for two,
+  // for the exit code and the one line on stderr.
+  for (const Case& c : cases) {
+    write_json(c.json, dir.path("cameras.json"));
+    StereoJobOptions options;
+    options.cameras = dir.path("cameras.json");
+    options.output = dir.path("dsm.tif");
+    options.resolution = 1;
+    for (size_t k = 0; k + 1 < c.extra.size(); k += 2) {
+      if (c.extra[k] == "--pairs") options.pairs = c.extra[k + 1];
+      if (c.extra[k] == "--bounds") options.bounds = std::array<double, 4>{0, 0, 10, 10};
+    }
+    try {
+      stereo_job(options);
+      ADD_FAILURE() << c.name << ": no error";
+    } catch (const Error& error) {
+      EXPECT_NE(std::string(error.what()).find(c.expected), std::string::npos) << c.name << ": " << error.what();
+    }
+    EXPECT_FALSE(std::filesystem::exists(dir.path("dsm.tif"))) << c.name;
+  }
+  for (const size_t k : {size_t{0}, cases.size() - 3}) {  // the missing image, cameras apart
+    const Case& c = cases[k];
+    write_json(c.json, dir.path("cameras.json"));
+    std::vector<std::string> args{"stereo", "--cameras", dir.path("cameras.json"), "-o", dir.path("dsm.tif"),
+                                  "--res", "1", "--stats", dir.path("stats.json"), "-q"};
+    args.insert(args.end(), c.extra.begin(), c.extra.end());
+    const auto result = testkit::run_cli(args);
+    EXPECT_EQ(result.exit_code, 1) << c.name;
+    EXPECT_NE(result.err.find(c.expected), std::string::npos) << c.name << ": " << result.err;
+    EXPECT_EQ(std::count(result.err.begin(), result.err.end(), '\n'), 1) << c.name << ": " << result.err;
+    EXPECT_FALSE(std::filesystem::exists(dir.path("dsm.tif"))) << c.name;
+    EXPECT_FALSE(std::filesystem::exists(dir.path("stats.json"))) << c.name;
+  }
+  StereoJobOptions options;
+  options.cameras = dir.path("broken.json");
+  options.output = dir.path("dsm.tif");
+  options.resolution = 1;
+  try {
+    stereo_job(options);
+    ADD_FAILURE() << "broken JSON: no error";
+  } catch (const InputError& error) {
+    EXPECT_NE(std::string(error.what()).find("broken.json: is not JSON"), std::string::npos) << error.what();
+  }
+  EXPECT_FALSE(std::filesystem::exists(dir.path("dsm.tif")));
 }
