@@ -16,6 +16,8 @@
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
+#include <cstdlib>
+#include <filesystem>
 #include <random>
 #include <vector>
 
@@ -478,6 +480,30 @@ TEST(StereoCli, WritesTheDsmAndItsStats) {
   for (const char* stage : {"read", "rectify", "match", "triangulate", "fuse", "write", "total"})
     EXPECT_TRUE(stats["seconds"].contains(stage)) << stage;
   EXPECT_EQ(stats["dsm"]["valid"].get<double>(), e.completeness * dsm.cells());
+
+  // Without --bounds: the DSM covers the pairs' common footprint (beyond the 40 m crop, over
+  // the rendered floor), on whole multiples of the cell size; where both have cells, the same DSM.
+  const auto whole = testkit::run_cli({"stereo", "--cameras", dir.path("cameras.json"), "-o", dir.path("whole.tif"),
+                                       "--res", "1", "-q"});
+  ASSERT_EQ(whole.exit_code, 0) << whole.err;
+  const Grid wide = read_raster(dir.path("whole.tif"));
+  EXPECT_GT(wide.cells(), dsm.cells());
+  EXPECT_EQ(wide.x0, std::floor(wide.x0));
+  EXPECT_EQ(wide.y0, std::floor(wide.y0));
+  int same = 0, compared = 0;
+  for (int r = 0; r < dsm.height; ++r)
+    for (int c = 0; c < dsm.width; ++c) {
+      int cw, rw;
+      if (!dsm.valid(c, r) || !wide.cell_at(dsm.center_x(c), dsm.center_y(r), cw, rw) || !wide.valid(cw, rw)) continue;
+      ++compared;
+      same += std::abs(wide.at(cw, rw) - dsm.at(c, r)) < 1e-4;
+    }
+  EXPECT_GT(compared, 0.9 * e.completeness * dsm.cells());
+  EXPECT_EQ(same, compared);
+  if (const char* keep = std::getenv("DSMPLAN_STEREO_KEEP"))  // the files, to look at by hand
+    for (const char* name : {"img_0.png", "img_1.png", "cameras.json", "dsm.tif", "whole.tif", "stats.json"})
+      std::filesystem::copy_file(dir.path(name), std::filesystem::path(keep) / name,
+                                 std::filesystem::copy_options::overwrite_existing);
 }
 
 TEST(StereoCli, BadInputOneLineNoOutput) {

@@ -150,12 +150,12 @@ GreyImage read_image(const std::string& path, const FrameCamera& camera, const s
 }
 
 // The bounding box of the pairs' common footprint on the plane Z = ground: left pixels of a
-// 16 x 16 lattice whose ground point the right camera sees.
+// 65 x 65 lattice whose ground point the right camera sees.
 bool overlap_box(const FrameCamera& left, const FrameCamera& right, double ground, std::array<double, 4>& box) {
   bool any = false;
-  for (int i = 0; i <= 16; ++i)
-    for (int j = 0; j <= 16; ++j) {
-      const Vec3 ray = pixel_ray(left, i / 16.0 * (left.width - 1), j / 16.0 * (left.height - 1));
+  for (int i = 0; i <= 64; ++i)
+    for (int j = 0; j <= 64; ++j) {
+      const Vec3 ray = pixel_ray(left, i / 64.0 * (left.width - 1), j / 64.0 * (left.height - 1));
       if (std::abs(ray[2]) < 1e-12) continue;
       const double t = (ground - left.center[2]) / ray[2];
       if (!(t > 0)) continue;
