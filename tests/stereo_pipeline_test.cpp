@@ -305,7 +305,8 @@ namespace {
 
 // 40 m x 40 m of the real DSM (1 m cells) in the middle of the 500 m crop, seen by two cameras:
 // base 24 m at 110 m over the lowest cell (B/H 0.22), 240 x 240 pixels, 0.3 m on the ground; the
-// right camera tilted and with lens distortion. Rendered once per test binary.
+// right camera tilted and with lens distortion; a third camera 14 m across. Rendered once per
+// test binary.
 struct RenderedPair {
   Grid truth;
   double lo = 0, hi = 0;
@@ -329,9 +330,10 @@ const RenderedPair& rendered_pair() {
     const ColumnScene scene{p.truth, p.lo, p.hi};
     const double xc = p.truth.x0 + n / 2.0, yc = p.truth.y0 - n / 2.0, zc = p.lo + 110;
     p.cameras = {nadir_camera(240, 380, {xc - 12, yc, zc}),
-                 nadir_camera(240, 380, {xc + 12, yc + 1, zc + 2}, 0.02, -0.03, -0.04, 0.0005)};
+                 nadir_camera(240, 380, {xc + 12, yc + 1, zc + 2}, 0.02, -0.03, -0.04, 0.0005),
+                 nadir_camera(240, 380, {xc, yc + 14, zc - 1}, -0.02, 0.01)};  // across the strip
     const auto start = std::chrono::steady_clock::now();
-    p.images = {render(scene, p.cameras[0], 1), render(scene, p.cameras[1], 2)};
+    p.images = {render(scene, p.cameras[0], 1), render(scene, p.cameras[1], 2), render(scene, p.cameras[2], 3)};
     p.render_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     return p;
   }();
@@ -372,10 +374,7 @@ TEST(StereoPipeline, RenderedNrwCropBackToItsDsm) {
   options.rectify.min_height = lo;
   options.rectify.max_height = hi;
   Grid dsm = dsm_grid({truth.x0, truth.y1(), truth.x1(), truth.y0}, 1.0);
-  PairSelectionOptions selection;
-  selection.ground_height = lo;
-  const auto pairs = select_pairs_auto(cameras, selection);
-  ASSERT_EQ(pairs.size(), 1u);
+  const std::vector<std::pair<int, int>> pairs{{0, 1}};
   const FrameStereoStats stats = stereo_dsm(cameras, images, pairs, dsm, options);
   ASSERT_EQ(dsm.width, n);
   ASSERT_EQ(dsm.height, n);
@@ -391,6 +390,38 @@ TEST(StereoPipeline, RenderedNrwCropBackToItsDsm) {
   EXPECT_LT(median, 0.3);
   EXPECT_LT(over1, 0.15);
   EXPECT_LT(over3, 0.05);
+}
+
+TEST(StereoPipeline, ReversedPairAndThreeViewsFusedByTheMedian) {
+  const RenderedPair& scene = rendered_pair();
+  FrameStereoOptions options;
+  options.rectify.min_height = scene.lo;
+  options.rectify.max_height = scene.hi;
+  const std::array<double, 4> bounds{scene.truth.x0, scene.truth.y1(), scene.truth.x1(), scene.truth.y0};
+  // The pair the other way round: the rectified images turn by 180 degrees, the DSM stays.
+  Grid reversed = dsm_grid(bounds, 1.0);
+  stereo_dsm(scene.cameras, scene.images, {{1, 0}}, reversed, options);
+  const DsmErrors r = dsm_errors(reversed, scene.truth);
+  // All three views: `auto` takes the three pairs, the median fuses them.
+  PairSelectionOptions selection;
+  selection.ground_height = scene.lo;
+  const auto pairs = select_pairs_auto(scene.cameras, selection);
+  const std::vector<std::pair<int, int>> expected{{0, 1}, {0, 2}, {1, 2}};
+  EXPECT_EQ(pairs, expected);
+  Grid fused = dsm_grid(bounds, 1.0);
+  const FrameStereoStats stats = stereo_dsm(scene.cameras, scene.images, pairs, fused, options);
+  const DsmErrors e = dsm_errors(fused, scene.truth);
+  std::printf("pair 1-0: completeness %.1f %%, median |error| %.3f m, > 1 m %.1f %%, > 3 m %.1f %%\n"
+              "3 views, %zu pairs: completeness %.1f %%, median |error| %.3f m, > 1 m %.1f %%, > 3 m %.1f %%\n",
+              100 * r.completeness, r.median, 100 * r.over1, 100 * r.over3, stats.pairs, 100 * e.completeness,
+              e.median, 100 * e.over1, 100 * e.over3);
+  EXPECT_GT(r.completeness, 0.85);
+  EXPECT_LT(r.median, 0.3);
+  EXPECT_LT(r.over3, 0.05);
+  EXPECT_GT(e.completeness, 0.9);
+  EXPECT_LT(e.median, 0.3);
+  EXPECT_LT(e.over1, 0.15);
+  EXPECT_LT(e.over3, 0.05);
 }
 
 TEST(StereoPipeline, RefusesWrongImageSizeAndCamerasWithoutOverlap) {
