@@ -96,7 +96,7 @@ Json to_json(const GridSummary& summary);
 /// "height_range" (the scene's lowest and highest heights, world units) bounds the disparity
 /// search and sets the plane footprints are cut with; required (aerial disparities cannot be
 /// searched without it). `image` is any GDAL raster, relative to the JSON's folder: one band
-/// (grey) or three or more (RGB taken as luminance 0.299 R + 0.587 G + 0.114 B), any bit depth.
+/// (grey) or three or more (RGB taken as luminance 0.299 R + 0.587 G + 0.114 B), 8 or 16 bit.
 struct StereoJobOptions {
   std::string cameras;  ///< CAMERAS.json
   std::string output;   ///< GeoTIFF (.tif, .tiff)

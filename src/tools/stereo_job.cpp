@@ -127,6 +127,10 @@ GreyImage read_image(const std::string& path, const FrameCamera& camera, const s
   std::unique_ptr<GDALDataset> dataset(GDALDataset::Open(path.c_str(), GDAL_OF_RASTER | GDAL_OF_READONLY));
   CPLPopErrorHandler();
   if (!dataset || dataset->GetRasterCount() < 1) throw InputError(path, camera_name, "is not a raster image GDAL can read");
+  const GDALDataType type = dataset->GetRasterBand(1)->GetRasterDataType();
+  if (type != GDT_Byte && type != GDT_UInt16 && type != GDT_Int16)
+    throw InputError(path, camera_name,
+                     std::string("image is ") + GDALGetDataTypeName(type) + ": give 8- or 16-bit images");
   const int w = dataset->GetRasterXSize(), h = dataset->GetRasterYSize();
   if (w != camera.width || h != camera.height)
     throw InputError(path, camera_name,
@@ -197,6 +201,10 @@ StereoReport stereo_job(const StereoJobOptions& options, const Progress& progres
   const std::string problem =
       metric_problem(crs, options.cameras, file.cameras[0].center[0], file.cameras[0].center[1], /*units_only=*/true);
   if (!problem.empty()) throw InputError(options.cameras, "crs", problem);
+
+  std::vector<NamedFile> images_in;
+  for (int i = 0; i < n; ++i) images_in.push_back({"camera " + std::to_string(i) + "'s image", file.images[i]});
+  refuse_overwrites(images_in, {{"-o", options.output}});
 
   // Pairs, before the images are read: a bad --pairs or cameras that see nothing in common fail fast.
   const double ground = file.min_height;
