@@ -9,6 +9,7 @@
 //   - end to end: two views rendered by ray casting a 40 m x 40 m crop of the real NRW DSM
 //     (cells as solid columns, a texture varying in x, y and z; one camera tilted and with lens
 //     distortion), rectified, matched, triangulated and fused at 1 m, against the crop.
+#include <gdal_priv.h>
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -18,16 +19,13 @@
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
 #include <random>
+#include <string>
 #include <vector>
 
 #include "dsmplan/stereo_frames.hpp"
-
-#include <gdal_priv.h>
-
-#include <fstream>
-#include <nlohmann/json.hpp>
-#include <string>
 #include "dsmplan/tools.hpp"
 #include "testkit.hpp"
 
@@ -51,8 +49,8 @@ Mat3 rotation_xyz(double ax, double ay, double az) {  // R = Rz Ry Rx, radians
 }
 
 // A nadir camera (x east, y south, z down) at `center`, turned by small angles.
-FrameCamera nadir_camera(int size, double f, const Vec3& center, double tilt_x = 0, double tilt_y = 0,
-                         double k1 = 0, double p1 = 0) {
+FrameCamera nadir_camera(int size, double f, const Vec3& center, double tilt_x = 0, double tilt_y = 0, double k1 = 0,
+                         double p1 = 0) {
   FrameCamera c;
   c.width = c.height = size;
   c.fx = c.fy = f;
@@ -72,7 +70,8 @@ FrameCamera nadir_camera(int size, double f, const Vec3& center, double tilt_x =
 // Value noise in 3D: a hash per lattice point (spacing `cell` metres), trilinear in between, two
 // octaves; 0..1.
 double hash01(std::int64_t x, std::int64_t y, std::int64_t z) {
-  std::uint64_t h = static_cast<std::uint64_t>(x) * 0x9E3779B97F4A7C15ull ^ static_cast<std::uint64_t>(y) * 0xC2B2AE3D27D4EB4Full ^
+  std::uint64_t h = static_cast<std::uint64_t>(x) * 0x9E3779B97F4A7C15ull ^
+                    static_cast<std::uint64_t>(y) * 0xC2B2AE3D27D4EB4Full ^
                     static_cast<std::uint64_t>(z) * 0x165667B19E3779F9ull;
   h ^= h >> 29;
   h *= 0xBF58476D1CE4E5B9ull;
@@ -165,7 +164,8 @@ GreyImage smooth_image(int w, int h) {
   image.height = h;
   image.pixels.resize(static_cast<size_t>(w) * h);
   for (int y = 0; y < h; ++y)
-    for (int x = 0; x < w; ++x) image.pixels[static_cast<size_t>(y) * w + x] = static_cast<float>(100 + 0.3 * x + 0.2 * y);
+    for (int x = 0; x < w; ++x)
+      image.pixels[static_cast<size_t>(y) * w + x] = static_cast<float>(100 + 0.3 * x + 0.2 * y);
   return image;
 }
 
@@ -221,7 +221,8 @@ TEST(StereoRectification, PointsShareARowAndTriangulateBack) {
   RectifyOptions options;
   options.min_height = 0;
   options.max_height = 40;
-  const RectifiedPair pair = rectify_pair(a, smooth_image(a.width, a.height), b, smooth_image(b.width, b.height), options);
+  const RectifiedPair pair =
+      rectify_pair(a, smooth_image(a.width, a.height), b, smooth_image(b.width, b.height), options);
   EXPECT_NEAR(pair.baseline, std::sqrt(30.0 * 30 + 6 * 6 + 2 * 2), 1e-9);
   std::mt19937 random(7);
   std::uniform_real_distribution<double> along(95, 135), across(185, 215), up(0, 40);
@@ -271,7 +272,7 @@ TEST(StereoFusion, MedianPerCellNodataWhereNothingFell) {
   ASSERT_EQ(grid.width, 3);
   ASSERT_EQ(grid.height, 2);
   const std::vector<std::vector<Vec3>> sets{{{0.5, 1.5, 10}, {0.2, 1.9, 30}, {0.9, 1.1, 11}},  // cell (0,0): 10, 30, 11
-                                            {{2.5, 0.5, 4}, {2.1, 0.2, 6}, {9, 9, 1}}};          // (2,1): 4, 6; one outside
+                                            {{2.5, 0.5, 4}, {2.1, 0.2, 6}, {9, 9, 1}}};  // (2,1): 4, 6; one outside
   EXPECT_EQ(fuse_median(grid, sets), 5u);
   EXPECT_FLOAT_EQ(grid.at(0, 0), 11);
   EXPECT_FLOAT_EQ(grid.at(2, 1), 5);
@@ -381,11 +382,12 @@ TEST(StereoPipeline, RenderedNrwCropBackToItsDsm) {
 
   const DsmErrors e = dsm_errors(dsm, truth);
   const double completeness = e.completeness, median = e.median, over1 = e.over1, over3 = e.over3;
-  std::printf("NRW crop 40 m x 40 m (heights %.1f..%.1f m): completeness %.1f %%, median |error| %.3f m, "
-              "> 1 m %.1f %%, > 3 m %.1f %%; %zu points, render %.2f s, rectify %.3f s, match %.3f s, "
-              "triangulate %.3f s, fuse %.3f s\n",
-              lo, hi, 100 * completeness, median, 100 * over1, 100 * over3, stats.points, render_seconds,
-              stats.seconds_rectify, stats.seconds_match, stats.seconds_triangulate, stats.seconds_fuse);
+  std::printf(
+      "NRW crop 40 m x 40 m (heights %.1f..%.1f m): completeness %.1f %%, median |error| %.3f m, "
+      "> 1 m %.1f %%, > 3 m %.1f %%; %zu points, render %.2f s, rectify %.3f s, match %.3f s, "
+      "triangulate %.3f s, fuse %.3f s\n",
+      lo, hi, 100 * completeness, median, 100 * over1, 100 * over3, stats.points, render_seconds, stats.seconds_rectify,
+      stats.seconds_match, stats.seconds_triangulate, stats.seconds_fuse);
   EXPECT_GT(completeness, 0.85);
   EXPECT_LT(median, 0.3);
   EXPECT_LT(over1, 0.15);
@@ -411,10 +413,11 @@ TEST(StereoPipeline, ReversedPairAndThreeViewsFusedByTheMedian) {
   Grid fused = dsm_grid(bounds, 1.0);
   const FrameStereoStats stats = stereo_dsm(scene.cameras, scene.images, pairs, fused, options);
   const DsmErrors e = dsm_errors(fused, scene.truth);
-  std::printf("pair 1-0: completeness %.1f %%, median |error| %.3f m, > 1 m %.1f %%, > 3 m %.1f %%\n"
-              "3 views, %zu pairs: completeness %.1f %%, median |error| %.3f m, > 1 m %.1f %%, > 3 m %.1f %%\n",
-              100 * r.completeness, r.median, 100 * r.over1, 100 * r.over3, stats.pairs, 100 * e.completeness,
-              e.median, 100 * e.over1, 100 * e.over3);
+  std::printf(
+      "pair 1-0: completeness %.1f %%, median |error| %.3f m, > 1 m %.1f %%, > 3 m %.1f %%\n"
+      "3 views, %zu pairs: completeness %.1f %%, median |error| %.3f m, > 1 m %.1f %%, > 3 m %.1f %%\n",
+      100 * r.completeness, r.median, 100 * r.over1, 100 * r.over3, stats.pairs, 100 * e.completeness, e.median,
+      100 * e.over1, 100 * e.over3);
   EXPECT_GT(r.completeness, 0.85);
   EXPECT_LT(r.median, 0.3);
   EXPECT_LT(r.over3, 0.05);
@@ -452,7 +455,8 @@ void write_png(const GreyImage& image, const std::string& path, int bands = 1) {
   ASSERT_TRUE(mem && png);
   std::unique_ptr<GDALDataset> data(mem->Create("", image.width, image.height, bands, GDT_Byte, nullptr));
   std::vector<std::uint8_t> bytes(image.pixels.size());
-  for (size_t i = 0; i < bytes.size(); ++i) bytes[i] = static_cast<std::uint8_t>(std::clamp(image.pixels[i], 0.0f, 255.0f));
+  for (size_t i = 0; i < bytes.size(); ++i)
+    bytes[i] = static_cast<std::uint8_t>(std::clamp(image.pixels[i], 0.0f, 255.0f));
   for (int b = 1; b <= bands; ++b)
     ASSERT_EQ(data->GetRasterBand(b)->RasterIO(GF_Write, 0, 0, image.width, image.height, bytes.data(), image.width,
                                                image.height, GDT_Byte, 0, 0),
@@ -464,8 +468,9 @@ void write_png(const GreyImage& image, const std::string& path, int bands = 1) {
 nlohmann::json camera_json(const FrameCamera& c, const std::string& image) {
   nlohmann::json rotation = nlohmann::json::array();
   for (const auto& row : c.rotation) rotation.push_back({row[0], row[1], row[2]});
-  return {{"image", image}, {"width", c.width}, {"height", c.height}, {"fx", c.fx}, {"fy", c.fy}, {"cx", c.cx},
-          {"cy", c.cy}, {"distortion", c.distortion}, {"rotation", rotation}, {"center", c.center}};
+  return {{"image", image},       {"width", c.width},  {"height", c.height}, {"fx", c.fx},
+          {"fy", c.fy},           {"cx", c.cx},        {"cy", c.cy},         {"distortion", c.distortion},
+          {"rotation", rotation}, {"center", c.center}};
 }
 
 // The rendered pair as files: img_0.png (grey), img_1.png (RGB), cameras.json.
@@ -481,7 +486,8 @@ nlohmann::json write_pair_files(const testkit::TempDir& dir) {
 void write_json(const nlohmann::json& json, const std::string& path) { testkit::write_file(path, json.dump(1)); }
 
 std::string bounds_of(const Grid& g) {
-  return std::to_string(g.x0) + "," + std::to_string(g.y1()) + "," + std::to_string(g.x1()) + "," + std::to_string(g.y0);
+  return std::to_string(g.x0) + "," + std::to_string(g.y1()) + "," + std::to_string(g.x1()) + "," +
+         std::to_string(g.y0);
 }
 
 }  // namespace
@@ -490,9 +496,9 @@ TEST(StereoCli, WritesTheDsmAndItsStats) {
   testkit::TempDir dir;
   write_json(write_pair_files(dir), dir.path("cameras.json"));
   const RenderedPair& scene = rendered_pair();
-  const auto result = testkit::run_cli({"stereo", "--cameras", dir.path("cameras.json"), "-o", dir.path("dsm.tif"),
-                                        "--res", "1", "--bounds", bounds_of(scene.truth), "--stats",
-                                        dir.path("stats.json"), "-q"});
+  const auto result =
+      testkit::run_cli({"stereo", "--cameras", dir.path("cameras.json"), "-o", dir.path("dsm.tif"), "--res", "1",
+                        "--bounds", bounds_of(scene.truth), "--stats", dir.path("stats.json"), "-q"});
   ASSERT_EQ(result.exit_code, 0) << result.err;
   const Grid dsm = read_raster(dir.path("dsm.tif"));
   ASSERT_EQ(dsm.width, scene.truth.width);
@@ -514,8 +520,8 @@ TEST(StereoCli, WritesTheDsmAndItsStats) {
 
   // Without --bounds: the DSM covers the pairs' common footprint (beyond the 40 m crop, over
   // the rendered floor), on whole multiples of the cell size; where both have cells, the same DSM.
-  const auto whole = testkit::run_cli({"stereo", "--cameras", dir.path("cameras.json"), "-o", dir.path("whole.tif"),
-                                       "--res", "1", "-q"});
+  const auto whole = testkit::run_cli(
+      {"stereo", "--cameras", dir.path("cameras.json"), "-o", dir.path("whole.tif"), "--res", "1", "-q"});
   ASSERT_EQ(whole.exit_code, 0) << whole.err;
   const Grid wide = read_raster(dir.path("whole.tif"));
   EXPECT_GT(wide.cells(), dsm.cells());
@@ -605,8 +611,8 @@ TEST(StereoCli, BadInputOneLineNoOutput) {
   for (const size_t k : {size_t{0}, cases.size() - 3}) {  // the missing image, cameras apart
     const Case& c = cases[k];
     write_json(c.json, dir.path("cameras.json"));
-    std::vector<std::string> args{"stereo", "--cameras", dir.path("cameras.json"), "-o", dir.path("dsm.tif"),
-                                  "--res", "1", "--stats", dir.path("stats.json"), "-q"};
+    std::vector<std::string> args{"stereo", "--cameras", dir.path("cameras.json"), "-o", dir.path("dsm.tif"), "--res",
+                                  "1",      "--stats",   dir.path("stats.json"),   "-q"};
     args.insert(args.end(), c.extra.begin(), c.extra.end());
     const auto result = testkit::run_cli(args);
     EXPECT_EQ(result.exit_code, 1) << c.name;

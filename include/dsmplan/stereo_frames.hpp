@@ -54,11 +54,11 @@ using Mat3 = std::array<std::array<double, 3>, 3>;  ///< row-major: m[row][col]
 
 /// A calibrated frame camera: pinhole with optional Brown–Conrady distortion (see above).
 struct FrameCamera {
-  int width = 0, height = 0;                     ///< image size, pixels
-  double fx = 0, fy = 0, cx = 0, cy = 0;         ///< focal lengths and principal point, pixels
-  std::array<double, 5> distortion{0, 0, 0, 0, 0};  ///< k1, k2, p1, p2, k3 (OpenCV's order)
+  int width = 0, height = 0;                         ///< image size, pixels
+  double fx = 0, fy = 0, cx = 0, cy = 0;             ///< focal lengths and principal point, pixels
+  std::array<double, 5> distortion{0, 0, 0, 0, 0};   ///< k1, k2, p1, p2, k3 (OpenCV's order)
   Mat3 rotation{{{1, 0, 0}, {0, 1, 0}, {0, 0, 1}}};  ///< R, world -> camera
-  Vec3 center{0, 0, 0};                          ///< C, world coordinates
+  Vec3 center{0, 0, 0};                              ///< C, world coordinates
   bool distorted() const {
     for (double k : distortion)
       if (k != 0) return true;
@@ -108,12 +108,12 @@ struct RectifyOptions {
 /// [0, num_disparities): a left pixel (u, v) with disparity d (right pixel (u - d, v)) lies at
 /// depth z = f·B / (d + shift) in the rectified frame, B = |C_right - C_left|.
 struct RectifiedPair {
-  FrameCamera left, right;   ///< the rectified cameras (size = the rectified images')
+  FrameCamera left, right;  ///< the rectified cameras (size = the rectified images')
   GreyImage left_image, right_image;
   std::vector<unsigned char> left_mask, right_mask;  ///< 1 where the pixel comes from the original image
-  double baseline = 0;       ///< B, world units
-  double shift = 0;          ///< cx_right - cx_left, pixels
-  int num_disparities = 0;   ///< the search range for sgm_match (min_disparity 0), multiple of 16
+  double baseline = 0;                               ///< B, world units
+  double shift = 0;                                  ///< cx_right - cx_left, pixels
+  int num_disparities = 0;  ///< the search range for sgm_match (min_disparity 0), multiple of 16
 };
 
 /// Rectifies the pair (left, right) and resamples both images (bilinear) into it. The depth
@@ -148,8 +148,8 @@ std::size_t fuse_median(Grid& grid, const std::vector<std::vector<Vec3>>& point_
 
 /// What pair selection needs of the scene.
 struct PairSelectionOptions {
-  double ground_height = 0;        ///< the plane footprints are cut with (e.g. mid of the height range)
-  double min_overlap = 0.3;        ///< share of the left footprint seen by the right camera
+  double ground_height = 0;  ///< the plane footprints are cut with (e.g. mid of the height range)
+  double min_overlap = 0.3;  ///< share of the left footprint seen by the right camera
   double min_base_to_height = 0.1, max_base_to_height = 1.2;
 };
 /// The share (0..1) of a 16 x 16 lattice of left pixels whose rays, cut with Z = ground_height,
@@ -172,12 +172,15 @@ struct FrameStereoOptions {
 
 struct FrameStereoStats {
   std::size_t pairs = 0, matched_pixels = 0, points = 0, points_in_grid = 0, valid_cells = 0;
+  std::size_t points_outside_range = 0;  ///< more than 10 % of the height range outside it: dropped
   double seconds_rectify = 0, seconds_match = 0, seconds_triangulate = 0, seconds_fuse = 0;
 };
 
-/// Every pair rectified, matched (sgm_match), triangulated, then all points fused into `grid`
-/// (fuse_median; its geometry as given). images[i] belongs to cameras[i] and must have its size
-/// (InputError "camera i: image is W x H, the camera says ..."). Progress per pair.
+/// Every pair rectified, matched (sgm_match), triangulated, its points more than 10 % of the
+/// height range outside that range dropped (options.rectify: the scene is stated to lie within
+/// it), then all points fused into `grid` (fuse_median; its geometry as given). images[i]
+/// belongs to cameras[i] and must have its size (InputError "camera i: image is W x H, the
+/// camera says ..."). Progress per pair.
 FrameStereoStats stereo_dsm(const std::vector<FrameCamera>& cameras, const std::vector<GreyImage>& images,
                             const std::vector<std::pair<int, int>>& pairs, Grid& grid,
                             const FrameStereoOptions& options, const Progress& progress = {});

@@ -113,6 +113,7 @@ struct StereoReport {
   std::array<double, 4> bounds{};
   int width = 0, height = 0;
   size_t matched_pixels = 0, points = 0, points_in_grid = 0;
+  size_t points_outside_range = 0;  ///< triangulated outside height_range, dropped as mismatches
   GridSummary summary;
   double seconds_read = 0, seconds_rectify = 0, seconds_match = 0, seconds_triangulate = 0, seconds_fuse = 0,
          seconds_write = 0;
@@ -124,7 +125,8 @@ struct StereoReport {
 /// nothing was matched (no output is written then).
 StereoReport stereo_job(const StereoJobOptions& options, const Progress& progress = {});
 /// Keys: cameras, output, camera_count, pairs [[i,j],...], height_range, bounds, width, height,
-/// matched_pixels, points, points_in_grid, dsm {cells, valid, nodata, holes, z_min, z_max},
+/// matched_pixels, points, points_outside_height_range, points_in_grid, dsm {cells, valid, nodata,
+/// holes, z_min, z_max},
 /// seconds {read, rectify, match, triangulate, fuse, write, total}.
 Json to_json(const StereoReport& report);
 

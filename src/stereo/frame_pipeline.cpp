@@ -63,7 +63,17 @@ FrameStereoStats stereo_dsm(const std::vector<FrameCamera>& cameras, const std::
 
     start = std::chrono::steady_clock::now();
     points.push_back(triangulate(pair, disparity));
-    stats.points += points.back().size();
+    // The scene lies within the height range: a point more than 10 % of the range outside it
+    // (the disparity search reaches about that far beyond, rectify_pair) is a mismatch. The
+    // margin keeps the noise of points on the lowest (or highest) surface.
+    std::vector<Vec3>& set = points.back();
+    const std::size_t before = set.size();
+    const double margin = 0.1 * (options.rectify.max_height - options.rectify.min_height);
+    std::erase_if(set, [&](const Vec3& p) {
+      return !(p[2] >= options.rectify.min_height - margin && p[2] <= options.rectify.max_height + margin);
+    });
+    stats.points_outside_range += before - set.size();
+    stats.points += set.size();
     stats.seconds_triangulate += seconds_since(start);
     ++stats.pairs;
     report(progress, 0.95 * (k + 1) / pairs.size());

@@ -96,8 +96,7 @@ RectifiedPair rectify_pair(const FrameCamera& left, const GreyImage& left_image,
   const double f = (left.fx + left.fy + right.fx + right.fy) / 4;
 
   // The rectified frame's view of both images' borders: 16 points per side.
-  const auto border = [&](const FrameCamera& c, double& x0, double& x1, double& y0,
-                          double& y1) {
+  const auto border = [&](const FrameCamera& c, double& x0, double& x1, double& y0, double& y1) {
     x0 = y0 = std::numeric_limits<double>::infinity();
     x1 = y1 = -x0;
     for (int side = 0; side < 4; ++side)
@@ -169,10 +168,10 @@ RectifiedPair rectify_pair(const FrameCamera& left, const GreyImage& left_image,
   pair.right.center = right.center;
   pair.right.cx = rect.cx + pair.shift;
   if (pair.num_disparities > options.max_disparities || pair.num_disparities >= rect.width)
-    throw InputError("", "cameras", "the height range needs " + std::to_string(pair.num_disparities) +
-                                        " disparities, more than " +
-                                        std::to_string(std::min(options.max_disparities, rect.width - 1)) +
-                                        ": narrow the height range");
+    throw InputError("", "cameras",
+                     "the height range needs " + std::to_string(pair.num_disparities) + " disparities, more than " +
+                         std::to_string(std::min(options.max_disparities, rect.width - 1)) +
+                         ": narrow the height range");
   resample(left, left_image, pair.left, pair.left_image, pair.left_mask);
   resample(right, right_image, pair.right, pair.right_image, pair.right_mask);
   return pair;

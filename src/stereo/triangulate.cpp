@@ -20,8 +20,7 @@ bool triangulate(const RectifiedPair& pair, double u, double v, double d, Vec3& 
   if (!(denominator > 0)) return false;
   const double z = c.fx * pair.baseline / denominator;
   const double x = (u - c.cx) * z / c.fx, y = (v - c.cy) * z / c.fy;
-  for (int i = 0; i < 3; ++i)
-    X[i] = c.center[i] + c.rotation[0][i] * x + c.rotation[1][i] * y + c.rotation[2][i] * z;
+  for (int i = 0; i < 3; ++i) X[i] = c.center[i] + c.rotation[0][i] * x + c.rotation[1][i] * y + c.rotation[2][i] * z;
   return true;
 }
 

@@ -85,7 +85,8 @@ CameraFile read_cameras(const std::string& path) {
     const std::string where = "cameras[" + std::to_string(i) + "]";
     if (!c.is_object()) throw InputError(path, where, "must be an object");
     FrameCamera camera;
-    if (!c.contains("image") || !c["image"].is_string()) throw InputError(path, where + ".image", "missing or not a string");
+    if (!c.contains("image") || !c["image"].is_string())
+      throw InputError(path, where + ".image", "missing or not a string");
     camera.width = read.integer(c, "width", where);
     camera.height = read.integer(c, "height", where);
     camera.fx = read.number(c, "fx", where);
@@ -126,7 +127,8 @@ GreyImage read_image(const std::string& path, const FrameCamera& camera, const s
   CPLPushErrorHandler(CPLQuietErrorHandler);
   std::unique_ptr<GDALDataset> dataset(GDALDataset::Open(path.c_str(), GDAL_OF_RASTER | GDAL_OF_READONLY));
   CPLPopErrorHandler();
-  if (!dataset || dataset->GetRasterCount() < 1) throw InputError(path, camera_name, "is not a raster image GDAL can read");
+  if (!dataset || dataset->GetRasterCount() < 1)
+    throw InputError(path, camera_name, "is not a raster image GDAL can read");
   const GDALDataType type = dataset->GetRasterBand(1)->GetRasterDataType();
   if (type != GDT_Byte && type != GDT_UInt16 && type != GDT_Int16)
     throw InputError(path, camera_name,
@@ -177,7 +179,8 @@ bool overlap_box(const FrameCamera& left, const FrameCamera& right, double groun
 
 StereoReport stereo_job(const StereoJobOptions& options, const Progress& progress) {
   const std::string extension = std::filesystem::path(options.output).extension().string();
-  if (extension != ".tif" && extension != ".tiff") throw ArgumentError(options.output, "output must be a GeoTIFF (.tif)");
+  if (extension != ".tif" && extension != ".tiff")
+    throw ArgumentError(options.output, "output must be a GeoTIFF (.tif)");
   if (!(options.resolution > 0 && std::isfinite(options.resolution)))
     throw ArgumentError("--res", "must be a positive number of CRS units");
   if (options.bounds) dsm_grid(*options.bounds, options.resolution);  // checks the bounds
@@ -241,7 +244,7 @@ StereoReport stereo_job(const StereoJobOptions& options, const Progress& progres
   } else {
     const double r = options.resolution;
     out.bounds = {std::floor(footprint[0] / r) * r, std::floor(footprint[1] / r) * r, std::ceil(footprint[2] / r) * r,
-                     std::ceil(footprint[3] / r) * r};
+                  std::ceil(footprint[3] / r) * r};
   }
   Grid grid = dsm_grid(out.bounds, options.resolution);
   grid.crs = crs;
@@ -272,6 +275,7 @@ StereoReport stereo_job(const StereoJobOptions& options, const Progress& progres
   }();
   out.matched_pixels = stats.matched_pixels;
   out.points = stats.points;
+  out.points_outside_range = stats.points_outside_range;
   out.points_in_grid = stats.points_in_grid;
   out.seconds_rectify = stats.seconds_rectify;
   out.seconds_match = stats.seconds_match;
@@ -292,8 +296,8 @@ StereoReport stereo_job(const StereoJobOptions& options, const Progress& progres
 Json to_json(const StereoReport& r) {
   Json pairs = Json::array();
   for (const auto& [a, b] : r.pairs) pairs.push_back({a, b});
-  const double total = r.seconds_read + r.seconds_rectify + r.seconds_match + r.seconds_triangulate + r.seconds_fuse +
-                       r.seconds_write;
+  const double total =
+      r.seconds_read + r.seconds_rectify + r.seconds_match + r.seconds_triangulate + r.seconds_fuse + r.seconds_write;
   return {{"cameras", r.cameras},
           {"output", r.output},
           {"camera_count", r.camera_count},
@@ -304,6 +308,7 @@ Json to_json(const StereoReport& r) {
           {"height", r.height},
           {"matched_pixels", r.matched_pixels},
           {"points", r.points},
+          {"points_outside_height_range", r.points_outside_range},
           {"points_in_grid", r.points_in_grid},
           {"dsm", to_json(r.summary)},
           {"seconds",
