@@ -306,19 +306,32 @@ namespace {
 
 // 40 m x 40 m of the real DSM (1 m cells) in the middle of the 500 m crop, seen by two cameras:
 // base 24 m at 110 m over the lowest cell (B/H 0.22), 240 x 240 pixels, 0.3 m on the ground; the
-// right camera tilted and with lens distortion; a third camera 14 m across. Rendered once per
-// test binary.
-struct RenderedPair {
+// right camera tilted and with lens distortion; a third camera 14 m across. Each view is
+// rendered once per test binary, when first asked for.
+struct RenderedScene {
   Grid truth;
   double lo = 0, hi = 0;
   std::vector<FrameCamera> cameras;
-  std::vector<GreyImage> images;
   double render_seconds = 0;
+  std::vector<std::vector<GreyImage>> cache = std::vector<std::vector<GreyImage>>(3);
+  const GreyImage& view(int i) {
+    if (cache[i].empty()) {
+      const auto start = std::chrono::steady_clock::now();
+      cache[i].push_back(render(ColumnScene{truth, lo, hi}, cameras[i], 1 + i));
+      render_seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    }
+    return cache[i][0];
+  }
+  std::vector<GreyImage> views(int count) {
+    std::vector<GreyImage> images;
+    for (int i = 0; i < count; ++i) images.push_back(view(i));
+    return images;
+  }
 };
 
-const RenderedPair& rendered_pair() {
-  static const RenderedPair pair = [] {
-    RenderedPair p;
+RenderedScene& rendered_scene() {
+  static RenderedScene scene = [] {
+    RenderedScene p;
     const Grid& nrw = testkit::nrw_crop();
     const int c0 = nrw.width / 2 - 20, r0 = nrw.height / 2 - 20, n = 40;
     p.truth = Grid(n, n, nrw.x0 + c0 * nrw.cell_x, nrw.y0 - r0 * nrw.cell_y, nrw.cell_x, nrw.cell_y);
@@ -328,17 +341,13 @@ const RenderedPair& rendered_pair() {
     const auto [lo, hi] = std::minmax_element(p.truth.z.begin(), p.truth.z.end());
     p.lo = *lo;
     p.hi = *hi;
-    const ColumnScene scene{p.truth, p.lo, p.hi};
     const double xc = p.truth.x0 + n / 2.0, yc = p.truth.y0 - n / 2.0, zc = p.lo + 110;
     p.cameras = {nadir_camera(240, 380, {xc - 12, yc, zc}),
                  nadir_camera(240, 380, {xc + 12, yc + 1, zc + 2}, 0.02, -0.03, -0.04, 0.0005),
                  nadir_camera(240, 380, {xc, yc + 14, zc - 1}, -0.02, 0.01)};  // across the strip
-    const auto start = std::chrono::steady_clock::now();
-    p.images = {render(scene, p.cameras[0], 1), render(scene, p.cameras[1], 2), render(scene, p.cameras[2], 3)};
-    p.render_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     return p;
   }();
-  return pair;
+  return scene;
 }
 
 // Completeness and |error| quantiles of `dsm` against `truth` (same grid).
@@ -364,10 +373,10 @@ DsmErrors dsm_errors(const Grid& dsm, const Grid& truth) {
 }  // namespace
 
 TEST(StereoPipeline, RenderedNrwCropBackToItsDsm) {
-  const RenderedPair& scene = rendered_pair();
+  RenderedScene& scene = rendered_scene();
   const Grid& truth = scene.truth;
-  const std::vector<FrameCamera>& cameras = scene.cameras;
-  const std::vector<GreyImage>& images = scene.images;
+  const std::vector<FrameCamera> cameras(scene.cameras.begin(), scene.cameras.begin() + 2);
+  const std::vector<GreyImage> images = scene.views(2);
   const int n = truth.width;
   const double lo = scene.lo, hi = scene.hi, render_seconds = scene.render_seconds;
 
@@ -395,14 +404,15 @@ TEST(StereoPipeline, RenderedNrwCropBackToItsDsm) {
 }
 
 TEST(StereoPipeline, ReversedPairAndThreeViewsFusedByTheMedian) {
-  const RenderedPair& scene = rendered_pair();
+  RenderedScene& scene = rendered_scene();
+  const std::vector<GreyImage> images = scene.views(3);
   FrameStereoOptions options;
   options.rectify.min_height = scene.lo;
   options.rectify.max_height = scene.hi;
   const std::array<double, 4> bounds{scene.truth.x0, scene.truth.y1(), scene.truth.x1(), scene.truth.y0};
   // The pair the other way round: the rectified images turn by 180 degrees, the DSM stays.
   Grid reversed = dsm_grid(bounds, 1.0);
-  stereo_dsm(scene.cameras, scene.images, {{1, 0}}, reversed, options);
+  stereo_dsm(scene.cameras, images, {{1, 0}}, reversed, options);
   const DsmErrors r = dsm_errors(reversed, scene.truth);
   // All three views: `auto` takes the three pairs, the median fuses them.
   PairSelectionOptions selection;
@@ -411,7 +421,7 @@ TEST(StereoPipeline, ReversedPairAndThreeViewsFusedByTheMedian) {
   const std::vector<std::pair<int, int>> expected{{0, 1}, {0, 2}, {1, 2}};
   EXPECT_EQ(pairs, expected);
   Grid fused = dsm_grid(bounds, 1.0);
-  const FrameStereoStats stats = stereo_dsm(scene.cameras, scene.images, pairs, fused, options);
+  const FrameStereoStats stats = stereo_dsm(scene.cameras, images, pairs, fused, options);
   const DsmErrors e = dsm_errors(fused, scene.truth);
   std::printf(
       "pair 1-0: completeness %.1f %%, median |error| %.3f m, > 1 m %.1f %%, > 3 m %.1f %%\n"
@@ -473,11 +483,12 @@ nlohmann::json camera_json(const FrameCamera& c, const std::string& image) {
           {"rotation", rotation}, {"center", c.center}};
 }
 
-// The rendered pair as files: img_0.png (grey), img_1.png (RGB), cameras.json.
-nlohmann::json write_pair_files(const testkit::TempDir& dir) {
-  const RenderedPair& scene = rendered_pair();
-  write_png(scene.images[0], dir.path("img_0.png"), 1);
-  write_png(scene.images[1], dir.path("img_1.png"), 3);
+// The first two views as files: img_0.png (grey), img_1.png (RGB), and the cameras.json to
+// return; `rendered` false: smooth stand-ins of the right size (for errors found before matching).
+nlohmann::json write_pair_files(const testkit::TempDir& dir, bool rendered = true) {
+  RenderedScene& scene = rendered_scene();
+  write_png(rendered ? scene.view(0) : smooth_image(240, 240), dir.path("img_0.png"), 1);
+  write_png(rendered ? scene.view(1) : smooth_image(240, 240), dir.path("img_1.png"), 3);
   return {{"crs", "EPSG:25832"},
           {"height_range", {scene.lo, scene.hi}},
           {"cameras", {camera_json(scene.cameras[0], "img_0.png"), camera_json(scene.cameras[1], "img_1.png")}}};
@@ -495,7 +506,7 @@ std::string bounds_of(const Grid& g) {
 TEST(StereoCli, WritesTheDsmAndItsStats) {
   testkit::TempDir dir;
   write_json(write_pair_files(dir), dir.path("cameras.json"));
-  const RenderedPair& scene = rendered_pair();
+  const RenderedScene& scene = rendered_scene();
   const auto result =
       testkit::run_cli({"stereo", "--cameras", dir.path("cameras.json"), "-o", dir.path("dsm.tif"), "--res", "1",
                         "--bounds", bounds_of(scene.truth), "--stats", dir.path("stats.json"), "-q"});
@@ -520,9 +531,12 @@ TEST(StereoCli, WritesTheDsmAndItsStats) {
 
   // Without --bounds: the DSM covers the pairs' common footprint (beyond the 40 m crop, over
   // the rendered floor), on whole multiples of the cell size; where both have cells, the same DSM.
-  const auto whole = testkit::run_cli(
-      {"stereo", "--cameras", dir.path("cameras.json"), "-o", dir.path("whole.tif"), "--res", "1", "-q"});
-  ASSERT_EQ(whole.exit_code, 0) << whole.err;
+  // (In process: stereo_job() is what the binary calls.)
+  StereoJobOptions whole;
+  whole.cameras = dir.path("cameras.json");
+  whole.output = dir.path("whole.tif");
+  whole.resolution = 1;
+  stereo_job(whole);
   const Grid wide = read_raster(dir.path("whole.tif"));
   EXPECT_GT(wide.cells(), dsm.cells());
   EXPECT_EQ(wide.x0, std::floor(wide.x0));
@@ -545,8 +559,8 @@ TEST(StereoCli, WritesTheDsmAndItsStats) {
 
 TEST(StereoCli, BadInputOneLineNoOutput) {
   testkit::TempDir dir;
-  const nlohmann::json good = write_pair_files(dir);
-  const RenderedPair& scene = rendered_pair();
+  const nlohmann::json good = write_pair_files(dir, /*rendered=*/false);  // every error comes before matching
+  const RenderedScene& scene = rendered_scene();
   struct Case {
     std::string name;
     nlohmann::json json;
