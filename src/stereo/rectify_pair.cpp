@@ -147,7 +147,7 @@ RectifiedPair rectify_pair(const FrameCamera& left, const GreyImage& left_image,
         depth_max = std::max(depth_max, depth);
       }
     }
-  if (!(depth_max > 0 && depth_min < depth_max * 10 + 1))
+  if (!(depth_max > 0 && std::isfinite(depth_min)))
     throw InputError("", "cameras", "the left camera does not look at the height range");
   depth_min *= 0.9;
   depth_max *= 1.1;
