@@ -148,6 +148,20 @@ int main(int argc, char** argv) {
   grid_cmd->add_flag("--json", grid_json, "Print the DSM's counts and height range as JSON");
   grid_cmd->add_option("--of", grid_of, "Output format: gtiff (the only one)");
 
+  StereoJobOptions stereo;
+  std::string stereo_bounds, stereo_stats;
+  CLI::App* stereo_cmd = app.add_subcommand(
+      "stereo", "DSM from frame-camera images with known poses: rectification, SGM, triangulation, median per cell");
+  stereo_cmd->add_option("--cameras", stereo.cameras, "CAMERAS.json: CRS, height range, cameras and images (README)")
+      ->required();
+  stereo_cmd->add_option("-o,--output", stereo.output, "Output GeoTIFF (Float32, nodata where nothing matched)")->required();
+  stereo_cmd->add_option("--res", stereo.resolution, "Cell size (CRS units: m)")->required();
+  stereo_cmd->add_option("--pairs", stereo.pairs, "auto (overlap and base-to-height ratio) or pairs like 0-1,1-2")
+      ->capture_default_str();
+  stereo_cmd->add_option("--bounds", stereo_bounds, "x0,y0,x1,y1 of the DSM (CRS units); default: the pairs' overlap");
+  stereo_cmd->add_option("--stats", stereo_stats, "Write counts and seconds per stage as JSON");
+  stereo_cmd->add_flag("-q,--quiet", quiet, "No progress output");
+
   MeshJobOptions mesh;
   double mesh_resolution = 0;
   std::string resampling = "median", stats_path;
@@ -385,6 +399,20 @@ int main(int argc, char** argv) {
       refuse_overwrites(inputs, {{"-o", grid.output}});
       const GridSummary summary = grid_to_geotiff(grid, terminal_progress(quiet));
       if (grid_json) std::fputs((to_json(summary).dump(2) + "\n").c_str(), stdout);
+    }
+    if (*stereo_cmd) {
+      if (!stereo_bounds.empty()) {
+        try {
+          const Window w = parse_window(stereo_bounds);
+          stereo.bounds = std::array<double, 4>{w.xmin, w.ymin, w.xmax, w.ymax};
+        } catch (const ArgumentError&) {
+          throw ArgumentError("--bounds", "expected four numbers x0,y0,x1,y1, got '" + stereo_bounds.substr(0, 80) + "'");
+        }
+      }
+      refuse_overwrites({{"--cameras", stereo.cameras}}, {{"-o", stereo.output}, {"--stats", stereo_stats}});
+      if (!stereo_stats.empty()) check_writable(stereo_stats);
+      const StereoReport report = stereo_job(stereo, terminal_progress(quiet));
+      write_stats(stereo_stats, to_json(report), {stereo.output});
     }
     if (*mesh_cmd) {
       if (mesh_res->count()) mesh.resolution = mesh_resolution;

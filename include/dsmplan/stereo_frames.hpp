@@ -1,0 +1,188 @@
+// dsmplan/stereo_frames.hpp: a DSM from frame-camera images with known poses (issue 16), the
+// pipeline of Adolf & Hirschmüller, Section 2: pair selection, epipolar rectification, dense
+// matching by Semi-Global Matching (stereo.hpp), triangulation, ortho-projection of every pair's
+// points into the DSM grid and the median per cell.
+//
+// Camera model (OpenCV's convention, the CAMERAS.json contract of `dsmplan stereo`):
+//   x_cam = R (X - C)           R: world -> camera (rows: the camera's x, y, z axes in world
+//                               coordinates), C: the projection centre, world units (metres);
+//   x = x_cam/z_cam, y = y_cam/z_cam   (a point is seen only when z_cam > 0)
+//   Brown–Conrady distortion of the normalised coordinates, r² = x² + y²:
+//     x' = x (1 + k1 r² + k2 r⁴ + k3 r⁶) + 2 p1 x y + p2 (r² + 2 x²)
+//     y' = y (1 + k1 r² + k2 r⁴ + k3 r⁶) + p1 (r² + 2 y²) + 2 p2 x y
+//   u = fx x' + cx,  v = fy y' + cy  (pixels; the centre of the top-left pixel is (0, 0)).
+//   Camera x right, y down, z forward (the viewing direction).
+//
+// Images are grey, float intensities (any scale; 8- and 16-bit images keep their values),
+// row-major, pixel (x, y) = column x, row y.
+//
+// Parts (each its own source file in src/stereo, pure C++ and TBB; no GDAL):
+//   frame_camera.cpp   project(), undistort(), pixel rays;
+//   rectify_pair.cpp   epipolar rectification (Fusiello, Trucco & Verri 2000) and resampling;
+//   triangulate.cpp    disparities to world points through the rectified cameras;
+//   fuse_median.cpp    ortho-projection and the median per cell;
+//   select_pairs.cpp   `auto` and explicit pairs, overlap and base-to-height ratio.
+//   frame_pipeline.cpp the whole chain for a set of cameras and images (stereo_dsm()).
+//
+// Guarantees. Rectification is exact up to rounding: a world point projects into the same row of
+// both rectified cameras (tested < 0.01 px; about 1e-13 px in double) and triangulate() returns it
+// (< 1 mm; about 1e-13 m). The result does not depend on the number of threads (SGM's guarantee;
+// triangulation keeps row order; the fusion sorts). Accuracy on rendered views of the real NRW DSM:
+// README, "Stereo from frame cameras".
+//
+// Memory. Per pair: the two rectified images (5 bytes a pixel each, float + mask) and SGM's
+// (stereo.hpp, in bands under its memory bound); for all pairs: 24 bytes per triangulated point,
+// kept until the fusion, plus 12 bytes per point during it.
+//
+// Errors: ArgumentError / InputError (core.hpp), naming the camera ("camera 3") and the problem.
+#pragma once
+
+#include <array>
+#include <cstddef>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "dsmplan/core.hpp"
+#include "dsmplan/raster.hpp"
+#include "dsmplan/stereo.hpp"
+
+namespace dsmplan {
+
+using Vec3 = std::array<double, 3>;
+using Mat3 = std::array<std::array<double, 3>, 3>;  ///< row-major: m[row][col]
+
+/// A calibrated frame camera: pinhole with optional Brown–Conrady distortion (see above).
+struct FrameCamera {
+  int width = 0, height = 0;                         ///< image size, pixels
+  double fx = 0, fy = 0, cx = 0, cy = 0;             ///< focal lengths and principal point, pixels
+  std::array<double, 5> distortion{0, 0, 0, 0, 0};   ///< k1, k2, p1, p2, k3 (OpenCV's order)
+  Mat3 rotation{{{1, 0, 0}, {0, 1, 0}, {0, 0, 1}}};  ///< R, world -> camera
+  Vec3 center{0, 0, 0};                              ///< C, world coordinates
+  bool distorted() const {
+    for (double k : distortion)
+      if (k != 0) return true;
+    return false;
+  }
+};
+
+/// ArgumentError naming `name` ("camera 2") when the camera cannot be used: size < 1, focal
+/// lengths not positive and finite, a rotation that is not orthonormal with determinant +1
+/// (tolerance 1e-6), anything non-finite.
+void check_camera(const FrameCamera& camera, const std::string& name);
+
+/// Normalised distorted coordinates (x', y') of the undistorted (x, y) (the formula above).
+std::array<double, 2> distort(const FrameCamera& camera, double x, double y);
+/// The inverse of distort(): Newton's method from (x', y'), at most 20 steps, to 1e-12. For the
+/// distortion of real lenses within the image (|r| < 1.5) it converges; returns the last iterate.
+std::array<double, 2> undistort(const FrameCamera& camera, double xd, double yd);
+
+/// The pixel (u, v) of world point X; false (u, v untouched) when X is not in front (z_cam <= 0).
+/// Pixels outside the image are returned too: the caller checks the bounds.
+bool project(const FrameCamera& camera, const Vec3& X, double& u, double& v);
+/// The unit direction, world coordinates, of the ray through pixel (u, v) (undistorted).
+Vec3 pixel_ray(const FrameCamera& camera, double u, double v);
+
+/// A grey image in memory, owned.
+struct GreyImage {
+  int width = 0, height = 0;
+  std::vector<float> pixels;  ///< row-major
+  float at(int x, int y) const { return pixels[static_cast<std::size_t>(y) * width + x]; }
+  /// Bilinear value at (x, y) (pixel centres at integers); false outside [0, width-1] x [0, height-1].
+  bool sample(double x, double y, float& value) const;
+};
+
+/// Options of the rectification.
+struct RectifyOptions {
+  /// World heights (Z) the scene lies between: they bound the disparity search. Required finite.
+  double min_height = 0, max_height = 0;
+  /// Bound on the rectified images' sides, as a multiple of the larger original side.
+  double max_size_factor = 2.0;
+  int max_disparities = 512;  ///< InputError when the height range needs more
+};
+
+/// A rectified pair (Fusiello, Trucco & Verri 2000): two cameras with the same orientation
+/// (x axis along the baseline C_right - C_left), no distortion, the same focal length f and row
+/// centre cy, so a world point is seen in the same row of both images. The column centres
+/// differ (cx_right - cx_left = shift) so that the scene's heights fall into disparities
+/// [0, num_disparities): a left pixel (u, v) with disparity d (right pixel (u - d, v)) lies at
+/// depth z = f·B / (d + shift) in the rectified frame, B = |C_right - C_left|.
+struct RectifiedPair {
+  FrameCamera left, right;  ///< the rectified cameras (size = the rectified images')
+  GreyImage left_image, right_image;
+  std::vector<unsigned char> left_mask, right_mask;  ///< 1 where the pixel comes from the original image
+  double baseline = 0;                               ///< B, world units
+  double shift = 0;                                  ///< cx_right - cx_left, pixels
+  int num_disparities = 0;  ///< the search range for sgm_match (min_disparity 0), multiple of 16
+};
+
+/// Rectifies the pair (left, right) and resamples both images (bilinear) into it. The depth
+/// range is taken from rays through a 9 x 9 lattice of left pixels cut with the planes Z =
+/// min_height and Z = max_height (10 % margin). The rectified images have the left image's
+/// columns and both images' rows as the rectified cameras see them, each side at most
+/// max_size_factor times the larger original side. Throws ArgumentError for a bad camera or
+/// options, InputError ("cameras: ...") when the centres coincide, the baseline is along the
+/// left viewing direction, or the range needs more than max_disparities (stereo_dsm() names the
+/// two cameras). Time and memory O(rectified pixels), 5 bytes each per image.
+RectifiedPair rectify_pair(const FrameCamera& left, const GreyImage& left_image, const FrameCamera& right,
+                           const GreyImage& right_image, const RectifyOptions& options);
+
+/// An image as an SGM input: 16-bit, values rounded and clamped to 0..65535 (8-bit images keep
+/// their 0..255, which sgm_match's automatic intensity_unit treats as 8-bit).
+std::vector<std::uint16_t> to_uint16(const GreyImage& image);
+
+/// The world point of left rectified pixel (u, v) with disparity d; false when d + shift <= 0.
+bool triangulate(const RectifiedPair& pair, double u, double v, double d, Vec3& X);
+/// Every valid left pixel's world point (NaN disparities, pixels outside either original image,
+/// and points behind either camera skipped). O(pixels).
+std::vector<Vec3> triangulate(const RectifiedPair& pair, const Disparity& disparity);
+
+/// The DSM grid of `bounds` (xmin, ymin, xmax, ymax, world units) at cell size `resolution`:
+/// cell (0, 0) touches (xmin, ymax); width = ceil((xmax - xmin)/res), height likewise.
+Grid dsm_grid(const std::array<double, 4>& bounds, double resolution);
+/// Ortho-projection and fusion (the paper's Section 2): each point falls into the cell holding
+/// its (x, y); each cell gets the median of its heights (the mean of the two middle ones for an
+/// even count), nodata where none fell. `grid` gives the geometry; its heights are replaced.
+/// Returns the number of points that fell into the grid. O(n log n).
+std::size_t fuse_median(Grid& grid, const std::vector<std::vector<Vec3>>& point_sets);
+
+/// What pair selection needs of the scene.
+struct PairSelectionOptions {
+  double ground_height = 0;  ///< the plane footprints are cut with (e.g. mid of the height range)
+  double min_overlap = 0.3;  ///< share of the left footprint seen by the right camera
+  double min_base_to_height = 0.1, max_base_to_height = 1.2;
+};
+/// The share (0..1) of a 16 x 16 lattice of left pixels whose rays, cut with Z = ground_height,
+/// the right camera sees inside its image.
+double footprint_overlap(const FrameCamera& left, const FrameCamera& right, double ground_height);
+/// Base-to-height ratio: |C_l - C_r| / (mean camera height above ground_height).
+double base_to_height(const FrameCamera& left, const FrameCamera& right, double ground_height);
+/// `auto`: every pair (i < j) with overlap >= min_overlap and a ratio within the bounds.
+std::vector<std::pair<int, int>> select_pairs_auto(const std::vector<FrameCamera>& cameras,
+                                                   const PairSelectionOptions& options);
+/// "0-1,1-2": explicit pairs. ArgumentError (`flag`) for a bad token, an index out of range or i == j.
+std::vector<std::pair<int, int>> parse_pairs(const std::string& text, int cameras, const std::string& flag = "--pairs");
+
+// ---- the whole chain ------------------------------------------------------------------------
+
+struct FrameStereoOptions {
+  RectifyOptions rectify;  ///< min_height, max_height: the scene's heights
+  SgmOptions sgm;          ///< num_disparities and min_disparity are set per pair
+};
+
+struct FrameStereoStats {
+  std::size_t pairs = 0, matched_pixels = 0, points = 0, points_in_grid = 0, valid_cells = 0;
+  std::size_t points_outside_range = 0;  ///< more than 10 % of the height range outside it: dropped
+  double seconds_rectify = 0, seconds_match = 0, seconds_triangulate = 0, seconds_fuse = 0;
+};
+
+/// Every pair rectified, matched (sgm_match), triangulated, its points more than 10 % of the
+/// height range outside that range dropped (options.rectify: the scene is stated to lie within
+/// it), then all points fused into `grid` (fuse_median; its geometry as given). images[i]
+/// belongs to cameras[i] and must have its size (InputError "camera i: image is W x H, the
+/// camera says ..."). Progress per pair.
+FrameStereoStats stereo_dsm(const std::vector<FrameCamera>& cameras, const std::vector<GreyImage>& images,
+                            const std::vector<std::pair<int, int>>& pairs, Grid& grid,
+                            const FrameStereoOptions& options, const Progress& progress = {});
+
+}  // namespace dsmplan

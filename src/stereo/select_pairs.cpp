@@ -1,0 +1,80 @@
+// Pair selection: which images to match. The seed paper (Adolf & Hirschmüller, Section 2)
+// matches "all overlapping images in flight-direction as well as perpendicular to it"; `auto`
+// takes every pair whose footprints overlap enough and whose base-to-height ratio B/H makes a
+// useful intersection angle (too small: depth noise grows as H/B; too large: occlusions and
+// perspective distortion defeat the matching; aerial photogrammetry works with B/H of about
+// 0.1 (dense multi-view blocks) to 1).
+#include <cmath>
+#include <sstream>
+
+#include "dsmplan/stereo_frames.hpp"
+
+namespace dsmplan {
+
+double footprint_overlap(const FrameCamera& left, const FrameCamera& right, double ground_height) {
+  int seen = 0, total = 0;
+  for (int i = 0; i < 16; ++i)
+    for (int j = 0; j < 16; ++j) {
+      const double u = (i + 0.5) / 16 * left.width - 0.5, v = (j + 0.5) / 16 * left.height - 0.5;
+      const Vec3 ray = pixel_ray(left, u, v);
+      ++total;
+      if (std::abs(ray[2]) < 1e-12) continue;
+      const double t = (ground_height - left.center[2]) / ray[2];
+      if (!(t > 0)) continue;
+      const Vec3 X{left.center[0] + t * ray[0], left.center[1] + t * ray[1], ground_height};
+      double ur, vr;
+      if (project(right, X, ur, vr) && ur >= -0.5 && vr >= -0.5 && ur <= right.width - 0.5 && vr <= right.height - 0.5)
+        ++seen;
+    }
+  return static_cast<double>(seen) / total;
+}
+
+double base_to_height(const FrameCamera& left, const FrameCamera& right, double ground_height) {
+  const double dx = left.center[0] - right.center[0], dy = left.center[1] - right.center[1],
+               dz = left.center[2] - right.center[2];
+  const double H = (left.center[2] + right.center[2]) / 2 - ground_height;
+  if (!(H > 0)) return INFINITY;
+  return std::sqrt(dx * dx + dy * dy + dz * dz) / H;
+}
+
+std::vector<std::pair<int, int>> select_pairs_auto(const std::vector<FrameCamera>& cameras,
+                                                   const PairSelectionOptions& options) {
+  std::vector<std::pair<int, int>> pairs;
+  const int n = static_cast<int>(cameras.size());
+  for (int i = 0; i < n; ++i)
+    for (int j = i + 1; j < n; ++j) {
+      const double ratio = base_to_height(cameras[i], cameras[j], options.ground_height);
+      if (!(ratio >= options.min_base_to_height && ratio <= options.max_base_to_height)) continue;
+      if (footprint_overlap(cameras[i], cameras[j], options.ground_height) >= options.min_overlap &&
+          footprint_overlap(cameras[j], cameras[i], options.ground_height) >= options.min_overlap)
+        pairs.emplace_back(i, j);
+    }
+  return pairs;
+}
+
+std::vector<std::pair<int, int>> parse_pairs(const std::string& text, int cameras, const std::string& flag) {
+  std::vector<std::pair<int, int>> pairs;
+  std::stringstream stream(text);
+  std::string token;
+  while (std::getline(stream, token, ',')) {
+    const std::size_t dash = token.find('-');
+    int a = -1, b = -1;
+    try {
+      std::size_t used_a = 0, used_b = 0;
+      if (dash == std::string::npos) throw std::invalid_argument("");
+      a = std::stoi(token.substr(0, dash), &used_a);
+      b = std::stoi(token.substr(dash + 1), &used_b);
+      if (used_a != dash || used_b != token.size() - dash - 1) throw std::invalid_argument("");
+    } catch (const std::exception&) {
+      throw ArgumentError(flag, "must be auto or pairs like 0-1,1-2, got '" + token + "'");
+    }
+    if (a < 0 || b < 0 || a >= cameras || b >= cameras)
+      throw ArgumentError(flag, "pair '" + token + "' names a camera outside 0.." + std::to_string(cameras - 1));
+    if (a == b) throw ArgumentError(flag, "pair '" + token + "' matches a camera with itself");
+    pairs.emplace_back(a, b);
+  }
+  if (pairs.empty()) throw ArgumentError(flag, "names no pair");
+  return pairs;
+}
+
+}  // namespace dsmplan

@@ -1,0 +1,324 @@
+// dsmplan stereo: frame-camera images with known poses to a GeoTIFF DSM (issue 16), the
+// pipeline of Adolf & Hirschmüller, Section 2, run by stereo_dsm() (src/stereo, no GDAL); here
+// only what needs files: CAMERAS.json, the images through GDAL, the GeoTIFF out.
+#include <gdal_priv.h>
+
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <limits>
+#include <sstream>
+
+#include "dsmplan/stereo_frames.hpp"
+#include "dsmplan/tools.hpp"
+
+namespace dsmplan {
+namespace {
+
+double seconds_since(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
+// The JSON's keys, each checked with the file and the key named in the error.
+struct JsonReader {
+  const std::string& file;
+  double number(const nlohmann::json& parent, const std::string& key, const std::string& where) const {
+    if (!parent.contains(key)) throw InputError(file, where + "." + key, "missing");
+    const nlohmann::json& value = parent[key];
+    if (!value.is_number() || !std::isfinite(value.get<double>()))
+      throw InputError(file, where + "." + key, "must be a finite number, got " + value.dump());
+    return value.get<double>();
+  }
+  int integer(const nlohmann::json& parent, const std::string& key, const std::string& where) const {
+    const double value = number(parent, key, where);
+    if (value != std::floor(value) || value < 1 || value > 1e6)
+      throw InputError(file, where + "." + key, "must be a whole number of pixels >= 1, got " + parent[key].dump());
+    return static_cast<int>(value);
+  }
+  std::vector<double> numbers(const nlohmann::json& value, size_t count, const std::string& where) const {
+    if (!value.is_array() || value.size() != count)
+      throw InputError(file, where, "must be an array of " + std::to_string(count) + " numbers, got " + value.dump());
+    std::vector<double> out;
+    for (const auto& v : value) {
+      if (!v.is_number() || !std::isfinite(v.get<double>()))
+        throw InputError(file, where, "must hold finite numbers, got " + v.dump());
+      out.push_back(v.get<double>());
+    }
+    return out;
+  }
+};
+
+struct CameraFile {
+  std::string crs;
+  double min_height = 0, max_height = 0;
+  std::vector<FrameCamera> cameras;
+  std::vector<std::string> images;  // paths as resolved against the JSON's folder
+};
+
+CameraFile read_cameras(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) throw InputError(path, "", "cannot be opened");
+  nlohmann::json root;
+  try {
+    root = nlohmann::json::parse(in);
+  } catch (const nlohmann::json::parse_error& error) {
+    throw InputError(path, "", std::string("is not JSON: ") + error.what());
+  }
+  if (!root.is_object()) throw InputError(path, "", "must be a JSON object with crs and cameras");
+  const JsonReader read{path};
+  CameraFile file;
+  if (!root.contains("crs") || !root["crs"].is_string() || root["crs"].get<std::string>().empty())
+    throw InputError(path, "crs", "missing or not a string (e.g. \"EPSG:25832\")");
+  file.crs = root["crs"].get<std::string>();
+  if (!root.contains("height_range"))
+    throw InputError(path, "height_range", "missing: give the scene's lowest and highest heights, e.g. [100, 180]");
+  const std::vector<double> range = read.numbers(root["height_range"], 2, "height_range");
+  if (!(range[0] < range[1])) throw InputError(path, "height_range", "must be [lowest, highest] with lowest < highest");
+  file.min_height = range[0];
+  file.max_height = range[1];
+  if (!root.contains("cameras") || !root["cameras"].is_array() || root["cameras"].size() < 2)
+    throw InputError(path, "cameras", "must be an array of at least two cameras");
+  const std::filesystem::path folder = std::filesystem::path(path).parent_path();
+  for (size_t i = 0; i < root["cameras"].size(); ++i) {
+    const nlohmann::json& c = root["cameras"][i];
+    const std::string where = "cameras[" + std::to_string(i) + "]";
+    if (!c.is_object()) throw InputError(path, where, "must be an object");
+    FrameCamera camera;
+    if (!c.contains("image") || !c["image"].is_string())
+      throw InputError(path, where + ".image", "missing or not a string");
+    camera.width = read.integer(c, "width", where);
+    camera.height = read.integer(c, "height", where);
+    camera.fx = read.number(c, "fx", where);
+    camera.fy = read.number(c, "fy", where);
+    camera.cx = read.number(c, "cx", where);
+    camera.cy = read.number(c, "cy", where);
+    if (c.contains("distortion")) {
+      const std::vector<double> k = read.numbers(c["distortion"], 5, where + ".distortion");
+      for (int j = 0; j < 5; ++j) camera.distortion[j] = k[j];
+    }
+    if (!c.contains("rotation")) throw InputError(path, where + ".rotation", "missing");
+    if (!c["rotation"].is_array() || c["rotation"].size() != 3)
+      throw InputError(path, where + ".rotation", "must be a 3 x 3 array (rows), got " + c["rotation"].dump());
+    for (int r = 0; r < 3; ++r) {
+      const std::vector<double> row = read.numbers(c["rotation"][r], 3, where + ".rotation");
+      for (int j = 0; j < 3; ++j) camera.rotation[r][j] = row[j];
+    }
+    if (!c.contains("center")) throw InputError(path, where + ".center", "missing");
+    const std::vector<double> centre = read.numbers(c["center"], 3, where + ".center");
+    camera.center = {centre[0], centre[1], centre[2]};
+    try {
+      check_camera(camera, where);
+    } catch (const ArgumentError& error) {
+      throw InputError(path, "", error.what());
+    }
+    std::filesystem::path image = c["image"].get<std::string>();
+    if (image.is_relative()) image = folder / image;
+    file.cameras.push_back(camera);
+    file.images.push_back(image.string());
+  }
+  return file;
+}
+
+// One image as grey floats: band 1, or the luminance of bands 1-3.
+GreyImage read_image(const std::string& path, const FrameCamera& camera, const std::string& camera_name) {
+  if (!std::filesystem::exists(path)) throw InputError(path, camera_name, "image does not exist");
+  GDALAllRegister();
+  CPLPushErrorHandler(CPLQuietErrorHandler);
+  std::unique_ptr<GDALDataset> dataset(GDALDataset::Open(path.c_str(), GDAL_OF_RASTER | GDAL_OF_READONLY));
+  CPLPopErrorHandler();
+  if (!dataset || dataset->GetRasterCount() < 1)
+    throw InputError(path, camera_name, "is not a raster image GDAL can read");
+  const GDALDataType type = dataset->GetRasterBand(1)->GetRasterDataType();
+  if (type != GDT_Byte && type != GDT_UInt16 && type != GDT_Int16)
+    throw InputError(path, camera_name,
+                     std::string("image is ") + GDALGetDataTypeName(type) + ": give 8- or 16-bit images");
+  const int w = dataset->GetRasterXSize(), h = dataset->GetRasterYSize();
+  if (w != camera.width || h != camera.height)
+    throw InputError(path, camera_name,
+                     "image is " + std::to_string(w) + " x " + std::to_string(h) + ", the camera says " +
+                         std::to_string(camera.width) + " x " + std::to_string(camera.height));
+  require_memory(path, camera_name, 8.0 * w * h);
+  GreyImage image;
+  image.width = w;
+  image.height = h;
+  image.pixels.assign(static_cast<size_t>(w) * h, 0.0f);
+  const bool rgb = dataset->GetRasterCount() >= 3;
+  const double weights[3] = {0.299, 0.587, 0.114};
+  std::vector<float> band(image.pixels.size());
+  for (int b = 0; b < (rgb ? 3 : 1); ++b) {
+    if (dataset->GetRasterBand(b + 1)->RasterIO(GF_Read, 0, 0, w, h, band.data(), w, h, GDT_Float32, 0, 0) != CE_None)
+      throw InputError(path, camera_name, "image could not be read: " + std::string(CPLGetLastErrorMsg()));
+    const double weight = rgb ? weights[b] : 1.0;
+    for (size_t i = 0; i < band.size(); ++i) image.pixels[i] += static_cast<float>(weight * band[i]);
+  }
+  return image;
+}
+
+// The bounding box of the pairs' common footprint on the plane Z = ground: left pixels of a
+// 65 x 65 lattice whose ground point the right camera sees.
+bool overlap_box(const FrameCamera& left, const FrameCamera& right, double ground, std::array<double, 4>& box) {
+  bool any = false;
+  for (int i = 0; i <= 64; ++i)
+    for (int j = 0; j <= 64; ++j) {
+      const Vec3 ray = pixel_ray(left, i / 64.0 * (left.width - 1), j / 64.0 * (left.height - 1));
+      if (std::abs(ray[2]) < 1e-12) continue;
+      const double t = (ground - left.center[2]) / ray[2];
+      if (!(t > 0)) continue;
+      const Vec3 X{left.center[0] + t * ray[0], left.center[1] + t * ray[1], ground};
+      double u, v;
+      if (!project(right, X, u, v) || u < 0 || v < 0 || u > right.width - 1 || v > right.height - 1) continue;
+      if (!any) box = {X[0], X[1], X[0], X[1]};
+      any = true;
+      box = {std::min(box[0], X[0]), std::min(box[1], X[1]), std::max(box[2], X[0]), std::max(box[3], X[1])};
+    }
+  return any;
+}
+
+}  // namespace
+
+StereoReport stereo_job(const StereoJobOptions& options, const Progress& progress) {
+  const std::string extension = std::filesystem::path(options.output).extension().string();
+  if (extension != ".tif" && extension != ".tiff")
+    throw ArgumentError(options.output, "output must be a GeoTIFF (.tif)");
+  if (!(options.resolution > 0 && std::isfinite(options.resolution)))
+    throw ArgumentError("--res", "must be a positive number of CRS units");
+  if (options.bounds) dsm_grid(*options.bounds, options.resolution);  // checks the bounds
+
+  StereoReport out;
+  out.cameras = options.cameras;
+  out.output = options.output;
+  auto start = std::chrono::steady_clock::now();
+  const CameraFile file = read_cameras(options.cameras);
+  const int n = static_cast<int>(file.cameras.size());
+  out.camera_count = file.cameras.size();
+  out.min_height = file.min_height;
+  out.max_height = file.max_height;
+  Crs crs;
+  crs.definition = file.crs;
+  try {
+    resolve_crs(crs);
+  } catch (const ArgumentError& error) {
+    throw InputError(options.cameras, "crs", error.what());
+  }
+  const std::string problem =
+      metric_problem(crs, options.cameras, file.cameras[0].center[0], file.cameras[0].center[1], /*units_only=*/true);
+  if (!problem.empty()) throw InputError(options.cameras, "crs", problem);
+
+  std::vector<NamedFile> images_in;
+  for (int i = 0; i < n; ++i) images_in.push_back({"camera " + std::to_string(i) + "'s image", file.images[i]});
+  refuse_overwrites(images_in, {{"-o", options.output}});
+
+  // Pairs, before the images are read: a bad --pairs or cameras that see nothing in common fail fast.
+  const double ground = file.min_height;
+  if (options.pairs == "auto") {
+    PairSelectionOptions selection;
+    selection.ground_height = ground;
+    out.pairs = select_pairs_auto(file.cameras, selection);
+    if (out.pairs.empty())
+      throw InputError(options.cameras, "cameras",
+                       "no two cameras overlap by 30 % on the ground with a base-to-height ratio of 0.1..1.2");
+  } else {
+    out.pairs = parse_pairs(options.pairs, n, "--pairs");
+  }
+  std::array<double, 4> footprint{};
+  bool any_footprint = false;
+  for (const auto& [a, b] : out.pairs) {
+    // The common footprint on the lowest and the highest plane of the scene.
+    std::array<double, 4> box, high;
+    if (!overlap_box(file.cameras[a], file.cameras[b], ground, box) ||
+        !overlap_box(file.cameras[a], file.cameras[b], file.max_height, high))
+      throw InputError(options.cameras, "cameras " + std::to_string(a) + " and " + std::to_string(b),
+                       "see nothing in common");
+    box = {std::min(box[0], high[0]), std::min(box[1], high[1]), std::max(box[2], high[2]), std::max(box[3], high[3])};
+    footprint = any_footprint ? std::array<double, 4>{std::min(footprint[0], box[0]), std::min(footprint[1], box[1]),
+                                                      std::max(footprint[2], box[2]), std::max(footprint[3], box[3])}
+                              : box;
+    any_footprint = true;
+  }
+  if (options.bounds) {
+    const auto& b = *options.bounds;
+    if (b[2] <= footprint[0] || b[0] >= footprint[2] || b[3] <= footprint[1] || b[1] >= footprint[3])
+      throw InputError(options.cameras, "--bounds", "lies outside every pair's common footprint");
+    out.bounds = b;
+  } else {
+    const double r = options.resolution;
+    out.bounds = {std::floor(footprint[0] / r) * r, std::floor(footprint[1] / r) * r, std::ceil(footprint[2] / r) * r,
+                  std::ceil(footprint[3] / r) * r};
+  }
+  Grid grid = dsm_grid(out.bounds, options.resolution);
+  grid.crs = crs;
+  require_memory(options.output, "", 12.0 * grid.cells() + geotiff_buffer_bytes());
+
+  std::vector<GreyImage> images(file.cameras.size());
+  std::vector<bool> needed(file.cameras.size(), false);
+  for (const auto& [a, b] : out.pairs) needed[a] = needed[b] = true;
+  for (int i = 0; i < n; ++i)
+    if (needed[i]) {
+      images[i] = read_image(file.images[i], file.cameras[i], "camera " + std::to_string(i));
+    } else {  // not matched: an empty stand-in of the right size keeps stereo_dsm's checks simple
+      images[i].width = file.cameras[i].width;
+      images[i].height = file.cameras[i].height;
+    }
+  out.seconds_read = seconds_since(start);
+  report(progress, 0.05);
+
+  FrameStereoOptions stereo;
+  stereo.rectify.min_height = file.min_height;
+  stereo.rectify.max_height = file.max_height;
+  const FrameStereoStats stats = [&] {
+    try {
+      return stereo_dsm(file.cameras, images, out.pairs, grid, stereo, sub_progress(progress, 0.05, 0.9));
+    } catch (const InputError& error) {
+      throw InputError(options.cameras, "", error.what());
+    }
+  }();
+  out.matched_pixels = stats.matched_pixels;
+  out.points = stats.points;
+  out.points_outside_range = stats.points_outside_range;
+  out.points_in_grid = stats.points_in_grid;
+  out.seconds_rectify = stats.seconds_rectify;
+  out.seconds_match = stats.seconds_match;
+  out.seconds_triangulate = stats.seconds_triangulate;
+  out.seconds_fuse = stats.seconds_fuse;
+  out.width = grid.width;
+  out.height = grid.height;
+  out.summary = summarize(grid);
+  if (out.summary.valid == 0)
+    throw InputError(options.cameras, "", "no point of any pair fell into the DSM's bounds: nothing to write");
+
+  start = std::chrono::steady_clock::now();
+  write_geotiff(grid, options.output, sub_progress(progress, 0.9, 1.0));
+  out.seconds_write = seconds_since(start);
+  return out;
+}
+
+Json to_json(const StereoReport& r) {
+  Json pairs = Json::array();
+  for (const auto& [a, b] : r.pairs) pairs.push_back({a, b});
+  const double total =
+      r.seconds_read + r.seconds_rectify + r.seconds_match + r.seconds_triangulate + r.seconds_fuse + r.seconds_write;
+  return {{"cameras", r.cameras},
+          {"output", r.output},
+          {"camera_count", r.camera_count},
+          {"pairs", pairs},
+          {"height_range", {r.min_height, r.max_height}},
+          {"bounds", {r.bounds[0], r.bounds[1], r.bounds[2], r.bounds[3]}},
+          {"width", r.width},
+          {"height", r.height},
+          {"matched_pixels", r.matched_pixels},
+          {"points", r.points},
+          {"points_outside_height_range", r.points_outside_range},
+          {"points_in_grid", r.points_in_grid},
+          {"dsm", to_json(r.summary)},
+          {"seconds",
+           {{"read", r.seconds_read},
+            {"rectify", r.seconds_rectify},
+            {"match", r.seconds_match},
+            {"triangulate", r.seconds_triangulate},
+            {"fuse", r.seconds_fuse},
+            {"write", r.seconds_write},
+            {"total", total}}}};
+}
+
+}  // namespace dsmplan

@@ -1,0 +1,649 @@
+// Stereo from frame cameras (include/dsmplan/stereo_frames.hpp), each part against an oracle
+// that shares none of its code path:
+//   - distortion: undistort(distort(p)) = p, and project() against the formula written out;
+//   - rectification (Fusiello, Trucco & Verri 2000): known 3D points projected through both
+//     rectified cameras land in the same row (epipolar residual < 0.01 px), the rectified images
+//     hold, at those pixels, the original images' values at the original projections, and
+//     triangulate() returns the point (< 1 mm);
+//   - the median fusion against a hand count; pair parsing and `auto` selection;
+//   - end to end: two views rendered by ray casting a 40 m x 40 m crop of the real NRW DSM
+//     (cells as solid columns, a texture varying in x, y and z; one camera tilted and with lens
+//     distortion), rectified, matched, triangulated and fused at 1 m, against the crop.
+#include <gdal_priv.h>
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdint>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "dsmplan/stereo_frames.hpp"
+#include "dsmplan/tools.hpp"
+#include "testkit.hpp"
+
+using namespace dsmplan;
+
+namespace {
+
+Mat3 rotation_xyz(double ax, double ay, double az) {  // R = Rz Ry Rx, radians
+  const double cx = std::cos(ax), sx = std::sin(ax), cy = std::cos(ay), sy = std::sin(ay), cz = std::cos(az),
+               sz = std::sin(az);
+  const Mat3 Rx{{{1, 0, 0}, {0, cx, -sx}, {0, sx, cx}}}, Ry{{{cy, 0, sy}, {0, 1, 0}, {-sy, 0, cy}}},
+      Rz{{{cz, -sz, 0}, {sz, cz, 0}, {0, 0, 1}}};
+  const auto mul = [](const Mat3& a, const Mat3& b) {
+    Mat3 c{};
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j)
+        for (int k = 0; k < 3; ++k) c[i][j] += a[i][k] * b[k][j];
+    return c;
+  };
+  return mul(Rz, mul(Ry, Rx));
+}
+
+// A nadir camera (x east, y south, z down) at `center`, turned by small angles.
+FrameCamera nadir_camera(int size, double f, const Vec3& center, double tilt_x = 0, double tilt_y = 0, double k1 = 0,
+                         double p1 = 0) {
+  FrameCamera c;
+  c.width = c.height = size;
+  c.fx = c.fy = f;
+  c.cx = c.cy = (size - 1) / 2.0;
+  const Mat3 nadir{{{1, 0, 0}, {0, -1, 0}, {0, 0, -1}}};
+  const Mat3 turn = rotation_xyz(tilt_x, tilt_y, 0);
+  Mat3 R{};
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j)
+      for (int k = 0; k < 3; ++k) R[i][j] += turn[i][k] * nadir[k][j];
+  c.rotation = R;
+  c.center = center;
+  c.distortion = {k1, 0.3 * k1, p1, -0.5 * p1, 0};
+  return c;
+}
+
+// Value noise in 3D: a hash per lattice point (spacing `cell` metres), trilinear in between, two
+// octaves; 0..1.
+double hash01(std::int64_t x, std::int64_t y, std::int64_t z) {
+  std::uint64_t h = static_cast<std::uint64_t>(x) * 0x9E3779B97F4A7C15ull ^
+                    static_cast<std::uint64_t>(y) * 0xC2B2AE3D27D4EB4Full ^
+                    static_cast<std::uint64_t>(z) * 0x165667B19E3779F9ull;
+  h ^= h >> 29;
+  h *= 0xBF58476D1CE4E5B9ull;
+  h ^= h >> 32;
+  return static_cast<double>(h & 0xFFFFFF) / 0xFFFFFF;
+}
+double value_noise(double x, double y, double z, double cell) {
+  const double fx = x / cell, fy = y / cell, fz = z / cell;
+  const double ix = std::floor(fx), iy = std::floor(fy), iz = std::floor(fz);
+  const double tx = fx - ix, ty = fy - iy, tz = fz - iz;
+  double sum = 0;
+  for (int dx = 0; dx < 2; ++dx)
+    for (int dy = 0; dy < 2; ++dy)
+      for (int dz = 0; dz < 2; ++dz)
+        sum += (dx ? tx : 1 - tx) * (dy ? ty : 1 - ty) * (dz ? tz : 1 - tz) *
+               hash01(static_cast<std::int64_t>(ix) + dx, static_cast<std::int64_t>(iy) + dy,
+                      static_cast<std::int64_t>(iz) + dz);
+  return sum;
+}
+double texture(const Vec3& p) {
+  return 30 + 140 * value_noise(p[0], p[1], p[2], 0.45) + 60 * value_noise(p[0], p[1], p[2], 2.1);
+}
+
+// The scene: the cells of `dsm` as solid columns on an endless floor at `floor` height.
+struct ColumnScene {
+  const Grid& dsm;
+  double floor;
+  double top;
+  double height_at(int col, int row) const {
+    if (col < 0 || row < 0 || col >= dsm.width || row >= dsm.height) return floor;
+    return std::max<double>(floor, dsm.at(col, row));
+  }
+  // The first surface point along C + t·dir (dir pointing down), by a 2D DDA over the cells
+  // (Amanatides & Woo 1987).
+  Vec3 hit(const Vec3& C, const Vec3& dir) const {
+    const double t_floor = (floor - C[2]) / dir[2];
+    double t = std::max(0.0, (top - C[2]) / dir[2]);
+    // Cell coordinates: gx = (x - x0)/cell_x, gy = (y0 - y)/cell_y.
+    const double gx = (C[0] + t * dir[0] - dsm.x0) / dsm.cell_x, gy = (dsm.y0 - (C[1] + t * dir[1])) / dsm.cell_y;
+    const double vx = dir[0] / dsm.cell_x, vy = -dir[1] / dsm.cell_y;
+    int col = static_cast<int>(std::floor(gx)), row = static_cast<int>(std::floor(gy));
+    const int step_x = vx > 0 ? 1 : -1, step_y = vy > 0 ? 1 : -1;
+    double next_x = std::abs(vx) < 1e-15 ? INFINITY : ((vx > 0 ? col + 1 - gx : gx - col) / std::abs(vx)) + t;
+    double next_y = std::abs(vy) < 1e-15 ? INFINITY : ((vy > 0 ? row + 1 - gy : gy - row) / std::abs(vy)) + t;
+    const double dt_x = std::abs(vx) < 1e-15 ? INFINITY : 1 / std::abs(vx);
+    const double dt_y = std::abs(vy) < 1e-15 ? INFINITY : 1 / std::abs(vy);
+    for (int guard = 0; guard < 100000; ++guard) {
+      const double h = height_at(col, row);
+      const double t_out = std::min({next_x, next_y, t_floor});
+      const double z_in = C[2] + t * dir[2];
+      if (z_in <= h) return {C[0] + t * dir[0], C[1] + t * dir[1], z_in};  // a wall
+      const double t_top = (h - C[2]) / dir[2];
+      if (t_top <= t_out) return {C[0] + t_top * dir[0], C[1] + t_top * dir[1], h};
+      t = t_out;
+      if (next_x < next_y) {
+        col += step_x;
+        next_x += dt_x;
+      } else {
+        row += step_y;
+        next_y += dt_y;
+      }
+    }
+    return {C[0] + t_floor * dir[0], C[1] + t_floor * dir[1], floor};
+  }
+};
+
+// The camera's image of the scene, 2 x 2 rays per pixel, plus a little noise.
+GreyImage render(const ColumnScene& scene, const FrameCamera& camera, unsigned seed) {
+  GreyImage image;
+  image.width = camera.width;
+  image.height = camera.height;
+  image.pixels.resize(static_cast<size_t>(camera.width) * camera.height);
+  std::mt19937 random(seed);
+  std::normal_distribution<double> noise(0, 1.5);
+  for (int v = 0; v < camera.height; ++v)
+    for (int u = 0; u < camera.width; ++u) {
+      double sum = 0;
+      for (double du : {-0.25, 0.25})
+        for (double dv : {-0.25, 0.25}) sum += texture(scene.hit(camera.center, pixel_ray(camera, u + du, v + dv)));
+      image.pixels[static_cast<size_t>(v) * camera.width + u] =
+          static_cast<float>(std::clamp(std::round(sum / 4 + noise(random)), 0.0, 255.0));
+    }
+  return image;
+}
+
+// A smooth image whose value is known anywhere: for the resampling oracle.
+GreyImage smooth_image(int w, int h) {
+  GreyImage image;
+  image.width = w;
+  image.height = h;
+  image.pixels.resize(static_cast<size_t>(w) * h);
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x)
+      image.pixels[static_cast<size_t>(y) * w + x] = static_cast<float>(100 + 0.3 * x + 0.2 * y);
+  return image;
+}
+
+}  // namespace
+
+TEST(StereoCamera, UndistortInvertsDistortAndProjectFollowsTheFormula) {
+  FrameCamera c = nadir_camera(300, 400, {0, 0, 100}, 0.05, -0.03, -0.08, 0.002);
+  c.distortion = {-0.08, 0.02, 0.002, -0.001, 0.004};
+  for (double x = -0.4; x <= 0.4; x += 0.1)
+    for (double y = -0.4; y <= 0.4; y += 0.1) {
+      const auto d = distort(c, x, y);
+      const auto u = undistort(c, d[0], d[1]);
+      EXPECT_NEAR(u[0], x, 1e-10);
+      EXPECT_NEAR(u[1], y, 1e-10);
+    }
+  // project() against the formula written out for one point.
+  const Vec3 X{12.0, -7.0, 3.0};
+  double p[3];
+  for (int i = 0; i < 3; ++i)
+    p[i] = c.rotation[i][0] * (X[0] - c.center[0]) + c.rotation[i][1] * (X[1] - c.center[1]) +
+           c.rotation[i][2] * (X[2] - c.center[2]);
+  const double x = p[0] / p[2], y = p[1] / p[2], r2 = x * x + y * y;
+  const auto [k1, k2, p1, p2, k3] = c.distortion;
+  const double radial = 1 + k1 * r2 + k2 * r2 * r2 + k3 * r2 * r2 * r2;
+  const double xd = x * radial + 2 * p1 * x * y + p2 * (r2 + 2 * x * x);
+  const double yd = y * radial + p1 * (r2 + 2 * y * y) + 2 * p2 * x * y;
+  double u, v;
+  ASSERT_TRUE(project(c, X, u, v));
+  EXPECT_NEAR(u, c.fx * xd + c.cx, 1e-9);
+  EXPECT_NEAR(v, c.fy * yd + c.cy, 1e-9);
+  // The ray through that pixel passes through X.
+  const Vec3 ray = pixel_ray(c, u, v);
+  const Vec3 to{X[0] - c.center[0], X[1] - c.center[1], X[2] - c.center[2]};
+  const double n = std::sqrt(to[0] * to[0] + to[1] * to[1] + to[2] * to[2]);
+  for (int i = 0; i < 3; ++i) EXPECT_NEAR(ray[i], to[i] / n, 1e-9);
+  EXPECT_FALSE(project(c, {0, 0, 200}, u, v));  // behind the camera
+}
+
+TEST(StereoCamera, CheckCameraRefusesANonOrthonormalRotation) {
+  FrameCamera c = nadir_camera(100, 100, {0, 0, 100});
+  EXPECT_NO_THROW(check_camera(c, "camera 0"));
+  c.rotation[0][1] = 0.1;
+  EXPECT_THROW(check_camera(c, "camera 0"), ArgumentError);
+  c = nadir_camera(100, 100, {0, 0, 100});
+  c.rotation[2] = {0, 0, 1};  // determinant -1
+  EXPECT_THROW(check_camera(c, "camera 0"), ArgumentError);
+}
+
+TEST(StereoRectification, PointsShareARowAndTriangulateBack) {
+  // Two tilted cameras with distortion, baseline mostly along x with some y and z.
+  const FrameCamera a = nadir_camera(240, 380, {100, 200, 150}, 0.04, -0.06, -0.05, 0.001);
+  const FrameCamera b = nadir_camera(220, 400, {130, 206, 152}, -0.03, 0.05, 0.03, -0.001);
+  RectifyOptions options;
+  options.min_height = 0;
+  options.max_height = 40;
+  const RectifiedPair pair =
+      rectify_pair(a, smooth_image(a.width, a.height), b, smooth_image(b.width, b.height), options);
+  EXPECT_NEAR(pair.baseline, std::sqrt(30.0 * 30 + 6 * 6 + 2 * 2), 1e-9);
+  std::mt19937 random(7);
+  std::uniform_real_distribution<double> along(95, 135), across(185, 215), up(0, 40);
+  int checked = 0;
+  double worst_row = 0, worst_point = 0, worst_value = 0;
+  for (int k = 0; k < 2000; ++k) {
+    const Vec3 X{along(random), across(random), up(random)};
+    double ua, va, ub, vb;
+    if (!project(a, X, ua, va) || !project(b, X, ub, vb)) continue;
+    if (ua < 1 || va < 1 || ub < 1 || vb < 1 || ua > a.width - 2 || va > a.height - 2 || ub > b.width - 2 ||
+        vb > b.height - 2)
+      continue;
+    double ul, vl, ur, vr;
+    ASSERT_TRUE(project(pair.left, X, ul, vl));
+    ASSERT_TRUE(project(pair.right, X, ur, vr));
+    if (ul < 0 || vl < 0 || ul > pair.left.width - 1 || vl > pair.left.height - 1) continue;
+    ++checked;
+    worst_row = std::max(worst_row, std::abs(vl - vr));
+    const double d = ul - ur;
+    EXPECT_GE(d, 0);
+    EXPECT_LT(d, pair.num_disparities);
+    Vec3 back;
+    ASSERT_TRUE(triangulate(pair, ul, vl, d, back));
+    worst_point = std::max({worst_point, std::abs(back[0] - X[0]), std::abs(back[1] - X[1]), std::abs(back[2] - X[2])});
+    // The rectified image holds the original image's value there (the smooth image is linear,
+    // so bilinear resampling reproduces it to float precision).
+    float value;
+    ASSERT_TRUE(pair.left_image.sample(ul, vl, value));
+    const int x0 = static_cast<int>(ul), y0 = static_cast<int>(vl);
+    const int x1 = std::min(x0 + 1, pair.left.width - 1), y1 = std::min(y0 + 1, pair.left.height - 1);
+    const auto masked = [&](int x, int y) { return pair.left_mask[static_cast<size_t>(y) * pair.left.width + x] != 0; };
+    if (masked(x0, y0) && masked(x1, y0) && masked(x0, y1) && masked(x1, y1))
+      worst_value = std::max(worst_value, std::abs(value - (100 + 0.3 * ua + 0.2 * va)));
+  }
+  std::printf("%d points: epipolar residual %.2e px, triangulation %.2e m, resampled value %.2e; %d disparities\n",
+              checked, worst_row, worst_point, worst_value, pair.num_disparities);
+  EXPECT_GT(checked, 500);
+  EXPECT_LT(worst_row, 0.01) << "epipolar residual, px";
+  EXPECT_LT(worst_point, 0.001) << "triangulation error, m";
+  // Bilinear of a linear function at the rectified pixel vs the original projection: the linear
+  // function is not linear through the rectifying map, so allow the map's curvature over one pixel.
+  EXPECT_LT(worst_value, 0.05) << "resampled value vs the original's";
+}
+
+TEST(StereoFusion, MedianPerCellNodataWhereNothingFell) {
+  Grid grid = dsm_grid({0, 0, 3, 2}, 1.0);
+  ASSERT_EQ(grid.width, 3);
+  ASSERT_EQ(grid.height, 2);
+  const std::vector<std::vector<Vec3>> sets{{{0.5, 1.5, 10}, {0.2, 1.9, 30}, {0.9, 1.1, 11}},  // cell (0,0): 10, 30, 11
+                                            {{2.5, 0.5, 4}, {2.1, 0.2, 6}, {9, 9, 1}}};  // (2,1): 4, 6; one outside
+  EXPECT_EQ(fuse_median(grid, sets), 5u);
+  EXPECT_FLOAT_EQ(grid.at(0, 0), 11);
+  EXPECT_FLOAT_EQ(grid.at(2, 1), 5);
+  EXPECT_TRUE(std::isnan(grid.at(1, 0)));
+  EXPECT_TRUE(std::isnan(grid.at(0, 1)));
+}
+
+TEST(StereoPairs, ExplicitAndAuto) {
+  const auto pairs = parse_pairs("0-1,2-1", 3);
+  ASSERT_EQ(pairs.size(), 2u);
+  EXPECT_EQ(pairs[1], std::make_pair(2, 1));
+  EXPECT_THROW(parse_pairs("0-3", 3), ArgumentError);
+  EXPECT_THROW(parse_pairs("1-1", 3), ArgumentError);
+  EXPECT_THROW(parse_pairs("0_1", 3), ArgumentError);
+  EXPECT_THROW(parse_pairs("0-1x", 3), ArgumentError);
+  // A strip of 4 nadir views 20 m apart at 100 m over the ground, footprint 60 m: neighbours and
+  // second neighbours overlap (67 %, 33 %), the third do not; a fifth camera far away overlaps none.
+  std::vector<FrameCamera> cameras;
+  for (int i = 0; i < 4; ++i) cameras.push_back(nadir_camera(200, 200 * 100 / 60.0, {20.0 * i, 0, 100}));
+  cameras.push_back(nadir_camera(200, 200 * 100 / 60.0, {5000, 0, 100}));
+  PairSelectionOptions options;
+  options.ground_height = 0;
+  const auto chosen = select_pairs_auto(cameras, options);
+  const std::vector<std::pair<int, int>> expected{{0, 1}, {0, 2}, {1, 2}, {1, 3}, {2, 3}};
+  EXPECT_EQ(chosen, expected);
+  EXPECT_NEAR(base_to_height(cameras[0], cameras[1], 0), 0.2, 1e-12);
+  EXPECT_EQ(footprint_overlap(cameras[0], cameras[4], 0), 0.0);
+}
+
+namespace {
+
+// 40 m x 40 m of the real DSM (1 m cells) in the middle of the 500 m crop, seen by two cameras:
+// base 24 m at 110 m over the lowest cell (B/H 0.22), 240 x 240 pixels, 0.3 m on the ground; the
+// right camera tilted and with lens distortion; a third camera 14 m across. Each view is
+// rendered once per test binary, when first asked for.
+struct RenderedScene {
+  Grid truth;
+  double lo = 0, hi = 0;
+  std::vector<FrameCamera> cameras;
+  double render_seconds = 0;
+  std::vector<std::vector<GreyImage>> cache = std::vector<std::vector<GreyImage>>(3);
+  const GreyImage& view(int i) {
+    if (cache[i].empty()) {
+      const auto start = std::chrono::steady_clock::now();
+      cache[i].push_back(render(ColumnScene{truth, lo, hi}, cameras[i], 1 + i));
+      render_seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    }
+    return cache[i][0];
+  }
+  std::vector<GreyImage> views(int count) {
+    std::vector<GreyImage> images;
+    for (int i = 0; i < count; ++i) images.push_back(view(i));
+    return images;
+  }
+};
+
+RenderedScene& rendered_scene() {
+  static RenderedScene scene = [] {
+    RenderedScene p;
+    const Grid& nrw = testkit::nrw_crop();
+    const int c0 = nrw.width / 2 - 20, r0 = nrw.height / 2 - 20, n = 40;
+    p.truth = Grid(n, n, nrw.x0 + c0 * nrw.cell_x, nrw.y0 - r0 * nrw.cell_y, nrw.cell_x, nrw.cell_y);
+    p.truth.crs = nrw.crs;
+    for (int r = 0; r < n; ++r)
+      for (int c = 0; c < n; ++c) p.truth.z[p.truth.index(c, r)] = nrw.at(c0 + c, r0 + r);
+    const auto [lo, hi] = std::minmax_element(p.truth.z.begin(), p.truth.z.end());
+    p.lo = *lo;
+    p.hi = *hi;
+    const double xc = p.truth.x0 + n / 2.0, yc = p.truth.y0 - n / 2.0, zc = p.lo + 110;
+    p.cameras = {nadir_camera(240, 380, {xc - 12, yc, zc}),
+                 nadir_camera(240, 380, {xc + 12, yc + 1, zc + 2}, 0.02, -0.03, -0.04, 0.0005),
+                 nadir_camera(240, 380, {xc, yc + 14, zc - 1}, -0.02, 0.01)};  // across the strip
+    return p;
+  }();
+  return scene;
+}
+
+// Completeness and |error| quantiles of `dsm` against `truth` (same grid).
+struct DsmErrors {
+  double completeness = 0, median = 0, over1 = 0, over3 = 0;
+};
+DsmErrors dsm_errors(const Grid& dsm, const Grid& truth) {
+  std::vector<double> errors;
+  for (int r = 0; r < truth.height; ++r)
+    for (int c = 0; c < truth.width; ++c)
+      if (dsm.valid(c, r)) errors.push_back(std::abs(dsm.at(c, r) - truth.at(c, r)));
+  DsmErrors e;
+  if (errors.empty()) return e;
+  std::sort(errors.begin(), errors.end());
+  const double count = static_cast<double>(errors.size());
+  e.completeness = count / truth.cells();
+  e.median = errors[errors.size() / 2];
+  e.over1 = (errors.end() - std::upper_bound(errors.begin(), errors.end(), 1.0)) / count;
+  e.over3 = (errors.end() - std::upper_bound(errors.begin(), errors.end(), 3.0)) / count;
+  return e;
+}
+
+}  // namespace
+
+TEST(StereoPipeline, RenderedNrwCropBackToItsDsm) {
+  RenderedScene& scene = rendered_scene();
+  const Grid& truth = scene.truth;
+  const std::vector<FrameCamera> cameras(scene.cameras.begin(), scene.cameras.begin() + 2);
+  const std::vector<GreyImage> images = scene.views(2);
+  const int n = truth.width;
+  const double lo = scene.lo, hi = scene.hi, render_seconds = scene.render_seconds;
+
+  FrameStereoOptions options;
+  options.rectify.min_height = lo;
+  options.rectify.max_height = hi;
+  Grid dsm = dsm_grid({truth.x0, truth.y1(), truth.x1(), truth.y0}, 1.0);
+  const std::vector<std::pair<int, int>> pairs{{0, 1}};
+  const FrameStereoStats stats = stereo_dsm(cameras, images, pairs, dsm, options);
+  ASSERT_EQ(dsm.width, n);
+  ASSERT_EQ(dsm.height, n);
+
+  const DsmErrors e = dsm_errors(dsm, truth);
+  const double completeness = e.completeness, median = e.median, over1 = e.over1, over3 = e.over3;
+  std::printf(
+      "NRW crop 40 m x 40 m (heights %.1f..%.1f m): completeness %.1f %%, median |error| %.3f m, "
+      "> 1 m %.1f %%, > 3 m %.1f %%; %zu points, render %.2f s, rectify %.3f s, match %.3f s, "
+      "triangulate %.3f s, fuse %.3f s\n",
+      lo, hi, 100 * completeness, median, 100 * over1, 100 * over3, stats.points, render_seconds, stats.seconds_rectify,
+      stats.seconds_match, stats.seconds_triangulate, stats.seconds_fuse);
+  EXPECT_GT(completeness, 0.85);
+  EXPECT_LT(median, 0.3);
+  EXPECT_LT(over1, 0.15);
+  EXPECT_LT(over3, 0.05);
+}
+
+TEST(StereoPipeline, ReversedPairAndThreeViewsFusedByTheMedian) {
+  RenderedScene& scene = rendered_scene();
+  const std::vector<GreyImage> images = scene.views(3);
+  FrameStereoOptions options;
+  options.rectify.min_height = scene.lo;
+  options.rectify.max_height = scene.hi;
+  const std::array<double, 4> bounds{scene.truth.x0, scene.truth.y1(), scene.truth.x1(), scene.truth.y0};
+  // The pair the other way round: the rectified images turn by 180 degrees, the DSM stays.
+  Grid reversed = dsm_grid(bounds, 1.0);
+  stereo_dsm(scene.cameras, images, {{1, 0}}, reversed, options);
+  const DsmErrors r = dsm_errors(reversed, scene.truth);
+  // All three views: `auto` takes the three pairs, the median fuses them.
+  PairSelectionOptions selection;
+  selection.ground_height = scene.lo;
+  const auto pairs = select_pairs_auto(scene.cameras, selection);
+  const std::vector<std::pair<int, int>> expected{{0, 1}, {0, 2}, {1, 2}};
+  EXPECT_EQ(pairs, expected);
+  Grid fused = dsm_grid(bounds, 1.0);
+  const FrameStereoStats stats = stereo_dsm(scene.cameras, images, pairs, fused, options);
+  const DsmErrors e = dsm_errors(fused, scene.truth);
+  std::printf(
+      "pair 1-0: completeness %.1f %%, median |error| %.3f m, > 1 m %.1f %%, > 3 m %.1f %%\n"
+      "3 views, %zu pairs: completeness %.1f %%, median |error| %.3f m, > 1 m %.1f %%, > 3 m %.1f %%\n",
+      100 * r.completeness, r.median, 100 * r.over1, 100 * r.over3, stats.pairs, 100 * e.completeness, e.median,
+      100 * e.over1, 100 * e.over3);
+  EXPECT_GT(r.completeness, 0.85);
+  EXPECT_LT(r.median, 0.3);
+  EXPECT_LT(r.over3, 0.05);
+  EXPECT_GT(e.completeness, 0.9);
+  EXPECT_LT(e.median, 0.3);
+  EXPECT_LT(e.over1, 0.15);
+  EXPECT_LT(e.over3, 0.05);
+}
+
+TEST(StereoPipeline, RefusesWrongImageSizeAndCamerasWithoutOverlap) {
+  const std::vector<FrameCamera> cameras{nadir_camera(64, 100, {0, 0, 100}), nadir_camera(64, 100, {20, 0, 100})};
+  std::vector<GreyImage> images{smooth_image(64, 64), smooth_image(63, 64)};
+  FrameStereoOptions options;
+  options.rectify.max_height = 10;
+  Grid dsm = dsm_grid({0, 0, 10, 10}, 1.0);
+  try {
+    stereo_dsm(cameras, images, {{0, 1}}, dsm, options);
+    FAIL() << "no error";
+  } catch (const InputError& error) {
+    EXPECT_NE(std::string(error.what()).find("camera 1: image is 63 x 64"), std::string::npos) << error.what();
+  }
+  PairSelectionOptions selection;
+  const std::vector<FrameCamera> apart{nadir_camera(64, 100, {0, 0, 100}), nadir_camera(64, 100, {900, 0, 100})};
+  EXPECT_TRUE(select_pairs_auto(apart, selection).empty());
+}
+
+// ---- dsmplan stereo: the command line ------------------------------------------------------
+
+namespace {
+
+// `image` as an 8-bit PNG (grey, or three equal RGB bands) through GDAL.
+void write_png(const GreyImage& image, const std::string& path, int bands = 1) {
+  GDALDriver* mem = GetGDALDriverManager()->GetDriverByName("MEM");
+  GDALDriver* png = GetGDALDriverManager()->GetDriverByName("PNG");
+  ASSERT_TRUE(mem && png);
+  std::unique_ptr<GDALDataset> data(mem->Create("", image.width, image.height, bands, GDT_Byte, nullptr));
+  std::vector<std::uint8_t> bytes(image.pixels.size());
+  for (size_t i = 0; i < bytes.size(); ++i)
+    bytes[i] = static_cast<std::uint8_t>(std::clamp(image.pixels[i], 0.0f, 255.0f));
+  for (int b = 1; b <= bands; ++b)
+    ASSERT_EQ(data->GetRasterBand(b)->RasterIO(GF_Write, 0, 0, image.width, image.height, bytes.data(), image.width,
+                                               image.height, GDT_Byte, 0, 0),
+              CE_None);
+  std::unique_ptr<GDALDataset> out(png->CreateCopy(path.c_str(), data.get(), FALSE, nullptr, nullptr, nullptr));
+  ASSERT_TRUE(out);
+}
+
+nlohmann::json camera_json(const FrameCamera& c, const std::string& image) {
+  nlohmann::json rotation = nlohmann::json::array();
+  for (const auto& row : c.rotation) rotation.push_back({row[0], row[1], row[2]});
+  return {{"image", image},       {"width", c.width},  {"height", c.height}, {"fx", c.fx},
+          {"fy", c.fy},           {"cx", c.cx},        {"cy", c.cy},         {"distortion", c.distortion},
+          {"rotation", rotation}, {"center", c.center}};
+}
+
+// The first two views as files: img_0.png (grey), img_1.png (RGB), and the cameras.json to
+// return; `rendered` false: smooth stand-ins of the right size (for errors found before matching).
+nlohmann::json write_pair_files(const testkit::TempDir& dir, bool rendered = true) {
+  RenderedScene& scene = rendered_scene();
+  write_png(rendered ? scene.view(0) : smooth_image(240, 240), dir.path("img_0.png"), 1);
+  write_png(rendered ? scene.view(1) : smooth_image(240, 240), dir.path("img_1.png"), 3);
+  return {{"crs", "EPSG:25832"},
+          {"height_range", {scene.lo, scene.hi}},
+          {"cameras", {camera_json(scene.cameras[0], "img_0.png"), camera_json(scene.cameras[1], "img_1.png")}}};
+}
+
+void write_json(const nlohmann::json& json, const std::string& path) { testkit::write_file(path, json.dump(1)); }
+
+std::string bounds_of(const Grid& g) {
+  return std::to_string(g.x0) + "," + std::to_string(g.y1()) + "," + std::to_string(g.x1()) + "," +
+         std::to_string(g.y0);
+}
+
+}  // namespace
+
+TEST(StereoCli, WritesTheDsmAndItsStats) {
+  testkit::TempDir dir;
+  write_json(write_pair_files(dir), dir.path("cameras.json"));
+  const RenderedScene& scene = rendered_scene();
+  const auto result =
+      testkit::run_cli({"stereo", "--cameras", dir.path("cameras.json"), "-o", dir.path("dsm.tif"), "--res", "1",
+                        "--bounds", bounds_of(scene.truth), "--stats", dir.path("stats.json"), "-q"});
+  ASSERT_EQ(result.exit_code, 0) << result.err;
+  const Grid dsm = read_raster(dir.path("dsm.tif"));
+  ASSERT_EQ(dsm.width, scene.truth.width);
+  ASSERT_EQ(dsm.height, scene.truth.height);
+  EXPECT_NEAR(dsm.x0, scene.truth.x0, 1e-6);
+  EXPECT_NEAR(dsm.y0, scene.truth.y0, 1e-6);
+  EXPECT_EQ(dsm.crs.epsg, 25832);
+  const DsmErrors e = dsm_errors(dsm, scene.truth);
+  std::printf("CLI: completeness %.1f %%, median |error| %.3f m, > 1 m %.1f %%, > 3 m %.1f %%\n", 100 * e.completeness,
+              e.median, 100 * e.over1, 100 * e.over3);
+  EXPECT_GT(e.completeness, 0.85);
+  EXPECT_LT(e.median, 0.3);
+  const auto stats = nlohmann::json::parse(testkit::read_file(dir.path("stats.json")));
+  EXPECT_EQ(stats["pairs"], nlohmann::json::parse("[[0,1]]"));
+  EXPECT_GT(stats["points"].get<double>(), 10000);
+  for (const char* stage : {"read", "rectify", "match", "triangulate", "fuse", "write", "total"})
+    EXPECT_TRUE(stats["seconds"].contains(stage)) << stage;
+  EXPECT_EQ(stats["dsm"]["valid"].get<double>(), e.completeness * dsm.cells());
+
+  // Without --bounds: the DSM covers the pairs' common footprint (beyond the 40 m crop, over
+  // the rendered floor), on whole multiples of the cell size; where both have cells, the same DSM.
+  // (In process: stereo_job() is what the binary calls.)
+  StereoJobOptions whole;
+  whole.cameras = dir.path("cameras.json");
+  whole.output = dir.path("whole.tif");
+  whole.resolution = 1;
+  stereo_job(whole);
+  const Grid wide = read_raster(dir.path("whole.tif"));
+  EXPECT_GT(wide.cells(), dsm.cells());
+  EXPECT_EQ(wide.x0, std::floor(wide.x0));
+  EXPECT_EQ(wide.y0, std::floor(wide.y0));
+  int same = 0, compared = 0;
+  for (int r = 0; r < dsm.height; ++r)
+    for (int c = 0; c < dsm.width; ++c) {
+      int cw, rw;
+      if (!dsm.valid(c, r) || !wide.cell_at(dsm.center_x(c), dsm.center_y(r), cw, rw) || !wide.valid(cw, rw)) continue;
+      ++compared;
+      same += std::abs(wide.at(cw, rw) - dsm.at(c, r)) < 1e-4;
+    }
+  EXPECT_GT(compared, 0.9 * e.completeness * dsm.cells());
+  EXPECT_EQ(same, compared);
+  if (const char* keep = std::getenv("DSMPLAN_STEREO_KEEP"))  // the files, to look at by hand
+    for (const char* name : {"img_0.png", "img_1.png", "cameras.json", "dsm.tif", "whole.tif", "stats.json"})
+      std::filesystem::copy_file(dir.path(name), std::filesystem::path(keep) / name,
+                                 std::filesystem::copy_options::overwrite_existing);
+}
+
+TEST(StereoCli, BadInputOneLineNoOutput) {
+  testkit::TempDir dir;
+  const nlohmann::json good = write_pair_files(dir, /*rendered=*/false);  // every error comes before matching
+  const RenderedScene& scene = rendered_scene();
+  struct Case {
+    std::string name;
+    nlohmann::json json;
+    std::vector<std::string> extra;
+    std::string expected;  // in the message
+  };
+  std::vector<Case> cases;
+  {
+    nlohmann::json j = good;
+    j["cameras"][1]["image"] = "missing.png";
+    cases.push_back({"missing image", j, {}, "missing.png: camera 1: image does not exist"});
+  }
+  {
+    nlohmann::json j = good;
+    j["cameras"][0]["fx"] = "wide";
+    cases.push_back({"bad field", j, {}, "cameras[0].fx: must be a finite number"});
+  }
+  {
+    nlohmann::json j = good;
+    j["cameras"][0].erase("center");
+    cases.push_back({"missing key", j, {}, "cameras[0].center: missing"});
+  }
+  {
+    nlohmann::json j = good;
+    j["cameras"][1]["width"] = 241;
+    cases.push_back({"size", j, {}, "camera 1: image is 240 x 240, the camera says 241 x 240"});
+  }
+  {
+    nlohmann::json j = good;
+    j["cameras"][1]["rotation"][0][1] = 0.2;
+    cases.push_back({"rotation", j, {}, "cameras[1]: rotation is not orthonormal"});
+  }
+  {
+    nlohmann::json j = good;
+    j["cameras"][1]["center"][0] = scene.cameras[1].center[0] + 5000;
+    cases.push_back({"apart, auto", j, {}, "no two cameras overlap"});
+    cases.push_back({"apart, explicit", j, {"--pairs", "0-1"}, "cameras 0 and 1: see nothing in common"});
+  }
+  cases.push_back({"bounds outside", good, {"--bounds", "0,0,10,10"}, "--bounds: lies outside"});
+  cases.push_back({"bad pairs", good, {"--pairs", "0-2"}, "--pairs"});
+  testkit::write_file(dir.path("broken.json"), "{\"crs\": ");
+  // In process (stereo_job, what the binary calls) for every case; through the binary for two,
+  // for the exit code and the one line on stderr.
+  for (const Case& c : cases) {
+    write_json(c.json, dir.path("cameras.json"));
+    StereoJobOptions options;
+    options.cameras = dir.path("cameras.json");
+    options.output = dir.path("dsm.tif");
+    options.resolution = 1;
+    for (size_t k = 0; k + 1 < c.extra.size(); k += 2) {
+      if (c.extra[k] == "--pairs") options.pairs = c.extra[k + 1];
+      if (c.extra[k] == "--bounds") options.bounds = std::array<double, 4>{0, 0, 10, 10};
+    }
+    try {
+      stereo_job(options);
+      ADD_FAILURE() << c.name << ": no error";
+    } catch (const Error& error) {
+      EXPECT_NE(std::string(error.what()).find(c.expected), std::string::npos) << c.name << ": " << error.what();
+    }
+    EXPECT_FALSE(std::filesystem::exists(dir.path("dsm.tif"))) << c.name;
+  }
+  for (const size_t k : {size_t{0}, cases.size() - 3}) {  // the missing image, cameras apart
+    const Case& c = cases[k];
+    write_json(c.json, dir.path("cameras.json"));
+    std::vector<std::string> args{"stereo", "--cameras", dir.path("cameras.json"), "-o", dir.path("dsm.tif"), "--res",
+                                  "1",      "--stats",   dir.path("stats.json"),   "-q"};
+    args.insert(args.end(), c.extra.begin(), c.extra.end());
+    const auto result = testkit::run_cli(args);
+    EXPECT_EQ(result.exit_code, 1) << c.name;
+    EXPECT_NE(result.err.find(c.expected), std::string::npos) << c.name << ": " << result.err;
+    EXPECT_EQ(std::count(result.err.begin(), result.err.end(), '\n'), 1) << c.name << ": " << result.err;
+    EXPECT_FALSE(std::filesystem::exists(dir.path("dsm.tif"))) << c.name;
+    EXPECT_FALSE(std::filesystem::exists(dir.path("stats.json"))) << c.name;
+  }
+  StereoJobOptions options;
+  options.cameras = dir.path("broken.json");
+  options.output = dir.path("dsm.tif");
+  options.resolution = 1;
+  try {
+    stereo_job(options);
+    ADD_FAILURE() << "broken JSON: no error";
+  } catch (const InputError& error) {
+    EXPECT_NE(std::string(error.what()).find("broken.json: is not JSON"), std::string::npos) << error.what();
+  }
+  EXPECT_FALSE(std::filesystem::exists(dir.path("dsm.tif")));
+}
