@@ -1862,7 +1862,7 @@ TEST(CliUsage, MistakesAreOneLineExitTwoWithTheNearestName) {
       {{"plan", "m.ply", "--saftey", "2"}, "unknown option --saftey for plan (did you mean --safety?)"},
       {{"pln", "m.ply"}, "unknown command 'pln' (did you mean 'plan'?)"},
       {{"simplfy", dsm}, "did you mean 'simplify'?"},
-      {{"xyzzy"}, "the commands: info, grid, mesh, simplify, render, profile, plan, view"},
+      {{"xyzzy"}, "the commands: info, grid, stereo, mesh, simplify, render, profile, plan, view"},
       {{}, "a command is needed"},
       {{"mesh", dsm, "-of", "glb", "-o", out.path("x.ply")}, "-of: long options take two dashes: --of"},
       {{"mesh", dsm, "-o", out.path("x.ply"), "--res", "abc"}, "--res"},
