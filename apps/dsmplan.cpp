@@ -514,7 +514,7 @@ int main(int argc, char** argv) {
     if (message.empty()) message = "the command line is incomplete (dsmplan --help)";
     return fail(message, 2);
   } catch (const ArgumentError& error) {
-    return fail(error.what(), 2);  // a bad option value: a usage error too
+    return fail(cli::flag_message(error), 2);  // a bad option value: a usage error too
   } catch (const Error& error) {
     return fail(error.what(), 1);
   } catch (const std::bad_alloc&) {

@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cctype>
+#include <map>
 
 #include "dsmplan/core.hpp"
 
@@ -103,6 +104,44 @@ void check_single_format(const std::string& of, const std::vector<std::string>& 
   for (char& c : lower) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
   if (std::find(accepted.begin(), accepted.end(), lower) == accepted.end())
     throw ArgumentError("--of", "this command writes " + accepted.front() + " only, got '" + of + "'");
+}
+
+std::string flag_message(const ArgumentError& error) {
+  // The fields of the options structs (and parameters) that a flag of some command sets.
+  static const std::map<std::string, std::string> flags = {
+      {"dz", "--dz"},
+      {"dco", "--dco"},
+      {"max_error", "--max-error"},
+      {"tile_size", "--tile-size"},
+      {"block_tiles", "--block-tiles"},
+      {"max_edge", "--max-edge"},
+      {"chunk", "--corridor-chunk"},
+      {"margin", "--corridor-margin"},
+      {"safety", "--safety"},
+      {"threads", "--threads"},
+      {"refine_rounds", "--refine-rounds"},
+      {"spacing", "--spacing"},
+      {"pixels_per_cell", "--zoom"},
+      {"window", "--window"},
+      {"max_agl", "--max-agl"},
+      {"width", "--width"},
+      {"height", "--height"},
+      {"vertical_crs", "--vertical-crs"},
+      {"allow_approximate_vertical", "--allow-approximate-vertical"},
+      {"tileset", "--3dtiles"},
+      {"fusion", "--fusion"},
+      {"resolution", "--res"},
+      {"keep_classes", "--classes"},
+      {"drop_classes", "--drop-classes"},
+      {"crs", "--crs"},
+      {"band", "--band"},
+      {"max_distance", "--fill-holes"},
+      {"zstep", "--zstep"},
+      {"resampling", "--resampling"},
+      {"bounds", "--bounds"},
+  };
+  const auto found = flags.find(error.field());
+  return found == flags.end() ? error.what() : located_message("", found->second, error.problem());
 }
 
 }  // namespace dsmplan::cli

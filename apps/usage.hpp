@@ -7,6 +7,8 @@
 #include <string>
 #include <vector>
 
+#include "dsmplan/core.hpp"
+
 namespace dsmplan::cli {
 
 /// Levenshtein distance of two names.
@@ -21,5 +23,8 @@ void refuse_unknown_names(CLI::App& app, int argc, char** argv);
 void refuse_single_dash_long_options(CLI::App& app, int argc, char** argv);
 /// --of of a command that writes one format: one of `accepted` (any case), else ArgumentError.
 void check_single_format(const std::string& of, const std::vector<std::string>& accepted);
+/// The line the CLI prints for an ArgumentError: the library's field shown as the flag that sets
+/// it ("pixels_per_cell: ..." -> "--zoom: ..."); a field no flag sets, or a flag, as it is.
+std::string flag_message(const dsmplan::ArgumentError& error);
 
 }  // namespace dsmplan::cli

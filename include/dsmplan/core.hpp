@@ -35,9 +35,18 @@ public:
       : Error(located_message(file, place, problem)) {}
 };
 
+/// `field` names what is wrong as the function's caller knows it: an options struct's field
+/// ("max_agl", "pixels_per_cell"), a parameter ("path", "mesh"); the tools' jobs, which take the
+/// command line's options, name the flag ("--max-agl"). The CLI shows a field as its flag.
 class ArgumentError : public Error {
 public:
-  ArgumentError(const std::string& option, const std::string& problem) : Error(located_message("", option, problem)) {}
+  ArgumentError(const std::string& field, const std::string& problem)
+      : Error(located_message("", field, problem)), field_(field), problem_(problem) {}
+  const std::string& field() const { return field_; }
+  const std::string& problem() const { return problem_; }
+
+private:
+  std::string field_, problem_;
 };
 
 class OutputError : public Error {

@@ -254,9 +254,9 @@ Image render_profile(const std::vector<Point3>& path, const Grid& dsm, const Gri
     throw ArgumentError(W > kMaxSide ? "--width" : "--height",
                         "the picture must be at most 30000 pixels a side and 2^26 in all");
   if (!(options.safety >= 0 && options.safety <= 1000))
-    throw ArgumentError("--safety", "must be from 0 to 1000, got " + short_number(options.safety));
+    throw ArgumentError("safety", "must be from 0 to 1000, got " + short_number(options.safety));
   if (!(options.max_agl > 0 && std::isfinite(options.max_agl)))
-    throw ArgumentError("--max-agl", "must be positive and finite");
+    throw ArgumentError("max_agl", "must be positive and finite");
   const bool fixed_axis = !std::isnan(options.z_min) || !std::isnan(options.z_max);
   if (fixed_axis && !(std::isfinite(options.z_min) && std::isfinite(options.z_max) && options.z_min < options.z_max))
     throw ArgumentError("height axis", "needs both ends, finite, bottom below top");
@@ -306,7 +306,7 @@ Image render_profile(const std::vector<Point3>& path, const Grid& dsm, const Gri
   const int legend_height = static_cast<int>(rows.size()) * row_height;
   const int bottom_margin = 1 + tick + 3 * s + glyph + 8 * s + glyph + 10 * s + legend_height + pad;
   const int plot_h = H - top - bottom_margin;
-  if (plot_h < 40) throw ArgumentError("--height", "too small for the plot, its labels and legend");
+  if (plot_h < 40) throw ArgumentError("height", "too small for the plot, its labels and legend");
 
   // ---- the height axis ----
   double lo = INFINITY, hi = -INFINITY;
@@ -341,7 +341,7 @@ Image render_profile(const std::vector<Point3>& path, const Grid& dsm, const Gri
   const int widest_x_label = text_width(tick_label(length, length >= 10 ? 1 : 0.1), s);
   const int right_margin = std::max(widest_x_label / 2, static_cast<int>(marker_radius) + 3) + pad;
   const int plot_w = W - left - right_margin;
-  if (plot_w < 60) throw ArgumentError("--width", "too small for the plot and its labels");
+  if (plot_w < 60) throw ArgumentError("width", "too small for the plot and its labels");
   double x_step = nice_step(length, std::max(1.0, plot_w / double(widest_x_label + 24 * s)));
   const std::vector<double> x_ticks = ticks(0, length, x_step);
 

@@ -53,7 +53,7 @@ struct View {
 
 View make_view(const Grid& dsm, const RenderOptions& options) {
   if (!(options.pixels_per_cell > 0 && std::isfinite(options.pixels_per_cell))) {
-    throw ArgumentError("--zoom", "pixels per cell must be a positive number");
+    throw ArgumentError("pixels_per_cell", "pixels per cell must be a positive number");
   }
   if (dsm.width <= 0 || dsm.height <= 0 || dsm.z.size() != dsm.cells() || !(dsm.cell_x > 0) || !(dsm.cell_y > 0)) {
     throw ArgumentError("DSM", "is not a grid with cells");
@@ -68,17 +68,17 @@ View make_view(const Grid& dsm, const RenderOptions& options) {
   };
   if (!(std::isfinite(w.xmin) && std::isfinite(w.ymin) && std::isfinite(w.xmax) && std::isfinite(w.ymax)) ||
       !(w.xmin < w.xmax && w.ymin < w.ymax)) {
-    throw ArgumentError("--window", "must be xmin,ymin,xmax,ymax with xmin < xmax and ymin < ymax");
+    throw ArgumentError("window", "must be xmin,ymin,xmax,ymax with xmin < xmax and ymin < ymax");
   }
   if (!(w.xmin < dsm.x1() && w.xmax > dsm.x0 && w.ymin < dsm.y0 && w.ymax > dsm.y1())) {
-    throw ArgumentError("--window", text(w.xmin) + "," + text(w.ymin) + "," + text(w.xmax) + "," + text(w.ymax) +
+    throw ArgumentError("window", text(w.xmin) + "," + text(w.ymin) + "," + text(w.xmax) + "," + text(w.ymax) +
                                         " lies outside the DSM (" + text(dsm.x0) + "," + text(dsm.y1()) + "," +
                                         text(dsm.x1()) + "," + text(dsm.y0) + ")");
   }
   view.scale = options.pixels_per_cell / dsm.cell_x;
   const double width = (w.xmax - w.xmin) * view.scale, height = (w.ymax - w.ymin) * view.scale;
   if (!(width <= kMaxSide && height <= kMaxSide && width * height <= kMaxPixels)) {
-    throw ArgumentError("--zoom", "the picture would be " + text(std::round(width)) + " x " + text(std::round(height)) +
+    throw ArgumentError("pixels_per_cell", "the picture would be " + text(std::round(width)) + " x " + text(std::round(height)) +
                                       " pixels; use a smaller zoom or window");
   }
   view.width = std::max(1, static_cast<int>(std::lround(width)));
@@ -390,7 +390,7 @@ Window parse_window(const std::string& text) {
     if (k == 3) return {v[0], v[1], v[2], v[3]};
     start = comma + 1;
   }
-  throw ArgumentError("--window", "expected four numbers xmin,ymin,xmax,ymax, got '" + text.substr(0, 80) + "'");
+  throw ArgumentError("window", "expected four numbers xmin,ymin,xmax,ymax, got '" + text.substr(0, 80) + "'");
 }
 
 // ---- layers: paths, roadmaps, waypoints --------------------------------------------------------

@@ -50,7 +50,7 @@ void lattice(const Vector3d& lo, const Vector3d& hi, const std::array<int, 3>& s
 }  // namespace
 
 TilesetPlacement place_on_globe(const Mesh& mesh, const Wgs84Transform& to_ellipsoid) {
-  if (mesh.vertices.empty()) throw ArgumentError("--3dtiles", "the mesh has no vertex to place");
+  if (mesh.vertices.empty()) throw ArgumentError("tileset", "the mesh has no vertex to place");
   constexpr double kInf = std::numeric_limits<double>::infinity();
   Vector3d lo(kInf, kInf, kInf), hi(-kInf, -kInf, -kInf);
   for (const Vertex& v : mesh.vertices) {
@@ -89,7 +89,7 @@ TilesetPlacement place_on_globe(const Mesh& mesh, const Wgs84Transform& to_ellip
   });
   if (!(placement.max_error_m <= kTilesetMaxPlacementError)) {
     const Vector3d size = hi - lo;
-    throw ArgumentError("--3dtiles", "the mesh spans " + short_number(size.x()) + " x " + short_number(size.y()) +
+    throw ArgumentError("tileset", "the mesh spans " + short_number(size.x()) + " x " + short_number(size.y()) +
                                          " m: one tile transform would place it up to " +
                                          short_number(placement.max_error_m) + " m from PROJ's position (at most " +
                                          short_number(kTilesetMaxPlacementError) +

@@ -66,14 +66,14 @@ Wgs84Transform::Wgs84Transform(const Crs& crs, HeightReference target, const Ver
   if (!has_vertical && !options.vertical_crs.empty()) {
     Pj vertical(proj_create(ctx, options.vertical_crs.c_str()));
     if (!vertical || proj_get_type(vertical.get()) != PJ_TYPE_VERTICAL_CRS)
-      throw ArgumentError("--vertical-crs", "'" + options.vertical_crs + "' is not a vertical CRS PROJ knows");
+      throw ArgumentError("vertical_crs", "'" + options.vertical_crs + "' is not a vertical CRS PROJ knows");
     source.reset(proj_create_compound_crs(ctx, "data", source.get(), vertical.get()));
-    if (!source) throw ArgumentError("--vertical-crs", "cannot combine it with the data's CRS" + last_error(ctx));
+    if (!source) throw ArgumentError("vertical_crs", "cannot combine it with the data's CRS" + last_error(ctx));
   }
   std::string why_egm96;  // set when the heights are taken as EGM96 heights
   if (!has_vertical && options.vertical_crs.empty()) {
     if (!options.allow_approximate_vertical)
-      throw ArgumentError("--vertical-crs",
+      throw ArgumentError("vertical_crs",
                           "the data's vertical reference is unknown, so its heights cannot be converted; name it "
                           "(e.g. --vertical-crs EPSG:7837 for DHHN2016) or pass --allow-approximate-vertical to take "
                           "them as EGM96 heights (mean sea level, about a metre off)");
@@ -103,7 +103,7 @@ Wgs84Transform::Wgs84Transform(const Crs& crs, HeightReference target, const Ver
     if (proj_coordoperation_has_ballpark_transformation(ctx, best.get())) {
       const std::string name = proj_get_name(best.get()) ? proj_get_name(best.get()) : "unnamed";
       if (!options.allow_approximate_vertical)
-        throw ArgumentError("--vertical-crs",
+        throw ArgumentError("vertical_crs",
                             "PROJ has only an approximate (ballpark) height transformation here ('" + name +
                                 "': heights copied across datums, off by the geoid's height, tens of metres); install "
                                 "the datum's geoid grid or pass --allow-approximate-vertical to take the heights as "
@@ -122,7 +122,7 @@ Wgs84Transform::Wgs84Transform(const Crs& crs, HeightReference target, const Ver
     if (!source) throw ArgumentError("crs", "PROJ cannot combine the data's CRS with EGM96" + last_error(ctx));
     best = best_operation(source.get());
     if (proj_coordoperation_has_ballpark_transformation(ctx, best.get()))
-      throw ArgumentError("--allow-approximate-vertical",
+      throw ArgumentError("allow_approximate_vertical",
                           "PROJ has no EGM96 grid (egm96_15.gtx, Debian's proj-data) to take the heights through");
     approximate_ = true;
   }

@@ -182,7 +182,7 @@ void triangulate_border(const Lattice& lattice, std::vector<Triangle>& triangles
 
 double max_edge_length(const Grid& grid, const MeshOptions& options) {
   if (!(options.max_edge_length >= 0 && (options.max_edge_length <= 1e6 || options.max_edge_length == INFINITY))) {
-    throw ArgumentError("--max-edge", "must be from 0 (2.5 cells) to 1e6, or inf (keep every triangle), got " +
+    throw ArgumentError("max_edge", "must be from 0 (2.5 cells) to 1e6, or inf (keep every triangle), got " +
                                           short_number(options.max_edge_length));
   }
   return options.max_edge_length > 0 ? options.max_edge_length : 2.5 * std::max(grid.cell_x, grid.cell_y);

@@ -14,7 +14,7 @@ MeshStreamResult triangulate_xy3(GridSource& dsm, MeshSink& sink, const MeshOpti
   const Grid& frame = dsm.frame();
   const double max_edge = max_edge_length(frame, options);
   if (!std::isfinite(max_edge))
-    throw ArgumentError("--max-edge", "must be finite to mesh a raster band by band");
+    throw ArgumentError("max_edge", "must be finite to mesh a raster band by band");
   // Circumradius of a lattice triangle with edges <= L: abc / (4 area) <= L^3 / (4 * cell_x cell_y / 2).
   const double radius = std::pow(max_edge, 3) / (2 * frame.cell_x * frame.cell_y);
   // In rows, as doubles first: --max-edge 1e6 over 1 m cells asks for a halo of 1e18 rows, beyond

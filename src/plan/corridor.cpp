@@ -70,9 +70,9 @@ std::unique_ptr<Window> make_window(GridSource& source, const Point3& a, const P
 CorridorResult plan_corridor(GridSource& dsm, const std::vector<Point3>& waypoints, const PlanOptions& plan,
                              const CorridorOptions& options, const Progress& progress) {
   if (!(options.chunk > 0) || !std::isfinite(options.chunk))
-    throw ArgumentError("--corridor-chunk", "must be a positive length, got " + format_number(options.chunk));
+    throw ArgumentError("chunk", "must be a positive length, got " + format_number(options.chunk));
   if (!(options.margin > 0) || !std::isfinite(options.margin))
-    throw ArgumentError("--corridor-margin", "must be a positive length, got " + format_number(options.margin));
+    throw ArgumentError("margin", "must be a positive length, got " + format_number(options.margin));
   check_bounded_options(options.mesh);
   if (waypoints.size() < 2) throw ArgumentError("waypoints", "a path needs at least two");
   const Grid& frame = dsm.frame();

@@ -28,13 +28,13 @@ void check_plan_options(const PlanOptions& o) {
       throw ArgumentError(name, "must be more than 0 and at most " + short_number(most) + ", got " + short_number(v));
   };
   if (!(o.safety >= 0) || !(o.safety <= 1000))
-    throw ArgumentError("--safety", "must be from 0 to 1000, got " + short_number(o.safety));
+    throw ArgumentError("safety", "must be from 0 to 1000, got " + short_number(o.safety));
   positive(o.spacing, "--spacing", 1e4);
   positive(o.max_edge, "--max-edge", 1e4);
   positive(o.max_agl, "--max-agl", 1e5);
   if (o.connections < 1) throw ArgumentError("connections", "must be at least 1");
-  if (o.threads < 0) throw ArgumentError("--threads", "must be >= 0");
-  if (o.refine_rounds < 0) throw ArgumentError("--refine-rounds", "must be >= 0");
+  if (o.threads < 0) throw ArgumentError("threads", "must be >= 0");
+  if (o.refine_rounds < 0) throw ArgumentError("refine_rounds", "must be >= 0");
   if (o.refine_max_samples < 1 || o.refine_max_lattice_nodes < 1 || o.refine_max_search_work < 1)
     throw ArgumentError("refine_max_samples", "refinement's bounds (samples, lattice nodes, search work) must be >= 1");
 }
@@ -48,7 +48,7 @@ Roadmap build_roadmap(const ClearanceIndex& index, const PlanOptions& options, c
   const double wx = e.xmax - e.xmin, wy = e.ymax - e.ymin;
   const double count = std::round(wx * wy * options.max_agl / std::pow(options.spacing, 3));
   if (!(count < 2147483648.0))
-    throw ArgumentError("--spacing", "asks for " + std::to_string(count) + " samples; at most 2^31");
+    throw ArgumentError("spacing", "asks for " + std::to_string(count) + " samples; at most 2^31");
   // A sample, its grid listing and its share of the edges (about 10 a node, both ways): about
   // 128 bytes (14,510 samples and 124,018 edges on the NRW tile take 1.6 MB).
   require_memory("--spacing", "a roadmap of " + std::to_string(static_cast<size_t>(count)) + " samples", count * 128);
@@ -107,7 +107,7 @@ Roadmap build_roadmap(const ClearanceIndex& index, const PlanOptions& options, c
     const int64_t nx = static_cast<int64_t>(wx / cell) + 1, ny = static_cast<int64_t>(wy / cell) + 1;
     const int64_t nz = m ? static_cast<int64_t>((zmax - zmin) / cell) + 1 : 0;
     if (static_cast<double>(nx) * static_cast<double>(ny) * static_cast<double>(nz) > 4e8)
-      throw ArgumentError("--max-edge", "is too small for the flight volume (more than 4e8 grid cells)");
+      throw ArgumentError("max_edge", "is too small for the flight volume (more than 4e8 grid cells)");
     auto coord = [&](const Point3& p, int k) {
       const double lo = k == 0 ? e.xmin : k == 1 ? e.ymin : zmin;
       const int64_t n = k == 0 ? nx : k == 1 ? ny : nz;
@@ -208,7 +208,7 @@ Roadmap build_roadmap(const ClearanceIndex& index, const PlanOptions& options, c
     }
     size_t listings = 0;
     for (size_t i = 0; i < m; ++i) listings += degree[i];
-    if (listings > UINT32_MAX) throw ArgumentError("--max-edge", "gives 2^32 or more edge listings; use a smaller one");
+    if (listings > UINT32_MAX) throw ArgumentError("max_edge", "gives 2^32 or more edge listings; use a smaller one");
     map.start.assign(m + 1, 0);
     for (size_t i = 0; i < m; ++i) map.start[i + 1] = map.start[i] + degree[i];
     map.neighbour.resize(map.start[m]);

@@ -331,7 +331,7 @@ void resolve_crs(Crs& crs) {
   if (crs.definition.empty()) return;
   OGRSpatialReference srs;
   if (srs.SetFromUserInput(crs.definition.c_str()) != OGRERR_NONE) {
-    throw ArgumentError("--crs", "cannot interpret CRS '" + crs.definition.substr(0, 60) + "'" + gdal_message());
+    throw ArgumentError("crs", "cannot interpret CRS '" + crs.definition.substr(0, 60) + "'" + gdal_message());
   }
   describe(srs, crs);
 }
@@ -356,7 +356,7 @@ public:
     if (width <= 0 || height <= 0) throw InputError(path, "", "raster has no cells");
     if (dataset_->GetRasterCount() < 1) throw InputError(path, "", "raster has no band");
     if (options.band < 1 || options.band > dataset_->GetRasterCount()) {
-      throw ArgumentError("--band", "band " + std::to_string(options.band) + " does not exist in " + path +
+      throw ArgumentError("band", "band " + std::to_string(options.band) + " does not exist in " + path +
                                         " (it has " + std::to_string(dataset_->GetRasterCount()) + ")");
     }
     double gt[6];
@@ -567,7 +567,7 @@ void write_geotiff(const Grid& grid, const std::string& path, const Progress& pr
 
 void fill_holes(Grid& grid, double max_distance, const Progress& progress) {
   init_gdal();
-  if (!(max_distance > 0)) throw ArgumentError("--fill-holes", "must be a positive distance in cells");
+  if (!(max_distance > 0)) throw ArgumentError("max_distance", "must be a positive distance in cells");
   GDALDriver* driver = GetGDALDriverManager()->GetDriverByName("MEM");
   GDALDatasetUniquePtr dataset(driver->Create("", grid.width, grid.height, 1, GDT_Float32, nullptr));
   GDALRasterBand* band = dataset->GetRasterBand(1);

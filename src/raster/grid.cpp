@@ -80,7 +80,7 @@ HeightQuantizer::HeightQuantizer(double step) : step_(step) {
   // and one finer than 1e-6 (below a float height's own resolution) overflows z / step: 5e-324
   // made every height infinite (fuzz_pipeline).
   if (std::isnan(step) || step > 100 || (step > 0 && step < 1e-6))
-    throw ArgumentError("--zstep", "must be at least 1e-6 and at most 100 (0 or less: keep the heights), got " +
+    throw ArgumentError("zstep", "must be at least 1e-6 and at most 100 (0 or less: keep the heights), got " +
                                        short_number(step));
   if (!(step > 0)) return;
   const double per_unit = 1.0 / step;

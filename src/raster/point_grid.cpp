@@ -50,20 +50,20 @@ Fusion parse_fusion(const std::string& name) {
   for (Fusion fusion : {Fusion::Median, Fusion::Max}) {
     if (name == to_string(fusion)) return fusion;
   }
-  throw ArgumentError("--fusion", "unknown rule '" + name + "' (use median or max)");
+  throw ArgumentError("fusion", "unknown rule '" + name + "' (use median or max)");
 }
 
 Grid grid_points(const std::vector<PointCloud>& clouds, const GridPointsOptions& options, const Progress& progress) {
   const double res = options.resolution;
   if (!(res > 0) || !std::isfinite(res))
-    throw ArgumentError("--res", "the resolution must be a positive number, got " + number(res));
+    throw ArgumentError("resolution", "the resolution must be a positive number, got " + number(res));
   // dropped[c]: points of class c are left out (not kept by keep_classes, or dropped).
   std::array<bool, 256> dropped{};
   std::string kept_list;
   if (!options.keep_classes.empty()) {
     dropped.fill(true);
     for (int cls : options.keep_classes) {
-      if (cls < 0 || cls > 255) throw ArgumentError("--classes", "class " + std::to_string(cls) + " is not in 0-255");
+      if (cls < 0 || cls > 255) throw ArgumentError("keep_classes", "class " + std::to_string(cls) + " is not in 0-255");
       if (dropped[cls]) kept_list += (kept_list.empty() ? "" : ", ") + std::to_string(cls);
       dropped[cls] = false;
     }
@@ -71,10 +71,10 @@ Grid grid_points(const std::vector<PointCloud>& clouds, const GridPointsOptions&
   std::string dropped_list;
   for (int cls : options.drop_classes) {
     if (cls < 0 || cls > 255)
-      throw ArgumentError("--drop-classes", "class " + std::to_string(cls) + " is not in 0-255");
+      throw ArgumentError("drop_classes", "class " + std::to_string(cls) + " is not in 0-255");
     if (!options.keep_classes.empty() &&
         std::find(options.keep_classes.begin(), options.keep_classes.end(), cls) != options.keep_classes.end())
-      throw ArgumentError("--classes", "class " + std::to_string(cls) +
+      throw ArgumentError("keep_classes", "class " + std::to_string(cls) +
                                            " is both kept (--classes) and dropped (--drop-classes); give it to one");
     dropped[cls] = true;
     dropped_list += (dropped_list.empty() ? "" : ", ") + std::to_string(cls);
@@ -133,13 +133,13 @@ Grid grid_points(const std::vector<PointCloud>& clouds, const GridPointsOptions&
   if (lattice.y0 < max_y) lattice.y0 += res;
   const double columns = std::floor((max_x - lattice.x0) / res) + 1, rows = std::floor((lattice.y0 - min_y) / res) + 1;
   if (!(columns >= 1 && rows >= 1 && columns * rows <= kMaxCells))  // also catches overflow to inf
-    throw ArgumentError("--res", "a resolution of " + number(res) + " gives " + number(columns) + " x " + number(rows) +
+    throw ArgumentError("resolution", "a resolution of " + number(res) + " gives " + number(columns) + " x " + number(rows) +
                                      " cells for the points' extent; choose a coarser one");
   // The grid's float and the counting sort's bound per cell, a double per kept point.
   const std::string memory = memory_problem(columns * rows * (sizeof(float) + sizeof(uint32_t)) +
                                             double(kept) * sizeof(double) + options.other_bytes);
   if (!memory.empty())
-    throw ArgumentError("--res", "a resolution of " + number(res) + " gives " + number(columns) + " x " +
+    throw ArgumentError("resolution", "a resolution of " + number(res) + " gives " + number(columns) + " x " +
                                      number(rows) + " cells for " + std::to_string(kept) + " points, which " + memory);
   Grid grid(static_cast<int>(columns), static_cast<int>(rows), lattice.x0, lattice.y0, res, res);
   grid.crs = crs ? *crs : Crs{};

@@ -32,7 +32,7 @@ Resampling parse_resampling(const std::string& name) {
        {Resampling::Median, Resampling::Max, Resampling::Mean, Resampling::Min, Resampling::Nearest}) {
     if (name == to_string(method)) return method;
   }
-  throw ArgumentError("--resampling", "unknown method '" + name + "' (use median, max, mean, min or nearest)");
+  throw ArgumentError("resampling", "unknown method '" + name + "' (use median, max, mean, min or nearest)");
 }
 
 namespace {
@@ -84,19 +84,19 @@ float aggregate(std::vector<float>& values, Resampling method, float nearest) {
 
 Grid resample(const Grid& grid, double resolution, Resampling method, const Progress& progress) {
   if (!(resolution > 0) || !std::isfinite(resolution)) {
-    throw ArgumentError("--res", "must be a positive number of CRS units, got " + std::to_string(resolution));
+    throw ArgumentError("resolution", "must be a positive number of CRS units, got " + std::to_string(resolution));
   }
   // A grid made in memory may have any georeference: cells of 5e-324 make (i + 0.5) * cell round
   // onto the next block, past the last one (fuzz_pipeline). The readers refuse the same.
   check_grid(grid);
   const double finest = std::max(grid.cell_x, grid.cell_y);
   if (resolution < finest * (1 - 1e-9)) {
-    throw ArgumentError("--res", std::to_string(resolution) + " is finer than the DSM's cells (" +
+    throw ArgumentError("resolution", std::to_string(resolution) + " is finer than the DSM's cells (" +
                                      std::to_string(finest) + "); resampling only aggregates");
   }
   const double extent = std::max(grid.width * grid.cell_x, grid.height * grid.cell_y);
   if (resolution > extent)
-    throw ArgumentError("--res", short_number(resolution) + " is coarser than the whole raster (" + short_number(extent) +
+    throw ArgumentError("resolution", short_number(resolution) + " is coarser than the whole raster (" + short_number(extent) +
                                      " CRS units across): one cell, no surface");
   if (resolution == grid.cell_x && resolution == grid.cell_y) {
     report(progress, 1);

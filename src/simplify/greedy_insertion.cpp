@@ -577,10 +577,10 @@ void check_bounded_options(const BoundedSimplifyOptions& options) {
   // Below a millimetre the float heights' own rounding (7.6e-6 m at 100 m) is as large as the
   // bound: insertion would chase rounding, cell after cell, instead of ending.
   if (!(options.max_error >= 1e-3) || !(options.max_error <= 1e4)) {
-    throw ArgumentError("--max-error", "must be from 0.001 to 10000 (vertical units), got " + short_number(options.max_error));
+    throw ArgumentError("max_error", "must be from 0.001 to 10000 (vertical units), got " + short_number(options.max_error));
   }
-  if (options.tile_size < 0) throw ArgumentError("--tile-size", "must be >= 0 (0: automatic)");
-  if (options.block_tiles < 0) throw ArgumentError("--block-tiles", "must be >= 0 (0: automatic)");
+  if (options.tile_size < 0) throw ArgumentError("tile_size", "must be >= 0 (0: automatic)");
+  if (options.block_tiles < 0) throw ArgumentError("block_tiles", "must be >= 0 (0: automatic)");
 }
 
 BoundedLayout bounded_layout(int width, int height, const BoundedSimplifyOptions& options) {

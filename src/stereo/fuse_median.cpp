@@ -12,10 +12,10 @@
 namespace dsmplan {
 
 Grid dsm_grid(const std::array<double, 4>& b, double resolution) {
-  if (!(resolution > 0 && std::isfinite(resolution))) throw ArgumentError("--res", "must be a positive number");
-  if (!(b[2] > b[0] && b[3] > b[1])) throw ArgumentError("--bounds", "must be x0,y0,x1,y1 with x0 < x1 and y0 < y1");
+  if (!(resolution > 0 && std::isfinite(resolution))) throw ArgumentError("resolution", "must be a positive number");
+  if (!(b[2] > b[0] && b[3] > b[1])) throw ArgumentError("bounds", "must be x0,y0,x1,y1 with x0 < x1 and y0 < y1");
   const double w = std::ceil((b[2] - b[0]) / resolution - 1e-9), h = std::ceil((b[3] - b[1]) / resolution - 1e-9);
-  if (w * h > 4e9) throw ArgumentError("--res", "makes a grid of more than 4e9 cells");
+  if (w * h > 4e9) throw ArgumentError("resolution", "makes a grid of more than 4e9 cells");
   return Grid(static_cast<int>(w), static_cast<int>(h), b[0], b[3], resolution, resolution);
 }
 
