@@ -18,27 +18,13 @@
 #include <vector>
 
 #include "bench_kit.hpp"
+#include "gdal_rpc_oracle.hpp"
 #include "dsmplan/rpc.hpp"
 
 namespace {
 
 using dsmplan::GeoPoint;
 using dsmplan::PixelPoint;
-
-void* gdal_transformer(const dsmplan::RpcModel& m) {
-  GDALRPCInfoV2 info{};
-  info.dfLINE_OFF = m.line_off, info.dfSAMP_OFF = m.samp_off, info.dfLAT_OFF = m.lat_off;
-  info.dfLONG_OFF = m.long_off, info.dfHEIGHT_OFF = m.height_off;
-  info.dfLINE_SCALE = m.line_scale, info.dfSAMP_SCALE = m.samp_scale, info.dfLAT_SCALE = m.lat_scale;
-  info.dfLONG_SCALE = m.long_scale, info.dfHEIGHT_SCALE = m.height_scale;
-  for (int i = 0; i < 20; ++i) {
-    info.adfLINE_NUM_COEFF[i] = m.line_num[i], info.adfLINE_DEN_COEFF[i] = m.line_den[i];
-    info.adfSAMP_NUM_COEFF[i] = m.samp_num[i], info.adfSAMP_DEN_COEFF[i] = m.samp_den[i];
-  }
-  info.dfMIN_LONG = info.dfMIN_LAT = -180, info.dfMAX_LONG = info.dfMAX_LAT = 180;
-  info.dfERR_BIAS = info.dfERR_RAND = -1;
-  return GDALCreateRPCTransformerV2(&info, FALSE, 0.0, nullptr);
-}
 
 }  // namespace
 
@@ -47,7 +33,7 @@ int main(int argc, char** argv) {
   const dsmplan::RpcCamera cam = dsmplan::read_rpc_camera(DSMPLAN_DATA_DIR "/pleiades-kahramanmaras/pre_event_img1.tif");
   // GDAL's transformer knows only the scene: give it the scene's positions (crop offset added).
   const dsmplan::RpcCamera scene(cam.model());
-  void* gdal = gdal_transformer(cam.model());
+  void* gdal = gdal_rpc_transformer(cam.model());
 
   // 100 x 100 pixels over the crop at three heights.
   std::vector<PixelPoint> pixels;

@@ -28,6 +28,7 @@
 
 #include "dsmplan/core.hpp"
 #include "dsmplan/tools.hpp"
+#include "gdal_rpc_oracle.hpp"
 
 namespace {
 
@@ -129,20 +130,7 @@ TEST(Rpc, SensorOffsetsOfTheCropsBothConventions) {
 // GDAL's RPC transformer as the oracle of project(): the same numbers, GDAL's evaluation.
 struct GdalRpc {
   void* transformer = nullptr;
-  explicit GdalRpc(const RpcModel& m) {
-    GDALRPCInfoV2 info{};
-    info.dfLINE_OFF = m.line_off, info.dfSAMP_OFF = m.samp_off, info.dfLAT_OFF = m.lat_off;
-    info.dfLONG_OFF = m.long_off, info.dfHEIGHT_OFF = m.height_off;
-    info.dfLINE_SCALE = m.line_scale, info.dfSAMP_SCALE = m.samp_scale, info.dfLAT_SCALE = m.lat_scale;
-    info.dfLONG_SCALE = m.long_scale, info.dfHEIGHT_SCALE = m.height_scale;
-    for (int i = 0; i < 20; ++i) {
-      info.adfLINE_NUM_COEFF[i] = m.line_num[i], info.adfLINE_DEN_COEFF[i] = m.line_den[i];
-      info.adfSAMP_NUM_COEFF[i] = m.samp_num[i], info.adfSAMP_DEN_COEFF[i] = m.samp_den[i];
-    }
-    info.dfMIN_LONG = info.dfMIN_LAT = -180, info.dfMAX_LONG = info.dfMAX_LAT = 180;
-    info.dfERR_BIAS = info.dfERR_RAND = -1;
-    transformer = GDALCreateRPCTransformerV2(&info, FALSE, 0.0, nullptr);
-  }
+  explicit GdalRpc(const RpcModel& m) : transformer(gdal_rpc_transformer(m)) {}
   ~GdalRpc() { GDALDestroyRPCTransformer(transformer); }
   // Ground to the scene's pixel/line as GDAL reports them.
   PixelPoint project(const GeoPoint& g) const {

@@ -11,6 +11,7 @@
 #include <gdal.h>
 #include <gdal_priv.h>
 
+#include <cctype>
 #include <cerrno>
 #include <cmath>
 #include <cstdlib>
@@ -20,6 +21,7 @@
 #include <memory>
 #include <mutex>
 #include <string>
+#include <utility>
 
 #include "dsmplan/core.hpp"
 #include "dsmplan/rpc.hpp"
@@ -66,6 +68,22 @@ struct Keys {
   }
 };
 
+// The ten offsets and scales, named in lower case in a .geom ("line_off"), in upper case in
+// GDAL's RPC metadata ("LINE_OFF").
+void read_offsets_and_scales(const Keys& keys, bool upper_case, RpcModel& m) {
+  const std::pair<const char*, double*> fields[10] = {
+      {"line_off", &m.line_off},     {"samp_off", &m.samp_off},     {"lat_off", &m.lat_off},
+      {"long_off", &m.long_off},     {"height_off", &m.height_off}, {"line_scale", &m.line_scale},
+      {"samp_scale", &m.samp_scale}, {"lat_scale", &m.lat_scale},   {"long_scale", &m.long_scale},
+      {"height_scale", &m.height_scale}};
+  for (const auto& [name, field] : fields) {
+    std::string key = name;
+    if (upper_case)
+      for (char& c : key) c = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
+    *field = keys.number(key);
+  }
+}
+
 void check_scales(const RpcModel& m, const std::string& file, const char* const names[5]) {
   const double scales[5] = {m.line_scale, m.samp_scale, m.lat_scale, m.long_scale, m.height_scale};
   for (int i = 0; i < 5; ++i)
@@ -94,16 +112,7 @@ RpcModel read_ossim_geom(const std::string& path) {
   if (const auto it = keys.values.find("type"); it != keys.values.end() && it->second.find("Rpc") == std::string::npos)
     throw InputError(path, "type", "is \"" + it->second + "\", not an RPC model");
   RpcModel m;
-  m.line_off = keys.number("line_off");
-  m.samp_off = keys.number("samp_off");
-  m.lat_off = keys.number("lat_off");
-  m.long_off = keys.number("long_off");
-  m.height_off = keys.number("height_off");
-  m.line_scale = keys.number("line_scale");
-  m.samp_scale = keys.number("samp_scale");
-  m.lat_scale = keys.number("lat_scale");
-  m.long_scale = keys.number("long_scale");
-  m.height_scale = keys.number("height_scale");
+  read_offsets_and_scales(keys, false, m);
   auto coeffs = [&](const std::string& stem, std::array<double, 20>& out) {
     for (int i = 0; i < 20; ++i) out[i] = keys.number(stem + (i < 10 ? "0" : "") + std::to_string(i));
   };
@@ -147,16 +156,7 @@ RpcModel read_gdal_rpc(const std::string& raster_path) {
     CPLFree(key);
   }
   RpcModel m;
-  m.line_off = keys.number("LINE_OFF");
-  m.samp_off = keys.number("SAMP_OFF");
-  m.lat_off = keys.number("LAT_OFF");
-  m.long_off = keys.number("LONG_OFF");
-  m.height_off = keys.number("HEIGHT_OFF");
-  m.line_scale = keys.number("LINE_SCALE");
-  m.samp_scale = keys.number("SAMP_SCALE");
-  m.lat_scale = keys.number("LAT_SCALE");
-  m.long_scale = keys.number("LONG_SCALE");
-  m.height_scale = keys.number("HEIGHT_SCALE");
+  read_offsets_and_scales(keys, true, m);
   // The coefficient lists are 20 numbers separated by spaces.
   auto coeffs = [&](const std::string& key, std::array<double, 20>& out) {
     const auto it = keys.values.find(key);
