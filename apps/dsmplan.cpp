@@ -17,6 +17,7 @@
 #include "dsmplan/wgs84.hpp"
 #include "dsmplan/mpi_farm.hpp"
 #include "dsmplan/plan_job.hpp"
+#include "dsmplan/stereo_job.hpp"
 #include "dsmplan/tools.hpp"
 #include "dsmplan/view.hpp"
 #include "usage.hpp"

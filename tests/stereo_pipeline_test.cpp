@@ -26,6 +26,7 @@
 #include <vector>
 
 #include "dsmplan/stereo_frames.hpp"
+#include "dsmplan/stereo_job.hpp"
 #include "dsmplan/tools.hpp"
 #include "testkit.hpp"
 

@@ -11,6 +11,7 @@
 #include <sstream>
 
 #include "dsmplan/stereo_frames.hpp"
+#include "dsmplan/stereo_job.hpp"
 #include "dsmplan/tools.hpp"
 
 namespace dsmplan {

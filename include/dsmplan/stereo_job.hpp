@@ -1,0 +1,65 @@
+// dsmplan/stereo_job.hpp: `dsmplan stereo` as a library function: frame cameras' images in (CAMERAS.json), a
+// GeoTIFF DSM out (tools.hpp's conventions: an options struct in, a report out, to_json() keys a
+// contract).
+#pragma once
+
+#include <array>
+#include <cstddef>
+#include <optional>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "dsmplan/raster.hpp"
+#include "dsmplan/tools.hpp"
+
+namespace dsmplan {
+
+// ---- dsmplan stereo -------------------------------------------------------------------------
+
+/// `dsmplan stereo`: a DSM from frame-camera images with known poses (stereo_frames.hpp).
+///
+/// CAMERAS.json (a contract; README, "Stereo from frame cameras"):
+///   {"crs": "EPSG:25832", "height_range": [100, 180],
+///    "cameras": [{"image": "img_0.png", "width": 1200, "height": 900, "fx": 2400.0, "fy": 2400.0,
+///                 "cx": 599.5, "cy": 449.5, "distortion": [k1, k2, p1, p2, k3],
+///                 "rotation": [[1,0,0],[0,-1,0],[0,0,-1]], "center": [x, y, z]}, ...]}
+/// crs, cameras and every camera key are required but "distortion" (default none);
+/// "height_range" (the scene's lowest and highest heights, world units) bounds the disparity
+/// search and sets the plane footprints are cut with; required (aerial disparities cannot be
+/// searched without it). `image` is any GDAL raster, relative to the JSON's folder: one band
+/// (grey) or three or more (RGB taken as luminance 0.299 R + 0.587 G + 0.114 B), 8 or 16 bit.
+struct StereoJobOptions {
+  std::string cameras;  ///< CAMERAS.json
+  std::string output;   ///< GeoTIFF (.tif, .tiff)
+  double resolution = 0;
+  std::string pairs = "auto";  ///< "auto" or "0-1,1-2,..."
+  std::optional<std::array<double, 4>> bounds;  ///< x0, y0, x1, y1; none: the pairs' overlap on the ground
+};
+
+struct StereoReport {
+  std::string cameras, output;
+  size_t camera_count = 0;
+  std::vector<std::pair<int, int>> pairs;
+  double min_height = 0, max_height = 0;
+  std::array<double, 4> bounds{};
+  int width = 0, height = 0;
+  size_t matched_pixels = 0, points = 0, points_in_grid = 0;
+  size_t points_outside_range = 0;  ///< triangulated outside height_range, dropped as mismatches
+  GridSummary summary;
+  double seconds_read = 0, seconds_rectify = 0, seconds_match = 0, seconds_triangulate = 0, seconds_fuse = 0,
+         seconds_write = 0;
+};
+
+/// Reads CAMERAS.json and the images, checks everything (one InputError naming the file and the
+/// camera/key), selects the pairs, runs stereo_dsm() and writes the Float32 GeoTIFF atomically.
+/// InputError when no pair overlaps, when --bounds lies outside every pair's footprint, or when
+/// nothing was matched (no output is written then).
+StereoReport stereo_job(const StereoJobOptions& options, const Progress& progress = {});
+/// Keys: cameras, output, camera_count, pairs [[i,j],...], height_range, bounds, width, height,
+/// matched_pixels, points, points_outside_height_range, points_in_grid, dsm {cells, valid, nodata,
+/// holes, z_min, z_max},
+/// seconds {read, rectify, match, triangulate, fuse, write, total}.
+Json to_json(const StereoReport& report);
+
+}  // namespace dsmplan
