@@ -12,8 +12,8 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
-#include <cstdio>
 #include <cstdint>
+#include <cstdio>
 #include <string>
 #include <vector>
 
@@ -74,17 +74,17 @@ struct Pair {
 };
 const Pair kPairs[] = {{"pre_event_img1", "pre_event_img2"}, {"post_event_img1", "post_event_img2"}};
 
-// A rectified pair with its pointing correction estimated from every other tie point; the
-// residuals of the others.
+// A pair rectified over tile(), its rectified images and its tie points.
 struct Rectified {
   RpcCamera left, right;
-  RpcRectification rect, corrected;
+  RpcRectification rect;
   FloatImage L, R;
   std::vector<dsmplan::TiePoint> ties;
+  Rectified(const RpcCamera& a, const RpcCamera& b) : left(a), right(b) {}
 };
 
 Rectified rectify(const Pair& pair) {
-  Rectified r{dsmplan::read_rpc_camera(data(pair.a + ".tif")), dsmplan::read_rpc_camera(data(pair.b + ".tif")), {}, {}, {}, {}, {}};
+  Rectified r(dsmplan::read_rpc_camera(data(pair.a + ".tif")), dsmplan::read_rpc_camera(data(pair.b + ".tif")));
   r.rect = dsmplan::rectify_rpc_pair(r.left, r.right, tile());
   const FloatImage A = read_image(data(pair.a + ".tif")), B = read_image(data(pair.b + ".tif"));
   r.L = dsmplan::resample_rectified(A, r.rect.left, r.rect.width, r.rect.height);
@@ -97,11 +97,12 @@ TEST(RpcStereo, EpipolarResidualBelowHalfPixelAfterPointingCorrection) {
   for (const Pair& pair : kPairs) {
     const Rectified r = rectify(pair);
     const RpcRectification& rect = r.rect;
-    std::printf("%s / %s: tile 400 x 400 at (300, 300), heights 450-900 m: rectified %d x %d, disparities %d..%d; "
-                "affine fit RMS %.3f / %.3f px (max %.3f / %.3f), RPC rows after rectification within %.3f px\n",
-                pair.a.c_str(), pair.b.c_str(), rect.width, rect.height, rect.min_disparity, rect.max_disparity,
-                rect.camera_left.rms_px, rect.camera_right.rms_px, rect.camera_left.max_px, rect.camera_right.max_px,
-                rect.rpc_row_error_px);
+    std::printf(
+        "%s / %s: tile 400 x 400 at (300, 300), heights 450-900 m: rectified %d x %d, disparities %d..%d; "
+        "affine fit RMS %.3f / %.3f px (max %.3f / %.3f), RPC rows after rectification within %.3f px\n",
+        pair.a.c_str(), pair.b.c_str(), rect.width, rect.height, rect.min_disparity, rect.max_disparity,
+        rect.camera_left.rms_px, rect.camera_right.rms_px, rect.camera_left.max_px, rect.camera_right.max_px,
+        rect.rpc_row_error_px);
     EXPECT_LT(rect.camera_left.max_px, 0.1);
     EXPECT_LT(rect.rpc_row_error_px, 0.1);
     ASSERT_GE(r.ties.size(), 40u) << pair.a;
@@ -112,12 +113,13 @@ TEST(RpcStereo, EpipolarResidualBelowHalfPixelAfterPointingCorrection) {
     const auto before = absolute(dsmplan::epipolar_errors(rect, odd));
     const auto after = absolute(dsmplan::epipolar_errors(corrected, odd));
     const auto after_all = absolute(dsmplan::epipolar_errors(dsmplan::correct_pointing(rect, r.ties), r.ties));
-    std::printf("  %zu tie points (NCC > 0.9); pointing correction (%.3f, %.3f) px of the right image; "
-                "|epipolar error| of the %zu held-out ones: before median %.3f p90 %.3f px, after median %.3f "
-                "p90 %.3f px (all, estimated on all: median %.3f p90 %.3f)\n",
-                r.ties.size(), corrected.pointing[0], corrected.pointing[1], odd.size(), quantile(before, 0.5),
-                quantile(before, 0.9), quantile(after, 0.5), quantile(after, 0.9), quantile(after_all, 0.5),
-                quantile(after_all, 0.9));
+    std::printf(
+        "  %zu tie points (NCC > 0.9); pointing correction (%.3f, %.3f) px of the right image; "
+        "|epipolar error| of the %zu held-out ones: before median %.3f p90 %.3f px, after median %.3f "
+        "p90 %.3f px (all, estimated on all: median %.3f p90 %.3f)\n",
+        r.ties.size(), corrected.pointing[0], corrected.pointing[1], odd.size(), quantile(before, 0.5),
+        quantile(before, 0.9), quantile(after, 0.5), quantile(after, 0.9), quantile(after_all, 0.5),
+        quantile(after_all, 0.9));
     EXPECT_LT(quantile(after, 0.5), 0.5) << pair.a;
     EXPECT_LT(quantile(after, 0.9), 0.5) << pair.a;
   }
@@ -134,7 +136,8 @@ TEST(RpcStereo, TriangulatesSyntheticPointsToACentimetre) {
         const auto p = dsmplan::triangulate_rpc(left, right, left.project(g), right.project(g), 600);
         worst = std::max(worst, metres(g, p.ground)), worst_res = std::max(worst_res, p.residual_px);
       }
-  std::printf("ground -> both images -> triangulated: largest error %.2e m, largest residual %.2e px\n", worst, worst_res);
+  std::printf("ground -> both images -> triangulated: largest error %.2e m, largest residual %.2e px\n", worst,
+              worst_res);
   EXPECT_LT(worst, 0.01);
   // Through the rectification and a disparity map: a left rectified pixel localized at a known
   // height, its disparity from the right RPC; disparity_to_points must give that height back
@@ -142,7 +145,8 @@ TEST(RpcStereo, TriangulatesSyntheticPointsToACentimetre) {
   const RpcRectification rect = dsmplan::rectify_rpc_pair(left, right, tile());
   const dsmplan::Affine2 back = rect.left.inverse();
   std::vector<GeoPoint> truth;
-  for (int k = 0; k < 5; ++k) truth.push_back(left.localize(back({40 + 70 * k + 0.5, 50 + 60 * k + 0.5}), 500 + 80 * k));
+  for (int k = 0; k < 5; ++k)
+    truth.push_back(left.localize(back({40 + 70 * k + 0.5, 50 + 60 * k + 0.5}), 500 + 80 * k));
   dsmplan::Disparity full;
   full.width = rect.width, full.height = rect.height;
   full.left.assign(static_cast<size_t>(full.width) * full.height, NAN);
@@ -162,7 +166,8 @@ TEST(RpcStereo, TriangulatesSyntheticPointsToACentimetre) {
 TEST(RpcStereo, SgmOnAPreEventTile) {
   const Rectified r = rectify(kPairs[0]);
   const RpcRectification rect = dsmplan::correct_pointing(r.rect, r.ties);
-  const FloatImage R = dsmplan::resample_rectified(read_image(data(kPairs[0].b + ".tif")), rect.right, rect.width, rect.height);
+  const FloatImage R =
+      dsmplan::resample_rectified(read_image(data(kPairs[0].b + ".tif")), rect.right, rect.width, rect.height);
   // The disparity range from the tie points (s2p's "sift" range), widened by 8 px.
   double dmin = 1e9, dmax = -1e9;
   for (const auto& t : r.ties) {
@@ -175,12 +180,15 @@ TEST(RpcStereo, SgmOnAPreEventTile) {
   // 12-bit grey levels as uint16; no data as 0.
   auto quantize = [](const FloatImage& im) {
     std::vector<std::uint16_t> q(im.pixels.size());
-    for (size_t i = 0; i < q.size(); ++i) q[i] = std::isnan(im.pixels[i]) ? 0 : static_cast<std::uint16_t>(std::lround(std::clamp(im.pixels[i], 0.f, 65535.f)));
+    for (size_t i = 0; i < q.size(); ++i)
+      q[i] = std::isnan(im.pixels[i]) ? 0
+                                      : static_cast<std::uint16_t>(std::lround(std::clamp(im.pixels[i], 0.f, 65535.f)));
     return q;
   };
   const auto ql = quantize(r.L), qr = quantize(R);
   const auto t0 = std::chrono::steady_clock::now();
-  dsmplan::Disparity disp = dsmplan::sgm_match({ql.data(), rect.width, rect.height}, {qr.data(), rect.width, rect.height}, options);
+  dsmplan::Disparity disp =
+      dsmplan::sgm_match({ql.data(), rect.width, rect.height}, {qr.data(), rect.width, rect.height}, options);
   const auto t1 = std::chrono::steady_clock::now();
   // Pixels outside either image carry no disparity.
   size_t inside = 0, valid = 0;
@@ -198,11 +206,12 @@ TEST(RpcStereo, SgmOnAPreEventTile) {
   for (const auto& p : points) heights.push_back(p.ground.height);
   ASSERT_GT(heights.size(), 1000u);
   const double share = static_cast<double>(valid) / static_cast<double>(inside);
-  std::printf("pre-event tile: SGM over disparities %d..%d: %.1f %% of the tile's pixels valid, %zu points (residual "
-              "< 1 px); heights p2 %.1f, p50 %.1f, p98 %.1f m; SGM %.2f s, triangulation %.2f s\n",
-              options.min_disparity, options.min_disparity + options.num_disparities - 1, 100 * share, points.size(),
-              quantile(heights, 0.02), quantile(heights, 0.5), quantile(heights, 0.98),
-              std::chrono::duration<double>(t1 - t0).count(), std::chrono::duration<double>(t2 - t1).count());
+  std::printf(
+      "pre-event tile: SGM over disparities %d..%d: %.1f %% of the tile's pixels valid, %zu points (residual "
+      "< 1 px); heights p2 %.1f, p50 %.1f, p98 %.1f m; SGM %.2f s, triangulation %.2f s\n",
+      options.min_disparity, options.min_disparity + options.num_disparities - 1, 100 * share, points.size(),
+      quantile(heights, 0.02), quantile(heights, 0.5), quantile(heights, 0.98),
+      std::chrono::duration<double>(t1 - t0).count(), std::chrono::duration<double>(t2 - t1).count());
   EXPECT_GT(share, 0.5);
   EXPECT_GT(quantile(heights, 0.02), 400);
   EXPECT_LT(quantile(heights, 0.98), 950);

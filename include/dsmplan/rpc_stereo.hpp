@@ -30,9 +30,14 @@
 // a right pixel x2 is right(x2); the RPC-consistent position of x2 is x2 + pointing (s2p's
 // correction applied to the secondary image), so right(x2) = rpc_right(x2 + pointing).
 //
-// Accuracy (measured on the real Pléiades pairs, tests/rpc_stereo_test.cpp): see that file's
-// report; the affine fit is reported by AffineCamera::rms_px/max_px and the rectification of the
-// RPCs themselves by RpcRectification::rpc_row_error_px.
+// Accuracy, measured on the real Pléiades pairs (tests/rpc_stereo_test.cpp, 400 x 400 tile at
+// (300, 300) of the 1000 x 1000 crops, heights 450-900 m): the affine cameras fit the RPCs to
+// 0.032 px RMS (0.09 px at worst; AffineCamera::rms_px/max_px), the rectified RPC projections of
+// the tile's volume share their row to 0.009 px (RpcRectification::rpc_row_error_px); tie points
+// held out of the pointing correction's estimate lie 0.10 px (median) and 0.43 px (90th
+// percentile) from their epipolar line on the pre-event pair, 0.09 and 0.36 px on the post-event
+// pair (the pairs' pointing errors are small: 0.09 and 0.01 px). Triangulation returns a ground
+// point projected into both images to 1e-11 m (the RPCs taken as exact).
 //
 // Errors: ArgumentError naming the argument for an empty or out-of-image tile, an empty height
 // range, tie points fewer than 1, images of the wrong size; InputError from RpcCamera::localize
@@ -54,7 +59,9 @@ namespace dsmplan {
 /// A plane affine map: (x', y') = (m0 x + m1 y + m2, m3 x + m4 y + m5).
 struct Affine2 {
   std::array<double, 6> m{1, 0, 0, 0, 1, 0};
-  PixelPoint operator()(const PixelPoint& p) const { return {m[0] * p.col + m[1] * p.row + m[2], m[3] * p.col + m[4] * p.row + m[5]}; }
+  PixelPoint operator()(const PixelPoint& p) const {
+    return {m[0] * p.col + m[1] * p.row + m[2], m[3] * p.col + m[4] * p.row + m[5]};
+  }
   Affine2 inverse() const;  ///< ArgumentError when singular
   /// this ∘ other: apply `other` first.
   Affine2 after(const Affine2& other) const;
@@ -73,8 +80,8 @@ struct FloatImage {
 /// (origin at `origin`, on the WGS 84 sphere of radius 6378137 m: only its linearity matters).
 struct AffineCamera {
   GeoPoint origin;
-  std::array<double, 8> p{};  ///< rows (m00 m01 m02 b0), (m10 m11 m12 b1)
-  double rms_px = 0, max_px = 0;  ///< of the fit to the RPC
+  std::array<double, 8> p{};                             ///< rows (m00 m01 m02 b0), (m10 m11 m12 b1)
+  double rms_px = 0, max_px = 0;                         ///< of the fit to the RPC
   std::array<double, 3> local(const GeoPoint& g) const;  ///< the frame's (e, n, u) in metres
   PixelPoint project(const GeoPoint& g) const;
 };
@@ -90,9 +97,9 @@ struct RpcTile {
 
 /// The rectification of a pair over a tile.
 struct RpcRectification {
-  Affine2 left, right;          ///< original image positions -> rectified positions
-  std::array<double, 2> pointing{0, 0};  ///< the correction in right-image pixels (see Conventions)
-  int width = 0, height = 0;    ///< of the two rectified images (the left tile's bounding box)
+  Affine2 left, right;                       ///< original image positions -> rectified positions
+  std::array<double, 2> pointing{0, 0};      ///< the correction in right-image pixels (see Conventions)
+  int width = 0, height = 0;                 ///< of the two rectified images (the left tile's bounding box)
   int min_disparity = 0, max_disparity = 0;  ///< over the tile's height range (RPC projections)
   AffineCamera camera_left, camera_right;
   double rpc_row_error_px = 0;  ///< largest |row_left - row_right| of the RPC projections (rectified)
@@ -118,11 +125,11 @@ struct TiePoint {
 };
 
 struct TiePointOptions {
-  int step = 20;             ///< grid of left rectified pixels searched, px
-  int half_window = 6;       ///< 13 x 13 patches
-  int row_search = 3;        ///< rows searched across the epipolar line each side, px
-  double min_ncc = 0.9;      ///< kept when the best NCC exceeds this
-  double min_std = 10;       ///< patches flatter than this (grey levels, std) are skipped
+  int step = 20;         ///< grid of left rectified pixels searched, px
+  int half_window = 6;   ///< 13 x 13 patches
+  int row_search = 3;    ///< rows searched across the epipolar line each side, px
+  double min_ncc = 0.9;  ///< kept when the best NCC exceeds this
+  double min_std = 10;   ///< patches flatter than this (grey levels, std) are skipped
   /// Patches whose gradient structure tensor has eigenvalues in a smaller ratio (one straight
   /// edge: ambiguous along it) are skipped (Shi & Tomasi's corner measure).
   double min_corner_ratio = 0.3;
@@ -130,8 +137,8 @@ struct TiePointOptions {
 };
 
 /// Tie points by correlation in the rectified pair (as tests/rpc_test.cpp's, in rectified
-/// geometry): for a grid of left pixels textured in every direction, the best NCC over the disparity range and ±row_search
-/// rows, refined to sub-pixel by a parabola in each direction; returned in original positions.
+/// geometry): for a grid of left pixels textured in every direction, the best NCC over the disparity range and
+/// ±row_search rows, refined to sub-pixel by a parabola in each direction; returned in original positions.
 std::vector<TiePoint> match_tie_points(const FloatImage& left_rectified, const FloatImage& right_rectified,
                                        const RpcRectification& rect, const TiePointOptions& options = {});
 

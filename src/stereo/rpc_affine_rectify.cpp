@@ -11,13 +11,13 @@
 // direction of image 1 is M_1 v_2 (a point sliding along camera 2's ray), and n_1ᵀ M_1, n_2ᵀ M_2
 // (n_i the normals of the epipolar directions) both vanish on v_1 and v_2, so they are multiples
 // of one row: the ratio of the multiples is the right image's scale.
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
 #include <limits>
-
-#include <Eigen/Dense>
-#include <tbb/blocked_range.h>
-#include <tbb/parallel_for.h>
 
 #include "dsmplan/core.hpp"
 #include "dsmplan/rpc_stereo.hpp"
@@ -133,11 +133,13 @@ RpcRectification rectify_rpc_pair(const RpcCamera& left, const RpcCamera& right,
   r.right = Affine2{{su * e2[0], su * e2[1], 0, s * n2[0], s * n2[1], 0}};
   // Translations: the left tile's bounding box starts at (0, 0).
   double umin = 1e300, umax = -1e300, vmin = 1e300, vmax = -1e300;
-  for (const PixelPoint c : {PixelPoint{double(tile.col0), double(tile.row0)}, PixelPoint{double(tile.col0 + tile.width), double(tile.row0)},
-                             PixelPoint{double(tile.col0), double(tile.row0 + tile.height)},
-                             PixelPoint{double(tile.col0 + tile.width), double(tile.row0 + tile.height)}}) {
+  for (const PixelPoint c :
+       {PixelPoint{double(tile.col0), double(tile.row0)}, PixelPoint{double(tile.col0 + tile.width), double(tile.row0)},
+        PixelPoint{double(tile.col0), double(tile.row0 + tile.height)},
+        PixelPoint{double(tile.col0 + tile.width), double(tile.row0 + tile.height)}}) {
     const PixelPoint q = r.left(c);
-    umin = std::min(umin, q.col), umax = std::max(umax, q.col), vmin = std::min(vmin, q.row), vmax = std::max(vmax, q.row);
+    umin = std::min(umin, q.col), umax = std::max(umax, q.col), vmin = std::min(vmin, q.row),
+    vmax = std::max(vmax, q.row);
   }
   r.left.m[2] = -umin, r.left.m[5] = -vmin;
   r.width = static_cast<int>(std::ceil(umax - umin)), r.height = static_cast<int>(std::ceil(vmax - vmin));
@@ -166,7 +168,8 @@ RpcRectification rectify_rpc_pair(const RpcCamera& left, const RpcCamera& right,
 
 FloatImage resample_rectified(const FloatImage& image, const Affine2& to_rectified, int width, int height) {
   if (width < 1 || height < 1) throw ArgumentError("rectified size", "is empty");
-  if (image.pixels.size() != static_cast<std::size_t>(image.width) * image.height || image.width < 1 || image.height < 1)
+  if (image.pixels.size() != static_cast<std::size_t>(image.width) * image.height || image.width < 1 ||
+      image.height < 1)
     throw ArgumentError("image", "size does not match its pixels");
   const Affine2 back = to_rectified.inverse();
   FloatImage out;

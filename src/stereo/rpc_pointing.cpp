@@ -15,12 +15,12 @@
 // range and a few rows across it (the pointing error is at most a few pixels), with a parabola
 // through the correlation's neighbours for the sub-pixel position. Correlation on a grid of
 // textured patches gives tie points where SIFT would, in a fraction of the code.
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
 #include <algorithm>
 #include <cmath>
 #include <vector>
-
-#include <tbb/blocked_range.h>
-#include <tbb/parallel_for.h>
 
 #include "dsmplan/core.hpp"
 #include "dsmplan/rpc_stereo.hpp"
@@ -78,7 +78,8 @@ std::vector<TiePoint> match_tie_points(const FloatImage& L, const FloatImage& R,
   if (L.width != rect.width || L.height != rect.height || R.width != rect.width || R.height != rect.height)
     throw ArgumentError("rectified images", "are not of the rectification's size");
   if (o.step < 1 || o.half_window < 1 || o.row_search < 1) throw ArgumentError("tie point options", "out of range");
-  const int h = o.half_window, d0 = rect.min_disparity - o.disparity_margin, d1 = rect.max_disparity + o.disparity_margin;
+  const int h = o.half_window, d0 = rect.min_disparity - o.disparity_margin,
+            d1 = rect.max_disparity + o.disparity_margin;
   const int nd = d1 - d0 + 1, nv = 2 * o.row_search + 1;
   std::vector<PixelPoint> grid;
   for (int y = h + o.row_search; y + h + o.row_search < L.height; y += o.step)

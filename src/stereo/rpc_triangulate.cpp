@@ -8,12 +8,12 @@
 // RPC is a cubic in height: its second-order error is below 1e-6 relative, and only the speed of
 // convergence depends on it, not the point it converges to). Started from the left ray at the
 // initial height, the problem is near linear over a tile: 2 to 4 steps.
-#include <cmath>
-#include <vector>
-
-#include <Eigen/Dense>
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
+
+#include <Eigen/Dense>
+#include <cmath>
+#include <vector>
 
 #include "dsmplan/rpc_stereo.hpp"
 
@@ -44,8 +44,9 @@ RpcStereoPoint triangulate_rpc(const RpcCamera& left, const RpcCamera& right, co
   return {g, std::sqrt(f.squaredNorm() / 4)};
 }
 
-std::vector<RpcStereoPoint> disparity_to_points(const RpcCamera& left, const RpcCamera& right, const RpcRectification& rect,
-                                                const Disparity& disparity, double max_residual_px) {
+std::vector<RpcStereoPoint> disparity_to_points(const RpcCamera& left, const RpcCamera& right,
+                                                const RpcRectification& rect, const Disparity& disparity,
+                                                double max_residual_px) {
   const Affine2 left_back = rect.left.inverse(), right_back = rect.right.inverse();
   std::vector<std::vector<RpcStereoPoint>> rows(static_cast<std::size_t>(disparity.height));
   tbb::parallel_for(tbb::blocked_range<int>(0, disparity.height), [&](const tbb::blocked_range<int>& range) {
@@ -56,7 +57,8 @@ std::vector<RpcStereoPoint> disparity_to_points(const RpcCamera& left, const Rpc
         if (std::isnan(d)) continue;
         const PixelPoint a = left_back({x + 0.5, y + 0.5});
         const PixelPoint r = right_back({x + 0.5 - d, y + 0.5});
-        const RpcStereoPoint p = triangulate_rpc(left, right, a, {r.col + rect.pointing[0], r.row + rect.pointing[1]}, h0);
+        const RpcStereoPoint p =
+            triangulate_rpc(left, right, a, {r.col + rect.pointing[0], r.row + rect.pointing[1]}, h0);
         if (p.residual_px <= max_residual_px) rows[static_cast<std::size_t>(y)].push_back(p), h0 = p.ground.height;
       }
     }
