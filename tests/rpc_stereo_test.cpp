@@ -217,4 +217,23 @@ TEST(RpcStereo, SgmOnAPreEventTile) {
   EXPECT_LT(quantile(heights, 0.98), 950);
 }
 
+TEST(RpcStereo, BadArgumentsThrowArgumentError) {
+  const RpcCamera left = dsmplan::read_rpc_camera(data("pre_event_img1.tif"));
+  const RpcCamera right = dsmplan::read_rpc_camera(data("pre_event_img2.tif"));
+  dsmplan::RpcTile flat = tile();
+  flat.height_max = flat.height_min;
+  EXPECT_THROW(dsmplan::rectify_rpc_pair(left, right, flat), dsmplan::ArgumentError);
+  dsmplan::RpcTile thin = tile();
+  thin.width = 1;
+  EXPECT_THROW(dsmplan::rectify_rpc_pair(left, right, thin), dsmplan::ArgumentError);
+  const RpcRectification rect = dsmplan::rectify_rpc_pair(left, right, tile());
+  EXPECT_THROW(dsmplan::correct_pointing(rect, {}), dsmplan::ArgumentError);
+  FloatImage small;
+  small.width = small.height = 8;
+  small.pixels.assign(64, 100.f);
+  EXPECT_THROW(dsmplan::match_tie_points(small, small, rect), dsmplan::ArgumentError);
+  // The same camera twice: parallel rays, no stereo.
+  EXPECT_THROW(dsmplan::rectify_rpc_pair(left, left, tile()), dsmplan::ArgumentError);
+}
+
 }  // namespace

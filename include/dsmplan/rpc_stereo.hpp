@@ -39,9 +39,10 @@
 // pair (the pairs' pointing errors are small: 0.09 and 0.01 px). Triangulation returns a ground
 // point projected into both images to 1e-11 m (the RPCs taken as exact).
 //
-// Errors: ArgumentError naming the argument for an empty or out-of-image tile, an empty height
-// range, tie points fewer than 1, images of the wrong size; InputError from RpcCamera::localize
-// when a tile lies outside the RPC's domain.
+// Errors: ArgumentError naming the argument for a tile smaller than 2 x 2, an empty height
+// range, no tie points, images not of the rectification's size; InputError from
+// RpcCamera::localize when a tile lies outside the RPC's domain (disparity_to_points skips a
+// pixel whose triangulation fails so, rather than failing the tile).
 //
 // Complexity: rectification O(samples); resampling O(W·H) over threads; tie points
 // O(points · disparities · 7 · window²); disparity_to_points O(W·H) Gauss-Newton solves

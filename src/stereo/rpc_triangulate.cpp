@@ -15,6 +15,7 @@
 #include <cmath>
 #include <vector>
 
+#include "dsmplan/core.hpp"
 #include "dsmplan/rpc_stereo.hpp"
 
 namespace dsmplan {
@@ -57,8 +58,12 @@ std::vector<RpcStereoPoint> disparity_to_points(const RpcCamera& left, const Rpc
         if (std::isnan(d)) continue;
         const PixelPoint a = left_back({x + 0.5, y + 0.5});
         const PixelPoint r = right_back({x + 0.5 - d, y + 0.5});
-        const RpcStereoPoint p =
-            triangulate_rpc(left, right, a, {r.col + rect.pointing[0], r.row + rect.pointing[1]}, h0);
+        RpcStereoPoint p;
+        try {
+          p = triangulate_rpc(left, right, a, {r.col + rect.pointing[0], r.row + rect.pointing[1]}, h0);
+        } catch (const InputError&) {
+          continue;  // a wild disparity far outside the RPC's domain: that pixel only
+        }
         if (p.residual_px <= max_residual_px) rows[static_cast<std::size_t>(y)].push_back(p), h0 = p.ground.height;
       }
     }
