@@ -3,13 +3,16 @@
 // correction from tie points, triangulation through the RPCs, and the SGM (stereo.hpp) on one
 // rectified tile. No ground truth exists: the checks are the epipolar residual of tie points
 // (held out from the correction's estimate), the round trip of synthetic ground points, and the
-// SGM's valid share and height range, printed.
+// SGM's valid share and height range, and the flatness of a street stretch picked from the
+// image (robust plane fit residuals), printed.
 #include "dsmplan/rpc_stereo.hpp"
 
 #include <gdal_priv.h>
 #include <gtest/gtest.h>
 
+#include <Eigen/Dense>
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <cstdint>
@@ -215,6 +218,57 @@ TEST(RpcStereo, SgmOnAPreEventTile) {
   EXPECT_GT(share, 0.5);
   EXPECT_GT(quantile(heights, 0.02), 400);
   EXPECT_LT(quantile(heights, 0.98), 950);
+
+  // Street flatness: a straight stretch of a street, picked from the image (pre_event_img1,
+  // columns 320-580, rows 399-405: the asphalt of the east-west street below the curb in the
+  // tile's upper quarter, clear of trees; it falls ~5 m to the east). A plane fitted to its points (least squares, then
+  // again without those beyond 3 MADs: cars and overhanging crowns) leaves residuals that are the matching's noise.
+  const dsmplan::Affine2 back = rect.left.inverse();
+  std::vector<std::array<double, 3>> street;
+  for (int y = 0; y < rect.height; ++y)
+    for (int x = 0; x < rect.width; ++x) {
+      const float d = disp.at(x, y);
+      const PixelPoint a = back({x + 0.5, y + 0.5});
+      if (std::isnan(d) || a.col < 320 || a.col > 580 || a.row < 399 || a.row > 405) continue;
+      const PixelPoint b = rect.right_rpc({x + 0.5 - d, y + 0.5});
+      const auto p = dsmplan::triangulate_rpc(r.left, r.right, a, b, 700);
+      if (p.residual_px < 1) street.push_back(rect.camera_left.local(p.ground));
+    }
+  ASSERT_GT(street.size(), 500u);
+  auto fit = [](const std::vector<std::array<double, 3>>& pts, std::vector<double>& residuals) {
+    Eigen::MatrixXd A(static_cast<Eigen::Index>(pts.size()), 3);
+    Eigen::VectorXd z(A.rows());
+    for (Eigen::Index i = 0; i < A.rows(); ++i) A.row(i) << 1, pts[i][0], pts[i][1], z[i] = pts[i][2];
+    const Eigen::VectorXd c = A.colPivHouseholderQr().solve(z);
+    residuals.clear();
+    for (Eigen::Index i = 0; i < A.rows(); ++i) residuals.push_back(z[i] - A.row(i).dot(c));
+    return c;
+  };
+  std::vector<double> res;
+  fit(street, res);
+  const double mad = quantile(absolute(res), 0.5);
+  std::vector<std::array<double, 3>> kept;
+  for (size_t i = 0; i < street.size(); ++i)
+    if (std::abs(res[i]) <= 3 * 1.4826 * mad) kept.push_back(street[i]);
+  const Eigen::VectorXd plane = fit(kept, res);
+  const auto abs_res = absolute(res);
+  size_t over = 0;
+  for (double e : abs_res) over += e > 0.5;
+  // The slope along the street (its points' principal direction); across it, over a strip a few
+  // metres wide, the plane's slope is mostly noise and not reported.
+  double me = 0, mn = 0, see = 0, snn = 0, sen = 0;
+  for (const auto& q : kept) me += q[0], mn += q[1];
+  me /= static_cast<double>(kept.size()), mn /= static_cast<double>(kept.size());
+  for (const auto& q : kept)
+    see += (q[0] - me) * (q[0] - me), snn += (q[1] - mn) * (q[1] - mn), sen += (q[0] - me) * (q[1] - mn);
+  const double theta = 0.5 * std::atan2(2 * sen, see - snn);
+  const double along = plane[1] * std::cos(theta) + plane[2] * std::sin(theta);
+  std::printf(
+      "street stretch (%zu points, %zu kept within 3 MADs): slope along it %.2f %%, |residual| median %.3f m, "
+      "p90 %.3f m, %.1f %% over 0.5 m\n",
+      street.size(), kept.size(), 100 * std::abs(along), quantile(abs_res, 0.5), quantile(abs_res, 0.9),
+      100.0 * static_cast<double>(over) / static_cast<double>(abs_res.size()));
+  EXPECT_LT(quantile(abs_res, 0.5), 0.5);
 }
 
 TEST(RpcStereo, BadArgumentsThrowArgumentError) {
