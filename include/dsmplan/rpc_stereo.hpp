@@ -4,18 +4,18 @@
 // Method (C. de Franchis, E. Meinhardt-Llopis, J. Michel, J.-M. Morel, G. Facciolo, "An automatic
 // and modular stereo pipeline for pushbroom images", ISPRS Annals II-3, 2014: s2p; and
 // "On stereo-rectification of pushbroom images", ICIP 2014, by the same authors):
-//   1. Over a small tile the RPC cameras are close to affine cameras (s2p, sec. 3.1: below 0.05 px
-//      over 1000 x 1000 Pléiades tiles). fit_affine_camera() fits one per image by least squares
-//      to RPC projections of ground points of the tile's volume (a grid of the left tile localized
-//      at heights across [height_min, height_max]) in a local east-north-up frame in metres.
+//   1. Over a small tile the RPC cameras are close to affine cameras (s2p's premise; measured
+//      here: 0.03 px RMS over 400 x 400 Pléiades tiles, see Accuracy). fit_affine_camera() fits one per image by least
+//      squares to RPC projections of ground points of the tile's volume (a grid of the left tile localized at heights
+//      across [height_min, height_max]) in a local east-north-up frame in metres.
 //   2. Two affine cameras have parallel epipolar lines (R. Hartley, A. Zisserman, "Multiple View
-//      Geometry", 2nd ed., sec. 14.4: the affine fundamental matrix). rectify_rpc_pair() builds
-//      a rectifying similarity per image (s2p's rectifying similarities, sec. 3.2): a rotation
+//      Geometry", 2nd ed., ch. 14: the affine fundamental matrix). rectify_rpc_pair() builds
+//      a rectifying similarity per image (s2p's rectifying similarities): a rotation
 //      that makes the epipolar direction horizontal, for the right image times the scale that
 //      gives corresponding points the same rectified row, and translations (the rows aligned on
 //      the RPC projections of the tile's volume; the columns so that the tile's middle height has
 //      disparity about 0).
-//   3. The pointing correction (s2p, sec. 3.3, "relative pointing error"): the RPCs of the two
+//   3. The pointing correction (s2p's "relative pointing error"): the RPCs of the two
 //      images are off from each other by up to a few pixels; over a tile the error is a
 //      translation of the right image. From tie points it is estimated as the median of their
 //      errors across the epipolar lines (s2p's pointing_accuracy.local_translation), and composed
@@ -37,14 +37,16 @@
 // held out of the pointing correction's estimate lie 0.10 px (median) and 0.43 px (90th
 // percentile) from their epipolar line on the pre-event pair, 0.09 and 0.36 px on the post-event
 // pair (the pairs' pointing errors are small: 0.09 and 0.01 px). Triangulation returns a ground
-// point projected into both images to 1e-11 m (the RPCs taken as exact).
+// point projected into both images to 1e-11 m (the RPCs taken as exact). The SGM (stereo.hpp) on
+// the pre-event tile gives 79 % valid disparities, and a street stretch picked from the image lies
+// within 0.29 m (median) and 0.78 m (p90) of its robust plane.
 //
 // Errors: ArgumentError naming the argument for a tile smaller than 2 x 2, an empty height
 // range, no tie points, images not of the rectification's size; InputError from
 // RpcCamera::localize when a tile lies outside the RPC's domain (disparity_to_points skips a
 // pixel whose triangulation fails so, rather than failing the tile).
 //
-// Complexity: rectification O(samples); resampling O(W·H) over threads; tie points
+// Complexity: rectification O(samples³) localizations; resampling O(W·H) over threads; tie points
 // O(points · disparities · 7 · window²); disparity_to_points O(W·H) Gauss-Newton solves
 // (about 5 RPC evaluations each) over threads.
 #pragma once

@@ -1,10 +1,10 @@
 // Affine epipolar rectification of a push-broom (RPC) pair over a tile (include/dsmplan/rpc_stereo.hpp).
 //
 // Follows C. de Franchis, E. Meinhardt-Llopis, J. Michel, J.-M. Morel, G. Facciolo, "An automatic
-// and modular stereo pipeline for pushbroom images", ISPRS Annals II-3, 2014 (s2p), sec. 3.1-3.2,
+// and modular stereo pipeline for pushbroom images", ISPRS Annals II-3, 2014 (s2p),
 // and "On stereo-rectification of pushbroom images", ICIP 2014: over a small tile each RPC camera
 // is replaced by its best affine camera, two affine cameras have parallel epipolar lines
-// (Hartley & Zisserman, "Multiple View Geometry", 2nd ed., sec. 14.4), and a similarity per image
+// (Hartley & Zisserman, "Multiple View Geometry", 2nd ed., ch. 14), and a similarity per image
 // makes them horizontal and aligned. The similarities are built here directly from the two
 // affine cameras (s2p builds them from the affine fundamental matrix; the same lines): the
 // viewing direction of camera i is the null vector v_i of its 2x3 linear part M_i, the epipolar

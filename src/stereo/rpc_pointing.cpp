@@ -2,7 +2,7 @@
 //
 // Pointing correction after C. de Franchis, E. Meinhardt-Llopis, J. Michel, J.-M. Morel,
 // G. Facciolo, "An automatic and modular stereo pipeline for pushbroom images", ISPRS Annals II-3,
-// 2014 (s2p), sec. 3.3, and "Automatic sensor orientation refinement of Pléiades stereo images",
+// 2014 (s2p), and "Automatic sensor orientation refinement of Pléiades stereo images",
 // IGARSS 2014, by the same authors: the relative pointing error of two push-broom images is, over a
 // tile, a translation of the secondary image; s2p (pointing_accuracy.local_translation) estimates
 // it as the median of the tie points' error vectors to their epipolar lines (collinear for affine

@@ -3,7 +3,7 @@
 // The least-squares intersection of two RPC viewing rays: the ground point (lon, lat, height)
 // whose projections are nearest, in pixels, to the two observed positions, by Gauss-Newton on the
 // 4 residuals (as s2p's triangulation by "RPC least squares", de Franchis et al., ISPRS Annals
-// II-3, 2014, sec. 3.5, and rpcm's/ASP's RPC intersection). The derivatives by longitude and
+// II-3, 2014, and rpcm's/ASP's RPC intersection). The derivatives by longitude and
 // latitude are RpcCamera::jacobian's (analytic); by height a central difference over ±1 m (the
 // RPC is a cubic in height: its second-order error is below 1e-6 relative, and only the speed of
 // convergence depends on it, not the point it converges to). Started from the left ray at the
