@@ -10,10 +10,13 @@ dir=build
 # $dir/web/viewer/node_modules beside the page the build copies there (only when the lock changed).
 scripts/npm_pinned.sh web/viewer "$dir/web/viewer" node_modules/three/build/three.module.js
 if [ "${1:-}" = "--sanitize" ]; then
+  # -g1: line tables only, enough for the sanitizers' reports, and a faster build than -g.
   cmake -S . -B build-sanitize -DCMAKE_BUILD_TYPE=RelWithDebInfo -DDSMPLAN_BUILD_BENCH=OFF \
+    -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O2 -g1 -DNDEBUG" \
     -DCMAKE_CXX_FLAGS="-fsanitize=address,undefined -fno-sanitize-recover=undefined -fno-omit-frame-pointer" >/dev/null
   cmake --build build-sanitize -j"$(nproc)"
 else
-  cmake -S . -B build -DCMAKE_BUILD_TYPE=Release >/dev/null
+  # DSMPLAN_BENCH=OFF (scripts/test.sh): the test suite does not need the benchmarks.
+  cmake -S . -B build -DCMAKE_BUILD_TYPE=Release -DDSMPLAN_BUILD_BENCH="${DSMPLAN_BENCH:-ON}" >/dev/null
   cmake --build build -j"$(nproc)"
 fi

@@ -2,7 +2,7 @@
 # Builds dsmplan and runs the whole test suite; --sanitize runs it under ASan + UBSan.
 set -euo pipefail
 cd "$(dirname "$0")/.."
-scripts/build.sh "$@"
+DSMPLAN_BENCH=OFF scripts/build.sh "$@"
 # The viewer's test (tests/view_test.cpp) screenshots the page with Debian's headless Chromium.
 scripts/deps.sh chromium
 # The files open where users open them (tests/export_test.cpp, OpensWhereUsersOpenIt):
