@@ -11,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "dsmplan/picture_job.hpp"
 #include "dsmplan/export.hpp"
 #include "dsmplan/mission.hpp"
 #include "dsmplan/picture.hpp"

@@ -16,6 +16,7 @@
 
 #include "bench_kit.hpp"
 #include "dsmplan/laz.hpp"
+#include "dsmplan/point_io.hpp"
 #include "dsmplan/points.hpp"
 
 namespace {

@@ -1,4 +1,4 @@
-// RPC cameras (include/dsmplan/rpc.hpp, issue 17): points per second of ground -> image
+// RPC cameras (dsmplan/rpc.hpp, issue 17): points per second of ground -> image
 // (project) and image -> ground at a given height (localize, Newton), dsmplan's beside GDAL's RPC
 // transformer (GDALCreateRPCTransformerV2: the same RPC, GDAL's evaluation and its own iterative
 // inverse), on the pre-event Pléiades crop (data/pleiades-kahramanmaras/pre_event_img1), one core.
@@ -20,6 +20,7 @@
 #include "bench_kit.hpp"
 #include "gdal_rpc_oracle.hpp"
 #include "dsmplan/rpc.hpp"
+#include "dsmplan/rpc_io.hpp"
 
 namespace {
 

@@ -1,4 +1,4 @@
-// dsmplan's Semi-Global Matching (include/dsmplan/stereo.hpp) against OpenCV's StereoSGBM on the
+// dsmplan's Semi-Global Matching (dsmplan/stereo.hpp) against OpenCV's StereoSGBM on the
 // Middlebury Aloe pair (data/middlebury-aloe: 1282 x 1110, disparities 0..223), issue 16 points
 // 3(a) and 4: throughput in million pixel-disparities per second on 2 threads, and bad-pixel
 // rates against the ground truth.

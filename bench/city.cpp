@@ -28,6 +28,7 @@
 #include "dsmplan/raster.hpp"
 #include "dsmplan/raster_io.hpp"
 #include "dsmplan/simplify.hpp"
+#include "dsmplan/simplify_streamed.hpp"
 
 using namespace dsmplan;
 namespace fs = std::filesystem;

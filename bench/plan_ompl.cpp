@@ -1,4 +1,4 @@
-// dsmplan's probabilistic roadmap (include/dsmplan/plan.hpp) against OMPL's PRM
+// dsmplan's probabilistic roadmap (dsmplan/plan.hpp) against OMPL's PRM
 // (ompl::geometric::PRM, OMPL 1.5.2 from Debian 12) on the same samples, the same edges and an
 // exact collision check on both sides.
 //

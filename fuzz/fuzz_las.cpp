@@ -1,4 +1,5 @@
 // libFuzzer target: dsmplan::read_las on arbitrary bytes (a file named *.las).
+#include "dsmplan/point_io.hpp"
 #include "dsmplan/points.hpp"
 #include "fuzz_file.hpp"
 

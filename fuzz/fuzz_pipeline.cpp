@@ -46,6 +46,7 @@
 #include "dsmplan/plan.hpp"
 #include "dsmplan/raster.hpp"
 #include "dsmplan/simplify.hpp"
+#include "dsmplan/simplify_streamed.hpp"
 
 using namespace dsmplan;
 

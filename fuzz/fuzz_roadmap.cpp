@@ -16,7 +16,7 @@
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   std::vector<uint8_t> bytes(data, data + size);
   if (size >= 8 && size % 2 == 0) {
-    uint64_t hash = 14695981039346656037ull;  // as fnv1a() in src/plan/roadmap_file.cpp
+    uint64_t hash = 14695981039346656037ull;  // as fnv1a() in src/io/roadmap_file.cpp
     for (size_t i = 0; i + 8 < size; ++i) hash = (hash ^ bytes[i]) * 1099511628211ull;
     std::memcpy(bytes.data() + size - 8, &hash, 8);
   }

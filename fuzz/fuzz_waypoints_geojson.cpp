@@ -1,5 +1,5 @@
 // libFuzzer target: dsmplan::read_waypoints_geojson on arbitrary bytes (a file named *.geojson).
-#include "dsmplan/plan_job.hpp"
+#include "dsmplan/waypoints.hpp"
 #include "fuzz_file.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {

@@ -1,4 +1,5 @@
 // libFuzzer target: dsmplan::read_xyz on arbitrary bytes (a file named *.xyz).
+#include "dsmplan/point_io.hpp"
 #include "dsmplan/points.hpp"
 #include "fuzz_file.hpp"
 

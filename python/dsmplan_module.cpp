@@ -24,6 +24,7 @@
 #include "dsmplan/raster.hpp"
 #include "dsmplan/raster_io.hpp"
 #include "dsmplan/simplify.hpp"
+#include "dsmplan/simplify_streamed.hpp"
 
 namespace py = pybind11;
 using namespace dsmplan;

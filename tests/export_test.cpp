@@ -3,6 +3,7 @@
 // read_mesh must give back exactly what write_mesh wrote and refuse broken files; pictures must
 // have the promised size, change only where edges are drawn, and read back through libpng.
 #include "dsmplan/export.hpp"
+#include "dsmplan/wpml.hpp"
 #include "dsmplan/mission.hpp"
 #include "dsmplan/picture.hpp"
 #include "dsmplan/wgs84.hpp"

@@ -23,6 +23,7 @@
 #include <vector>
 
 #include "dsmplan/core.hpp"
+#include "dsmplan/point_io.hpp"
 #include "dsmplan/points.hpp"
 #include "testkit.hpp"
 

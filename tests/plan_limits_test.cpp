@@ -13,6 +13,7 @@
 #include <random>
 
 #include "dsmplan/columns.hpp"
+#include "dsmplan/point_io.hpp"
 #include "dsmplan/plan.hpp"
 #include "dsmplan/simplify.hpp"
 #include "dsmplan/tools.hpp"

@@ -23,6 +23,7 @@
 
 #include <filesystem>
 
+#include "dsmplan/point_io.hpp"
 #include "dsmplan/points.hpp"
 #include "dsmplan/raster.hpp"
 #include "dsmplan/raster_io.hpp"

@@ -1,6 +1,7 @@
 // Raster stage: GDAL input (GeoTIFF, VRT mosaic, ESRI ASCII grid), nodata, CRS, resampling and
 // quantization, each checked against GDAL's own tools (gdal_translate, gdalbuildvrt, gdalwarp)
 // or brute force on the real NRW DSM.
+#include "dsmplan/point_io.hpp"
 #include "dsmplan/points.hpp"
 #include "dsmplan/raster.hpp"
 #include "dsmplan/raster_io.hpp"

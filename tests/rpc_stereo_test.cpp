@@ -1,11 +1,12 @@
 // Stereo of the real Pléiades pairs over Kahramanmaraş (data/pleiades-kahramanmaras) through
-// include/dsmplan/rpc_stereo.hpp: affine epipolar rectification of a tile, the pointing
+// dsmplan/rpc_stereo.hpp: affine epipolar rectification of a tile, the pointing
 // correction from tie points, triangulation through the RPCs, and the SGM (stereo.hpp) on one
 // rectified tile. No ground truth exists: the checks are the epipolar residual of tie points
 // (held out from the correction's estimate), the round trip of synthetic ground points, and the
 // SGM's valid share and height range, and the flatness of a street stretch picked from the
 // image (robust plane fit residuals), printed.
 #include "dsmplan/rpc_stereo.hpp"
+#include "dsmplan/rpc_io.hpp"
 
 #include <gdal_priv.h>
 #include <gtest/gtest.h>

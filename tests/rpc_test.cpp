@@ -1,4 +1,4 @@
-// RPC cameras (include/dsmplan/rpc.hpp) on the four real Pléiades crops over Kahramanmaraş
+// RPC cameras (dsmplan/rpc.hpp) on the four real Pléiades crops over Kahramanmaraş
 // (data/pleiades-kahramanmaras):
 //   - ground -> image against GDAL's own RPC transformer (GDALCreateRPCTransformerV2, gdal_rpc.cpp:
 //     code that shares nothing with ours) on a grid over each crop and the model's height range;
@@ -9,6 +9,7 @@
 //     found by correlation in the two images of a pair meet the RPC epipolar curve;
 //   - bad input, one line naming the file and the key.
 #include "dsmplan/rpc.hpp"
+#include "dsmplan/rpc_io.hpp"
 
 #include <gdal.h>
 #include <gdal_alg.h>

@@ -18,6 +18,7 @@
 // REGRESSION failed on src/simplify before the 1 nm height slack and the put-back of co-linear
 // vertices off the new surface (both documented at the top of simplify.hpp).
 #include "dsmplan/simplify.hpp"
+#include "dsmplan/simplify_streamed.hpp"
 
 #include <CGAL/Delaunay_triangulation_2.h>
 #include <CGAL/Exact_predicates_inexact_constructions_kernel.h>

@@ -1,4 +1,4 @@
-// Stereo from frame cameras (include/dsmplan/stereo_frames.hpp), each part against an oracle
+// Stereo from frame cameras (dsmplan/stereo_frames.hpp), each part against an oracle
 // that shares none of its code path:
 //   - distortion: undistort(distort(p)) = p, and project() against the formula written out;
 //   - rectification (Fusiello, Trucco & Verri 2000): known 3D points projected through both

@@ -1,4 +1,4 @@
-// Stereo: Semi-Global Matching (include/dsmplan/stereo.hpp; H. Hirschmüller, "Stereo Processing
+// Stereo: Semi-Global Matching (dsmplan/stereo.hpp; H. Hirschmüller, "Stereo Processing
 // by Semiglobal Matching and Mutual Information", IEEE PAMI 30(2), 2008), each step against an
 // oracle that shares none of its code:
 //   - the Census transform (Zabih & Woodfill, ECCV 1994) against a loop over the clamped window;

@@ -12,6 +12,7 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "dsmplan/point_io.hpp"
 #include "dsmplan/points.hpp"
 #include "dsmplan/raster.hpp"
 #include "dsmplan/raster_io.hpp"

@@ -6,7 +6,6 @@
 
 #include "core/text.hpp"
 #include "dsmplan/raster.hpp"
-#include "dsmplan/raster_io.hpp"
 
 namespace dsmplan {
 

@@ -30,6 +30,7 @@
 
 #include "core/text.hpp"
 #include "dsmplan/simplify.hpp"
+#include "dsmplan/simplify_streamed.hpp"
 
 namespace dsmplan {
 

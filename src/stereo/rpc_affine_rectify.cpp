@@ -1,4 +1,4 @@
-// Affine epipolar rectification of a push-broom (RPC) pair over a tile (include/dsmplan/rpc_stereo.hpp).
+// Affine epipolar rectification of a push-broom (RPC) pair over a tile (dsmplan/rpc_stereo.hpp).
 //
 // Follows C. de Franchis, E. Meinhardt-Llopis, J. Michel, J.-M. Morel, G. Facciolo, "An automatic
 // and modular stereo pipeline for pushbroom images", ISPRS Annals II-3, 2014 (s2p),

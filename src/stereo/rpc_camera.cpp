@@ -1,4 +1,4 @@
-// The RPC00B camera (include/dsmplan/rpc.hpp).
+// The RPC00B camera (dsmplan/rpc.hpp).
 //
 // Spec: NIMA STDI-0002 v2.1 (16 Nov 2000), "The Compendium of Controlled Extensions (CE) for the
 // National Imagery Transmission Format (NITF)", appendix E, RPC00B: normalisation, the 20-term

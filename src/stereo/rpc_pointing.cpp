@@ -1,4 +1,4 @@
-// Tie points of a rectified RPC pair and the pointing correction (include/dsmplan/rpc_stereo.hpp).
+// Tie points of a rectified RPC pair and the pointing correction (dsmplan/rpc_stereo.hpp).
 //
 // Pointing correction after C. de Franchis, E. Meinhardt-Llopis, J. Michel, J.-M. Morel,
 // G. Facciolo, "An automatic and modular stereo pipeline for pushbroom images", ISPRS Annals II-3,

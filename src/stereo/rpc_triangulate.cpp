@@ -1,4 +1,4 @@
-// Triangulation of a push-broom (RPC) pair (include/dsmplan/rpc_stereo.hpp).
+// Triangulation of a push-broom (RPC) pair (dsmplan/rpc_stereo.hpp).
 //
 // The least-squares intersection of two RPC viewing rays: the ground point (lon, lat, height)
 // whose projections are nearest, in pixels, to the two observed positions, by Gauss-Newton on the

@@ -4,6 +4,7 @@
 #include <filesystem>
 
 #include "dsmplan/tools.hpp"
+#include "dsmplan/rpc_io.hpp"
 #include "tools/report_json.hpp"
 
 namespace dsmplan {

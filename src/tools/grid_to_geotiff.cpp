@@ -2,6 +2,7 @@
 // Section 2), holes kept unless filling is asked for; with --classes 2 (ground) a DTM.
 #include <filesystem>
 
+#include "dsmplan/point_io.hpp"
 #include "dsmplan/tools.hpp"
 
 namespace dsmplan {

@@ -1,7 +1,7 @@
 // Flyable missions from a planned path: home on the ground, a vertical takeoff, the legs to and
 // from home planned like any other, the vertical climb and descent checked against the data, and
 // the fewest mission items whose straight lines keep the limits. The item order and what the
-// autopilots check of it: src/export/mission_writers.cpp.
+// autopilots check of it: src/io/mission_writers.cpp.
 #include "tools/mission_parts.hpp"
 
 #include "core/text.hpp"

@@ -10,6 +10,8 @@
 #include <string>
 
 #include "dsmplan/columns.hpp"
+#include "dsmplan/wpml.hpp"
+#include "dsmplan/point_io.hpp"
 #include "dsmplan/corridor.hpp"
 #include "dsmplan/export.hpp"
 #include "dsmplan/mission.hpp"

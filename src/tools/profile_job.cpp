@@ -1,4 +1,4 @@
-// dsmplan profile: a planned path's height profile (render_profile(), src/export/profile.cpp) as
+// dsmplan profile: a planned path's height profile (render_profile(), src/picture/profile.cpp) as
 // a PNG, and one line saying how close it comes to the DSM below and to the ceiling above.
 #include <algorithm>
 #include <cmath>
@@ -6,6 +6,7 @@
 #include <filesystem>
 
 #include "core/text.hpp"
+#include "dsmplan/picture_job.hpp"
 #include "dsmplan/picture.hpp"
 #include "dsmplan/plan_job.hpp"
 #include "dsmplan/tools.hpp"

@@ -6,6 +6,7 @@
 #include <limits>
 
 #include "core/text.hpp"
+#include "dsmplan/picture_job.hpp"
 #include "dsmplan/export.hpp"
 #include "dsmplan/picture.hpp"
 #include "dsmplan/plan.hpp"

@@ -122,7 +122,7 @@ async function main() {
       : null,
   ]);
 
-  // dsmplan's GLB (src/export/glb_writer.cpp): scene -> root node (rotation z-up to y-up) ->
+  // dsmplan's GLB (src/io/glb_writer.cpp): scene -> root node (rotation z-up to y-up) ->
   // mesh node (translation = asset.extras.origin) with float32 positions = CRS - origin.
   const origin = gltf.asset?.extras?.origin;
   if (!Array.isArray(origin) || origin.length !== 3) throw new Error(`${meshUrl}: no asset.extras.origin (not a dsmplan GLB)`);

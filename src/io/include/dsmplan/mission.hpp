@@ -1,0 +1,109 @@
+// dsmplan/mission.hpp: stage 5, results out: paths as files and flyable drone missions.
+//
+// Formatting only: the caller transforms coordinates (wgs84.hpp).
+#pragma once
+
+#include <cmath>
+#include <string>
+#include <vector>
+
+#include "dsmplan/core.hpp"
+
+namespace dsmplan {
+
+// ---- paths as files -----------------------------------------------------------------------
+
+/// The CSV of a path: "x,y,z" then one point a line, shortest decimals that read back exactly.
+std::string path_to_csv(const std::vector<Point3>& path);
+
+/// A GeoJSON (RFC 7946) Feature with a LineString of [longitude, latitude, height] positions
+/// (degrees to 1e-9, about 0.1 mm; heights to 1 mm), and `properties` (a JSON object's text,
+/// "{}" for none). Plain text, no PROJ: the caller transforms (Wgs84Transform).
+std::string path_to_geojson(const std::vector<Point3>& lonlath, const std::string& properties = "{}");
+
+// ---- drone missions and KML (formatting only; the caller transforms) ----------------------
+//
+// Input: WGS 84 longitude, latitude (degrees) and height above mean sea level (EGM96,
+// Wgs84Transform with HeightReference::MeanSeaLevel): what MAVLink's MAV_FRAME_GLOBAL and
+// QGroundControl call AMSL, and what KML 2.2 states its altitudes in (CRS LonLat84_5773).
+// Degrees are written to 1e-9 (0.1 mm), altitudes to 1 mm. ArgumentError when a point is not
+// finite or outside longitude [-180, 180], latitude [-90, 90] (e.g. still in UTM).
+// The formats' sources (QGC's and MAVLink's documentation, the autopilots' mission checks,
+// OGC KML 2.2): mission_writers.cpp.
+
+enum class Firmware { generic, px4, ardupilot };  ///< MAV_AUTOPILOT 0, 12, 3
+enum class MissionEnd { rtl, land, none };        ///< after the route: return to launch, land there, nothing
+enum class AltitudeFrame {
+  relative,  ///< metres above home (MAV_FRAME_GLOBAL_RELATIVE_ALT, QGC AltitudeMode 1): how most missions fly
+  amsl       ///< metres above mean sea level (MAV_FRAME_GLOBAL, QGC AltitudeMode 2)
+};
+
+/// A mission as an autopilot flies it: armed at `home` on the ground, a vertical takeoff to
+/// route[0] (directly above home), straight lines through the route, then `end`.
+struct Mission {
+  Point3 home{NAN, NAN, NAN};  ///< lon, lat, AMSL height of the ground at home (the planned home)
+  std::vector<Point3> route;   ///< lon, lat, AMSL; route[0] is the top of the takeoff, above home
+  MissionEnd end = MissionEnd::rtl;
+  Point3 land{NAN, NAN, NAN};  ///< end == land: lon, lat, AMSL height of the ground it lands on
+};
+
+/// Takeoff tops closer to home than this are refused: PX4 accepts a takeoff only 1 m above its
+/// altitude acceptance radius (0.8 m by default), and lower than that is no flight anyway.
+constexpr double kMinTakeoffHeight = 2.0;
+
+struct MissionOptions {
+  Firmware firmware = Firmware::generic;  ///< .plan's firmwareType; NAV_* items are common to all three
+  AltitudeFrame altitude_frame = AltitudeFrame::relative;
+  /// m/s along the route: a MAV_CMD_DO_CHANGE_SPEED (ground speed) after the takeoff, and the
+  /// .plan's cruiseSpeed. (0, 100].
+  double speed = 5;
+  double hover_speed = 5;  ///< m/s, .plan's hoverSpeed (QGC's time estimate for multirotors). (0, 100]
+  int vehicle_type = 2;    ///< .plan: MAV_TYPE, 2 = quadrotor
+  std::string name = "dsmplan path";  ///< KML: the Document's name
+  std::string description;            ///< KML: the Document's description (e.g. the transformation), may be empty
+  bool extrude = false;               ///< KML: <extrude>1</extrude>, a wall from the path down to the ground
+};
+
+/// The mission items, in this order for both formats: MAV_CMD_NAV_TAKEOFF (22) at home to the
+/// altitude of route[0]; MAV_CMD_DO_CHANGE_SPEED (178: ground speed, `speed`, throttle -1);
+/// MAV_CMD_NAV_WAYPOINT (16) for route[1..]; then MAV_CMD_NAV_RETURN_TO_LAUNCH (20) or
+/// MAV_CMD_NAV_LAND (21) at `land`, or nothing. Altitudes in `altitude_frame`; relative ones
+/// are the AMSL height less home's. What the autopilots check is met: ArduPilot's first
+/// navigation command after home (item 0 of a WPL) is the takeoff (AP_Mission::
+/// starts_with_takeoff_cmd, else "Missing Takeoff Cmd"); PX4's takeoff is the first item with a
+/// position and above home (FeasibilityChecker::checkTakeoff).
+/// ArgumentError: an empty route; a point as above; route[0] more than 1e-7 degrees from above
+/// home; a takeoff less than kMinTakeoffHeight above home; end == land without a land point;
+/// speeds outside (0, 100].
+///
+/// A QGroundControl plan (JSON, "Plan File Format"): fileType "Plan", version 1; mission version
+/// 2 with firmwareType, vehicleType, cruiseSpeed, hoverSpeed, globalPlanAltitudeMode (1 relative,
+/// 2 absolute), plannedHomePosition [lat, lon, AMSL] of home; SimpleItems {autoContinue true,
+/// command, doJumpId 1.., frame, params [p1..p4, lat, lon, alt], type}; positional items also
+/// AMSLAltAboveTerrain null, Altitude, AltitudeMode. Empty geoFence and rallyPoints (version 2).
+std::string mission_to_qgc_plan(const Mission& mission, const MissionOptions& options = {});
+
+/// A MAVLink plain-text mission, "QGC WPL 110" (Mission Planner's .waypoints, ArduPilot's): the
+/// header line, then "INDEX CURRENT FRAME COMMAND P1 P2 P3 P4 LATITUDE LONGITUDE ALTITUDE
+/// AUTOCONTINUE" separated by tabs: line 0 is home (current 1, frame 0, AMSL, as ArduPilot
+/// keeps it), then the items as mission_to_qgc_plan() lists them (current 0, autocontinue 1).
+/// Latitude comes before longitude. Errors as mission_to_qgc_plan().
+std::string mission_to_qgc_wpl(const Mission& mission, const MissionOptions& options = {});
+
+
+/// KML 2.2: a Document with a Placemark "path" whose LineString has <altitudeMode>absolute
+/// </altitudeMode> and "lon,lat,alt" tuples one a line, then a Point Placemark "waypoint k"
+/// (also absolute) for each of `marks` (may be empty). Without altitudeMode a viewer would clamp
+/// the path to the ground. Styles: the path a magenta line 4 px wide (its extrusion translucent),
+/// the waypoints cyan; `extrude` adds a wall down to the ground under each. Name and
+/// description are XML-escaped.
+std::string path_to_kml(const std::vector<Point3>& lonlatamsl, const std::vector<Point3>& marks = {},
+                        const MissionOptions& options = {});
+
+/// The path without the points that lie within `tolerance` of the straight segment between the
+/// points kept around them (first and last always kept), so that every mission item is a turn:
+/// the result is within `tolerance` of the path and the path within `tolerance` of it
+/// (Hausdorff). For points in a metric CRS. O(n * longest dropped run).
+std::vector<Point3> drop_straight_points(const std::vector<Point3>& path, double tolerance);
+
+}  // namespace dsmplan

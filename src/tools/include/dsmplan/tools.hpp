@@ -1,0 +1,219 @@
+// dsmplan/tools.hpp: the command-line tools as library functions, as GDAL's gdal_utils.h.
+//
+// Each tool takes an options struct, does the whole job (reading, every stage, writing, with
+// progress) and returns a report. to_json() of a report is exactly what `dsmplan ... --json`
+// prints or `--stats` writes: its keys are a contract with users and other tools, so keys are
+// added, never renamed. The dsmplan binary does nothing but parse argv into these structs.
+//
+// Errors: as in core.hpp. Every option is checked before any long work starts.
+#pragma once
+
+#include <array>
+#include <functional>
+#include <nlohmann/json.hpp>
+#include <optional>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "dsmplan/core.hpp"
+#include "dsmplan/corridor.hpp"
+#include "dsmplan/export.hpp"
+#include "dsmplan/mission.hpp"
+#include "dsmplan/picture.hpp"
+#include "dsmplan/wgs84.hpp"
+#include "dsmplan/mesh.hpp"
+#include "dsmplan/plan.hpp"
+#include "dsmplan/points.hpp"
+#include "dsmplan/raster.hpp"
+#include "dsmplan/raster_io.hpp"
+#include "dsmplan/rpc.hpp"
+#include "dsmplan/simplify.hpp"
+#include "dsmplan/simplify_streamed.hpp"
+
+namespace dsmplan {
+
+using Json = nlohmann::ordered_json;
+
+// ---- what every tool checks first ------------------------------------------------------------
+
+/// A file a tool is given, with the flag it came by ("-o", "--dsm", "DSM", ...).
+struct NamedFile {
+  std::string flag, path;
+};
+
+/// ArgumentError naming the flag of the first output that is, or resolves to (through "..",
+/// symbolic and hard links), one of the inputs or another output: an output must never replace
+/// what the job reads, nor another output of the same run. A VRT input's source rasters (GDAL's
+/// file list of it) count as inputs too ("DSM's source"). Empty paths are skipped. Called
+/// before any work. O(files^2) path resolutions.
+void refuse_overwrites(const std::vector<NamedFile>& inputs, const std::vector<NamedFile>& outputs);
+
+// ---- dsmplan info ---------------------------------------------------------------------------
+
+struct InfoOptions {
+  std::string input;
+  ReadRasterOptions read;  ///< a raster without CRS is described, not refused
+};
+
+struct RasterReport {
+  std::string input;
+  int width = 0, height = 0;
+  double cell_x = 0, cell_y = 0;
+  double xmin = 0, ymin = 0, xmax = 0, ymax = 0;  ///< outer edges of the cells, CRS units
+  Crs crs;
+  GridSummary summary;
+  /// A satellite image's RPC camera (dsmplan/rpc.hpp), when it has one: where it was
+  /// read from, the crop's sensor offset, the model's height range (HEIGHT_OFF -/+ HEIGHT_SCALE,
+  /// metres above the WGS 84 ellipsoid) and the image's four corners localized at HEIGHT_OFF.
+  struct Rpc {
+    std::string source;
+    double sensor_col = 0, sensor_row = 0;
+    double height_min = 0, height_max = 0, footprint_height = 0;
+    std::array<GeoPoint, 4> corners{};  ///< top-left, top-right, bottom-right, bottom-left
+  };
+  std::optional<Rpc> rpc;
+};
+
+/// Throws what read_rpc_camera throws for an image whose RPC is there but bad.
+RasterReport describe_raster(const InfoOptions& options);
+/// Keys: file, width, height, resolution [x,y], extent {xmin,ymin,xmax,ymax}, crs {name,epsg,wkt},
+/// vertical {name,unit}, units {horizontal, horizontal_m, vertical, vertical_m} (unit names and
+/// metres per unit, null when not known; info shows a CRS in feet, the other tools refuse it),
+/// cells, valid_cells, nodata_cells, holes, height_range [min,max], rpc (null, or {source,
+/// sensor_offset [col,row], height_range [min,max], footprint {height, corners [[lon,lat] x4]}}).
+Json to_json(const RasterReport& report);
+/// The same for people, one "Label: value" line each.
+std::string to_text(const RasterReport& report);
+
+// ---- dsmplan grid ---------------------------------------------------------------------------
+
+struct GridOptions {
+  std::vector<std::string> inputs;  ///< LAS or XYZ files, all in one CRS
+  std::string output;               ///< GeoTIFF (.tif, .tiff)
+  std::string crs;                  ///< overrides the files' CRS; required when they have none
+  GridPointsOptions grid;
+  double fill_distance = 0;  ///< > 0: fill holes up to this distance (CRS units) from data
+};
+
+/// Reads the point clouds, grids them (median or max per cell), optionally fills holes, writes
+/// the GeoTIFF atomically. Returns the written grid's summary.
+GridSummary grid_to_geotiff(const GridOptions& options, const Progress& progress = {});
+/// cells, valid, nodata, holes, z_min, z_max (null when there is no valid cell).
+Json to_json(const GridSummary& summary);
+
+// ---- dsmplan mesh ---------------------------------------------------------------------------
+
+struct MeshJobOptions {
+  std::string input;                 ///< DSM raster
+  std::string output;                ///< .ply, .obj, .off or .glb (see write_mesh)
+  std::optional<MeshFormat> format;  ///< overrides the output's extension (`--of`)
+  ReadRasterOptions read;
+  std::optional<double> resolution;  ///< resample to this x/y cell size first; none: keep the DSM's
+  Resampling resampling = Resampling::Median;
+  MeshOptions mesh;
+  /// Band by band from the raster into the PLY (triangulate_xy3 over a GridSource): memory
+  /// O(width x band), any height. Chosen by itself for a raster whose mesh would not fit in
+  /// memory (without --res, to .ply); the mesh is the same either way.
+  bool stream = false;
+  /// `--3dtiles`: a 3D Tiles 1.1 tileset.json beside the GLB output (place_on_globe), its
+  /// heights made WGS 84 ellipsoidal through `vertical` (refused before the work when they cannot be).
+  bool tileset = false;
+  VerticalOptions vertical;  ///< --vertical-crs, --allow-approximate-vertical
+};
+
+/// What `--3dtiles` wrote: tileset.json beside the GLB.
+struct TilesetReport {
+  std::string path;
+  double max_placement_error_m = 0;  ///< TilesetPlacement::max_error_m
+  std::string heights;               ///< the PROJ operation the heights went through
+};
+
+/// Where `--3dtiles` writes the tileset of the GLB `output`: "tileset.json" in its folder.
+std::string tileset_path_for(const std::string& output);
+
+struct MeshReport {
+  std::string input, output;
+  size_t vertices = 0, faces = 0;
+  GridSummary summary;  ///< of the DSM as meshed (after resampling)
+  int width = 0, height = 0;
+  double source_resolution = 0, resolution = 0;
+  std::optional<Resampling> resampling;  ///< none when the DSM was meshed at its own resolution
+  double zstep = 0, max_edge_length = 0;
+  uint64_t file_bytes = 0;
+  size_t dropped_triangles = 0;  ///< left out of a GLB as degenerate in float32 (write_mesh)
+  Crs crs;
+  std::vector<std::pair<std::string, double>> seconds;  ///< read, resample, triangulate, write, total
+  bool streamed = false;  ///< meshed band by band: holes were not counted (null)
+  std::optional<TilesetReport> tileset;
+};
+
+/// DSM raster -> resampled, quantized grid -> XY-3 Delaunay mesh -> mesh file. Refuses
+/// geographic CRSs (x,y in degrees cannot carry a metric safety distance).
+MeshReport mesh_dsm(const MeshJobOptions& options, const Progress& progress = {});
+/// Keys: input, output, vertices, faces, cells, valid_cells, nodata_cells, holes (null when
+/// streamed), width, height, source_resolution, resolution, resampling, zstep, max_edge_length,
+/// file_bytes, dropped_triangles, crs, vertical, seconds {read, resample, triangulate, write,
+/// total} (streamed: read, triangulate and write are one pass, under triangulate), streamed,
+/// tileset {path, max_placement_error_m, heights} (null without --3dtiles).
+Json to_json(const MeshReport& report);
+
+// ---- dsmplan simplify -----------------------------------------------------------------------
+
+enum class SimplifyMethod { Variant1, Variant2, Bounded };
+const char* to_string(SimplifyMethod);
+/// Parses "variant1", "variant2", "bounded"; ArgumentError otherwise.
+SimplifyMethod parse_simplify_method(const std::string& name);
+
+/// Makes and assembles every block of a streamed bounded simplification (simplify.hpp).
+using BoundedEngine = std::function<BoundedStreamResult(GridSource& dsm, const BoundedSimplifyOptions& options,
+                                                        MeshSink& sink, const Progress& progress)>;
+
+struct SimplifyJobOptions {
+  std::string input;                 ///< DSM raster, or a mesh file (.ply, .obj, .off) made from `dsm`
+  std::string output;                ///< .ply, .obj, .off or .glb (see write_mesh)
+  std::optional<MeshFormat> format;  ///< overrides the output's extension (`--of`)
+  std::string dsm;                   ///< with a mesh input: the DSM to certify against (required)
+  ReadRasterOptions read;
+  std::optional<double> resolution;  ///< resample the DSM to this x/y cell size first
+  Resampling resampling = Resampling::Median;
+  MeshOptions mesh;  ///< how a DSM input is meshed before the paper's variants
+  SimplifyMethod method = SimplifyMethod::Variant2;
+  PaperSimplifyOptions paper;      ///< dz, dco (the variant comes from `method`)
+  BoundedSimplifyOptions bounded;  ///< max_error, conservative, delaunay, threads
+  /// Who makes the blocks of the bounded mode when it streams (a DSM input without --res):
+  /// empty = this process, on its threads; the dsmplan binary under mpirun sets MpiFarm's.
+  BoundedEngine bounded_engine;
+  bool tileset = false;      ///< `--3dtiles`, as MeshJobOptions::tileset
+  VerticalOptions vertical;  ///< --vertical-crs, --allow-approximate-vertical (for --3dtiles)
+};
+
+struct SimplifyReport {
+  std::string input, output;
+  SimplifyMethod method = SimplifyMethod::Variant2;
+  PaperSimplifyOptions paper;
+  BoundedSimplifyOptions bounded;
+  double source_resolution = 0, resolution = 0;
+  size_t vertices_in = 0, vertices_out = 0, faces_in = 0, faces_out = 0;
+  std::optional<size_t> removed_coplanar, removed_colinear;  ///< the paper's variants only
+  std::optional<size_t> restored_colinear;                   ///< marked co-linear, put back
+  VerticalError error;                                       ///< certified on the output
+  size_t dropped_triangles = 0;  ///< left out of a GLB as degenerate in float32 (write_mesh)
+  Crs crs;
+  std::vector<std::pair<std::string, double>> seconds;  ///< per stage, and total
+  std::optional<TilesetReport> tileset;
+};
+
+/// DSM (meshed as `dsmplan mesh` does) or mesh + DSM -> simplified mesh, certified against
+/// the DSM, written atomically. The bounded mode needs the DSM as input (it works on the grid).
+SimplifyReport simplify_job(const SimplifyJobOptions& options, const Progress& progress = {});
+/// Keys (Table 2's columns and the certified error): input, output, method, dz, dco, max_error,
+/// conservative, delaunay, source_resolution, resolution, vertices_in, vertices_out, reduction,
+/// removed_coplanar, removed_colinear, restored_colinear (null in the bounded mode), faces_in, faces_out,
+/// max_above_m, max_below_m, rms_m, certified_cells, uncovered_cells, dropped_triangles, crs, vertical,
+/// seconds {read, mesh, search, triangulate | simplify, certify, write, total}, tileset (as dsmplan mesh's).
+Json to_json(const SimplifyReport& report);
+/// One summary line for people.
+std::string to_text(const SimplifyReport& report);
+
+}  // namespace dsmplan
