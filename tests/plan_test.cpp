@@ -1447,7 +1447,7 @@ TEST(LowAltitude, LatticeSearchFindsWhatAnEagerSearchFindsAtMostTwiceAsLong) {
     const ClearanceIndex index(mesh);
     PlanOptions options;
     options.max_agl = 15;
-    const detail::FlightSpace space(index, options);
+    const FlightSpace space = detail::flight_space(index, options);
     const Point3 a{356010, 5699020, 5}, b{356012, 5699101, 6};
     const double h = 5;
     const detail::LatticeResult found = detail::lattice_path(space, a, b, h, 1000000);
@@ -1525,7 +1525,7 @@ TEST(LowAltitude, GridLookupJoinsTheSameNodesAsAScanOverAll) {
         if (links.size() < static_cast<size_t>(connections) && index.segment_clear(w, map.nodes[c.second], 2) &&
             index.floor().below_ceiling(w, map.nodes[c.second], options.max_agl))
           links.push_back(c);
-      EXPECT_EQ(detail::roadmap_links(w, map, grid, detail::FlightSpace(index, options), options), links) << k;
+      EXPECT_EQ(detail::roadmap_links(w, map, grid, detail::flight_space(index, options), options), links) << k;
       ++compared;
       with_links += !links.empty();
     }
@@ -1591,4 +1591,129 @@ TEST(PlanCorridor, WaypointOutsideTheDsmIsNamed) {
   CorridorOptions bad;
   bad.chunk = 0;
   EXPECT_THROW(plan_corridor(source, waypoints, PlanOptions{}, bad), ArgumentError);
+}
+
+// ---- flight constraints: a no-fly zone, asked by every planner through FlightSpace -----------
+
+namespace {
+
+// The oracle: a point in the axis-aligned box [x0, x1] x [y0, y1] (all heights), and a segment
+// sampled every 5 cm.
+struct Box {
+  double x0, x1, y0, y1;
+  bool holds(const Point3& p) const { return p[0] >= x0 && p[0] <= x1 && p[1] >= y0 && p[1] <= y1; }
+  bool touched_by(const Point3& p, const Point3& q) const {
+    const int steps = std::max(1, static_cast<int>(std::ceil(detail_length(p, q) / 0.05)));
+    for (int k = 0; k <= steps; ++k) {
+      const double t = static_cast<double>(k) / steps;
+      if (holds({p[0] + t * (q[0] - p[0]), p[1] + t * (q[1] - p[1]), p[2] + t * (q[2] - p[2])})) return true;
+    }
+    return false;
+  }
+  static double detail_length(const Point3& p, const Point3& q) {
+    return std::hypot(q[0] - p[0], q[1] - p[1], q[2] - p[2]);
+  }
+  std::shared_ptr<NoFlyZone> zone(const std::string& name) const {
+    return std::make_shared<NoFlyZone>(name, std::vector<std::array<double, 2>>{{x0, y0}, {x1, y0}, {x1, y1}, {x0, y1}});
+  }
+};
+
+bool path_touches(const std::vector<Point3>& path, const Box& box) {
+  for (size_t k = 1; k < path.size(); ++k)
+    if (box.touched_by(path[k - 1], path[k])) return true;
+  return false;
+}
+
+// The point halfway along a path.
+Point3 middle_of(const std::vector<Point3>& path) {
+  double left = path_length(path) / 2;
+  for (size_t k = 1; k < path.size(); ++k) {
+    const double d = Box::detail_length(path[k - 1], path[k]);
+    if (d >= left) {
+      const double t = left / d;
+      return {path[k - 1][0] + t * (path[k][0] - path[k - 1][0]), path[k - 1][1] + t * (path[k][1] - path[k - 1][1]), 0};
+    }
+    left -= d;
+  }
+  return path.back();
+}
+
+}  // namespace
+
+TEST(NoFlyZone, AgreesWithDenseSamplingOnRandomSegments) {
+  // A concave star of 10 corners with a height band, and random segments through its box.
+  std::vector<std::array<double, 2>> star;
+  for (int k = 0; k < 10; ++k) {
+    const double r = k % 2 ? 20 : 50, a = k * M_PI / 5;
+    star.push_back({100 + r * std::cos(a), 200 + r * std::sin(a)});
+  }
+  const NoFlyZone zone("star", star, 10, 40);
+  auto inside = [&](const Point3& p) {  // crossing number, written again for the oracle
+    if (p[2] < 10 || p[2] > 40) return false;
+    bool odd = false;
+    for (size_t i = 0, j = star.size() - 1; i < star.size(); j = i++)
+      if ((star[j][1] > p[1]) != (star[i][1] > p[1]) &&
+          p[0] < star[j][0] + (p[1] - star[j][1]) * (star[i][0] - star[j][0]) / (star[i][1] - star[j][1]))
+        odd = !odd;
+    return odd;
+  };
+  std::mt19937_64 rng(7);
+  std::uniform_real_distribution<double> x(30, 170), y(130, 270), z(0, 50);
+  int blocked = 0, agreed = 0;
+  const int n = 3000;
+  for (int i = 0; i < n; ++i) {
+    const Point3 p{x(rng), y(rng), z(rng)}, q{x(rng), y(rng), z(rng)};
+    EXPECT_EQ(zone.state_valid(p), !inside(p));
+    bool sampled_inside = false;
+    for (int k = 0; k <= 4000 && !sampled_inside; ++k) {
+      const double t = k / 4000.0;
+      sampled_inside = inside({p[0] + t * (q[0] - p[0]), p[1] + t * (q[1] - p[1]), p[2] + t * (q[2] - p[2])});
+    }
+    const bool valid = zone.motion_valid(p, q);
+    // Never optimistic: a sampled point inside means the exact test must refuse the motion.
+    if (sampled_inside) EXPECT_FALSE(valid) << i;
+    blocked += !valid;
+    agreed += valid != sampled_inside;
+  }
+  // Sampling can only miss a graze thinner than a step: nearly all answers agree.
+  EXPECT_GE(agreed, n - 10);
+  EXPECT_GT(blocked, n / 5);
+  EXPECT_LT(blocked, n - n / 5);
+  EXPECT_THROW(NoFlyZone("two", {{0, 0}, {1, 1}}), ArgumentError);
+  EXPECT_THROW(NoFlyZone("upside down", star, 40, 10), ArgumentError);
+}
+
+TEST(NoFlyZone, EveryPlannerGoesAroundItAndAWaypointInsideIsRefused) {
+  const Mesh& mesh = mesh_2m();
+  const ClearanceIndex index(mesh);
+  const auto three = three_waypoints(mesh, index);
+  const std::vector<Point3> waypoints{three[0], three[2]};
+  for (PlannerKind planner : {PlannerKind::prm, PlannerKind::rrt_connect}) {
+    PlanOptions options;
+    options.planner = planner;
+    options.max_agl = 45;
+    options.spacing = 15;
+    const PlanResult free = plan_path(index, waypoints, options);
+    ASSERT_EQ(free.status, PlanStatus::Solved) << free.reason;
+    // A 60 m square over all heights where the unconstrained path is halfway: it must go around.
+    const Point3 m = middle_of(free.path);
+    const Box box{m[0] - 30, m[0] + 30, m[1] - 30, m[1] + 30};
+    ASSERT_TRUE(path_touches(free.path, box));
+    options.constraints = {box.zone("square")};
+    const PlanResult around = plan_path(index, waypoints, options);
+    expect_path_verified(mesh, index, waypoints, around, options.safety);
+    EXPECT_FALSE(path_touches(around.path, box)) << (planner == PlannerKind::prm ? "prm" : "rrt-connect");
+    EXPECT_FALSE(path_touches(around.raw_path, box));
+    // A waypoint inside the zone: refused, naming the zone.
+    const PlanResult bad = plan_path(index, {waypoints[0], {m[0], m[1], waypoints[0][2]}, waypoints[1]}, options);
+    EXPECT_EQ(bad.status, PlanStatus::InvalidWaypoint);
+    EXPECT_EQ(bad.waypoint, 1u);
+    EXPECT_NE(bad.reason.find("no-fly zone 'square'"), std::string::npos) << bad.reason;
+  }
+  // A roadmap file does not record constraints, so it is not written or read under them.
+  PlanOptions options;
+  options.constraints = {Box{0, 1, 0, 1}.zone("tiny")};
+  const testkit::TempDir dir;
+  EXPECT_THROW(write_roadmap(dir.path("zone.roadmap"), Roadmap{}, 1, options), ArgumentError);
+  EXPECT_TRUE(dir.files().empty());
 }

@@ -130,7 +130,8 @@ CorridorResult plan_corridor(GridSource& dsm, const std::vector<Point3>& waypoin
       // The lowest whole-metre height above safety over both surfaces that both windows allow.
       Point3& p = stops[k + 1];
       const double g0 = current->index->ground(p[0], p[1]), g1 = next->index->ground(p[0], p[1]);
-      const detail::FlightSpace here(*current->index, current->plan), there(*next->index, next->plan);
+      const FlightSpace here = detail::flight_space(*current->index, current->plan),
+                        there = detail::flight_space(*next->index, next->plan);
       const double ceiling = std::min(here.ceiling_at(p[0], p[1]), there.ceiling_at(p[0], p[1]));
       bool placed = false;
       for (double z = std::max(g0, g1) + plan.safety; !placed && z <= ceiling; z += 1) {

@@ -87,6 +87,8 @@ uint64_t mesh_fingerprint(const Mesh& mesh) {
 }
 
 void write_roadmap(const std::string& path, const Roadmap& map, uint64_t fingerprint, const PlanOptions& options) {
+  if (!options.constraints.empty())
+    throw ArgumentError("constraints", "a roadmap file does not record flight constraints (no-fly zones): build the roadmap where they are used");
   std::string out(kMagic, sizeof kMagic);
   put(out, kVersion);
   put(out, fingerprint);
@@ -103,6 +105,8 @@ void write_roadmap(const std::string& path, const Roadmap& map, uint64_t fingerp
 }
 
 Roadmap read_roadmap(const std::string& path, uint64_t fingerprint, const PlanOptions& options) {
+  if (!options.constraints.empty())
+    throw ArgumentError("constraints", "a roadmap file does not record flight constraints (no-fly zones): build the roadmap where they are used");
   RoadmapHeader header;
   Roadmap map = read_roadmap(path, &header);
   if (header.mesh_fingerprint != fingerprint)

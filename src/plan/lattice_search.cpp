@@ -137,13 +137,13 @@ private:
     return it->second;
   }
 
-  // Valid when below the ceiling, not under the surface and clear of the mesh by the safety
-  // distance; tested once.
+  // Valid when within the limits (ceiling, constraints), not under the surface and clear of the
+  // mesh by the safety distance; tested once.
   bool valid(uint32_t v) {
     Node& n = nodes_[v];
     if (n.state == kUntested) {
       const ClearanceIndex& index = space_.index();
-      const bool ok = space_.below_ceiling(n.p) && n.p[2] >= index.ground(n.p[0], n.p[1]) &&
+      const bool ok = space_.within_limits(n.p) && n.p[2] >= index.ground(n.p[0], n.p[1]) &&
                       index.point_clear(n.p, space_.safety());
       n.state = ok ? kValid : kInvalid;
     }

@@ -9,42 +9,15 @@
 
 namespace dsmplan::detail {
 
-/// The validity checker every planner asks, in OMPL's sense (StateValidityChecker and
-/// MotionValidator in one): a state or a straight motion is valid when it keeps the safety
-/// distance from every triangle of the mesh and no point of it is more than max_agl above the
-/// ground (options.ground, else the mesh's floor). New constraints belong here, not in a planner.
-class FlightSpace {
-public:
-  FlightSpace(const ClearanceIndex& index, const PlanOptions& options)
-      : index_(index), ground_(options.ground ? *options.ground : index.floor()), safety_(options.safety),
-        max_agl_(options.max_agl) {}
-  const ClearanceIndex& index() const { return index_; }
-  const GroundGrid& ground() const { return ground_; }
-  double safety() const { return safety_; }
-  double max_agl() const { return max_agl_; }
-  /// The top of the flight volume at (x, y): max_agl above the ground there (-inf over none).
-  double ceiling_at(double x, double y) const { return max_agl_ - ground_.height_above({x, y, 0}); }
-  /// The point `u` (in [0, 1)) of the way from the surface `surface` (ClearanceIndex::ground())
-  /// up to the ceiling at (x, y): how every planner draws a sample. False where there is no room.
-  bool place(double x, double y, double surface, double u, Point3& out) const {
-    const double top = ceiling_at(x, y);
-    if (std::isnan(surface) || !(top > surface)) return false;
-    out = {x, y, surface + u * (top - surface)};
-    return true;
-  }
-  bool below_ceiling(const Point3& p) const { return ground_.height_above(p) <= max_agl_; }
-  bool below_ceiling(const Point3& p, const Point3& q) const { return ground_.below_ceiling(p, q, max_agl_); }
-  bool state_valid(const Point3& p) const { return below_ceiling(p) && index_.point_clear(p, safety_); }
-  /// The ceiling first: a walk over a few cells costs less than the clearance.
-  bool motion_valid(const Point3& p, const Point3& q) const {
-    return below_ceiling(p, q) && index_.segment_clear(p, q, safety_);
-  }
-
-private:
-  const ClearanceIndex& index_;
-  const GroundGrid& ground_;
-  double safety_, max_agl_;
-};
+/// The flight space of a plan (flight_space.hpp): the index, options.ground (else the mesh's
+/// floor), the safety distance, the ceiling and options.constraints.
+inline FlightSpace flight_space(const ClearanceIndex& index, const PlanOptions& options) {
+  std::vector<const FlightConstraint*> rules;
+  for (const auto& rule : options.constraints)
+    if (rule) rules.push_back(rule.get());
+  return FlightSpace(index, options.ground ? *options.ground : index.floor(), options.safety, options.max_agl,
+                     std::move(rules));
+}
 
 inline double distance(const Point3& a, const Point3& b) {
   return std::hypot(a[0] - b[0], a[1] - b[1], a[2] - b[2]);

@@ -51,6 +51,7 @@ std::string waypoint_problem(const Point3& w, const FlightSpace& space) {
                              : "above the ceiling: " + format_number(above) + " m above the ground, --max-agl " +
                                    format_number(space.max_agl());
   }
+  if (const FlightConstraint* rule = space.broken_by(w)) return "inside the " + rule->name();
   return {};
 }
 

@@ -120,7 +120,7 @@ size_t memory_bound(size_t count, double bytes_each) {
 // Node numbers: the roadmap's, then the added samples in the order they were added.
 class Refinement {
 public:
-  Refinement(const Roadmap& map, const PointGrid& base_grid, const detail::FlightSpace& space,
+  Refinement(const Roadmap& map, const PointGrid& base_grid, const FlightSpace& space,
              const PlanOptions& options)
       : map_(map),
         base_grid_(base_grid),
@@ -420,7 +420,8 @@ private:
           if (!region[static_cast<size_t>(cj) * cols + ci]) continue;
           taken[off] = 1;  // decided once: a sample of this index is the same point every time
           Point3 p;
-          if (space_.place(x, y, index_.ground(x, y), detail::halton(i, 5), p) && index_.point_clear(p, o_.safety))
+          if (space_.place(x, y, index_.ground(x, y), detail::halton(i, 5), p) && !space_.broken_by(p) &&
+              index_.point_clear(p, o_.safety))
             found[k].emplace_back(i, p);
         }
       });
@@ -437,7 +438,7 @@ private:
 
   const Roadmap& map_;
   const PointGrid& base_grid_;
-  const detail::FlightSpace& space_;
+  const FlightSpace& space_;
   const ClearanceIndex& index_;
   const PlanOptions& o_;
   const uint32_t nb_;
@@ -466,7 +467,7 @@ PlanResult query_roadmap(const Roadmap& map, const ClearanceIndex& index, const 
   result.roadmap_nodes = map.nodes.size();
   result.roadmap_edges = map.edges();
   Stopwatch clock;
-  const detail::FlightSpace space(index, options);
+  const FlightSpace space = detail::flight_space(index, options);
   if (detail::first_invalid_waypoint(waypoints, space, result)) return result;
   const PointGrid grid(map.nodes, all_nodes(map.nodes.size()), options.max_edge);
   std::vector<std::vector<std::pair<double, uint32_t>>> links(waypoints.size());
@@ -528,7 +529,7 @@ PlanResult plan_path(const ClearanceIndex& index, const std::vector<Point3>& way
   if (options.planner == PlannerKind::rrt_connect) return plan_rrt_connect(index, waypoints, options, progress);
   check_plan_options(options);
   detail::check_waypoint_list(waypoints);
-  if (PlanResult invalid; detail::first_invalid_waypoint(waypoints, detail::FlightSpace(index, options), invalid))
+  if (PlanResult invalid; detail::first_invalid_waypoint(waypoints, detail::flight_space(index, options), invalid))
     return invalid;
   Stopwatch clock;
   const Roadmap map = build_roadmap(index, options, sub_progress(progress, 0, 0.95));

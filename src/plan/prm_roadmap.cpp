@@ -61,7 +61,7 @@ Roadmap build_roadmap(const ClearanceIndex& index, const PlanOptions& options, c
     std::vector<Point3> candidates(n);
     std::vector<double> room(n, -1);  // a lower bound of each kept sample's clearance, -1 dropped
     const double cap = options.safety + options.max_edge;
-    const detail::FlightSpace space(index, options);
+    const FlightSpace space = detail::flight_space(index, options);
     tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 512), [&](const tbb::blocked_range<size_t>& r) {
       // The ground under a range of samples in one call, which overlaps their memory reads.
       std::vector<double> xy(3 * r.size());
@@ -74,8 +74,9 @@ Roadmap build_roadmap(const ClearanceIndex& index, const PlanOptions& options, c
       for (size_t i = r.begin(); i < r.end(); ++i) {
         const size_t k = i - r.begin();
         if (std::isnan(g[k])) continue;
-        // Under the ceiling by construction; kept when clear of the mesh.
-        if (space.place(x[k], y[k], g[k], halton(i + 1, 5), candidates[i]) &&
+        // Under the ceiling by construction; kept when the constraints allow it and it is clear
+        // of the mesh.
+        if (space.place(x[k], y[k], g[k], halton(i + 1, 5), candidates[i]) && !space.broken_by(candidates[i]) &&
             index.point_clear(candidates[i], options.safety))
           room[i] = std::max(options.safety, index.clearance_bound(candidates[i], cap));
         else
@@ -187,6 +188,7 @@ Roadmap build_roadmap(const ClearanceIndex& index, const PlanOptions& options, c
           // The ceiling is measured on every edge: the balls say nothing of it.
           if ((std::max(p[2], map.nodes[q.id][2]) - node_low[i] <= options.max_agl ||
                space.below_ceiling(p, map.nodes[q.id])) &&
+              !space.broken_by(p, map.nodes[q.id]) &&
               (node_room[i] + q.room - std::sqrt(q.length2) >= 2 * options.safety + certificate_slack ||
                index.segment_clear(p, map.nodes[q.id], options.safety)))
             edges.push_back(q.id);

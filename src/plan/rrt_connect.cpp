@@ -167,7 +167,7 @@ enum class Growth { trapped, advanced, reached };
 
 // What one leg's search needs to know of the world.
 struct Space {
-  const detail::FlightSpace& flight;
+  const FlightSpace& flight;
   const ClearanceIndex& index;
   double range, safety;
 
@@ -209,7 +209,7 @@ struct Space {
 
 // Uniform in the flight volume: the footprint, from the surface up to the ceiling; false for a
 // draw over a hole (no surface below) or where the ceiling leaves no room.
-bool draw_sample(std::mt19937_64& rng, const detail::FlightSpace& flight, Point3& sample) {
+bool draw_sample(std::mt19937_64& rng, const FlightSpace& flight, Point3& sample) {
   const ClearanceIndex& index = flight.index();
   const ClearanceIndex::Footprint& e = index.footprint();
   const double x = e.xmin + unit(rng) * (e.xmax - e.xmin);
@@ -227,7 +227,7 @@ PlanResult plan_rrt_connect(const ClearanceIndex& index, const std::vector<Point
     throw ArgumentError("rrt_max_samples", "must be at least 1, got " + std::to_string(options.rrt_max_samples));
   detail::check_waypoint_list(waypoints);
   PlanResult result;
-  const detail::FlightSpace flight(index, options);
+  const FlightSpace flight = detail::flight_space(index, options);
   if (detail::first_invalid_waypoint(waypoints, flight, result)) return result;
 
   const ClearanceIndex::Footprint& e = index.footprint();

@@ -2,7 +2,8 @@
 // Section 5: sampling-based planning on the polygonal surface with a 2 m safety distance).
 //
 // As OMPL separates them, the planner has three parts: the planner (roadmap, search: here),
-// the validity checker (clearance.hpp, with the ceiling of ground.hpp) and the path simplifier
+// the validity checker (flight_space.hpp: the clearance of clearance.hpp, the ceiling of
+// ground.hpp, and pluggable FlightConstraints such as a NoFlyZone) and the path simplifier
 // (here). Above the planner: corridor.hpp (a city too large to mesh whole), columns.hpp (a plan
 // held to the DSM's own columns), roadmap_file.hpp (a roadmap kept for many queries).
 //
@@ -19,6 +20,7 @@
 
 #include "dsmplan/clearance.hpp"
 #include "dsmplan/core.hpp"
+#include "dsmplan/flight_space.hpp"
 #include "dsmplan/ground.hpp"
 #include "dsmplan/mesh.hpp"
 
@@ -37,10 +39,11 @@ namespace dsmplan {
 //     round(area * max_agl / spacing^3), so `spacing` is the mean distance between samples.
 //     Quasi-random, not random: the roadmap is a function of the mesh, ground and options alone.
 //   - Validity, in OMPL's sense, is one checker that every planner here asks (FlightSpace,
-//     src/plan/path_parts.hpp): a straight motion is valid when it keeps `safety` from every
-//     triangle and no point of it is higher than max_agl above the ground (measured exactly,
-//     GroundGrid::below_ceiling()). So the ceiling holds for every edge, connection, shortcut
-//     and spline chord, not only for the samples.
+//     flight_space.hpp): a straight motion is valid when it keeps `safety` from every
+//     triangle, no point of it is higher than max_agl above the ground (measured exactly,
+//     GroundGrid::below_ceiling()) and every PlanOptions::constraints allows it. So the ceiling
+//     and the constraints hold for every edge, connection, shortcut and spline chord, not only
+//     for the samples.
 //   - Edges: every pair of samples closer than max_edge whose straight segment is valid (clear by
 //     `safety`, ClearanceIndex::segment_clear, exact; under the ceiling). Candidates come from a uniform 3D grid
 //     of max_edge cells; the segments are checked in parallel (TBB), and the result (nodes,
@@ -146,6 +149,9 @@ struct PlanOptions {
   /// mesh's floor (ClearanceIndex::floor()). Every point of every path keeps
   /// height above it <= max_agl, not only the samples.
   std::shared_ptr<const GroundGrid> ground;
+  /// Further rules every point of every path keeps (flight_space.hpp: a NoFlyZone, or your own
+  /// FlightConstraint); every planner asks them through the same FlightSpace.
+  std::vector<std::shared_ptr<const FlightConstraint>> constraints;
 };
 
 /// Throws ArgumentError naming the option ("--safety", "--spacing", "--max-edge", "--max-agl",
