@@ -19,6 +19,53 @@
 
 namespace dsmplan {
 
+// The index's layout, private to this file: local vertices, the bucket grid with its listings
+// (highest first) and the blocks of buckets, the floor.
+struct ClearanceIndex::Layout {
+  Layout(const Mesh& mesh, const ClearanceOptions& options);
+  bool segment_clear(const Point3& p, const Point3& q, double d) const;
+  double clearance(const Point3& p, const Point3& q, double max_d) const;
+  double clearance_bound(const Point3& p, double max_d) const;
+  double ground(double x, double y) const;
+  void ground(const double* x, const double* y, double* z, size_t n) const;
+
+  struct LocalVertex {
+    double x, y, z;
+  };
+  size_t bucket_at(double X, double Y) const;  ///< of a local point; SIZE_MAX outside the grid
+  double ground_in(size_t bucket, double X, double Y) const;
+  template <bool Measure>
+  double visit(const Point3& p, const Point3& q, double d) const;
+
+  Point3 origin_{0, 0, 0};
+  Footprint footprint_;
+  std::vector<LocalVertex> verts_;
+  size_t triangles_ = 0;
+  double cell_ = 1, gx0_ = 0, gy0_ = 0;  ///< bucket (0,0) starts at local (gx0_, gy0_)
+  int cols_ = 0, rows_ = 0;
+  struct Listing {
+    std::array<uint32_t, 3> corners;  ///< the triangle's vertices: no second read to find them
+    float top;             ///< highest point of the triangle inside the bucket, rounded up
+    float x0, x1, y0, y1;  ///< the triangle's x,y bounding box, rounded outwards
+  };
+  struct Bucket {
+    uint32_t start;  ///< bucket b lists items_[start of b, start of b + 1), highest first
+    float top;       ///< highest mesh point in the bucket, rounded up (-inf when empty)
+  };
+  std::vector<Bucket> buckets_;  ///< one more than there are buckets, for the last one's end
+  std::vector<Listing> items_;
+  bool box_holds(const Listing& item, double X, double Y) const;  ///< local point in its x,y box
+  static constexpr int block = 4;  ///< buckets a side of a block, the pyramid's coarse level
+  int block_cols_ = 0, block_rows_ = 0;
+  std::vector<float> block_top_;  ///< highest point of each block of block x block buckets
+  /// The highest point in buckets [r0, r1] x [c0, c1], whole blocks read from block_top_.
+  double highest(int r0, int r1, int c0, int c1) const;
+  double zmin_ = 0, zmax_ = 0;  ///< lowest and highest vertex
+  GroundGrid floor_;
+  double margin_ = 0;           ///< conservative slack of the quick rejects
+};
+
+
 namespace {
 
 constexpr double lowest = -std::numeric_limits<double>::infinity();
@@ -105,7 +152,7 @@ inline int clamp_index(double v, int n) {
 
 }  // namespace
 
-ClearanceIndex::ClearanceIndex(const Mesh& mesh, const ClearanceOptions& options) {
+ClearanceIndex::Layout::Layout(const Mesh& mesh, const ClearanceOptions& options) {
   if (!(options.bucket_size >= 0) || !std::isfinite(options.bucket_size))
     throw ArgumentError("bucket_size", "must be a finite number >= 0, not " + std::to_string(options.bucket_size));
   const size_t nv = mesh.vertices.size();
@@ -278,7 +325,7 @@ ClearanceIndex::ClearanceIndex(const Mesh& mesh, const ClearanceOptions& options
     }
 }
 
-double ClearanceIndex::highest(int r0, int r1, int c0, int c1) const {
+double ClearanceIndex::Layout::highest(int r0, int r1, int c0, int c1) const {
   float top = -INFINITY;
   for (int R = r0 / block; R <= r1 / block; ++R)
     for (int C = c0 / block; C <= c1 / block; ++C) {
@@ -297,7 +344,7 @@ double ClearanceIndex::highest(int r0, int r1, int c0, int c1) const {
 }
 
 template <bool Measure>
-double ClearanceIndex::visit(const Point3& p, const Point3& q, double d) const {
+double ClearanceIndex::Layout::visit(const Point3& p, const Point3& q, double d) const {
   const double px = p[0] - origin_[0], py = p[1] - origin_[1], pz = p[2] - origin_[2];
   const Point3 P{px, py, pz}, Q{q[0] - origin_[0], q[1] - origin_[1], q[2] - origin_[2]};
   const double dx = Q[0] - px, dy = Q[1] - py, dz = Q[2] - pz;
@@ -454,19 +501,19 @@ void check_query(const Point3& p, const Point3& q, double d, const char* name) {
 }
 }  // namespace
 
-bool ClearanceIndex::segment_clear(const Point3& p, const Point3& q, double d) const {
+bool ClearanceIndex::Layout::segment_clear(const Point3& p, const Point3& q, double d) const {
   check_query(p, q, d, "distance");
   if (triangles_ == 0 || d == 0) return true;
   return visit<false>(p, q, d) > 0;
 }
 
-double ClearanceIndex::clearance(const Point3& p, const Point3& q, double max_d) const {
+double ClearanceIndex::Layout::clearance(const Point3& p, const Point3& q, double max_d) const {
   check_query(p, q, max_d, "max_d");
   if (triangles_ == 0 || max_d == 0) return max_d;
   return visit<true>(p, q, max_d);
 }
 
-double ClearanceIndex::clearance_bound(const Point3& p, double max_d) const {
+double ClearanceIndex::Layout::clearance_bound(const Point3& p, double max_d) const {
   if (triangles_ == 0) return max_d;
   const double X = p[0] - origin_[0], Y = p[1] - origin_[1], Z = p[2] - origin_[2];
   // Every mesh point within R of p horizontally lies in a bucket meeting the square of side 2R
@@ -494,7 +541,7 @@ double ClearanceIndex::clearance_bound(const Point3& p, double max_d) const {
   return std::min(max_d, best);
 }
 
-size_t ClearanceIndex::bucket_at(double X, double Y) const {
+size_t ClearanceIndex::Layout::bucket_at(double X, double Y) const {
   const double u = (X - gx0_) / cell_, v = (Y - gy0_) / cell_;
   // A point on the grid's far edge (or a rounding hair beyond) belongs to the last bucket.
   const double tol = margin_ / cell_;
@@ -502,12 +549,12 @@ size_t ClearanceIndex::bucket_at(double X, double Y) const {
   return static_cast<size_t>(clamp_index(std::floor(v), rows_)) * cols_ + clamp_index(std::floor(u), cols_);
 }
 
-bool ClearanceIndex::box_holds(const Listing& item, double X, double Y) const {
+bool ClearanceIndex::Layout::box_holds(const Listing& item, double X, double Y) const {
   // The box is rounded outwards; the margin covers ground_in()'s tolerance of the inside test.
   return X >= item.x0 - margin_ && X <= item.x1 + margin_ && Y >= item.y0 - margin_ && Y <= item.y1 + margin_;
 }
 
-double ClearanceIndex::ground_in(size_t bucket, double X, double Y) const {
+double ClearanceIndex::Layout::ground_in(size_t bucket, double X, double Y) const {
   double top = NAN;
   for (uint32_t k = buckets_[bucket].start; k < buckets_[bucket + 1].start; ++k) {
     const Listing& item = items_[k];
@@ -534,14 +581,14 @@ double ClearanceIndex::ground_in(size_t bucket, double X, double Y) const {
   return top;
 }
 
-double ClearanceIndex::ground(double x, double y) const {
+double ClearanceIndex::Layout::ground(double x, double y) const {
   if (triangles_ == 0 || !std::isfinite(x) || !std::isfinite(y)) return NAN;
   const double X = x - origin_[0], Y = y - origin_[1];
   const size_t bucket = bucket_at(X, Y);
   return bucket == SIZE_MAX ? NAN : ground_in(bucket, X, Y);
 }
 
-void ClearanceIndex::ground(const double* x, const double* y, double* z, size_t n) const {
+void ClearanceIndex::Layout::ground(const double* x, const double* y, double* z, size_t n) const {
   if (triangles_ == 0) {
     std::fill(z, z + n, NAN);
     return;
@@ -582,6 +629,36 @@ void ClearanceIndex::ground(const double* x, const double* y, double* z, size_t 
       z[j] = at(j) == SIZE_MAX ? NAN : ground_in(at(j), x[j] - origin_[0], y[j] - origin_[1]);
     }
   }
+}
+
+}  // namespace dsmplan
+
+namespace dsmplan {
+
+ClearanceIndex::ClearanceIndex(const Mesh& mesh, const ClearanceOptions& options)
+    : layout_(std::make_shared<const Layout>(mesh, options)) {}
+bool ClearanceIndex::segment_clear(const Point3& p, const Point3& q, double d) const {
+  return layout_->segment_clear(p, q, d);
+}
+double ClearanceIndex::clearance(const Point3& p, const Point3& q, double max_d) const {
+  return layout_->clearance(p, q, max_d);
+}
+double ClearanceIndex::clearance_bound(const Point3& p, double max_d) const { return layout_->clearance_bound(p, max_d); }
+double ClearanceIndex::ground(double x, double y) const { return layout_->ground(x, y); }
+void ClearanceIndex::ground(const double* x, const double* y, double* z, size_t n) const { layout_->ground(x, y, z, n); }
+const ClearanceIndex::Footprint& ClearanceIndex::footprint() const { return layout_->footprint_; }
+const Point3& ClearanceIndex::origin() const { return layout_->origin_; }
+double ClearanceIndex::bucket_size() const { return layout_->cell_; }
+int ClearanceIndex::bucket_columns() const { return layout_->cols_; }
+int ClearanceIndex::bucket_rows() const { return layout_->rows_; }
+size_t ClearanceIndex::triangles() const { return layout_->triangles_; }
+const GroundGrid& ClearanceIndex::floor() const { return layout_->floor_; }
+size_t ClearanceIndex::bucket_listings() const { return layout_->items_.size(); }
+size_t ClearanceIndex::memory_bytes() const {
+  const Layout& l = *layout_;
+  return l.verts_.capacity() * sizeof(Layout::LocalVertex) + l.items_.capacity() * sizeof(Layout::Listing) +
+         l.buckets_.capacity() * sizeof(Layout::Bucket) + l.block_top_.capacity() * sizeof(float) +
+         l.floor_.grid().z.capacity() * sizeof(float);
 }
 
 }  // namespace dsmplan

@@ -136,58 +136,22 @@ public:
   struct Footprint {
     double xmin = INFINITY, ymin = INFINITY, xmax = -INFINITY, ymax = -INFINITY;
   };
-  const Footprint& footprint() const { return footprint_; }
-  const Point3& origin() const { return origin_; }  ///< CRS point subtracted from all coordinates
-  double bucket_size() const { return cell_; }
-  int bucket_columns() const { return cols_; }
-  int bucket_rows() const { return rows_; }
-  size_t triangles() const { return triangles_; }
+  const Footprint& footprint() const;
+  const Point3& origin() const;  ///< CRS point subtracted from all coordinates
+  double bucket_size() const;
+  int bucket_columns() const;
+  int bucket_rows() const;
+  size_t triangles() const;
   /// The mesh's floor (GroundGrid::floor_of() on cells of a quarter bucket): the ground a
   /// ceiling counts from when a plan has no DSM or DTM.
-  const GroundGrid& floor() const { return floor_; }
-  size_t bucket_listings() const { return items_.size(); }  ///< sum of triangles over buckets
+  const GroundGrid& floor() const;
+  size_t bucket_listings() const;  ///< sum of triangles over buckets
   /// Bytes the index holds: its vertices, listings, buckets and blocks.
-  size_t memory_bytes() const {
-    return verts_.capacity() * sizeof(LocalVertex) + items_.capacity() * sizeof(Listing) +
-           buckets_.capacity() * sizeof(Bucket) + block_top_.capacity() * sizeof(float) +
-           floor_.grid().z.capacity() * sizeof(float);
-  }
+  size_t memory_bytes() const;
 
 private:
-  struct LocalVertex {
-    double x, y, z;
-  };
-  size_t bucket_at(double X, double Y) const;  ///< of a local point; SIZE_MAX outside the grid
-  double ground_in(size_t bucket, double X, double Y) const;
-  template <bool Measure>
-  double visit(const Point3& p, const Point3& q, double d) const;
-
-  Point3 origin_{0, 0, 0};
-  Footprint footprint_;
-  std::vector<LocalVertex> verts_;
-  size_t triangles_ = 0;
-  double cell_ = 1, gx0_ = 0, gy0_ = 0;  ///< bucket (0,0) starts at local (gx0_, gy0_)
-  int cols_ = 0, rows_ = 0;
-  struct Listing {
-    std::array<uint32_t, 3> corners;  ///< the triangle's vertices: no second read to find them
-    float top;             ///< highest point of the triangle inside the bucket, rounded up
-    float x0, x1, y0, y1;  ///< the triangle's x,y bounding box, rounded outwards
-  };
-  struct Bucket {
-    uint32_t start;  ///< bucket b lists items_[start of b, start of b + 1), highest first
-    float top;       ///< highest mesh point in the bucket, rounded up (-inf when empty)
-  };
-  std::vector<Bucket> buckets_;  ///< one more than there are buckets, for the last one's end
-  std::vector<Listing> items_;
-  bool box_holds(const Listing& item, double X, double Y) const;  ///< local point in its x,y box
-  static constexpr int block = 4;  ///< buckets a side of a block, the pyramid's coarse level
-  int block_cols_ = 0, block_rows_ = 0;
-  std::vector<float> block_top_;  ///< highest point of each block of block x block buckets
-  /// The highest point in buckets [r0, r1] x [c0, c1], whole blocks read from block_top_.
-  double highest(int r0, int r1, int c0, int c1) const;
-  double zmin_ = 0, zmax_ = 0;  ///< lowest and highest vertex
-  GroundGrid floor_;
-  double margin_ = 0;           ///< conservative slack of the quick rejects
+  struct Layout;  ///< the vertices, buckets, listings and blocks: src/plan/clearance_index.cpp
+  std::shared_ptr<const Layout> layout_;  ///< immutable once built, so copies share it
 };
 
 }  // namespace dsmplan
