@@ -270,8 +270,9 @@ TEST(SatelliteStereo, StreetsAreFlat) {
       for (size_t i = 0; i < pts.size(); ++i)
         if (res[i] <= 3 * 1.4826 * mad) kept.push_back(pts[i]);
       fit(kept, res);
-      std::printf("%s, %s: %zu cells (%zu within 3 MADs): |residual| median %.2f m, p90 %.2f m\n",
-                  pre ? "pre" : "post", s.name, pts.size(), kept.size(), quantile(res, 0.5), quantile(res, 0.9));
+      std::printf("%s, %s (UTM %.1f, %.1f to %.1f, %.1f): %zu cells (%zu within 3 MADs): |residual| median %.2f m, p90 %.2f m\n",
+                  pre ? "pre" : "post", s.name, s.c0, s.r0, s.c1, s.r1, pts.size(), kept.size(), quantile(res, 0.5),
+                  quantile(res, 0.9));
       EXPECT_LT(quantile(res, 0.5), 0.9) << s.name;
       EXPECT_LT(quantile(res, 0.9), 2.5) << s.name;
     }
