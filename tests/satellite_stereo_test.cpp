@@ -142,7 +142,7 @@ const Made& made(bool pre) {
 
 }  // namespace
 
-TEST(SatelliteStereo, CliWritesAnEllipsoidalDsmInTheSceneUtmZone) {
+static void CliWritesAnEllipsoidalDsmInTheSceneUtmZone() {
   const Made& pre = made(true);
   const Grid& dsm = pre.dsm;
   EXPECT_EQ(dsm.crs.epsg, 32637);  // Kahramanmaraş, 36.9° E: UTM zone 37 north
@@ -187,7 +187,7 @@ TEST(SatelliteStereo, CliWritesAnEllipsoidalDsmInTheSceneUtmZone) {
   EXPECT_LT(quantile(z, 0.98), 900);
 }
 
-TEST(SatelliteStereo, PreAndPostEventDsmsAgree) {
+static void PreAndPostEventDsmsAgree() {
   const Grid& pre = made(true).dsm;
   const Grid& post = made(false).dsm;
   ASSERT_EQ(pre.width, post.width);
@@ -222,7 +222,7 @@ TEST(SatelliteStereo, PreAndPostEventDsmsAgree) {
   EXPECT_LT(share, 0.55);
 }
 
-TEST(SatelliteStereo, StreetsAreFlat) {
+static void StreetsAreFlat() {
   for (bool pre : {true, false}) {
     const Grid& dsm = made(pre).dsm;
     for (const Stretch& street : kStreets) {
@@ -276,6 +276,22 @@ TEST(SatelliteStereo, StreetsAreFlat) {
       EXPECT_LT(quantile(res, 0.5), 0.9) << s.name;
       EXPECT_LT(quantile(res, 0.9), 2.5) << s.name;
     }
+  }
+}
+
+// One test, so that each pair's DSM is made once (ctest runs every test in a process of its own).
+TEST(SatelliteStereo, WindowOfBothPairsEllipsoidalAgreeingWithFlatStreets) {
+  {
+    SCOPED_TRACE("the CLI's DSM and stats");
+    CliWritesAnEllipsoidalDsmInTheSceneUtmZone();
+  }
+  {
+    SCOPED_TRACE("pre vs post");
+    PreAndPostEventDsmsAgree();
+  }
+  {
+    SCOPED_TRACE("streets");
+    StreetsAreFlat();
   }
 }
 
