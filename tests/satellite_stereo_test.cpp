@@ -446,3 +446,30 @@ TEST(SatelliteStereo, BadInputOneLineNoOutput) {
     EXPECT_FALSE(fs::exists(dir.path("dsm.tif")));
   }
 }
+
+// `--vertical-crs EPSG:4979` (how `plan` and `simplify --3dtiles` are told that a satellite DSM's
+// heights are ellipsoidal): the data's CRS made 3D, heights kept; refused for another datum.
+TEST(SatelliteStereo, VerticalCrs4979MeansTheDatumsEllipsoidalHeights) {
+  dsmplan::VerticalOptions vertical;
+  vertical.vertical_crs = "EPSG:4979";
+  dsmplan::Crs utm;
+  utm.definition = "EPSG:32637";
+  dsmplan::resolve_crs(utm);
+  const dsmplan::Wgs84Transform to_ellipsoid(utm, dsmplan::HeightReference::Ellipsoid, vertical);
+  const dsmplan::Point3 g = to_ellipsoid.to_wgs84({315400, 4161700, 700});
+  EXPECT_NEAR(g[2], 700, 1e-6);  // ellipsoidal to ellipsoidal on the same datum: the identity
+  EXPECT_NEAR(g[0], 36.9, 0.1);  // Kahramanmaraş
+  EXPECT_NE(to_ellipsoid.description().find("ellipsoidal height to WGS 84 ellipsoidal height"), std::string::npos)
+      << to_ellipsoid.description();
+  dsmplan::Crs etrs;
+  etrs.definition = "EPSG:25832";
+  dsmplan::resolve_crs(etrs);
+  try {
+    dsmplan::Wgs84Transform(etrs, dsmplan::HeightReference::Ellipsoid, vertical);
+    ADD_FAILURE() << "EPSG:4979 heights accepted on ETRS89";
+  } catch (const dsmplan::ArgumentError& error) {
+    EXPECT_NE(std::string(error.what()).find("the data's datum is European Terrestrial Reference System 1989"),
+              std::string::npos)
+        << error.what();
+  }
+}
