@@ -18,6 +18,7 @@
 #include "dsmplan/wgs84.hpp"
 #include "dsmplan/mpi_farm.hpp"
 #include "dsmplan/plan_job.hpp"
+#include "dsmplan/satellite_stereo_job.hpp"
 #include "dsmplan/stereo_job.hpp"
 #include "dsmplan/tools.hpp"
 #include "dsmplan/view.hpp"
@@ -151,11 +152,19 @@ int main(int argc, char** argv) {
   grid_cmd->add_option("--of", grid_of, "Output format: gtiff (the only one)");
 
   StereoJobOptions stereo;
+  SatelliteStereoOptions satellite;
   std::string stereo_bounds, stereo_stats;
   CLI::App* stereo_cmd = app.add_subcommand(
-      "stereo", "DSM from frame-camera images with known poses: rectification, SGM, triangulation, median per cell");
-  stereo_cmd->add_option("--cameras", stereo.cameras, "CAMERAS.json: CRS, height range, cameras and images (README)")
-      ->required();
+      "stereo",
+      "DSM from images: satellite images with RPCs (IMG1 IMG2 ...) or frame cameras with known poses (--cameras): "
+      "rectification, SGM, triangulation, median per cell");
+  stereo_cmd->add_option("images", satellite.images,
+                         "Satellite images with RPC cameras (TIFF tags, _RPC.TXT, .RPB or an OSSIM .geom beside "
+                         "them), two or more: every overlapping pair is matched");
+  stereo_cmd->add_option("--cameras", stereo.cameras, "CAMERAS.json: CRS, height range, cameras and images (README)");
+  stereo_cmd->add_option("--crs", satellite.crs,
+                         "With satellite images: output CRS (default: WGS 84 / UTM of the scene; heights above the "
+                         "WGS 84 ellipsoid)");
   stereo_cmd->add_option("-o,--output", stereo.output, "Output GeoTIFF (Float32, nodata where nothing matched)")->required();
   stereo_cmd->add_option("--res", stereo.resolution, "Cell size (CRS units: m)")->required();
   stereo_cmd->add_option("--pairs", stereo.pairs, "auto (overlap and base-to-height ratio) or pairs like 0-1,1-2")
@@ -335,7 +344,8 @@ int main(int argc, char** argv) {
                        "Raw DSM: the path keeps --safety from its cells as solid columns (holes as high as their rim)");
   plan_cmd->add_option("--dtm", plan.dtm, "Terrain raster (the mesh's CRS, any resolution): the ground --max-agl counts from");
   plan_cmd->add_option("--vertical-crs", plan.vertical.vertical_crs,
-                       "Vertical CRS of the mesh's heights when the file does not say (e.g. EPSG:7837)");
+                       "Vertical CRS of the mesh's heights when the file does not say (e.g. EPSG:7837; EPSG:4979: "
+                       "WGS 84 ellipsoidal heights, as satellite DSMs)");
   plan_cmd->add_flag("--allow-approximate-vertical", plan.vertical.allow_approximate_vertical,
                      "Heights of an unknown or grid-less vertical datum taken as EGM96 heights (about 1 m off) for WGS 84 output");
   plan_cmd->add_option("--stats", plan_stats, "Write statistics as JSON to this file");
@@ -411,10 +421,31 @@ int main(int argc, char** argv) {
           throw ArgumentError("--bounds", "expected four numbers x0,y0,x1,y1, got '" + stereo_bounds.substr(0, 80) + "'");
         }
       }
-      refuse_overwrites({{"--cameras", stereo.cameras}}, {{"-o", stereo.output}, {"--stats", stereo_stats}});
-      if (!stereo_stats.empty()) check_writable(stereo_stats);
-      const StereoReport report = stereo_job(stereo, terminal_progress(quiet));
-      write_stats(stereo_stats, to_json(report), {stereo.output});
+      if (stereo.cameras.empty() == satellite.images.empty())
+        throw ArgumentError("--cameras", "give either satellite images with RPCs (dsmplan stereo IMG1 IMG2 ...) or "
+                                         "--cameras CAMERAS.json for frame cameras, not both");
+      if (!stereo.cameras.empty()) {
+        if (!satellite.crs.empty()) throw ArgumentError("--crs", "belongs to satellite images; CAMERAS.json states its CRS");
+        refuse_overwrites({{"--cameras", stereo.cameras}}, {{"-o", stereo.output}, {"--stats", stereo_stats}});
+        if (!stereo_stats.empty()) check_writable(stereo_stats);
+        const StereoReport report = stereo_job(stereo, terminal_progress(quiet));
+        write_stats(stereo_stats, to_json(report), {stereo.output});
+      } else {
+        if (stereo.pairs != "auto") throw ArgumentError("--pairs", "belongs to --cameras; satellite images are paired by overlap");
+        satellite.output = stereo.output;
+        satellite.resolution = stereo.resolution;
+        satellite.bounds = stereo.bounds;
+        std::vector<NamedFile> inputs;
+        for (const std::string& image : satellite.images) {
+          inputs.push_back({"IMAGES", image});
+          const std::string geom = std::filesystem::path(image).replace_extension(".geom").string();
+          if (std::filesystem::exists(geom)) inputs.push_back({"IMAGES", geom});
+        }
+        refuse_overwrites(inputs, {{"-o", satellite.output}, {"--stats", stereo_stats}});
+        if (!stereo_stats.empty()) check_writable(stereo_stats);
+        const SatelliteStereoReport report = satellite_stereo_job(satellite, terminal_progress(quiet));
+        write_stats(stereo_stats, to_json(report), {satellite.output});
+      }
     }
     if (*mesh_cmd) {
       if (mesh_res->count()) mesh.resolution = mesh_resolution;

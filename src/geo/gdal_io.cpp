@@ -113,6 +113,17 @@ void describe(const OGRSpatialReference& srs, Crs& crs) {
     crs.linear_unit = unit ? unit : "";
   }
 
+  if (!srs.IsCompound() && (srs.IsProjected() || srs.IsGeographic()) && srs.GetAxesCount() == 3) {
+    // A 3D CRS (PROJ's promote_to_3D; a GeoTIFF whose VerticalGeoKey is a geographic 3D CRS such
+    // as 4979): heights above its datum's ellipsoid.
+    OGRSpatialReference geographic;
+    geographic.CopyGeogCSFrom(&srs);
+    crs.vertical_name = std::string(geographic.GetName() ? geographic.GetName() : "the datum's") + " ellipsoidal height";
+    double metres = 1;
+    srs.GetAxis(nullptr, 2, nullptr, &metres);
+    crs.vertical_unit = std::abs(metres - 1) < 1e-12 ? "metre" : "";
+    crs.vertical_unit_m = metres;
+  }
   if (srs.IsCompound() || srs.IsVertical()) {
     const char* vertical = srs.GetAttrValue("VERT_CS");
     if (vertical) crs.vertical_name = vertical;

@@ -62,13 +62,39 @@ Wgs84Transform::Wgs84Transform(const Crs& crs, HeightReference target, const Ver
   if (horizontal_text.empty()) throw ArgumentError("crs", "the data has no coordinate reference system");
   Pj source(proj_create(ctx, horizontal_text.c_str()));
   if (!source) throw ArgumentError("crs", "PROJ cannot read the data's CRS" + last_error(ctx));
-  const bool has_vertical = proj_get_type(source.get()) == PJ_TYPE_COMPOUND_CRS;
+  // Heights above the ellipsoid: a projected or geographic CRS with a third axis (ellipsoidal
+  // height, as PROJ's promote_to_3D makes and GeoTIFF 1.1's VerticalGeoKey 4979 states).
+  const auto three_axes = [&](PJ* crs) {
+    const PJ_TYPE type = proj_get_type(crs);
+    if (type != PJ_TYPE_PROJECTED_CRS && type != PJ_TYPE_GEOGRAPHIC_3D_CRS) return false;
+    Pj cs(proj_crs_get_coordinate_system(ctx, crs));
+    return cs && proj_cs_get_axis_count(ctx, cs.get()) == 3;
+  };
+  const bool ellipsoidal = three_axes(source.get());
+  const bool has_vertical = proj_get_type(source.get()) == PJ_TYPE_COMPOUND_CRS || ellipsoidal;
+  bool promoted = false;
   if (!has_vertical && !options.vertical_crs.empty()) {
     Pj vertical(proj_create(ctx, options.vertical_crs.c_str()));
-    if (!vertical || proj_get_type(vertical.get()) != PJ_TYPE_VERTICAL_CRS)
-      throw ArgumentError("vertical_crs", "'" + options.vertical_crs + "' is not a vertical CRS PROJ knows");
-    source.reset(proj_create_compound_crs(ctx, "data", source.get(), vertical.get()));
-    if (!source) throw ArgumentError("vertical_crs", "cannot combine it with the data's CRS" + last_error(ctx));
+    if (vertical && proj_get_type(vertical.get()) == PJ_TYPE_GEOGRAPHIC_3D_CRS) {
+      // A geographic 3D CRS (EPSG:4979): the heights are ellipsoidal heights of its datum, which
+      // must be the data's own (the CRS is made 3D, not transformed).
+      Pj a(proj_crs_get_datum_forced(ctx, source.get())), b(proj_crs_get_datum_forced(ctx, vertical.get()));
+      if (!a || !b || !proj_is_equivalent_to_with_ctx(ctx, a.get(), b.get(), PJ_COMP_EQUIVALENT))
+        throw ArgumentError("vertical_crs", "'" + options.vertical_crs + "' gives ellipsoidal heights of " +
+                                                (b && proj_get_name(b.get()) ? proj_get_name(b.get()) : "another datum") +
+                                                ", the data's datum is " +
+                                                (a && proj_get_name(a.get()) ? proj_get_name(a.get()) : "unknown"));
+      source.reset(proj_crs_promote_to_3D(ctx, nullptr, source.get()));
+      if (!source) throw ArgumentError("vertical_crs", "cannot make the data's CRS three-dimensional" + last_error(ctx));
+      promoted = true;
+    } else {
+      if (!vertical || proj_get_type(vertical.get()) != PJ_TYPE_VERTICAL_CRS)
+        throw ArgumentError("vertical_crs", "'" + options.vertical_crs +
+                                                "' is not a vertical CRS PROJ knows (nor a geographic 3D CRS such as "
+                                                "EPSG:4979 for ellipsoidal heights)");
+      source.reset(proj_create_compound_crs(ctx, "data", source.get(), vertical.get()));
+      if (!source) throw ArgumentError("vertical_crs", "cannot combine it with the data's CRS" + last_error(ctx));
+    }
   }
   std::string why_egm96;  // set when the heights are taken as EGM96 heights
   if (!has_vertical && options.vertical_crs.empty()) {
@@ -135,7 +161,10 @@ Wgs84Transform::Wgs84Transform(const Crs& crs, HeightReference target, const Ver
   } else {
     // PROJ's name leaves out a vertical step that is the identity (EGM96 to EGM96): say it.
     Pj vertical(proj_crs_get_sub_crs(ctx, source.get(), 1));
-    const char* from = vertical ? proj_get_name(vertical.get()) : nullptr;
+    Pj datum(ellipsoidal || promoted ? proj_crs_get_datum_forced(ctx, source.get()) : nullptr);
+    const std::string ellipsoid_name =
+        datum && proj_get_name(datum.get()) ? std::string(proj_get_name(datum.get())) + " ellipsoidal height" : "";
+    const char* from = vertical ? proj_get_name(vertical.get()) : !ellipsoid_name.empty() ? ellipsoid_name.c_str() : nullptr;
     description_ += std::string("; heights from ") + (from ? from : "the data's vertical CRS") + " to " +
                     (target == HeightReference::MeanSeaLevel ? "EGM96 height (mean sea level)"
                                                              : "WGS 84 ellipsoidal height");

@@ -17,8 +17,9 @@ namespace dsmplan {
 //
 // Coordinates leave dsmplan in WGS 84 for GeoJSON (RFC 7946: longitude, latitude, height above
 // the ellipsoid) and drone missions (height above mean sea level, EGM96). The horizontal part
-// is exact; the vertical part needs the data's vertical reference (from a compound CRS, or
-// VerticalOptions::vertical_crs) and a geoid grid PROJ has. Where PROJ has only a "ballpark"
+// is exact; the vertical part needs the data's vertical reference (from a compound CRS, a 3D CRS
+// whose third axis is the ellipsoidal height, or VerticalOptions::vertical_crs) and a geoid grid
+// PROJ has. Where PROJ has only a "ballpark"
 // operation (heights copied across datums: for Germany's DHHN2016 without the GCG2016 grid,
 // about 47 m wrong), or the reference is unknown, construction fails unless
 // allow_approximate_vertical; then the heights are taken as EGM96 heights (EPSG:5773) and go
@@ -31,7 +32,9 @@ enum class HeightReference {
 };
 
 struct VerticalOptions {
-  std::string vertical_crs;  ///< the heights' vertical CRS when the data does not say (e.g. "EPSG:7837")
+  /// The heights' vertical CRS when the data does not say (e.g. "EPSG:7837"); a geographic 3D CRS
+  /// ("EPSG:4979") says they are ellipsoidal heights of its datum (which must be the data's).
+  std::string vertical_crs;
   bool allow_approximate_vertical = false;  ///< take heights of an unknown or grid-less datum as EGM96 heights
 };
 

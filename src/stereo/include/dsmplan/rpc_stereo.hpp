@@ -169,4 +169,57 @@ std::vector<RpcStereoPoint> disparity_to_points(const RpcCamera& left, const Rpc
                                                 const RpcRectification& rect, const Disparity& disparity,
                                                 double max_residual_px = 1.0);
 
+// ---- a tile through the whole chain (src/stereo/rpc_tile_stereo.cpp) ------------------------
+//
+// What the satellite job (include/dsmplan/satellite_stereo_job.hpp) runs per tile of a pair, on
+// image windows: the cameras passed are those of the windows (RpcCamera::crop), the tile is in
+// the left window's pixels, and its height range is the heights searched (metres above the
+// WGS 84 ellipsoid). Pure C++ and TBB (no GDAL).
+
+/// The heights of the scene over a tile, from tie points searched across the tile's whole height
+/// range (s2p's "sift" range, de Franchis et al. 2014: the disparity range of a tile is taken
+/// from matched features rather than from a DEM): the tile rectified (steps 1-2), tie points
+/// matched (match_tie_points), each triangulated through the RPCs (residual below 1 px kept).
+/// Empty when nothing matched: the scene lies outside the height range, or the windows do not
+/// show the same ground. Errors as rectify_rpc_pair().
+std::vector<double> tie_point_heights(const RpcCamera& left, const FloatImage& left_image, const RpcCamera& right,
+                                      const FloatImage& right_image, const RpcTile& tile,
+                                      const TiePointOptions& options = {});
+
+struct RpcTileStereoOptions {
+  TiePointOptions ties;
+  /// min_disparity and num_disparities are set per tile from the height range (the rectified
+  /// RPC projections of the tile's volume, widened by 2 px each side).
+  SgmOptions sgm;
+  /// Left pixels matched beyond the tile on each side (clamped to the window), for SGM's paths;
+  /// their points are dropped, so neighbouring tiles do not overlap in their output.
+  int margin = 32;
+  /// With fewer tie points the tile keeps the RPCs as given (no pointing correction).
+  int min_tie_points = 10;
+  int max_disparities = 512;  ///< ArgumentError("height range") when the range needs more
+  double max_residual_px = 1.0;  ///< disparity_to_points' bound
+};
+
+struct RpcTileStereo {
+  std::vector<RpcStereoPoint> points;  ///< of the tile's own left pixels, row by row of the rectified tile
+  RpcRectification rect;               ///< with the pointing correction when there was one
+  std::size_t tie_points = 0;
+  bool pointing_corrected = false;
+  std::size_t tile_pixels = 0;     ///< rectified pixels of the tile (margin excluded) inside the left image
+  std::size_t matched_pixels = 0;  ///< of those, with a disparity after SGM's left-right check
+  int min_disparity = 0, num_disparities = 0;
+  double seconds_rectify = 0, seconds_pointing = 0, seconds_match = 0, seconds_triangulate = 0;
+};
+
+/// Steps 1-4 and SGM over one tile: rectification over tile ± margin, tie points and the
+/// pointing correction (re-resampling the right image), SGM (stereo.hpp, left-right check
+/// included) over the disparities of the height range, the disparities of the tile's own pixels
+/// (pixels of no data in the left image masked) triangulated through the RPCs. A tile narrower
+/// than its largest |disparity| gives no points (SGM's limit) rather than an error.
+/// ArgumentError as rectify_rpc_pair(), and for images of no pixels. Threads: each stage over
+/// rows (TBB); SGM's two sweeps. Memory: the two windows, four rectified images (4 bytes a
+/// pixel) and SGM's (stereo.hpp).
+RpcTileStereo rpc_tile_stereo(const RpcCamera& left, const FloatImage& left_image, const RpcCamera& right,
+                              const FloatImage& right_image, const RpcTile& tile, const RpcTileStereoOptions& options = {});
+
 }  // namespace dsmplan
