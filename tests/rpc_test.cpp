@@ -250,16 +250,7 @@ TEST(Rpc, GeoTiffRpcTagsReadAsTheGeom) {
     ASSERT_NE(driver, nullptr);
     GDALDataset* ds = driver->Create(tif.c_str(), 8, 8, 1, GDT_UInt16, nullptr);
     ASSERT_NE(ds, nullptr);
-    GDALRPCInfoV2 info{};
-    info.dfLINE_OFF = geom.line_off, info.dfSAMP_OFF = geom.samp_off, info.dfLAT_OFF = geom.lat_off;
-    info.dfLONG_OFF = geom.long_off, info.dfHEIGHT_OFF = geom.height_off;
-    info.dfLINE_SCALE = geom.line_scale, info.dfSAMP_SCALE = geom.samp_scale, info.dfLAT_SCALE = geom.lat_scale;
-    info.dfLONG_SCALE = geom.long_scale, info.dfHEIGHT_SCALE = geom.height_scale;
-    for (int i = 0; i < 20; ++i) {
-      info.adfLINE_NUM_COEFF[i] = geom.line_num[i], info.adfLINE_DEN_COEFF[i] = geom.line_den[i];
-      info.adfSAMP_NUM_COEFF[i] = geom.samp_num[i], info.adfSAMP_DEN_COEFF[i] = geom.samp_den[i];
-    }
-    info.dfMIN_LONG = -180, info.dfMIN_LAT = -90, info.dfMAX_LONG = 180, info.dfMAX_LAT = 90;
+    GDALRPCInfoV2 info = gdal_rpc_info(geom);
     char** md = RPCInfoV2ToMD(&info);
     ds->SetMetadata(md, "RPC");
     CSLDestroy(md);
