@@ -153,7 +153,7 @@ int main(int argc, char** argv) {
   std::string stereo_bounds, stereo_stats;
   CLI::App* stereo_cmd = app.add_subcommand(
       "stereo", "DSM from frame-camera images with known poses: rectification, SGM, triangulation, median per cell");
-  stereo_cmd->add_option("--cameras", stereo.cameras, "CAMERAS.json: CRS, height range, cameras and images (README)")
+  stereo_cmd->add_option("--cameras", stereo.cameras, "CAMERAS.json: CRS, cameras and images, optionally the height range (README)")
       ->required();
   stereo_cmd->add_option("-o,--output", stereo.output, "Output GeoTIFF (Float32, nodata where nothing matched)")->required();
   stereo_cmd->add_option("--res", stereo.resolution, "Cell size (CRS units: m)")->required();
