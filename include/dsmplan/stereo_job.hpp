@@ -28,8 +28,9 @@ namespace dsmplan {
 /// "height_range" (the scene's lowest and highest heights, world units: it bounds the disparity
 /// search and sets the plane footprints are cut with). Without height_range it is estimated
 /// (estimate_height_range(), stereo_frames.hpp): the nearest cameras' images shrunk to about
-/// 320 px, matched over every depth, triangulated; the 0.2 % and 99.8 % quantiles of the heights
-/// widened by 10 % of their difference and two coarse disparity steps. `image` is any GDAL raster, relative to the JSON's folder: one band
+/// 320 px, matched over every depth, triangulated; of the heights connected to their median
+/// without a wide gap, the 0.2 % and 99.8 % quantiles widened by 10 % of their difference and two
+/// coarse disparity steps. InputError (key height_range) when no such pair matches. `image` is any GDAL raster, relative to the JSON's folder: one band
 /// (grey) or three or more (RGB taken as luminance 0.299 R + 0.587 G + 0.114 B), 8 or 16 bit.
 struct StereoJobOptions {
   std::string cameras;  ///< CAMERAS.json
