@@ -161,7 +161,7 @@ int main(int argc, char** argv) {
   stereo_cmd->add_option("images", satellite.images,
                          "Satellite images with RPC cameras (TIFF tags, _RPC.TXT, .RPB or an OSSIM .geom beside "
                          "them), two or more: every overlapping pair is matched");
-  stereo_cmd->add_option("--cameras", stereo.cameras, "CAMERAS.json: CRS, height range, cameras and images (README)");
+  stereo_cmd->add_option("--cameras", stereo.cameras, "CAMERAS.json: CRS, cameras and images, optionally the height range (README)");
   stereo_cmd->add_option("--crs", satellite.crs,
                          "With satellite images: output CRS (default: WGS 84 / UTM of the scene; heights above the "
                          "WGS 84 ellipsoid)");

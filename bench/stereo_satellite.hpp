@@ -1,7 +1,6 @@
 // The satellite half of the stereo benchmark (issue 17): `dsmplan stereo IMG1 IMG2` on the whole
-// Pléiades crops of data/pleiades-kahramanmaras (bench/stereo_satellite.cpp). A function, so that
-// the `bench_stereo` binary can run it beside the frame-camera rows; bench_stereo_satellite runs it
-// alone.
+// Pléiades crops of data/pleiades-kahramanmaras (bench/stereo_satellite.cpp): the `bench_stereo`
+// binary runs it after the frame-camera rows (`bench_stereo ROUNDS satellite`: alone).
 #pragma once
 
 /// Runs every pair `rounds` times (interleaved: each round runs both pairs once), prints a row per

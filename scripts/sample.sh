@@ -5,7 +5,9 @@
 # against the DSM), draw the three side by side as the paper's Figures 6 and 7, and plan a
 # collision-free path through the bundled waypoints on the conservative mesh, and a low-altitude
 # mission under a 30 m ceiling drawn from above and from the side (both limits held), and a
-# mission between the buildings of Delft under a ceiling counted from the terrain (AHN3 LiDAR).
+# mission between the buildings of Delft under a ceiling counted from the terrain (AHN3 LiDAR),
+# and a DSM made from four aerial views rendered from the sample (dsmplan stereo), scored against
+# the sample and meshed, simplified and planned on like it.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 scripts/build.sh
@@ -79,6 +81,21 @@ build/dsmplan render "$out/delft_dsm.tif" --mesh "$out/delft_bounded.ply" --no-e
 build/dsmplan profile "$out/delft_dsm.tif" --dtm "$out/delft_dtm.tif" --path "$out/delft_path.csv" \
   --waypoints data/delft-ahn3/low_waypoints.csv --safety 2 --max-agl 10 \
   --title "between buildings: side view" -o "$out/delft_profile.png"
+echo
+echo "From images (dsmplan stereo): four aerial views rendered from the sample's central 140 m (cells as solid"
+echo "columns, two strips of two, one view tilted with lens distortion), matched pair by pair by SGM, the median"
+echo "per 1 m cell (the height range estimated from the images); scored against the DSM they were rendered from,"
+echo "then meshed, simplified and planned on like the real DSM:"
+aerial="$out/aerial"
+build/bench/aerial_sample render "$aerial"
+build/dsmplan stereo --cameras "$aerial/cameras.json" -o "$out/stereo_dsm.tif" --res 1 \
+  --bounds "$(cat "$aerial/bounds.txt")" --stats "$out/stereo_dsm.json"
+build/bench/aerial_sample score "$out/stereo_dsm.tif" "$aerial/truth.tif"
+build/dsmplan mesh "$out/stereo_dsm.tif" -o "$out/stereo_mesh.ply" --stats "$out/stereo_mesh.json" -q
+build/dsmplan simplify "$out/stereo_dsm.tif" --max-error 0.4 --conservative -o "$out/stereo_bounded.ply" \
+  --stats "$out/stereo_bounded.json" -q
+build/dsmplan plan "$out/stereo_bounded.ply" --waypoints "$aerial/waypoints.csv" --dsm "$out/stereo_dsm.tif" \
+  --spacing 5 -o "$out/stereo_path.csv" --stats "$out/stereo_path.json" -q
 build/dsmplan render "$dsm" --mesh "$out/bounded_1m.ply" --no-edges --roadmap "$out/bounded_1m.roadmap" \
   --path "$out/path.csv" --waypoints data/nrw-dom1/sample_waypoints.csv --zoom 2 \
   --title "path over the conservative mesh, roadmap in blue" -o "$out/path.png" -q
@@ -107,6 +124,11 @@ printf 'Low-altitude mission (4 waypoints): %.1f m; %.2f m from the DSM columns 
 printf 'Between buildings, Delft (4 waypoints): %.1f m; %.2f m from the DSM columns (--safety 2), at most %.2f m above the terrain (--max-agl 10)\n' \
   "$(value "$out/delft_path.json" path_length_m)" "$(value "$out/delft_path.json" min_clearance_dsm_m)" \
   "$(value "$out/delft_path.json" max_agl_m)"
+printf 'From images (4 rendered views, dsmplan stereo): %s of %s cells filled; XY-3 mesh %s vertices, bounded %s; path %.1f m, %.2f m from the DSM columns\n' \
+  "$(value "$out/stereo_dsm.json" valid)" \
+  "$(value "$out/stereo_dsm.json" cells)" "$(value "$out/stereo_mesh.json" vertices)" \
+  "$(value "$out/stereo_bounded.json" vertices_out)" "$(value "$out/stereo_path.json" path_length_m)" \
+  "$(value "$out/stereo_path.json" min_clearance_dsm_m)"
 echo
 echo "Outputs in $out/:"
 ls -l "$out"

@@ -27,6 +27,7 @@
 
 #include "dsmplan/stereo_frames.hpp"
 #include "dsmplan/stereo_job.hpp"
+#include "aerial_scene.hpp"
 #include "dsmplan/tools.hpp"
 #include "testkit.hpp"
 
@@ -34,129 +35,9 @@ using namespace dsmplan;
 
 namespace {
 
-Mat3 rotation_xyz(double ax, double ay, double az) {  // R = Rz Ry Rx, radians
-  const double cx = std::cos(ax), sx = std::sin(ax), cy = std::cos(ay), sy = std::sin(ay), cz = std::cos(az),
-               sz = std::sin(az);
-  const Mat3 Rx{{{1, 0, 0}, {0, cx, -sx}, {0, sx, cx}}}, Ry{{{cy, 0, sy}, {0, 1, 0}, {-sy, 0, cy}}},
-      Rz{{{cz, -sz, 0}, {sz, cz, 0}, {0, 0, 1}}};
-  const auto mul = [](const Mat3& a, const Mat3& b) {
-    Mat3 c{};
-    for (int i = 0; i < 3; ++i)
-      for (int j = 0; j < 3; ++j)
-        for (int k = 0; k < 3; ++k) c[i][j] += a[i][k] * b[k][j];
-    return c;
-  };
-  return mul(Rz, mul(Ry, Rx));
-}
-
-// A nadir camera (x east, y south, z down) at `center`, turned by small angles.
-FrameCamera nadir_camera(int size, double f, const Vec3& center, double tilt_x = 0, double tilt_y = 0, double k1 = 0,
-                         double p1 = 0) {
-  FrameCamera c;
-  c.width = c.height = size;
-  c.fx = c.fy = f;
-  c.cx = c.cy = (size - 1) / 2.0;
-  const Mat3 nadir{{{1, 0, 0}, {0, -1, 0}, {0, 0, -1}}};
-  const Mat3 turn = rotation_xyz(tilt_x, tilt_y, 0);
-  Mat3 R{};
-  for (int i = 0; i < 3; ++i)
-    for (int j = 0; j < 3; ++j)
-      for (int k = 0; k < 3; ++k) R[i][j] += turn[i][k] * nadir[k][j];
-  c.rotation = R;
-  c.center = center;
-  c.distortion = {k1, 0.3 * k1, p1, -0.5 * p1, 0};
-  return c;
-}
-
-// Value noise in 3D: a hash per lattice point (spacing `cell` metres), trilinear in between, two
-// octaves; 0..1.
-double hash01(std::int64_t x, std::int64_t y, std::int64_t z) {
-  std::uint64_t h = static_cast<std::uint64_t>(x) * 0x9E3779B97F4A7C15ull ^
-                    static_cast<std::uint64_t>(y) * 0xC2B2AE3D27D4EB4Full ^
-                    static_cast<std::uint64_t>(z) * 0x165667B19E3779F9ull;
-  h ^= h >> 29;
-  h *= 0xBF58476D1CE4E5B9ull;
-  h ^= h >> 32;
-  return static_cast<double>(h & 0xFFFFFF) / 0xFFFFFF;
-}
-double value_noise(double x, double y, double z, double cell) {
-  const double fx = x / cell, fy = y / cell, fz = z / cell;
-  const double ix = std::floor(fx), iy = std::floor(fy), iz = std::floor(fz);
-  const double tx = fx - ix, ty = fy - iy, tz = fz - iz;
-  double sum = 0;
-  for (int dx = 0; dx < 2; ++dx)
-    for (int dy = 0; dy < 2; ++dy)
-      for (int dz = 0; dz < 2; ++dz)
-        sum += (dx ? tx : 1 - tx) * (dy ? ty : 1 - ty) * (dz ? tz : 1 - tz) *
-               hash01(static_cast<std::int64_t>(ix) + dx, static_cast<std::int64_t>(iy) + dy,
-                      static_cast<std::int64_t>(iz) + dz);
-  return sum;
-}
-double texture(const Vec3& p) {
-  return 30 + 140 * value_noise(p[0], p[1], p[2], 0.45) + 60 * value_noise(p[0], p[1], p[2], 2.1);
-}
-
-// The scene: the cells of `dsm` as solid columns on an endless floor at `floor` height.
-struct ColumnScene {
-  const Grid& dsm;
-  double floor;
-  double top;
-  double height_at(int col, int row) const {
-    if (col < 0 || row < 0 || col >= dsm.width || row >= dsm.height) return floor;
-    return std::max<double>(floor, dsm.at(col, row));
-  }
-  // The first surface point along C + t·dir (dir pointing down), by a 2D DDA over the cells
-  // (Amanatides & Woo 1987).
-  Vec3 hit(const Vec3& C, const Vec3& dir) const {
-    const double t_floor = (floor - C[2]) / dir[2];
-    double t = std::max(0.0, (top - C[2]) / dir[2]);
-    // Cell coordinates: gx = (x - x0)/cell_x, gy = (y0 - y)/cell_y.
-    const double gx = (C[0] + t * dir[0] - dsm.x0) / dsm.cell_x, gy = (dsm.y0 - (C[1] + t * dir[1])) / dsm.cell_y;
-    const double vx = dir[0] / dsm.cell_x, vy = -dir[1] / dsm.cell_y;
-    int col = static_cast<int>(std::floor(gx)), row = static_cast<int>(std::floor(gy));
-    const int step_x = vx > 0 ? 1 : -1, step_y = vy > 0 ? 1 : -1;
-    double next_x = std::abs(vx) < 1e-15 ? INFINITY : ((vx > 0 ? col + 1 - gx : gx - col) / std::abs(vx)) + t;
-    double next_y = std::abs(vy) < 1e-15 ? INFINITY : ((vy > 0 ? row + 1 - gy : gy - row) / std::abs(vy)) + t;
-    const double dt_x = std::abs(vx) < 1e-15 ? INFINITY : 1 / std::abs(vx);
-    const double dt_y = std::abs(vy) < 1e-15 ? INFINITY : 1 / std::abs(vy);
-    for (int guard = 0; guard < 100000; ++guard) {
-      const double h = height_at(col, row);
-      const double t_out = std::min({next_x, next_y, t_floor});
-      const double z_in = C[2] + t * dir[2];
-      if (z_in <= h) return {C[0] + t * dir[0], C[1] + t * dir[1], z_in};  // a wall
-      const double t_top = (h - C[2]) / dir[2];
-      if (t_top <= t_out) return {C[0] + t_top * dir[0], C[1] + t_top * dir[1], h};
-      t = t_out;
-      if (next_x < next_y) {
-        col += step_x;
-        next_x += dt_x;
-      } else {
-        row += step_y;
-        next_y += dt_y;
-      }
-    }
-    return {C[0] + t_floor * dir[0], C[1] + t_floor * dir[1], floor};
-  }
-};
-
-// The camera's image of the scene, 2 x 2 rays per pixel, plus a little noise.
-GreyImage render(const ColumnScene& scene, const FrameCamera& camera, unsigned seed) {
-  GreyImage image;
-  image.width = camera.width;
-  image.height = camera.height;
-  image.pixels.resize(static_cast<size_t>(camera.width) * camera.height);
-  std::mt19937 random(seed);
-  std::normal_distribution<double> noise(0, 1.5);
-  for (int v = 0; v < camera.height; ++v)
-    for (int u = 0; u < camera.width; ++u) {
-      double sum = 0;
-      for (double du : {-0.25, 0.25})
-        for (double dv : {-0.25, 0.25}) sum += texture(scene.hit(camera.center, pixel_ray(camera, u + du, v + dv)));
-      image.pixels[static_cast<size_t>(v) * camera.width + u] =
-          static_cast<float>(std::clamp(std::round(sum / 4 + noise(random)), 0.0, 255.0));
-    }
-  return image;
-}
+using aerial::ColumnScene;
+using aerial::nadir_camera;
+using aerial::render;
 
 // A smooth image whose value is known anywhere: for the resampling oracle.
 GreyImage smooth_image(int w, int h) {
@@ -334,11 +215,8 @@ RenderedScene& rendered_scene() {
   static RenderedScene scene = [] {
     RenderedScene p;
     const Grid& nrw = testkit::nrw_crop();
-    const int c0 = nrw.width / 2 - 20, r0 = nrw.height / 2 - 20, n = 40;
-    p.truth = Grid(n, n, nrw.x0 + c0 * nrw.cell_x, nrw.y0 - r0 * nrw.cell_y, nrw.cell_x, nrw.cell_y);
-    p.truth.crs = nrw.crs;
-    for (int r = 0; r < n; ++r)
-      for (int c = 0; c < n; ++c) p.truth.z[p.truth.index(c, r)] = nrw.at(c0 + c, r0 + r);
+    const int n = 40;
+    p.truth = aerial::crop(nrw, nrw.width / 2 - 20, nrw.height / 2 - 20, n);
     const auto [lo, hi] = std::minmax_element(p.truth.z.begin(), p.truth.z.end());
     p.lo = *lo;
     p.hi = *hi;
@@ -351,25 +229,8 @@ RenderedScene& rendered_scene() {
   return scene;
 }
 
-// Completeness and |error| quantiles of `dsm` against `truth` (same grid).
-struct DsmErrors {
-  double completeness = 0, median = 0, over1 = 0, over3 = 0;
-};
-DsmErrors dsm_errors(const Grid& dsm, const Grid& truth) {
-  std::vector<double> errors;
-  for (int r = 0; r < truth.height; ++r)
-    for (int c = 0; c < truth.width; ++c)
-      if (dsm.valid(c, r)) errors.push_back(std::abs(dsm.at(c, r) - truth.at(c, r)));
-  DsmErrors e;
-  if (errors.empty()) return e;
-  std::sort(errors.begin(), errors.end());
-  const double count = static_cast<double>(errors.size());
-  e.completeness = count / truth.cells();
-  e.median = errors[errors.size() / 2];
-  e.over1 = (errors.end() - std::upper_bound(errors.begin(), errors.end(), 1.0)) / count;
-  e.over3 = (errors.end() - std::upper_bound(errors.begin(), errors.end(), 3.0)) / count;
-  return e;
-}
+using aerial::dsm_errors;
+using aerial::DsmErrors;
 
 }  // namespace
 
@@ -433,6 +294,44 @@ TEST(StereoPipeline, ReversedPairAndThreeViewsFusedByTheMedian) {
   EXPECT_LT(r.median, 0.3);
   EXPECT_LT(r.over3, 0.05);
   EXPECT_GT(e.completeness, 0.9);
+  EXPECT_LT(e.median, 0.3);
+  EXPECT_LT(e.over1, 0.15);
+  EXPECT_LT(e.over3, 0.05);
+}
+
+// Without a height range: estimate_height_range() finds it from the views alone (a coarse pass
+// over every depth), against the oracle of the truth's own heights, and the DSM made with the
+// estimate is as good as with the true range (the thresholds of the test above).
+TEST(StereoPipeline, HeightRangeEstimatedFromTheImagesAlone) {
+  RenderedScene& scene = rendered_scene();
+  const std::vector<GreyImage> images = scene.views(3);
+  const auto coarse = height_range_pairs(scene.cameras);
+  // Camera 2 lies 17.9 m from camera 1 and 18.5 m from camera 0, which are 24.1 m apart.
+  const std::vector<std::pair<int, int>> nearest{{1, 2}, {0, 2}};
+  EXPECT_EQ(coarse, nearest);
+  const HeightRangeEstimate estimate = estimate_height_range(scene.cameras, images, coarse);
+  std::vector<float> z = scene.truth.z;
+  std::sort(z.begin(), z.end());
+  const double p01 = z[z.size() / 100], p99 = z[z.size() * 99 / 100];
+  std::printf(
+      "estimated height range %.1f..%.1f m (quantiles %.1f..%.1f, coarse step %.2f m, %zu points, %zu pairs, "
+      "scale %d); truth %.1f..%.1f m, 1st-99th percentile %.1f..%.1f m\n",
+      estimate.min_height, estimate.max_height, estimate.low, estimate.high, estimate.coarse_step, estimate.points,
+      estimate.pairs.size(), estimate.scale, scene.lo, scene.hi, p01, p99);
+  EXPECT_LE(estimate.min_height, p01);
+  EXPECT_GE(estimate.max_height, p99);
+  EXPECT_GE(estimate.min_height, scene.lo - 15);
+  EXPECT_LE(estimate.max_height, scene.hi + 15);
+
+  FrameStereoOptions options;
+  options.rectify.min_height = estimate.min_height;
+  options.rectify.max_height = estimate.max_height;
+  Grid dsm = dsm_grid({scene.truth.x0, scene.truth.y1(), scene.truth.x1(), scene.truth.y0}, 1.0);
+  stereo_dsm(scene.cameras, images, {{0, 1}}, dsm, options);
+  const DsmErrors e = dsm_errors(dsm, scene.truth);
+  std::printf("pair 0-1, estimated range: completeness %.1f %%, median |error| %.3f m, > 1 m %.1f %%, > 3 m %.1f %%\n",
+              100 * e.completeness, e.median, 100 * e.over1, 100 * e.over3);
+  EXPECT_GT(e.completeness, 0.85);
   EXPECT_LT(e.median, 0.3);
   EXPECT_LT(e.over1, 0.15);
   EXPECT_LT(e.over3, 0.05);
@@ -552,6 +451,26 @@ TEST(StereoCli, WritesTheDsmAndItsStats) {
     }
   EXPECT_GT(compared, 0.9 * e.completeness * dsm.cells());
   EXPECT_EQ(same, compared);
+  // Without height_range (the contract: it is optional): estimated, and the DSM as good.
+  nlohmann::json no_range = nlohmann::json::parse(testkit::read_file(dir.path("cameras.json")));
+  no_range.erase("height_range");
+  write_json(no_range, dir.path("no_range.json"));
+  StereoJobOptions estimated;
+  estimated.cameras = dir.path("no_range.json");
+  estimated.output = dir.path("estimated.tif");
+  estimated.resolution = 1;
+  estimated.bounds = std::array<double, 4>{scene.truth.x0, scene.truth.y1(), scene.truth.x1(), scene.truth.y0};
+  const StereoReport report = stereo_job(estimated);
+  EXPECT_TRUE(report.height_range_estimated);
+  EXPECT_LE(report.min_height, scene.lo + 1);
+  EXPECT_GE(report.max_height, scene.hi - 3);
+  const DsmErrors en = dsm_errors(read_raster(dir.path("estimated.tif")), scene.truth);
+  std::printf("CLI, no height_range (estimated %.1f..%.1f m): completeness %.1f %%, median |error| %.3f m, > 1 m %.1f %%\n",
+              report.min_height, report.max_height, 100 * en.completeness, en.median, 100 * en.over1);
+  EXPECT_GT(en.completeness, 0.85);
+  EXPECT_LT(en.median, 0.3);
+  EXPECT_LT(en.over1, 0.15);
+  EXPECT_EQ(to_json(report)["height_range_estimated"], true);
   if (const char* keep = std::getenv("DSMPLAN_STEREO_KEEP"))  // the files, to look at by hand
     for (const char* name : {"img_0.png", "img_1.png", "cameras.json", "dsm.tif", "whole.tif", "stats.json"})
       std::filesystem::copy_file(dir.path(name), std::filesystem::path(keep) / name,

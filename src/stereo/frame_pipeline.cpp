@@ -55,9 +55,18 @@ FrameStereoStats stereo_dsm(const std::vector<FrameCamera>& cameras, const std::
     SgmOptions sgm = options.sgm;
     sgm.min_disparity = 0;
     sgm.num_disparities = pair.num_disparities;
-    if (!(matcher.options().num_disparities == sgm.num_disparities)) matcher = SgmMatcher(sgm);
-    const Disparity disparity = matcher.match(ImageView(left.data(), pair.left.width, pair.left.height),
-                                              ImageView(right.data(), pair.right.width, pair.right.height));
+    const ImageView left_view(left.data(), pair.left.width, pair.left.height),
+        right_view(right.data(), pair.right.width, pair.right.height);
+    Disparity disparity;
+    if (options.matcher) {
+      disparity = options.matcher(left_view, right_view, sgm);
+      if (disparity.width != pair.left.width || disparity.height != pair.left.height ||
+          disparity.left.size() != static_cast<std::size_t>(pair.left.width) * pair.left.height)
+        throw ArgumentError("matcher", "returned a disparity image of another size than the rectified pair's");
+    } else {
+      if (!(matcher.options().num_disparities == sgm.num_disparities)) matcher = SgmMatcher(sgm);
+      disparity = matcher.match(left_view, right_view);
+    }
     stats.seconds_match += seconds_since(start);
     for (float d : disparity.left) stats.matched_pixels += !std::isnan(d);
 

@@ -76,8 +76,9 @@ RectifiedPair rectify_pair(const FrameCamera& left, const GreyImage& left_image,
     throw ArgumentError("left image", "size differs from the camera's");
   if (right_image.width != right.width || right_image.height != right.height)
     throw ArgumentError("right image", "size differs from the camera's");
-  if (!(std::isfinite(options.min_height) && std::isfinite(options.max_height) &&
-        options.min_height <= options.max_height))
+  const bool unbounded = options.unbounded_depth_disparities > 0;
+  if (!unbounded && !(std::isfinite(options.min_height) && std::isfinite(options.max_height) &&
+                      options.min_height <= options.max_height))
     throw ArgumentError("height range", "must be finite, min <= max");
   if (!(options.max_size_factor >= 1)) throw ArgumentError("max_size_factor", "must be >= 1");
 
@@ -132,12 +133,13 @@ RectifiedPair rectify_pair(const FrameCamera& left, const GreyImage& left_image,
   clamp_span(top, bottom, f * left_axis[1] / left_axis[2]);
 
   // Depths of the scene in the rectified frame: rays through a 9 x 9 lattice of left pixels cut
-  // with the planes of the lowest and highest heights.
+  // with the planes of the lowest and highest heights (unless the search is unbounded in depth).
   double depth_min = std::numeric_limits<double>::infinity(), depth_max = 0;
   for (int i = 0; i <= 8; ++i)
     for (int j = 0; j <= 8; ++j) {
       const Vec3 ray = pixel_ray(left, i / 8.0 * (left.width - 1), j / 8.0 * (left.height - 1));
       for (double Z : {options.min_height, options.max_height}) {
+        if (unbounded) break;
         if (std::abs(ray[2]) < 1e-12) continue;
         const double t = (Z - left.center[2]) / ray[2];
         if (!(t > 0)) continue;
@@ -147,13 +149,15 @@ RectifiedPair rectify_pair(const FrameCamera& left, const GreyImage& left_image,
         depth_max = std::max(depth_max, depth);
       }
     }
-  if (!(depth_max > 0 && std::isfinite(depth_min)))
+  if (!unbounded && !(depth_max > 0 && std::isfinite(depth_min)))
     throw InputError("", "cameras", "the left camera does not look at the height range");
-  depth_min *= 0.9;
-  depth_max *= 1.1;
-  pair.shift = f * pair.baseline / depth_max;
-  const double span = f * pair.baseline / depth_min - pair.shift;
-  pair.num_disparities = (static_cast<int>(std::ceil(span)) + 1 + 15) / 16 * 16;
+  if (!unbounded) {
+    depth_min *= 0.9;
+    depth_max *= 1.1;
+    pair.shift = f * pair.baseline / depth_max;
+    const double span = f * pair.baseline / depth_min - pair.shift;
+    pair.num_disparities = (static_cast<int>(std::ceil(span)) + 1 + 15) / 16 * 16;
+  }
 
   FrameCamera rect;
   rect.fx = rect.fy = f;
@@ -166,6 +170,13 @@ RectifiedPair rectify_pair(const FrameCamera& left, const GreyImage& left_image,
   pair.left.center = left.center;
   pair.right = rect;
   pair.right.center = right.center;
+  if (unbounded) {  // every depth from f·B/D on: shift 0 (infinity), D as wide as the image allows
+    pair.shift = 0;
+    pair.num_disparities = std::min(options.unbounded_depth_disparities, rect.width - 1) / 16 * 16;
+    if (pair.num_disparities < 16)
+      throw InputError("", "cameras", "the rectified images are too narrow (" + std::to_string(rect.width) +
+                                          " px) for a search of 16 disparities");
+  }
   pair.right.cx = rect.cx + pair.shift;
   if (pair.num_disparities > options.max_disparities || pair.num_disparities >= rect.width)
     throw InputError("", "cameras",

@@ -52,6 +52,7 @@ struct JsonReader {
 
 struct CameraFile {
   std::string crs;
+  bool has_height_range = false;
   double min_height = 0, max_height = 0;
   std::vector<FrameCamera> cameras;
   std::vector<std::string> images;  // paths as resolved against the JSON's folder
@@ -72,12 +73,14 @@ CameraFile read_cameras(const std::string& path) {
   if (!root.contains("crs") || !root["crs"].is_string() || root["crs"].get<std::string>().empty())
     throw InputError(path, "crs", "missing or not a string (e.g. \"EPSG:25832\")");
   file.crs = root["crs"].get<std::string>();
-  if (!root.contains("height_range"))
-    throw InputError(path, "height_range", "missing: give the scene's lowest and highest heights, e.g. [100, 180]");
-  const std::vector<double> range = read.numbers(root["height_range"], 2, "height_range");
-  if (!(range[0] < range[1])) throw InputError(path, "height_range", "must be [lowest, highest] with lowest < highest");
-  file.min_height = range[0];
-  file.max_height = range[1];
+  if (root.contains("height_range")) {  // optional: estimated from a coarse pass when absent
+    const std::vector<double> range = read.numbers(root["height_range"], 2, "height_range");
+    if (!(range[0] < range[1]))
+      throw InputError(path, "height_range", "must be [lowest, highest] with lowest < highest");
+    file.has_height_range = true;
+    file.min_height = range[0];
+    file.max_height = range[1];
+  }
   if (!root.contains("cameras") || !root["cameras"].is_array() || root["cameras"].size() < 2)
     throw InputError(path, "cameras", "must be an array of at least two cameras");
   const std::filesystem::path folder = std::filesystem::path(path).parent_path();
@@ -193,8 +196,6 @@ StereoReport stereo_job(const StereoJobOptions& options, const Progress& progres
   const CameraFile file = read_cameras(options.cameras);
   const int n = static_cast<int>(file.cameras.size());
   out.camera_count = file.cameras.size();
-  out.min_height = file.min_height;
-  out.max_height = file.max_height;
   Crs crs;
   crs.definition = file.crs;
   try {
@@ -210,8 +211,38 @@ StereoReport stereo_job(const StereoJobOptions& options, const Progress& progres
   for (int i = 0; i < n; ++i) images_in.push_back({"camera " + std::to_string(i) + "'s image", file.images[i]});
   refuse_overwrites(images_in, {{"-o", options.output}});
 
-  // Pairs, before the images are read: a bad --pairs or cameras that see nothing in common fail fast.
-  const double ground = file.min_height;
+  // The images, each read once when first needed.
+  std::vector<GreyImage> images(file.cameras.size());
+  std::vector<bool> loaded(file.cameras.size(), false);
+  const auto need_image = [&](int i) {
+    if (!loaded[i]) images[i] = read_image(file.images[i], file.cameras[i], "camera " + std::to_string(i));
+    loaded[i] = true;
+  };
+  if (options.pairs != "auto") parse_pairs(options.pairs, n, "--pairs");  // a bad --pairs fails fast
+
+  // The scene's heights: given, or from a coarse pass over the nearest cameras' images.
+  out.min_height = file.min_height;
+  out.max_height = file.max_height;
+  out.height_range_estimated = !file.has_height_range;
+  if (!file.has_height_range) {
+    const auto coarse_pairs = height_range_pairs(file.cameras);
+    for (const auto& [a, b] : coarse_pairs) need_image(a), need_image(b);
+    const auto estimate_start = std::chrono::steady_clock::now();
+    try {
+      const HeightRangeEstimate estimate = estimate_height_range(file.cameras, images, coarse_pairs);
+      out.min_height = estimate.min_height;
+      out.max_height = estimate.max_height;
+    } catch (const InputError& error) {
+      std::string problem = error.what();  // "cameras: ..."
+      if (problem.rfind("cameras: ", 0) == 0) problem = problem.substr(9);
+      throw InputError(options.cameras, "height_range", "not given, and " + problem + "; give [lowest, highest]");
+    }
+    out.seconds_height_range = seconds_since(estimate_start);
+  }
+  report(progress, 0.03);
+
+  // Pairs, before the other images are read: cameras that see nothing in common fail fast.
+  const double ground = out.min_height;
   if (options.pairs == "auto") {
     PairSelectionOptions selection;
     selection.ground_height = ground;
@@ -228,7 +259,7 @@ StereoReport stereo_job(const StereoJobOptions& options, const Progress& progres
     // The common footprint on the lowest and the highest plane of the scene.
     std::array<double, 4> box, high;
     if (!overlap_box(file.cameras[a], file.cameras[b], ground, box) ||
-        !overlap_box(file.cameras[a], file.cameras[b], file.max_height, high))
+        !overlap_box(file.cameras[a], file.cameras[b], out.max_height, high))
       throw InputError(options.cameras, "cameras " + std::to_string(a) + " and " + std::to_string(b),
                        "see nothing in common");
     box = {std::min(box[0], high[0]), std::min(box[1], high[1]), std::max(box[2], high[2]), std::max(box[3], high[3])};
@@ -251,22 +282,18 @@ StereoReport stereo_job(const StereoJobOptions& options, const Progress& progres
   grid.crs = crs;
   require_memory(options.output, "", 12.0 * grid.cells() + geotiff_buffer_bytes());
 
-  std::vector<GreyImage> images(file.cameras.size());
-  std::vector<bool> needed(file.cameras.size(), false);
-  for (const auto& [a, b] : out.pairs) needed[a] = needed[b] = true;
+  for (const auto& [a, b] : out.pairs) need_image(a), need_image(b);
   for (int i = 0; i < n; ++i)
-    if (needed[i]) {
-      images[i] = read_image(file.images[i], file.cameras[i], "camera " + std::to_string(i));
-    } else {  // not matched: an empty stand-in of the right size keeps stereo_dsm's checks simple
+    if (!loaded[i]) {  // not matched: an empty stand-in of the right size keeps stereo_dsm's checks simple
       images[i].width = file.cameras[i].width;
       images[i].height = file.cameras[i].height;
     }
-  out.seconds_read = seconds_since(start);
+  out.seconds_read = seconds_since(start) - out.seconds_height_range;
   report(progress, 0.05);
 
   FrameStereoOptions stereo;
-  stereo.rectify.min_height = file.min_height;
-  stereo.rectify.max_height = file.max_height;
+  stereo.rectify.min_height = out.min_height;
+  stereo.rectify.max_height = out.max_height;
   const FrameStereoStats stats = [&] {
     try {
       return stereo_dsm(file.cameras, images, out.pairs, grid, stereo, sub_progress(progress, 0.05, 0.9));
@@ -298,12 +325,13 @@ Json to_json(const StereoReport& r) {
   Json pairs = Json::array();
   for (const auto& [a, b] : r.pairs) pairs.push_back({a, b});
   const double total =
-      r.seconds_read + r.seconds_rectify + r.seconds_match + r.seconds_triangulate + r.seconds_fuse + r.seconds_write;
+      r.seconds_read + r.seconds_height_range + r.seconds_rectify + r.seconds_match + r.seconds_triangulate + r.seconds_fuse + r.seconds_write;
   return {{"cameras", r.cameras},
           {"output", r.output},
           {"camera_count", r.camera_count},
           {"pairs", pairs},
           {"height_range", {r.min_height, r.max_height}},
+          {"height_range_estimated", r.height_range_estimated},
           {"bounds", {r.bounds[0], r.bounds[1], r.bounds[2], r.bounds[3]}},
           {"width", r.width},
           {"height", r.height},
@@ -314,6 +342,7 @@ Json to_json(const StereoReport& r) {
           {"dsm", to_json(r.summary)},
           {"seconds",
            {{"read", r.seconds_read},
+            {"height_range", r.seconds_height_range},
             {"rectify", r.seconds_rectify},
             {"match", r.seconds_match},
             {"triangulate", r.seconds_triangulate},

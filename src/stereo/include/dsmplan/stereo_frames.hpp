@@ -21,7 +21,8 @@
 //   rectify_pair.cpp   epipolar rectification (Fusiello, Trucco & Verri 2000) and resampling;
 //   triangulate.cpp    disparities to world points through the rectified cameras;
 //   fuse_median.cpp    ortho-projection and the median per cell;
-//   select_pairs.cpp   `auto` and explicit pairs, overlap and base-to-height ratio.
+//   select_pairs.cpp   `auto` and explicit pairs, overlap and base-to-height ratio;
+//   height_range.cpp   the scene's height range from a coarse pass, when it is not given;
 //   frame_pipeline.cpp the whole chain for a set of cameras and images (stereo_dsm()).
 //
 // Guarantees. Rectification is exact up to rounding: a world point projects into the same row of
@@ -39,6 +40,7 @@
 
 #include <array>
 #include <cstddef>
+#include <functional>
 #include <string>
 #include <utility>
 #include <vector>
@@ -96,6 +98,10 @@ struct GreyImage {
 struct RectifyOptions {
   /// World heights (Z) the scene lies between: they bound the disparity search. Required finite.
   double min_height = 0, max_height = 0;
+  /// > 0: the heights are not used; the search is disparities [0, D) with shift 0, i.e. every
+  /// depth from f·B/D to infinity, D = this rounded down to a multiple of 16 and below the
+  /// rectified width (the coarse pass of estimate_height_range(), which knows no heights yet).
+  int unbounded_depth_disparities = 0;
   /// Bound on the rectified images' sides, as a multiple of the larger original side.
   double max_size_factor = 2.0;
   int max_disparities = 512;  ///< InputError when the height range needs more
@@ -163,11 +169,61 @@ std::vector<std::pair<int, int>> select_pairs_auto(const std::vector<FrameCamera
 /// "0-1,1-2": explicit pairs. ArgumentError (`flag`) for a bad token, an index out of range or i == j.
 std::vector<std::pair<int, int>> parse_pairs(const std::string& text, int cameras, const std::string& flag = "--pairs");
 
+// ---- the scene's heights, when nobody gave them ---------------------------------------------
+
+/// Options of estimate_height_range().
+struct HeightRangeOptions {
+  /// The coarse pass's images: both images of a pair shrunk by one whole factor s (box filter)
+  /// until their longer side is at most this.
+  int coarse_side = 320;
+  int max_disparities = 256;  ///< the coarse search: disparities [0, D), all depths from f·B/D on
+  /// The heights' robust ends: these quantiles of the coarse points connected to their median
+  /// (no gap wider than a quarter of the cameras' height over it, or 10 coarse steps)...
+  double low_quantile = 0.002, high_quantile = 0.998;
+  /// ... widened on each side by this share of their difference plus `coarse_steps` times the
+  /// height of one coarse disparity step at the pair's median depth (the coarse pass's precision).
+  double margin_share = 0.1;
+  double coarse_steps = 2.0;
+};
+
+/// What estimate_height_range() found.
+struct HeightRangeEstimate {
+  double min_height = 0, max_height = 0;  ///< the range to use (margins included)
+  double low = 0, high = 0;               ///< the quantiles of the coarse points (no margin)
+  double coarse_step = 0;                 ///< largest height of one coarse disparity step, world units
+  std::vector<std::pair<int, int>> pairs;  ///< the pairs that gave points
+  std::size_t points = 0;                 ///< coarse points connected to the median (used)
+  int scale = 1;                          ///< largest shrink factor used
+};
+
+/// The pairs the coarse pass matches: for every camera its nearest other camera (centre
+/// distance), each pair once, nearest first, at most `max_pairs` of them.
+std::vector<std::pair<int, int>> height_range_pairs(const std::vector<FrameCamera>& cameras, int max_pairs = 8);
+
+/// The scene's height range from the images alone (no height known beforehand): each pair is
+/// shrunk (HeightRangeOptions::coarse_side), rectified with a search over every depth from
+/// f·B/D to infinity (RectifyOptions::unbounded_depth_disparities), matched by SGM with its
+/// left-right check, and triangulated; the heights connected to their median without a wide gap
+/// (HeightRangeOptions) are the scene, their low and high quantiles, widened by the margins, the
+/// range. images[i] must be set for the cameras of `pairs`.
+/// A pair that cannot be rectified or gives no point is skipped; InputError ("cameras: ...")
+/// when no pair gives at least 100 points. Time: one SGM of the shrunk images per pair.
+HeightRangeEstimate estimate_height_range(const std::vector<FrameCamera>& cameras,
+                                          const std::vector<GreyImage>& images,
+                                          const std::vector<std::pair<int, int>>& pairs,
+                                          const HeightRangeOptions& options = {});
+
 // ---- the whole chain ------------------------------------------------------------------------
+
+/// A dense matcher in place of dsmplan's SGM (for comparisons, e.g. OpenCV's StereoSGBM in
+/// bench_stereo): the rectified pair (16-bit, from to_uint16()) and the options with the pair's
+/// disparity range in, disparities in stereo.hpp's convention out (left image's, NaN = invalid).
+using DenseMatcher = std::function<Disparity(const ImageView& left, const ImageView& right, const SgmOptions& options)>;
 
 struct FrameStereoOptions {
   RectifyOptions rectify;  ///< min_height, max_height: the scene's heights
   SgmOptions sgm;          ///< num_disparities and min_disparity are set per pair
+  DenseMatcher matcher;    ///< empty: dsmplan's SGM (SgmMatcher, its buffer kept between pairs)
 };
 
 struct FrameStereoStats {

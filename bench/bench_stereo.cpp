@@ -1,0 +1,35 @@
+// bench_stereo: DSMs from images by dsmplan's stereo pipelines against the DSM they must give,
+// with dsmplan's SGM and with OpenCV's StereoSGBM in the same pipeline (issue 16 point 3(b)).
+// Each section is a function in its own file (bench_stereo.hpp, stereo_satellite.hpp). 2 threads.
+// Usage: bench_stereo [ROUNDS] [frames|satellite] (timed, interleaved rounds per set-up, default
+// 3; both sections unless one is named).
+#include <tbb/global_control.h>
+
+#include <algorithm>
+#include <cstdio>
+#include <cstdlib>
+#include <string>
+
+#ifdef DSMPLAN_HAVE_OPENCV
+#include <opencv2/core.hpp>
+#endif
+
+#include "bench_kit.hpp"
+#include "bench_stereo.hpp"
+#include "stereo_satellite.hpp"
+
+int main(int argc, char** argv) {
+  std::setvbuf(stdout, nullptr, _IOLBF, 0);  // progress shows when piped to a file
+  const int rounds = argc > 1 ? std::max(1, std::atoi(argv[1])) : 3;
+  const std::string only = argc > 2 ? argv[2] : "";
+  constexpr int threads = 2;
+  tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
+#ifdef DSMPLAN_HAVE_OPENCV
+  cv::setNumThreads(threads);
+#endif
+  std::printf("bench_stereo: %d threads, %s, load (1 min) %s\n", threads, bench::cpu_model().c_str(),
+              bench::load_average().c_str());
+  if (only != "satellite") bench::frame_camera_table(rounds);
+  if (only != "frames") return run_satellite_stereo_bench(rounds);
+  return 0;
+}
