@@ -11,17 +11,17 @@
 #include <string>
 #include <vector>
 
-#include "dsmplan/picture_job.hpp"
 #include "dsmplan/export.hpp"
 #include "dsmplan/mission.hpp"
-#include "dsmplan/picture.hpp"
-#include "dsmplan/wgs84.hpp"
 #include "dsmplan/mpi_farm.hpp"
+#include "dsmplan/picture.hpp"
+#include "dsmplan/picture_job.hpp"
 #include "dsmplan/plan_job.hpp"
 #include "dsmplan/satellite_stereo_job.hpp"
 #include "dsmplan/stereo_job.hpp"
 #include "dsmplan/tools.hpp"
 #include "dsmplan/view.hpp"
+#include "dsmplan/wgs84.hpp"
 #include "usage.hpp"
 
 using namespace dsmplan;
@@ -48,12 +48,14 @@ void write_stats(const std::string& stats, const Json& report, const std::vector
 
 // --3dtiles and the heights it needs, on `dsmplan mesh` and `simplify`.
 void add_tileset_options(CLI::App* command, bool& tileset, VerticalOptions& vertical) {
-  command->add_flag("--3dtiles", tileset,
-                    "With a .glb: write a 3D Tiles 1.1 tileset.json beside it that places the mesh on the globe (Cesium)");
+  command->add_flag(
+      "--3dtiles", tileset,
+      "With a .glb: write a 3D Tiles 1.1 tileset.json beside it that places the mesh on the globe (Cesium)");
   command->add_option("--vertical-crs", vertical.vertical_crs,
                       "With --3dtiles: vertical CRS of the heights when the DSM does not say (e.g. EPSG:7837)");
-  command->add_flag("--allow-approximate-vertical", vertical.allow_approximate_vertical,
-                    "With --3dtiles: heights of an unknown or grid-less vertical datum taken as EGM96 heights (about 1 m off)");
+  command->add_flag(
+      "--allow-approximate-vertical", vertical.allow_approximate_vertical,
+      "With --3dtiles: heights of an unknown or grid-less vertical datum taken as EGM96 heights (about 1 m off)");
 }
 
 // One line on stderr, on a line of its own; returns the exit code.
@@ -136,15 +138,17 @@ int main(int argc, char** argv) {
       app.add_subcommand("grid", "Grid point clouds (LAS, XYZ) into a GeoTIFF DSM, median height per cell");
   grid_cmd->add_option("POINTS", grid.inputs, "LAS or LAZ 1.0-1.4, or XYZ text files")->required();
   grid_cmd->add_option("-o,--output", grid.output, "Output GeoTIFF")->required();
-  grid_cmd->add_option("--res", grid.grid.resolution, "Cell size (CRS units: m for a projected CRS in metres)")->required();
+  grid_cmd->add_option("--res", grid.grid.resolution, "Cell size (CRS units: m for a projected CRS in metres)")
+      ->required();
   grid_cmd->add_option("--fusion", fusion, "Height per cell: median or max")->capture_default_str();
   grid_cmd->add_option("--drop-classes", drop_classes, "ASPRS classes to drop (default 7 18: noise)")->delimiter(',');
   grid_cmd->add_flag("--keep-all-classes", keep_all_classes, "Keep every class, noise included");
   grid_cmd->add_option("--classes", grid.grid.keep_classes, "Keep only these ASPRS classes (e.g. 2: ground, a DTM)")
       ->delimiter(',');
   grid_cmd->add_option("--crs", grid.crs, kCrsHelp);
-  grid_cmd->add_option("--fill-holes", grid.fill_distance,
-                       "Fill holes up to this distance (CRS units, m) from data, by GDAL's inverse-distance FillNodata");
+  grid_cmd->add_option(
+      "--fill-holes", grid.fill_distance,
+      "Fill holes up to this distance (CRS units, m) from data, by GDAL's inverse-distance FillNodata");
   grid_cmd->add_flag("-q,--quiet", quiet, "No progress output");
   bool grid_json = false;
   std::string grid_of;
@@ -161,11 +165,13 @@ int main(int argc, char** argv) {
   stereo_cmd->add_option("images", satellite.images,
                          "Satellite images with RPC cameras (TIFF tags, _RPC.TXT, .RPB or an OSSIM .geom beside "
                          "them), two or more: every overlapping pair is matched");
-  stereo_cmd->add_option("--cameras", stereo.cameras, "CAMERAS.json: CRS, cameras and images, optionally the height range (README)");
+  stereo_cmd->add_option("--cameras", stereo.cameras,
+                         "CAMERAS.json: CRS, cameras and images, optionally the height range (README)");
   stereo_cmd->add_option("--crs", satellite.crs,
                          "With satellite images: output CRS (default: WGS 84 / UTM of the scene; heights above the "
                          "WGS 84 ellipsoid)");
-  stereo_cmd->add_option("-o,--output", stereo.output, "Output GeoTIFF (Float32, nodata where nothing matched)")->required();
+  stereo_cmd->add_option("-o,--output", stereo.output, "Output GeoTIFF (Float32, nodata where nothing matched)")
+      ->required();
   stereo_cmd->add_option("--res", stereo.resolution, "Cell size (CRS units: m)")->required();
   stereo_cmd->add_option("--pairs", stereo.pairs, "auto (overlap and base-to-height ratio) or pairs like 0-1,1-2")
       ->capture_default_str();
@@ -183,11 +189,11 @@ int main(int argc, char** argv) {
       ->required();
   std::string mesh_of;
   mesh_cmd->add_option("--of", mesh_of, "Output format, overriding the extension: ply, obj, off or glb");
-  CLI::Option* mesh_res =
-      mesh_cmd->add_option("--res", mesh_resolution, "Resample to this x/y resolution (m) first");
+  CLI::Option* mesh_res = mesh_cmd->add_option("--res", mesh_resolution, "Resample to this x/y resolution (m) first");
   mesh_cmd->add_option("--resampling", resampling, "median, max (conservative), mean, min or nearest")
       ->capture_default_str();
-  mesh_cmd->add_option("--zstep", mesh.mesh.zstep, "Vertical resolution (m): heights are rounded to multiples (0: keep)")
+  mesh_cmd
+      ->add_option("--zstep", mesh.mesh.zstep, "Vertical resolution (m): heights are rounded to multiples (0: keep)")
       ->capture_default_str();
   mesh_cmd
       ->add_option("--max-edge", mesh.mesh.max_edge_length,
@@ -228,8 +234,9 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   simplify_cmd->add_option("--tile-size", simplify.bounded.tile_size, "Bounded mode: cells a tile side (0: 64)")
       ->capture_default_str();
-  simplify_cmd->add_option("--block-tiles", simplify.bounded.block_tiles,
-                           "Bounded mode: tiles a block side, the unit read and farmed out (0: 16)")
+  simplify_cmd
+      ->add_option("--block-tiles", simplify.bounded.block_tiles,
+                   "Bounded mode: tiles a block side, the unit read and farmed out (0: 16)")
       ->capture_default_str();
   simplify_cmd->add_option("--dsm", simplify.dsm, "With a mesh input: the DSM it was made from (for the error)");
   CLI::Option* simplify_res =
@@ -296,36 +303,46 @@ int main(int argc, char** argv) {
 
   PlanJobOptions plan;
   std::string plan_stats;
-  CLI::App* plan_cmd = app.add_subcommand(
-      "plan", "Plan a collision-free path through waypoints over an obstacle mesh (Halton PRM or RRT-Connect, shortcuts, spline)");
-  plan_cmd->add_option("MESH", plan.mesh,
-                       "Obstacle mesh (.ply, .obj, .off) in a projected CRS, or a DSM (raster, VRT mosaic of a city): "
-                       "planned along a corridor, window by window")
+  CLI::App* plan_cmd = app.add_subcommand("plan",
+                                          "Plan a collision-free path through waypoints over an obstacle mesh (Halton "
+                                          "PRM or RRT-Connect, shortcuts, spline)");
+  plan_cmd
+      ->add_option("MESH", plan.mesh,
+                   "Obstacle mesh (.ply, .obj, .off) in a projected CRS, or a DSM (raster, VRT mosaic of a city): "
+                   "planned along a corridor, window by window")
       ->required();
   plan_cmd->add_option("--corridor-chunk", plan.corridor.chunk, "DSM input: longest piece of a leg in one window (m)")
       ->capture_default_str();
   plan_cmd->add_option("--corridor-margin", plan.corridor.margin, "DSM input: flight area around a piece's box (m)")
       ->capture_default_str();
-  plan_cmd->add_option("--max-error", plan.corridor.mesh.max_error,
-                       "DSM input: the windows' conservative bounded meshes' error bound (m)")
+  plan_cmd
+      ->add_option("--max-error", plan.corridor.mesh.max_error,
+                   "DSM input: the windows' conservative bounded meshes' error bound (m)")
       ->capture_default_str();
   plan_cmd
       ->add_option("--waypoints", plan.waypoints,
                    "Waypoints: .csv (x,y,z in the mesh's CRS) or .geojson (WGS 84 lon, lat, ellipsoidal height)")
       ->required();
-  plan_cmd->add_option("-o,--output", plan.output, "Path: .csv (x,y,z in the mesh's CRS), .geojson (WGS 84, ellipsoidal heights), or with heights "
-                       "above mean sea level: .plan (QGroundControl), .waypoints (QGC WPL 110), .kmz (DJI WPML), .kml")
+  plan_cmd
+      ->add_option("-o,--output", plan.output,
+                   "Path: .csv (x,y,z in the mesh's CRS), .geojson (WGS 84, ellipsoidal heights), or with heights "
+                   "above mean sea level: .plan (QGroundControl), .waypoints (QGC WPL 110), .kmz (DJI WPML), .kml")
       ->required();
-  plan_cmd->add_option("--safety", plan.plan.safety, "Least distance to the mesh, and with --dsm to the DSM's cells (m)")->capture_default_str();
+  plan_cmd
+      ->add_option("--safety", plan.plan.safety, "Least distance to the mesh, and with --dsm to the DSM's cells (m)")
+      ->capture_default_str();
   plan_cmd->add_option("--spacing", plan.plan.spacing, "Sample distance (m): samples = volume / spacing^3")
       ->capture_default_str();
   plan_cmd->add_option("--max-edge", plan.plan.max_edge, "Longest roadmap edge (m)")->capture_default_str();
-  plan_cmd->add_option("--max-agl", plan.plan.max_agl,
-                       "Ceiling, metres above the ground (the DTM, else the DSM's cells, else the mesh) for every point of the path")
+  plan_cmd
+      ->add_option(
+          "--max-agl", plan.plan.max_agl,
+          "Ceiling, metres above the ground (the DTM, else the DSM's cells, else the mesh) for every point of the path")
       ->capture_default_str();
-  plan_cmd->add_option("--refine-rounds", plan.plan.refine_rounds,
-                       "Where the roadmap fails a leg: a lattice search, then at most this many rounds of denser "
-                       "samples (0: neither)")
+  plan_cmd
+      ->add_option("--refine-rounds", plan.plan.refine_rounds,
+                   "Where the roadmap fails a leg: a lattice search, then at most this many rounds of denser "
+                   "samples (0: neither)")
       ->capture_default_str();
   plan_cmd->add_option("--threads", plan.plan.threads, "Threads (0: every core)")->capture_default_str();
   std::string planner = "prm";
@@ -335,35 +352,43 @@ int main(int argc, char** argv) {
   int64_t seed = 1;  // signed: CLI11 would wrap -3 round to 2^64 - 3 as an unsigned
   plan_cmd->add_option("--seed", seed, "Random seed of rrtconnect (>= 0): the same seed, the same path")
       ->capture_default_str();
-  plan_cmd->add_option("--of", plan.format, "Path format, overriding the extension: csv, geojson, plan, waypoints, kmz, kml");
+  plan_cmd->add_option("--of", plan.format,
+                       "Path format, overriding the extension: csv, geojson, plan, waypoints, kmz, kml");
   bool plan_json = false;
   plan_cmd->add_flag("--json", plan_json, "Print the statistics as JSON instead of the summary line");
   plan_cmd->add_option("--roadmap", plan.roadmap,
                        "Roadmap file: reused when it exists (same mesh and options), else built and saved");
   plan_cmd->add_option("--dsm", plan.dsm,
                        "Raw DSM: the path keeps --safety from its cells as solid columns (holes as high as their rim)");
-  plan_cmd->add_option("--dtm", plan.dtm, "Terrain raster (the mesh's CRS, any resolution): the ground --max-agl counts from");
+  plan_cmd->add_option("--dtm", plan.dtm,
+                       "Terrain raster (the mesh's CRS, any resolution): the ground --max-agl counts from");
   plan_cmd->add_option("--vertical-crs", plan.vertical.vertical_crs,
                        "Vertical CRS of the mesh's heights when the file does not say (e.g. EPSG:7837; EPSG:4979: "
                        "WGS 84 ellipsoidal heights, as satellite DSMs)");
-  plan_cmd->add_flag("--allow-approximate-vertical", plan.vertical.allow_approximate_vertical,
-                     "Heights of an unknown or grid-less vertical datum taken as EGM96 heights (about 1 m off) for WGS 84 output");
+  plan_cmd->add_flag(
+      "--allow-approximate-vertical", plan.vertical.allow_approximate_vertical,
+      "Heights of an unknown or grid-less vertical datum taken as EGM96 heights (about 1 m off) for WGS 84 output");
   plan_cmd->add_option("--stats", plan_stats, "Write statistics as JSON to this file");
   plan_cmd->add_flag("-q,--quiet", quiet, "No progress output");
   std::string home, end, altitude_frame = "relative", firmware = "generic";
   plan_cmd->add_option("--home", home,
                        "Missions: where the drone takes off, x,y in the mesh's CRS (m) or lon,lat (degrees); "
                        "default: the ground under the first waypoint");
-  plan_cmd->add_option("--end", end, "Missions: rtl (a planned leg back above home, then return to launch), land "
-                                     "(at the last waypoint) or none; default rtl");
-  plan_cmd->add_option("--altitude-frame", altitude_frame, "Missions: relative (m above home) or amsl (m above mean sea level)")
+  plan_cmd->add_option("--end", end,
+                       "Missions: rtl (a planned leg back above home, then return to launch), land "
+                       "(at the last waypoint) or none; default rtl");
+  plan_cmd
+      ->add_option("--altitude-frame", altitude_frame,
+                   "Missions: relative (m above home) or amsl (m above mean sea level)")
       ->capture_default_str();
   plan_cmd->add_option("--firmware", firmware, "Missions: px4, ardupilot or generic")->capture_default_str();
   plan_cmd->add_option("--speed", plan.mission.format.speed, "Missions: speed along the route (m/s, (0, 100])")
       ->capture_default_str();
-  plan_cmd->add_flag("--extrude", plan.mission.format.extrude, "KML: a wall from the path and the waypoints down to the ground");
+  plan_cmd->add_flag("--extrude", plan.mission.format.extrude,
+                     "KML: a wall from the path and the waypoints down to the ground");
   double hover_speed = NAN;
-  plan_cmd->add_option("--hover-speed", hover_speed, "Missions: the .plan's hoverSpeed (m/s, (0, 100]); default --speed");
+  plan_cmd->add_option("--hover-speed", hover_speed,
+                       "Missions: the .plan's hoverSpeed (m/s, (0, 100]); default --speed");
 
   ViewOptions view;
   CLI::App* view_cmd = app.add_subcommand(
@@ -418,20 +443,24 @@ int main(int argc, char** argv) {
           const Window w = parse_window(stereo_bounds);
           stereo.bounds = std::array<double, 4>{w.xmin, w.ymin, w.xmax, w.ymax};
         } catch (const ArgumentError&) {
-          throw ArgumentError("--bounds", "expected four numbers x0,y0,x1,y1, got '" + stereo_bounds.substr(0, 80) + "'");
+          throw ArgumentError("--bounds",
+                              "expected four numbers x0,y0,x1,y1, got '" + stereo_bounds.substr(0, 80) + "'");
         }
       }
       if (stereo.cameras.empty() == satellite.images.empty())
-        throw ArgumentError("--cameras", "give either satellite images with RPCs (dsmplan stereo IMG1 IMG2 ...) or "
-                                         "--cameras CAMERAS.json for frame cameras, not both");
+        throw ArgumentError("--cameras",
+                            "give either satellite images with RPCs (dsmplan stereo IMG1 IMG2 ...) or "
+                            "--cameras CAMERAS.json for frame cameras, not both");
       if (!stereo.cameras.empty()) {
-        if (!satellite.crs.empty()) throw ArgumentError("--crs", "belongs to satellite images; CAMERAS.json states its CRS");
+        if (!satellite.crs.empty())
+          throw ArgumentError("--crs", "belongs to satellite images; CAMERAS.json states its CRS");
         refuse_overwrites({{"--cameras", stereo.cameras}}, {{"-o", stereo.output}, {"--stats", stereo_stats}});
         if (!stereo_stats.empty()) check_writable(stereo_stats);
         const StereoReport report = stereo_job(stereo, terminal_progress(quiet));
         write_stats(stereo_stats, to_json(report), {stereo.output});
       } else {
-        if (stereo.pairs != "auto") throw ArgumentError("--pairs", "belongs to --cameras; satellite images are paired by overlap");
+        if (stereo.pairs != "auto")
+          throw ArgumentError("--pairs", "belongs to --cameras; satellite images are paired by overlap");
         satellite.output = stereo.output;
         satellite.resolution = stereo.resolution;
         satellite.bounds = stereo.bounds;
@@ -488,7 +517,8 @@ int main(int argc, char** argv) {
       if (render_res->count()) render.resolution = render_resolution;
       if (!window.empty()) render.render.window = parse_window(window);
       render.render.edges = !no_edges;
-      std::vector<NamedFile> inputs{{"DSM", render.dsm}, {"--waypoints", render.waypoints}, {"--roadmap", render.roadmap}};
+      std::vector<NamedFile> inputs{
+          {"DSM", render.dsm}, {"--waypoints", render.waypoints}, {"--roadmap", render.roadmap}};
       for (const std::string& m : render.meshes) inputs.push_back({"--mesh", m});
       for (const std::string& p : render.paths) inputs.push_back({"--path", p});
       cli::check_single_format(render_of, {"png"});
@@ -497,8 +527,9 @@ int main(int argc, char** argv) {
       if (render_json) std::fputs((to_json(report).dump(2) + "\n").c_str(), stdout);
     }
     if (*profile_cmd) {
-      refuse_overwrites({{"DSM", profile.dsm}, {"--path", profile.path}, {"--dtm", profile.dtm}, {"--waypoints", profile.waypoints}},
-                        {{"-o", profile.output}});
+      refuse_overwrites(
+          {{"DSM", profile.dsm}, {"--path", profile.path}, {"--dtm", profile.dtm}, {"--waypoints", profile.waypoints}},
+          {{"-o", profile.output}});
       cli::check_single_format(profile_of, {"png"});
       const ProfileReport report = profile_job(profile, terminal_progress(quiet));
       if (profile_json)
@@ -513,15 +544,19 @@ int main(int argc, char** argv) {
       if (seed < 0) throw ArgumentError("--seed", "must be >= 0, got " + std::to_string(seed));
       plan.plan.seed = static_cast<uint64_t>(seed);
       plan.mission.home = parse_home(home);
-      if (!end.empty()) plan.mission.end = parse_choice<MissionEnd>("--end", end, {{"rtl", MissionEnd::rtl}, {"land", MissionEnd::land}, {"none", MissionEnd::none}});
+      if (!end.empty())
+        plan.mission.end = parse_choice<MissionEnd>(
+            "--end", end, {{"rtl", MissionEnd::rtl}, {"land", MissionEnd::land}, {"none", MissionEnd::none}});
       plan.mission.format.altitude_frame = parse_choice<AltitudeFrame>(
           "--altitude-frame", altitude_frame, {{"relative", AltitudeFrame::relative}, {"amsl", AltitudeFrame::amsl}});
       plan.mission.format.firmware = parse_choice<Firmware>(
-          "--firmware", firmware, {{"px4", Firmware::px4}, {"ardupilot", Firmware::ardupilot}, {"generic", Firmware::generic}});
+          "--firmware", firmware,
+          {{"px4", Firmware::px4}, {"ardupilot", Firmware::ardupilot}, {"generic", Firmware::generic}});
       plan.mission.format.hover_speed = std::isnan(hover_speed) ? plan.mission.format.speed : hover_speed;
       // The roadmap file is read when it exists and written when not: it may be neither of the others.
-      refuse_overwrites({{"MESH", plan.mesh}, {"--waypoints", plan.waypoints}, {"--dsm", plan.dsm}, {"--dtm", plan.dtm}},
-                        {{"-o", plan.output}, {"--stats", plan_stats}, {"--roadmap", plan.roadmap}});
+      refuse_overwrites(
+          {{"MESH", plan.mesh}, {"--waypoints", plan.waypoints}, {"--dsm", plan.dsm}, {"--dtm", plan.dtm}},
+          {{"-o", plan.output}, {"--stats", plan_stats}, {"--roadmap", plan.roadmap}});
       if (!plan_stats.empty()) check_writable(plan_stats);
       const PlanReport report = plan_job(plan, terminal_progress(quiet));
       write_stats(plan_stats, to_json(report), {plan.output});

@@ -36,7 +36,8 @@ void write_png(const GreyImage& image, const std::string& path) {
   GDALDriver* png = GetGDALDriverManager()->GetDriverByName("PNG");
   std::unique_ptr<GDALDataset> data(mem->Create("", image.width, image.height, 1, GDT_Byte, nullptr));
   std::vector<std::uint8_t> bytes(image.pixels.size());
-  for (size_t i = 0; i < bytes.size(); ++i) bytes[i] = static_cast<std::uint8_t>(std::clamp(image.pixels[i], 0.0f, 255.0f));
+  for (size_t i = 0; i < bytes.size(); ++i)
+    bytes[i] = static_cast<std::uint8_t>(std::clamp(image.pixels[i], 0.0f, 255.0f));
   if (data->GetRasterBand(1)->RasterIO(GF_Write, 0, 0, image.width, image.height, bytes.data(), image.width,
                                        image.height, GDT_Byte, 0, 0) != CE_None)
     throw std::runtime_error(path + ": cannot be written");
@@ -65,10 +66,10 @@ int render(const std::string& dir) {
   const int size = 400;
   const double f = 400;  // 0.3 m a pixel at 120 m
   using aerial::nadir_camera;
-  const std::vector<FrameCamera> cameras{
-      nadir_camera(size, f, {xc - 15, yc - 12, zc}), nadir_camera(size, f, {xc + 15, yc - 12, zc + 1}),
-      nadir_camera(size, f, {xc - 15, yc + 12, zc}, 0.03, -0.02, -0.05, 0.0005),
-      nadir_camera(size, f, {xc + 15, yc + 12, zc - 1})};
+  const std::vector<FrameCamera> cameras{nadir_camera(size, f, {xc - 15, yc - 12, zc}),
+                                         nadir_camera(size, f, {xc + 15, yc - 12, zc + 1}),
+                                         nadir_camera(size, f, {xc - 15, yc + 12, zc}, 0.03, -0.02, -0.05, 0.0005),
+                                         nadir_camera(size, f, {xc + 15, yc + 12, zc - 1})};
   nlohmann::json json{{"crs", "EPSG:25832"}, {"cameras", nlohmann::json::array()}};
   for (std::size_t i = 0; i < cameras.size(); ++i) {
     const std::string name = "img_" + std::to_string(i) + ".png";
@@ -79,7 +80,8 @@ int render(const std::string& dir) {
   dsmplan::write_geotiff(truth, dir + "/truth.tif");
   const float thi = *std::max_element(truth.z.begin(), truth.z.end());
   std::ofstream waypoints(dir + "/waypoints.csv");
-  waypoints << std::fixed << std::setprecision(2) << "# three points 10 m over the highest cell of truth.tif: x,y in EPSG:25832, z in m\nx,y,z\n";
+  waypoints << std::fixed << std::setprecision(2)
+            << "# three points 10 m over the highest cell of truth.tif: x,y in EPSG:25832, z in m\nx,y,z\n";
   for (const auto& [dx, dy] : {std::pair{8.0, 8.0}, std::pair{30.0, 50.0}, std::pair{52.0, 10.0}})
     waypoints << truth.x0 + dx << "," << truth.y0 - dy << "," << thi + 10 << "\n";
   std::ofstream(dir + "/bounds.txt") << std::fixed << truth.x0 << "," << truth.y1() << "," << truth.x1() << ","
@@ -92,8 +94,10 @@ int render(const std::string& dir) {
 int score(const std::string& dsm_path, const std::string& truth_path) {
   const Grid dsm = dsmplan::read_raster(dsm_path), truth = dsmplan::read_raster(truth_path);
   const aerial::DsmErrors e = aerial::dsm_errors(dsm, truth);
-  std::printf("%s against the rendered truth (%d x %d cells): filled %.1f %%, median |error| %.2f m, > 1 m %.1f %%, > 3 m %.1f %%\n",
-              dsm_path.c_str(), truth.width, truth.height, 100 * e.completeness, e.median, 100 * e.over1, 100 * e.over3);
+  std::printf(
+      "%s against the rendered truth (%d x %d cells): filled %.1f %%, median |error| %.2f m, > 1 m %.1f %%, > 3 m %.1f "
+      "%%\n",
+      dsm_path.c_str(), truth.width, truth.height, 100 * e.completeness, e.median, 100 * e.over1, 100 * e.over3);
   return 0;
 }
 

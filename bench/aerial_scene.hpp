@@ -159,8 +159,8 @@ inline GreyImage render(const ColumnScene& scene, const FrameCamera& camera, uns
         for (double du : {-0.25, 0.25})
           for (double dv : {-0.25, 0.25})
             sum += texture(scene.hit(camera.center, dsmplan::pixel_ray(camera, u + du, v + dv)));
-        image.pixels[static_cast<size_t>(v) * camera.width + u] = static_cast<float>(
-            std::clamp(std::round(sum / 4 + noise * hashed_gauss(seed, u, v)), 0.0, 255.0));
+        image.pixels[static_cast<size_t>(v) * camera.width + u] =
+            static_cast<float>(std::clamp(std::round(sum / 4 + noise * hashed_gauss(seed, u, v)), 0.0, 255.0));
       }
   });
   return image;
@@ -168,8 +168,8 @@ inline GreyImage render(const ColumnScene& scene, const FrameCamera& camera, uns
 
 /// Completeness and |error| quantiles of a DSM against the truth.
 struct DsmErrors {
-  double completeness = 0;  ///< share of the truth's cells the DSM has a height for
-  double median = 0;        ///< median |DSM - truth| over those cells
+  double completeness = 0;      ///< share of the truth's cells the DSM has a height for
+  double median = 0;            ///< median |DSM - truth| over those cells
   double over1 = 0, over3 = 0;  ///< share of those cells off by more than 1 m, 3 m
 };
 

@@ -18,9 +18,9 @@
 #include <vector>
 
 #include "bench_kit.hpp"
-#include "gdal_rpc_oracle.hpp"
 #include "dsmplan/rpc.hpp"
 #include "dsmplan/rpc_io.hpp"
+#include "gdal_rpc_oracle.hpp"
 
 namespace {
 
@@ -31,7 +31,8 @@ using dsmplan::PixelPoint;
 
 int main(int argc, char** argv) {
   const int rounds = argc > 1 ? std::max(1, std::atoi(argv[1])) : 7;
-  const dsmplan::RpcCamera cam = dsmplan::read_rpc_camera(DSMPLAN_DATA_DIR "/pleiades-kahramanmaras/pre_event_img1.tif");
+  const dsmplan::RpcCamera cam =
+      dsmplan::read_rpc_camera(DSMPLAN_DATA_DIR "/pleiades-kahramanmaras/pre_event_img1.tif");
   // GDAL's transformer knows only the scene: give it the scene's positions (crop offset added).
   const dsmplan::RpcCamera scene(cam.model());
   void* gdal = gdal_rpc_transformer(cam.model());
@@ -64,21 +65,24 @@ int main(int argc, char** argv) {
     t_project_gdal.push_back(bench::seconds_since(start));
     for (size_t k = 0; k < n; ++k) {
       const PixelPoint p = cam.project(ground[k]);
-      worst_project = std::max(worst_project, std::hypot(p.col - (x[k] - cam.sensor_col()), p.row - (y[k] - cam.sensor_row())));
+      worst_project =
+          std::max(worst_project, std::hypot(p.col - (x[k] - cam.sensor_col()), p.row - (y[k] - cam.sensor_row())));
     }
 
     start = std::chrono::steady_clock::now();
     for (size_t k = 0; k < n; ++k) sink += cam.localize(pixels[k], heights[k]).lon;
     t_localize.push_back(bench::seconds_since(start));
 
-    for (size_t k = 0; k < n; ++k) x[k] = pixels[k].col + cam.sensor_col(), y[k] = pixels[k].row + cam.sensor_row(), z[k] = heights[k];
+    for (size_t k = 0; k < n; ++k)
+      x[k] = pixels[k].col + cam.sensor_col(), y[k] = pixels[k].row + cam.sensor_row(), z[k] = heights[k];
     start = std::chrono::steady_clock::now();
     GDALRPCTransform(gdal, FALSE, static_cast<int>(n), x.data(), y.data(), z.data(), ok.data());
     t_localize_gdal.push_back(bench::seconds_since(start));
     for (size_t k = 0; k < n; ++k) {
       if (!ok[k]) continue;
       const double R = 6378137.0, rad = M_PI / 180;
-      const double dx = (x[k] - ground[k].lon) * rad * R * std::cos(ground[k].lat * rad), dy = (y[k] - ground[k].lat) * rad * R;
+      const double dx = (x[k] - ground[k].lon) * rad * R * std::cos(ground[k].lat * rad),
+                   dy = (y[k] - ground[k].lat) * rad * R;
       worst_localize = std::max(worst_localize, std::hypot(dx, dy));
     }
     std::printf("round %d: load %s\n", r + 1, bench::load_average().c_str());
@@ -88,8 +92,8 @@ int main(int argc, char** argv) {
   auto row = [&](const char* what, std::vector<double> t) {
     std::sort(t.begin(), t.end());
     const double med = t[t.size() / 2];
-    std::printf("| %-28s | %12.0f | %10.3f (%.3f-%.3f) |\n", what, static_cast<double>(n) / med, med * 1e3, t.front() * 1e3,
-                t.back() * 1e3);
+    std::printf("| %-28s | %12.0f | %10.3f (%.3f-%.3f) |\n", what, static_cast<double>(n) / med, med * 1e3,
+                t.front() * 1e3, t.back() * 1e3);
   };
   std::printf("\n%zu points (100 x 100 pixels of pre_event_img1 at 300, 600, 900 m), %d rounds, one core, %s\n\n", n,
               rounds, bench::cpu_model().c_str());

@@ -81,9 +81,10 @@ void frame_camera_table(int rounds) {
       {"2 views, lens distortion k1 -0.12", {Ad, Bd}, {7, 8}},
       {"2 views, noise sigma 6 grey levels", {A, B}, {9, 10}, 6.0},
   };
-  std::printf("\nFrame cameras: NRW DSM %d m x %d m (heights %.1f..%.1f m) rendered from %.0f m over its lowest cell, "
-              "%d x %d px, %.2f m a pixel; DSM 1 m over the central %d m x %d m\n",
-              n, n, lo, hi, zc - lo, size, size, (zc - lo) / f, m, m);
+  std::printf(
+      "\nFrame cameras: NRW DSM %d m x %d m (heights %.1f..%.1f m) rendered from %.0f m over its lowest cell, "
+      "%d x %d px, %.2f m a pixel; DSM 1 m over the central %d m x %d m\n",
+      n, n, lo, hi, zc - lo, size, size, (zc - lo) / f, m, m);
 
   std::vector<Matcher> matchers{{"dsmplan SGM", {}}};
 #ifdef DSMPLAN_HAVE_OPENCV
@@ -104,7 +105,8 @@ void frame_camera_table(int rounds) {
   for (const SetUp& s : setups) {
     const auto render_start = std::chrono::steady_clock::now();
     std::vector<GreyImage> images;
-    for (std::size_t i = 0; i < s.cameras.size(); ++i) images.push_back(aerial::render(scene, s.cameras[i], s.seeds[i], s.noise));
+    for (std::size_t i = 0; i < s.cameras.size(); ++i)
+      images.push_back(aerial::render(scene, s.cameras[i], s.seeds[i], s.noise));
     dsmplan::PairSelectionOptions selection;
     selection.ground_height = lo;
     const auto pairs = dsmplan::select_pairs_auto(s.cameras, selection);
@@ -147,12 +149,13 @@ void frame_camera_table(int rounds) {
                 r.pairs, r.matcher.c_str(), 100 * r.errors.completeness, r.errors.median, 100 * r.errors.over1,
                 100 * r.errors.over3, median(r.seconds), *fastest, *slowest, median(r.match_seconds));
   }
-  std::printf("\nOpenCV settings (bench_sgm's, tuned on Aloe): HH blockSize %d P1 %d P2 %d; 3WAY blockSize %d P1 %d P2 %d; "
-              "uniquenessRatio 10, disp12MaxDiff 1, preFilterCap 63, speckle 100 px / 1 px\n",
+  std::printf(
+      "\nOpenCV settings (bench_sgm's, tuned on Aloe): HH blockSize %d P1 %d P2 %d; 3WAY blockSize %d P1 %d P2 %d; "
+      "uniquenessRatio 10, disp12MaxDiff 1, preFilterCap 63, speckle 100 px / 1 px\n",
 #ifdef DSMPLAN_HAVE_OPENCV
-              sgbm_hh.block_size, sgbm_hh.p1, sgbm_hh.p2, sgbm_3way.block_size, sgbm_3way.p1, sgbm_3way.p2
+      sgbm_hh.block_size, sgbm_hh.p1, sgbm_hh.p2, sgbm_3way.block_size, sgbm_3way.p1, sgbm_3way.p2
 #else
-              0, 0, 0, 0, 0, 0
+      0, 0, 0, 0, 0, 0
 #endif
   );
 }

@@ -47,7 +47,8 @@ double peak_memory_bytes() {  // VmHWM: the process's peak resident set
 
 std::string xml_escaped(const std::string& text) {
   std::string out;
-  for (char c : text) out += c == '"' ? "&quot;" : c == '<' ? "&lt;" : c == '>' ? "&gt;" : c == '&' ? "&amp;" : std::string(1, c);
+  for (char c : text)
+    out += c == '"' ? "&quot;" : c == '<' ? "&lt;" : c == '>' ? "&gt;" : c == '&' ? "&amp;" : std::string(1, c);
   return out;
 }
 
@@ -61,8 +62,7 @@ std::string make_mosaic(const fs::path& folder, int n) {
     Grid mirrored = tile;
     for (int r = 0; r < tile.height; ++r)
       for (int c = 0; c < tile.width; ++c)
-        mirrored.z[mirrored.index(c, r)] =
-            tile.at(m & 1 ? tile.width - 1 - c : c, m & 2 ? tile.height - 1 - r : r);
+        mirrored.z[mirrored.index(c, r)] = tile.at(m & 1 ? tile.width - 1 - c : c, m & 2 ? tile.height - 1 - r : r);
     write_geotiff(mirrored, (folder / names[m]).string());
   }
   char gt[256];
@@ -165,9 +165,12 @@ int main(int argc, char** argv) {
   int positional = 0;
   for (int i = 1; i < argc; ++i) {
     const std::string arg = argv[i];
-    if (arg == "--keep") keep = true;
-    else if (positional++ == 0) n = std::stoi(arg);
-    else folder = arg;
+    if (arg == "--keep")
+      keep = true;
+    else if (positional++ == 0)
+      n = std::stoi(arg);
+    else
+      folder = arg;
   }
   std::printf("bench_city: %s, %u hardware threads, load %s\n", bench::cpu_model().c_str(),
               std::thread::hardware_concurrency(), bench::load_average().c_str());
@@ -189,7 +192,8 @@ int main(int argc, char** argv) {
     int last = -1;
     result = simplify_bounded(*dsm, options, writer, [&](double f) {
       const int percent = int(f * 10) * 10;
-      if (percent != last) std::printf("%d%s", last = percent, percent == 100 ? " - done.\n" : "..."), std::fflush(stdout);
+      if (percent != last)
+        std::printf("%d%s", last = percent, percent == 100 ? " - done.\n" : "..."), std::fflush(stdout);
       return true;
     });
     writer.finish();
@@ -197,11 +201,11 @@ int main(int argc, char** argv) {
   const double seconds = bench::seconds_since(start);
   const double peak = peak_memory_bytes();
   const double rate = cells / seconds;
-  std::printf("\n| %-34s | %s |\n|%s|%s|\n", "city, bounded conservative E 0.4 m", "value", std::string(36, '-').c_str(),
-              std::string(26, '-').c_str());
+  std::printf("\n| %-34s | %s |\n|%s|%s|\n", "city, bounded conservative E 0.4 m", "value",
+              std::string(36, '-').c_str(), std::string(26, '-').c_str());
   auto row = [](const char* what, const std::string& value) { std::printf("| %-34s | %24s |\n", what, value.c_str()); };
-  row("cells (synthetic mosaic)", bench::grouped(size_t(cells)) + " (" + std::to_string(frame.width) + " x " +
-                                      std::to_string(frame.height) + ")");
+  row("cells (synthetic mosaic)",
+      bench::grouped(size_t(cells)) + " (" + std::to_string(frame.width) + " x " + std::to_string(frame.height) + ")");
   row("blocks", bench::grouped(result.blocks));
   row("vertices", bench::grouped(result.vertices));
   row("triangles", bench::grouped(result.triangles));

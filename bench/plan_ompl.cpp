@@ -99,9 +99,9 @@
 #include "bench_kit.hpp"
 #include "dsmplan/mesh.hpp"
 #include "dsmplan/plan.hpp"
-#include "plan/prm_parts.hpp"
 #include "dsmplan/raster.hpp"
 #include "dsmplan/raster_io.hpp"
+#include "plan/prm_parts.hpp"
 
 using namespace dsmplan;
 using namespace bench;
@@ -204,11 +204,14 @@ public:
 
   bool segment_clear(const Point3& pw, const Point3& qw) const override {
     const double d = plan_options.safety;
-    Query query{this, {pw[0] - origin_[0], pw[1] - origin_[1], pw[2] - origin_[2]},
-                {qw[0] - origin_[0], qw[1] - origin_[1], qw[2] - origin_[2]}, d, false};
+    Query query{this,
+                {pw[0] - origin_[0], pw[1] - origin_[1], pw[2] - origin_[2]},
+                {qw[0] - origin_[0], qw[1] - origin_[1], qw[2] - origin_[2]},
+                d,
+                false};
     const Point3 &p = query.p, &q = query.q;
-    const double length = std::sqrt((q[0] - p[0]) * (q[0] - p[0]) + (q[1] - p[1]) * (q[1] - p[1]) +
-                                    (q[2] - p[2]) * (q[2] - p[2]));
+    const double length =
+        std::sqrt((q[0] - p[0]) * (q[0] - p[0]) + (q[1] - p[1]) * (q[1] - p[1]) + (q[2] - p[2]) * (q[2] - p[2]));
     // Pieces of about 2d: fewer spheres cost more traversals, longer ones a fatter cover.
     const int pieces = std::max(1, static_cast<int>(std::ceil(length / (2 * d))));
     const double radius = length / (2 * pieces) + d + 0.01;
@@ -373,7 +376,7 @@ struct OmplRun {
   double roadmap_s = 0, query_ms = 0, simplify_ms = 0;
   double length = NAN, simplified = NAN;
   bool solved = false;
-  Profile profile;  // of the fastest roadmap
+  Profile profile;                          // of the fastest roadmap
   double solve_ms = 0, solve_length = NAN;  // PRM::solve() per leg, for information
   bool solve_solved = false;
   size_t solve_added = 0;  // random milestones solve() added besides the waypoints
@@ -387,7 +390,7 @@ struct MeshRow {
   size_t candidates = 0, samples = 0, edges = 0;
   bool same_nodes = false;
   std::vector<double> roadmap_s, query_ms;  // every repetition
-  double roadmap1_s = INFINITY;              // best on one thread, for the profile
+  double roadmap1_s = INFINITY;             // best on one thread, for the profile
   // build_roadmap's phases re-done here on one thread (profile): Halton candidates with ground()
   // and point_clear(); the candidate pairs from its grid of max_edge cells; segment_clear() on them.
   double sample_s = 0, ground_s = 0, pairs_s = 0, checks_s = 0;  // ground_s: Halton + ground() part
@@ -461,8 +464,10 @@ OmplRun run_ompl(const ClearanceIndex& index, const Mesh& mesh, const Checker& c
       if (si->isValid(work)) prm->add(work);
     }
     const double s = since(start);
-    if (profile.on) run.profile = profile, run.profile.total_s = s;
-    else run.roadmap_s = std::min(run.roadmap_s, s);
+    if (profile.on)
+      run.profile = profile, run.profile.total_s = s;
+    else
+      run.roadmap_s = std::min(run.roadmap_s, s);
   }
   run.samples = prm->milestoneCount();
   run.edges = prm->edgeCount();
@@ -495,8 +500,10 @@ OmplRun run_ompl(const ClearanceIndex& index, const Mesh& mesh, const Checker& c
       break;
     }
     auto path = prm->leg(work, other);
-    if (!path) run.solved = false;
-    else legs.push_back(*path);
+    if (!path)
+      run.solved = false;
+    else
+      legs.push_back(*path);
   }
   run.query_ms = 1e3 * since(start);
   if (run.solved) {
@@ -638,11 +645,13 @@ MeshRow run_mesh(const std::string& name, double cell, const Mesh& mesh) {
     row.query_ms.push_back(1e3 * seconds_since(start));
   }
   row.solved = result.status == PlanStatus::Solved;
-  if (row.solved) row.length = path_length(result.path), row.raw_length = path_length(result.raw_path);
-  else std::printf("  dsmplan query failed at %s: %s\n", result.place().c_str(), result.reason.c_str());
+  if (row.solved)
+    row.length = path_length(result.path), row.raw_length = path_length(result.raw_path);
+  else
+    std::printf("  dsmplan query failed at %s: %s\n", result.place().c_str(), result.reason.c_str());
 
-  std::printf("%s: %s triangles, index %.2f s; dsmplan roadmap %s samples (of %s candidates), %s edges\n",
-              name.c_str(), grouped(row.triangles).c_str(), row.index_s, grouped(row.samples).c_str(),
+  std::printf("%s: %s triangles, index %.2f s; dsmplan roadmap %s samples (of %s candidates), %s edges\n", name.c_str(),
+              grouped(row.triangles).c_str(), row.index_s, grouped(row.samples).c_str(),
               grouped(row.candidates).c_str(), grouped(row.edges).c_str());
   std::fflush(stdout);
 
@@ -672,9 +681,10 @@ MeshRow run_mesh(const std::string& name, double cell, const Mesh& mesh) {
         r.checker.c_str(), grouped(r.samples).c_str(), grouped(r.edges).c_str(), r.same_edges ? "yes" : "NO",
         r.roadmap_s, p.total_s, p.valid_s, grouped(p.motions).c_str(), p.motion_s, p.near_s,
         p.total_s - p.valid_s - p.motion_s - p.near_s);
-    std::printf("    PRM::solve() per leg on that roadmap (information): %.1f ms, %s, length %.0f m, %zu random "
-                "milestones added\n",
-                r.solve_ms, r.solve_solved ? "solved" : "NOT solved", r.solve_length, r.solve_added);
+    std::printf(
+        "    PRM::solve() per leg on that roadmap (information): %.1f ms, %s, length %.0f m, %zu random "
+        "milestones added\n",
+        r.solve_ms, r.solve_solved ? "solved" : "NOT solved", r.solve_length, r.solve_added);
   }
   std::fflush(stdout);
   return row;
@@ -696,8 +706,20 @@ Grid resampled_tile(double cell) {
     std::snprintf(b, sizeof b, "%.6f", v);
     return std::string(b);
   };
-  std::vector<std::string> args = {"-of", "GTiff", "-r", "bilinear", "-ot", "Float32", "-tr", text(cell), text(cell),
-                                   "-te", text(x0), text(y0 - extent), text(x0 + extent), text(y0)};
+  std::vector<std::string> args = {"-of",
+                                   "GTiff",
+                                   "-r",
+                                   "bilinear",
+                                   "-ot",
+                                   "Float32",
+                                   "-tr",
+                                   text(cell),
+                                   text(cell),
+                                   "-te",
+                                   text(x0),
+                                   text(y0 - extent),
+                                   text(x0 + extent),
+                                   text(y0)};
   std::vector<char*> argv;
   for (std::string& a : args) argv.push_back(a.data());
   argv.push_back(nullptr);
@@ -744,8 +766,8 @@ void write_arena_log(const std::string& path, const std::vector<MeshRow>& rows, 
   out << "<<<|\nNRW DOM1 tile dom1_32_356_5699_1_nw_2020 (EPSG:25832) as XY-3 meshes at 1 m and, resampled by "
          "GDALWarp bilinear, 0.64 m; PlanOptions defaults (safety 2, spacing 20, max_edge 34.5, max_agl 120); "
          "same Halton samples and edges for both planners; 4 waypoints 30 m above ground, 3 legs\n|>>>\n";
-  out << "<<<|\n" << cpu_model() << ", " << std::thread::hardware_concurrency() << " cores, load "
-      << load_average() << "\n|>>>\n";
+  out << "<<<|\n"
+      << cpu_model() << ", " << std::thread::hardware_concurrency() << " cores, load " << load_average() << "\n|>>>\n";
   out << "0 is the random seed\n";
   out << "10 seconds per run\n";  // the limit PRM::solve() is given per leg
   out << "0 MB per run\n";
@@ -756,11 +778,19 @@ void write_arena_log(const std::string& path, const std::vector<MeshRow>& rows, 
          "solution|Exact solution|Crash|Abort\n";
   out << "checker|dsmplan ClearanceIndex|Embree 3\n";
   out << "2 planners\n";
-  const std::vector<std::string> props = {"checker ENUM",        "graph motions INTEGER", "graph states INTEGER",
-                                          "mesh cell REAL",      "mesh triangles INTEGER", "query time REAL",
-                                          "roadmap time REAL",   "simplified solution length REAL",
-                                          "solution length REAL", "solved BOOLEAN",       "status ENUM",
-                                          "threads INTEGER",     "time REAL"};
+  const std::vector<std::string> props = {"checker ENUM",
+                                          "graph motions INTEGER",
+                                          "graph states INTEGER",
+                                          "mesh cell REAL",
+                                          "mesh triangles INTEGER",
+                                          "query time REAL",
+                                          "roadmap time REAL",
+                                          "simplified solution length REAL",
+                                          "solution length REAL",
+                                          "solved BOOLEAN",
+                                          "status ENUM",
+                                          "threads INTEGER",
+                                          "time REAL"};
   auto header = [&](const char* planner, const std::string& common, size_t runs) {
     out << planner << "\n1 common properties\n" << common << "\n" << props.size() << " properties for each run\n";
     for (const std::string& p : props) out << p << "\n";
@@ -788,8 +818,7 @@ void write_arena_log(const std::string& path, const std::vector<MeshRow>& rows, 
     for (const OmplRun& o : r.ompl)
       line({o.checker == "Embree 3" ? "1" : "0", std::to_string(o.edges), std::to_string(o.samples), num(r.cell),
             std::to_string(r.triangles), num(o.query_ms / 1e3), num(o.roadmap_s), num(o.simplified), num(o.length),
-            o.solved ? "1" : "0", o.solved ? status_exact : status_timeout, "1",
-            num(o.roadmap_s + o.query_ms / 1e3)});
+            o.solved ? "1" : "0", o.solved ? status_exact : status_timeout, "1", num(o.roadmap_s + o.query_ms / 1e3)});
   out << ".\n";
 }
 
@@ -967,8 +996,8 @@ int main(int argc, char** argv) {
     std::printf(
         "\n0.64 m, OMPL + %s: %.0f %% of its roadmap time (%.3f s of %.3f s in the run with timers) are exact "
         "checks (%.3f s validity, %.3f s segments); dsmplan on 1 thread %.3f s, on %u %.3f s (load %s)\n",
-        fastest_name.c_str(), 100 * share, checks, shared->total_s, shared->valid_s, shared->motion_s,
-        big.roadmap1_s, cores, best(big.roadmap_s), load_average().c_str());
+        fastest_name.c_str(), 100 * share, checks, shared->total_s, shared->valid_s, shared->motion_s, big.roadmap1_s,
+        cores, best(big.roadmap_s), load_average().c_str());
   }
   std::printf("\nsame samples and edges everywhere, every query solved: %s\n", consistent ? "yes" : "NO");
   std::printf("bar 1, 0.64 m: dsmplan roadmap %.3f s vs OMPL PRM (%s) %.2f s = %.1fx (>= 5x): %s\n",

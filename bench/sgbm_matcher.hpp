@@ -5,13 +5,12 @@
 #pragma once
 #ifdef DSMPLAN_HAVE_OPENCV
 
-#include <opencv2/calib3d.hpp>
-#include <opencv2/core.hpp>
-
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <memory>
+#include <opencv2/calib3d.hpp>
+#include <opencv2/core.hpp>
 #include <vector>
 
 #include "dsmplan/stereo_frames.hpp"
@@ -39,7 +38,8 @@ inline dsmplan::DenseMatcher sgbm_matcher(const SgbmSetting& s) {
       const double scale = top > 255 ? 255.0 / top : 1.0;
       cv::Mat out(view.height, view.width, CV_8UC1);
       for (int y = 0; y < view.height; ++y)
-        for (int x = 0; x < view.width; ++x) out.at<std::uint8_t>(y, x) = static_cast<std::uint8_t>(std::lround(scale * view.at(x, y)));
+        for (int x = 0; x < view.width; ++x)
+          out.at<std::uint8_t>(y, x) = static_cast<std::uint8_t>(std::lround(scale * view.at(x, y)));
       return out;
     };
     sgbm->setMinDisparity(options.min_disparity);

@@ -70,8 +70,8 @@ int run_satellite_stereo_bench(int rounds) {
     }
     std::printf("# common footprint (EPSG:32637): %.0f,%.0f,%.0f,%.0f (%.0f x %.0f m)\n", common[0], common[1],
                 common[2], common[3], common[2] - common[0], common[3] - common[1]);
-    const char* stages[] = {"read", "survey", "rectify", "pointing", "match", "triangulate", "transform", "fuse", "write",
-                            "total"};
+    const char* stages[] = {"read",        "survey",    "rectify", "pointing", "match",
+                            "triangulate", "transform", "fuse",    "write",    "total"};
     std::vector<std::vector<std::vector<double>>> seconds(2, std::vector<std::vector<double>>(10));
     std::vector<std::string> loads;
     std::array<dsmplan::SatelliteStereoReport, 2> last;
@@ -88,9 +88,9 @@ int run_satellite_stereo_bench(int rounds) {
         last[k] = dsmplan::satellite_stereo_job(o);
         const double wall = bench::seconds_since(start);
         const auto& r = last[k];
-        const double values[10] = {r.seconds_read,      r.seconds_survey,    r.seconds_rectify, r.seconds_pointing,
-                                   r.seconds_match,     r.seconds_triangulate, r.seconds_transform, r.seconds_fuse,
-                                   r.seconds_write,     wall};
+        const double values[10] = {
+            r.seconds_read,        r.seconds_survey,    r.seconds_rectify, r.seconds_pointing, r.seconds_match,
+            r.seconds_triangulate, r.seconds_transform, r.seconds_fuse,    r.seconds_write,    wall};
         for (int s = 0; s < 10; ++s) seconds[k][s].push_back(values[s]);
       }
     }

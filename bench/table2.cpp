@@ -30,8 +30,8 @@
 #include <vector>
 
 #include "bench_kit.hpp"
-#include "dsmplan/picture.hpp"
 #include "dsmplan/mesh.hpp"
+#include "dsmplan/picture.hpp"
 #include "dsmplan/raster.hpp"
 #include "dsmplan/raster_io.hpp"
 #include "dsmplan/simplify.hpp"

@@ -44,7 +44,7 @@ using namespace bench;
 
 namespace {
 
-constexpr int runs = 3;            // best of, for the roadmap and the planning
+constexpr int runs = 3;           // best of, for the roadmap and the planning
 constexpr double agl_street = 5;  // waypoints above the street, m
 
 // ---- the paper's Table 3 -------------------------------------------------------------------

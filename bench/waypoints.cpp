@@ -16,17 +16,18 @@
 #include <vector>
 
 #include "bench_kit.hpp"
+#include "dsmplan/plan_job.hpp"
 #include "dsmplan/raster.hpp"
 #include "dsmplan/raster_io.hpp"
 #include "dsmplan/simplify.hpp"
-#include "dsmplan/plan_job.hpp"
 
 using namespace dsmplan;
 using namespace bench;
 
 int main() {
   constexpr int runs = 5, count = 10000;
-  const std::filesystem::path folder = std::filesystem::temp_directory_path() / ("dsmplan_bench_waypoints_" + std::to_string(::getpid()));
+  const std::filesystem::path folder =
+      std::filesystem::temp_directory_path() / ("dsmplan_bench_waypoints_" + std::to_string(::getpid()));
   std::filesystem::create_directories(folder);
   std::printf("machine: %ld cores (nproc), %s, load average %s at the start\n", sysconf(_SC_NPROCESSORS_ONLN),
               cpu_model().c_str(), load_average().c_str());

@@ -1,4 +1,5 @@
-// libFuzzer target: dsmplan::read_mesh on arbitrary bytes (a file named *.obj: PLY and OFF are told by their first line, the rest is read as OBJ).
+// libFuzzer target: dsmplan::read_mesh on arbitrary bytes (a file named *.obj: PLY and OFF are told by their first
+// line, the rest is read as OBJ).
 #include "dsmplan/export.hpp"
 #include "fuzz_file.hpp"
 

@@ -62,8 +62,8 @@ bool verbose() {
   std::fprintf(stderr, "fuzz_pipeline: guarantee broken: %s (%.17g, %.17g)\n", what, a, b);
   __builtin_trap();
 }
-#define REQUIRE(cond, what, ...)              \
-  do {                                        \
+#define REQUIRE(cond, what, ...)                \
+  do {                                          \
     if (!(cond)) violated(what, ##__VA_ARGS__); \
   } while (0)
 
@@ -79,9 +79,9 @@ float pick_height(FuzzedDataProvider& in, float base, float step) {
     case 0:
       return Grid::nodata;
     case 1: {
-      static const float extreme[] = {FLT_MAX,  -FLT_MAX, 1e20f, -1e20f, 1e15f,     -9999.f, 1e5f,      -1e5f,
-                                      100001.f, -32768.f, 0.f,   -0.f,   FLT_MIN,   FLT_TRUE_MIN, -FLT_TRUE_MIN,
-                                      INFINITY, -INFINITY, 3.4e38f};
+      static const float extreme[] = {FLT_MAX, -FLT_MAX,     1e20f,         -1e20f,   1e15f,     -9999.f,
+                                      1e5f,    -1e5f,        100001.f,      -32768.f, 0.f,       -0.f,
+                                      FLT_MIN, FLT_TRUE_MIN, -FLT_TRUE_MIN, INFINITY, -INFINITY, 3.4e38f};
       return extreme[in.ConsumeIntegralInRange<size_t>(0, std::size(extreme) - 1)];
     }
     case 2:
@@ -163,8 +163,10 @@ Surface surface_at_centres(const Mesh& mesh, const Lattice& l, const Grid& grid)
   Surface s{std::vector<double>(grid.cells(), NAN), std::vector<double>(grid.cells(), NAN)};
   for (const Triangle& t : mesh.triangles) {
     const int64_t area = orient(l, t[0], t[1], t[2]);
-    const int c0 = std::min({l.col[t[0]], l.col[t[1]], l.col[t[2]]}), c1 = std::max({l.col[t[0]], l.col[t[1]], l.col[t[2]]});
-    const int r0 = std::min({l.row[t[0]], l.row[t[1]], l.row[t[2]]}), r1 = std::max({l.row[t[0]], l.row[t[1]], l.row[t[2]]});
+    const int c0 = std::min({l.col[t[0]], l.col[t[1]], l.col[t[2]]}),
+              c1 = std::max({l.col[t[0]], l.col[t[1]], l.col[t[2]]});
+    const int r0 = std::min({l.row[t[0]], l.row[t[1]], l.row[t[2]]}),
+              r1 = std::max({l.row[t[0]], l.row[t[1]], l.row[t[2]]});
     for (int r = r0; r <= r1; ++r) {
       for (int c = c0; c <= c1; ++c) {
         int64_t w[3];
@@ -230,7 +232,8 @@ void check_xy3(const Mesh& mesh, const Grid& grid, const MeshOptions& options) {
         int64_t a[3], b[3];
         for (int k = 0; k < 3; ++k) a[k] = l.col[t[k]] - l.col[p], b[k] = l.row[p] - l.row[t[k]];
         auto det3 = [&](const int64_t* m) {  // det [a b m]
-          return a[0] * (b[1] * m[2] - b[2] * m[1]) - a[1] * (b[0] * m[2] - b[2] * m[0]) + a[2] * (b[0] * m[1] - b[1] * m[0]);
+          return a[0] * (b[1] * m[2] - b[2] * m[1]) - a[1] * (b[0] * m[2] - b[2] * m[0]) +
+                 a[2] * (b[0] * m[1] - b[1] * m[0]);
         };
         const int64_t aa[3] = {a[0] * a[0], a[1] * a[1], a[2] * a[2]}, bb[3] = {b[0] * b[0], b[1] * b[1], b[2] * b[2]};
         const long double d1 = det3(aa), d2 = det3(bb);
@@ -271,8 +274,8 @@ void check_streamed(const Mesh& whole, const Grid& grid, MeshOptions options, Fu
     if (verbose()) std::fprintf(stderr, "streamed: %s\n", e.what());
     violated("the band-by-band mesh refused what the whole-grid mesh made");
   }
-  REQUIRE(banded.vertices.size() == whole.vertices.size(), "band-by-band vertex count differs",
-          banded.vertices.size(), whole.vertices.size());
+  REQUIRE(banded.vertices.size() == whole.vertices.size(), "band-by-band vertex count differs", banded.vertices.size(),
+          whole.vertices.size());
   for (size_t i = 0; i < whole.vertices.size(); ++i)
     REQUIRE(banded.vertices[i].x == whole.vertices[i].x && banded.vertices[i].y == whole.vertices[i].y &&
                 banded.vertices[i].z == whole.vertices[i].z,
@@ -297,8 +300,8 @@ void check_bounded(const Mesh& mesh, const Grid& grid, const BoundedSimplifyOpti
     measured.max_below = std::max(measured.max_below, below);
     REQUIRE(above <= options.max_error + tol, "bounded: mesh above the DSM by more than max_error", above,
             options.max_error);
-    REQUIRE(below <= (options.conservative ? tol : options.max_error + tol), "bounded: mesh below the DSM beyond the bound",
-            below, options.max_error);
+    REQUIRE(below <= (options.conservative ? tol : options.max_error + tol),
+            "bounded: mesh below the DSM beyond the bound", below, options.max_error);
   }
   REQUIRE(reported.uncovered == 0, "bounded: reported uncovered cells", reported.uncovered);
   REQUIRE(std::abs(reported.max_above - measured.max_above) <= tol, "bounded: reported max_above is not the mesh's",
@@ -348,11 +351,12 @@ void check_paper(const Mesh& input, const Grid& grid, const PaperSimplifyOptions
 // ---- planning -------------------------------------------------------------------------------
 
 void check_path(const PlanResult& result, const std::vector<Point3>& waypoints, const Mesh& mesh,
-                const ClearanceIndex& index, const PlanOptions& plan, const GroundGrid& ground,
-                const Grid* columns, double column_safety) {
+                const ClearanceIndex& index, const PlanOptions& plan, const GroundGrid& ground, const Grid* columns,
+                double column_safety) {
   const std::vector<Point3>& path = result.path;
   REQUIRE(path.size() >= 2, "plan: a solved path of fewer than two points", path.size());
-  REQUIRE(path.front() == waypoints.front() && path.back() == waypoints.back(), "plan: path does not start and end at the waypoints");
+  REQUIRE(path.front() == waypoints.front() && path.back() == waypoints.back(),
+          "plan: path does not start and end at the waypoints");
   size_t next = 0;
   for (const Point3& p : path) {
     for (double c : p) REQUIRE(std::isfinite(c), "plan: a path point is not finite", c);
@@ -370,7 +374,8 @@ void check_path(const PlanResult& result, const std::vector<Point3>& waypoints, 
     const Point3 p = local(path[k - 1]), q = local(path[k]);
     for (const Triangle& t : mesh.triangles) {
       const Vertex &a = mesh.vertices[t[0]], &b = mesh.vertices[t[1]], &c = mesh.vertices[t[2]];
-      const double d = segment_triangle_distance(p, q, local({a.x, a.y, a.z}), local({b.x, b.y, b.z}), local({c.x, c.y, c.z}));
+      const double d =
+          segment_triangle_distance(p, q, local({a.x, a.y, a.z}), local({b.x, b.y, b.z}), local({c.x, c.y, c.z}));
       REQUIRE(d >= plan.safety - tol, "plan: a segment closer to a triangle than the safety distance", d, plan.safety);
     }
     const double above = ground.max_height_above(path[k - 1], path[k]);
@@ -444,8 +449,8 @@ void plan_on(const Mesh& input, const Grid& grid, FuzzedDataProvider& in) {
     w[0] = xmin + in.ConsumeProbability<double>() * (xmax - xmin);
     w[1] = ymin + in.ConsumeProbability<double>() * (ymax - ymin);
     const double surface = index.ground(w[0], w[1]);
-    const double up = pick(in, {safety + 1, 2 * safety + 1, 0.5 * (std::isfinite(plan.max_agl) ? plan.max_agl : 100), 0,
-                                0.2 * extent});
+    const double up = pick(
+        in, {safety + 1, 2 * safety + 1, 0.5 * (std::isfinite(plan.max_agl) ? plan.max_agl : 100), 0, 0.2 * extent});
     w[2] = (std::isnan(surface) ? zmax : surface) + up;
   }
   if (with_columns)  // plan_path.cpp refuses these before planning (refuse_near_columns)
@@ -453,17 +458,16 @@ void plan_on(const Mesh& input, const Grid& grid, FuzzedDataProvider& in) {
       if (column_clearance(columns, w, w, safety) < safety) return;
   const PlanResult result = plan_path(index, waypoints, plan);
   if (verbose())
-    std::fprintf(stderr, "plan: status %d, %zu points, %zu lattice nodes, samples %.17g, rounds %d: %s\n", int(result.status),
-                 result.path.size(), result.lattice_nodes, volume / std::pow(plan.spacing, 3), plan.refine_rounds,
-                 result.reason.c_str());
+    std::fprintf(stderr, "plan: status %d, %zu points, %zu lattice nodes, samples %.17g, rounds %d: %s\n",
+                 int(result.status), result.path.size(), result.lattice_nodes, volume / std::pow(plan.spacing, 3),
+                 plan.refine_rounds, result.reason.c_str());
   if (result.status == PlanStatus::Solved)
     check_path(result, waypoints, mesh, index, plan, ground, with_columns ? &columns : nullptr, safety);
 }
 
 void pipeline(FuzzedDataProvider& in) {
   Grid grid = make_grid(in);
-  if (verbose())
-  {
+  if (verbose()) {
     const GridSummary summary = summarize(grid);
     std::fprintf(stderr, "grid %d x %d, corner %.17g %.17g, cells %.17g x %.17g, z %.17g to %.17g\n", grid.width,
                  grid.height, grid.x0, grid.y0, grid.cell_x, grid.cell_y, summary.z_min, summary.z_max);
@@ -511,8 +515,8 @@ void pipeline(FuzzedDataProvider& in) {
     options.threads = 1;
     if (verbose())
       std::fprintf(stderr, "bounded: max_error %.17g%s%s, tile %d, block %d\n", options.max_error,
-                   options.conservative ? ", conservative" : "", options.delaunay ? ", delaunay" : "", options.tile_size,
-                   options.block_tiles);
+                   options.conservative ? ", conservative" : "", options.delaunay ? ", delaunay" : "",
+                   options.tile_size, options.block_tiles);
     if (in.ConsumeBool()) {  // as simplify_job() runs it: a GridView streamed into a collector
       GridView view(grid);
       MeshCollector sink(mesh);

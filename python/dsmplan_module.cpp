@@ -171,10 +171,12 @@ PYBIND11_MODULE(dsmplan, m) {
         out->mesh = triangulate_xy3(dsm.grid, options);
         return out;
       },
-      py::arg("dsm"), py::arg("zstep") = 0.1, "The XY-3 Delaunay mesh of the DSM (heights in zstep steps; 0 keeps them)");
-  m.def("simplify", &simplify, py::arg("dsm"), py::arg("max_error") = 0.4, py::arg("conservative") = true,
-        py::arg("delaunay") = false,
-        "The bounded simplification: |mesh - DSM| <= max_error (conservative: 0 <= mesh - DSM <= max_error), certified");
+      py::arg("dsm"), py::arg("zstep") = 0.1,
+      "The XY-3 Delaunay mesh of the DSM (heights in zstep steps; 0 keeps them)");
+  m.def(
+      "simplify", &simplify, py::arg("dsm"), py::arg("max_error") = 0.4, py::arg("conservative") = true,
+      py::arg("delaunay") = false,
+      "The bounded simplification: |mesh - DSM| <= max_error (conservative: 0 <= mesh - DSM <= max_error), certified");
   m.def("plan", &plan, py::arg("mesh"), py::arg("waypoints"), py::arg("safety") = 2.0, py::arg("max_agl") = 120.0,
         py::arg("spacing") = 20.0,
         "A collision-free path through the waypoints (K x 3, the mesh's CRS): every point at least `safety` "

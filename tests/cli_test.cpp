@@ -10,18 +10,18 @@
 #include <cpl_error.h>
 #include <cpl_minixml.h>
 #include <cpl_vsi.h>
+#include <fcntl.h>
 #include <gdal.h>
 #include <gtest/gtest.h>
 #include <ogr_srs_api.h>
-#include <fcntl.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
 #include <algorithm>
 #include <array>
 #include <cctype>
-#include <csignal>
 #include <cmath>
+#include <csignal>
 #include <cstdint>
 #include <cstring>
 #include <filesystem>
@@ -34,10 +34,10 @@
 
 #include "dsmplan/columns.hpp"
 #include "dsmplan/export.hpp"
-#include "dsmplan/wgs84.hpp"
 #include "dsmplan/plan.hpp"
 #include "dsmplan/raster.hpp"
 #include "dsmplan/raster_io.hpp"
+#include "dsmplan/wgs84.hpp"
 #include "testkit.hpp"
 
 using nlohmann::json;
@@ -683,7 +683,8 @@ TEST(CliBadInput, MaxMemoryFromTheEnvironmentIsTheMachinesMemory) {
   for (const char* bad : {"12x", "-1G", "0", "nan", "G"}) {
     const auto refused = with_limit(bad);
     EXPECT_EQ(refused.exit_code, 2) << bad;
-    EXPECT_NE(refused.err.find("DSMPLAN_MAX_MEMORY: must be a positive number of bytes"), std::string::npos) << refused.err;
+    EXPECT_NE(refused.err.find("DSMPLAN_MAX_MEMORY: must be a positive number of bytes"), std::string::npos)
+        << refused.err;
   }
   ::setenv("DSMPLAN_MAX_MEMORY", "24T", 1);  // more than the machine: the machine's own figure stays
   EXPECT_EQ(run_cli({"mesh", testkit::data_path(kSample), "-o", out.path("dsm.ply"), "-q"}).exit_code, 0);
@@ -759,8 +760,10 @@ TEST(CliBadInput, SimplifyNegativeDzOrNonPositiveMaxError) {
   TempDir out;
   const std::string dsm = testkit::data_path(kSample);
   for (const char* v : {"-0.1", "inf", "nan", "1e300"}) {
-    expect_clean_failure(run_cli({"simplify", dsm, "-o", out.path("o.ply"), "--dz", v}), out, "--dz", {"from 0 to 1000"});
-    expect_clean_failure(run_cli({"simplify", dsm, "-o", out.path("o.ply"), "--dco", v}), out, "--dco", {"from 0 to 1000"});
+    expect_clean_failure(run_cli({"simplify", dsm, "-o", out.path("o.ply"), "--dz", v}), out, "--dz",
+                         {"from 0 to 1000"});
+    expect_clean_failure(run_cli({"simplify", dsm, "-o", out.path("o.ply"), "--dco", v}), out, "--dco",
+                         {"from 0 to 1000"});
   }
   for (const char* e : {"0", "-1", "inf", "nan", "1e-7", "1e5"}) {
     expect_clean_failure(run_cli({"simplify", dsm, "-o", out.path("o.ply"), "--max-error", e}), out, "--max-error",
@@ -869,9 +872,9 @@ TEST(CliRender, PathRoadmapAndWaypointsOverTheMesh) {
                                 path, "--roadmap", roadmap, "-q"});
   ASSERT_EQ(planned.exit_code, 0) << planned.err;
   const auto plain = run_cli({"render", input, "--mesh", mesh, "-o", out.path("plain.png"), "--zoom", "1", "-q"});
-  const auto drawn = run_cli({"render", input, "--mesh", mesh, "--roadmap", roadmap, "--path", path, "--waypoints",
-                              testkit::data_path("nrw-dom1/sample_waypoints.csv"), "-o", out.path("drawn.png"),
-                              "--zoom", "1", "-q"});
+  const auto drawn =
+      run_cli({"render", input, "--mesh", mesh, "--roadmap", roadmap, "--path", path, "--waypoints",
+               testkit::data_path("nrw-dom1/sample_waypoints.csv"), "-o", out.path("drawn.png"), "--zoom", "1", "-q"});
   ASSERT_EQ(plain.exit_code, 0) << plain.err;
   ASSERT_EQ(drawn.exit_code, 0) << drawn.err;
   EXPECT_EQ(png_size(out.path("plain.png")), png_size(out.path("drawn.png")));
@@ -1106,21 +1109,23 @@ TEST(CliPlan, ThreeWaypointsGiveAPathCsvAndStats) {
   std::vector<std::string> keys;
   for (auto it = s.begin(); it != s.end(); ++it) keys.push_back(it.key());
   std::sort(keys.begin(), keys.end());
-  std::vector<std::string> expected{"path_length_m", "min_clearance_m", "roadmap_nodes",  "roadmap_edges",
-                                    "seconds_load",  "seconds_roadmap", "seconds_query",  "seconds_smooth",
-                                    "planner",       "roadmap_reused", "refined_samples", "max_agl_m",
-                                    "ground",        "seconds_read",   "seconds_index"};
+  std::vector<std::string> expected{"path_length_m", "min_clearance_m", "roadmap_nodes",   "roadmap_edges",
+                                    "seconds_load",  "seconds_roadmap", "seconds_query",   "seconds_smooth",
+                                    "planner",       "roadmap_reused",  "refined_samples", "max_agl_m",
+                                    "ground",        "seconds_read",    "seconds_index"};
   std::sort(expected.begin(), expected.end());
   EXPECT_EQ(keys, expected);
   EXPECT_EQ(s["ground"], "mesh floor");
-  EXPECT_NEAR(s["seconds_read"].get<double>() + s["seconds_index"].get<double>(), s["seconds_load"].get<double>(), 1e-9);
+  EXPECT_NEAR(s["seconds_read"].get<double>() + s["seconds_index"].get<double>(), s["seconds_load"].get<double>(),
+              1e-9);
   EXPECT_LE(s["max_agl_m"].get<double>(), 120 + 0.05);
   EXPECT_NEAR(s["path_length_m"].get<double>(), length, 1e-6);
   EXPECT_GE(length, straight - 1e-6);
   EXPECT_GE(s["min_clearance_m"].get<double>(), 2.0);
   EXPECT_GT(s["roadmap_nodes"].get<long long>(), 0);
   EXPECT_GT(s["roadmap_edges"].get<long long>(), 0);
-  for (const char* key : {"seconds_load", "seconds_read", "seconds_index", "seconds_roadmap", "seconds_query", "seconds_smooth"})
+  for (const char* key :
+       {"seconds_load", "seconds_read", "seconds_index", "seconds_roadmap", "seconds_query", "seconds_smooth"})
     EXPECT_GE(s[key].get<double>(), 0) << key;
 }
 
@@ -1131,12 +1136,14 @@ TEST(CliBadInput, NumericOptionsAreFiniteAndInTheirStatedRange) {
   for (const char* v : {"-1", "inf", "nan", "1e300"}) {
     for (const char* flag : {"--safety", "--spacing", "--max-edge", "--max-agl"}) {
       if (std::string(v) == "-1" && std::string(flag) == "--safety") continue;  // checked elsewhere: >= 0
-      expect_clean_failure(run_cli({"plan", f.mesh, "--waypoints", f.waypoints, "-o", out.path("p.csv"), flag, v, "-q"}),
-                           out, flag, {"at most", "from 0 to"});
+      expect_clean_failure(
+          run_cli({"plan", f.mesh, "--waypoints", f.waypoints, "-o", out.path("p.csv"), flag, v, "-q"}), out, flag,
+          {"at most", "from 0 to"});
     }
     if (std::string(v) != "inf")  // inf: keep every triangle
-      expect_clean_failure(run_cli({"mesh", testkit::data_path(kSample), "-o", out.path("m.ply"), "--max-edge", v, "-q"}),
-                           out, "--max-edge", {"to 1e6"});
+      expect_clean_failure(
+          run_cli({"mesh", testkit::data_path(kSample), "-o", out.path("m.ply"), "--max-edge", v, "-q"}), out,
+          "--max-edge", {"to 1e6"});
   }
   // A resolution far beyond the raster's extent (it was a write out of bounds).
   expect_clean_failure(run_cli({"mesh", testkit::data_path(kSample), "-o", out.path("m.ply"), "--res", "1e300", "-q"}),
@@ -1172,7 +1179,8 @@ TEST(CliBadInput, PlanWaypointsOutsideUnderOrTooClose) {
 
   // A roadmap too sparse to join anything, and no refinement: the leg is named.
   f.write_waypoints(w);
-  expect_clean_failure(plan({"--spacing", "200", "--max-edge", "10", "--refine-rounds", "0"}), out, "waypoints 1 to 2", {"no "});
+  expect_clean_failure(plan({"--spacing", "200", "--max-edge", "10", "--refine-rounds", "0"}), out, "waypoints 1 to 2",
+                       {"no "});
 }
 
 TEST(CliBadInput, PlanMalformedWaypointFileNamesTheLine) {
@@ -1188,8 +1196,8 @@ TEST(CliBadInput, PlanMalformedWaypointFileNamesTheLine) {
       run_cli({"plan", f.mesh, "--waypoints", f.in.path("missing.csv"), "-o", out.path("p.csv"), "-q"}), out,
       "missing.csv", {"cannot open"});
   f.write_waypoints(f.corners());
-  expect_clean_failure(run_cli({"plan", f.mesh, "--waypoints", f.waypoints, "-o", out.path("p.txt"), "-q"}), out,
-                       "-o", {".csv"});
+  expect_clean_failure(run_cli({"plan", f.mesh, "--waypoints", f.waypoints, "-o", out.path("p.txt"), "-q"}), out, "-o",
+                       {".csv"});
 }
 
 TEST(CliPlan, RoadmapFileIsReusedAndRefusedForAnotherMeshOrOptions) {
@@ -1207,7 +1215,8 @@ TEST(CliPlan, RoadmapFileIsReusedAndRefusedForAnotherMeshOrOptions) {
   ASSERT_TRUE(std::filesystem::exists(roadmap));
   const auto second = plan(f.mesh, out.path("b.csv"), {"--stats", out.path("b.json")});
   ASSERT_EQ(second.exit_code, 0) << second.err;
-  const json a = json::parse(testkit::read_file(out.path("a.json"))), b = json::parse(testkit::read_file(out.path("b.json")));
+  const json a = json::parse(testkit::read_file(out.path("a.json"))),
+             b = json::parse(testkit::read_file(out.path("b.json")));
   EXPECT_FALSE(a["roadmap_reused"].get<bool>());
   EXPECT_TRUE(b["roadmap_reused"].get<bool>());
   EXPECT_EQ(b["seconds_roadmap"].get<double>(), 0);
@@ -1246,7 +1255,8 @@ TEST(CliPlan, GeoJsonWaypointsAndPathAgreeWithTheCsvRun) {
     ASSERT_TRUE(to_wgs(x, y, &z));
     ASSERT_GT(z - w[2], 40);  // the geoid's height: GDAL found the EGM96 grid
     lonlat.push_back({x, y});
-    features.push_back({{"type", "Feature"}, {"properties", json::object()},
+    features.push_back({{"type", "Feature"},
+                        {"properties", json::object()},
                         {"geometry", {{"type", "Point"}, {"coordinates", {x, y, z}}}}});
   }
   const std::string geo_waypoints = f.in.path("wp.geojson");
@@ -1303,9 +1313,9 @@ TEST(CliPlan, OfOverridesTheExtensionAndJsonPrintsTheStatistics) {
   EXPECT_GE(points.size(), 2u);
   EXPECT_EQ(json::parse(result.out), json::parse(testkit::read_file(out.path("s.json"))));
   TempDir none;
-  expect_clean_failure(run_cli({"plan", f.mesh, "--waypoints", f.waypoints, "-o", none.path("p.csv"), "--of", "shp",
-                                "-q"}),
-                       none, "--of", {"unknown path format"});
+  expect_clean_failure(
+      run_cli({"plan", f.mesh, "--waypoints", f.waypoints, "-o", none.path("p.csv"), "--of", "shp", "-q"}), none,
+      "--of", {"unknown path format"});
 }
 
 TEST(CliPlan, DsmClearanceIsReportedWithTheDsm) {
@@ -1361,7 +1371,8 @@ TEST(CliBadInput, PlanPathThroughATowerOfTheDsmIsNeverWritten) {
   // tower rises above it. The run keeps 2 m from the tower's column, or stops with one line
   // that says why; it never writes the path through it.
   TempDir none;
-  const auto run = run_cli({"plan", safe, "--waypoints", f.waypoints, "-o", none.path("p.csv"), "--dsm", towered, "-q"});
+  const auto run =
+      run_cli({"plan", safe, "--waypoints", f.waypoints, "-o", none.path("p.csv"), "--dsm", towered, "-q"});
   if (run.exit_code == 0) {
     const auto around = read_path_csv(none.path("p.csv"));
     for (size_t k = 1; k < around.size(); ++k)
@@ -1383,11 +1394,14 @@ TEST(CliBadInput, PlanMalformedGeoJsonWaypointsNameThePlace) {
                          out, wp + ": " + place, {why});
   };
   const std::string point = R"({"type":"Feature","geometry":{"type":"Point","coordinates":[6.93,51.43,150]}})";
-  expect(R"({"type":"FeatureCollection","features":[)" + point + R"(,{"type":"Feature","geometry":{"type":"Point","coordinates":[6.93,51.43]}}]})",
+  expect(R"({"type":"FeatureCollection","features":[)" + point +
+             R"(,{"type":"Feature","geometry":{"type":"Point","coordinates":[6.93,51.43]}}]})",
          "feature 2", "height");
-  expect(R"({"type":"FeatureCollection","features":[)" + point + R"(,{"type":"Feature","geometry":{"type":"Point","coordinates":[356320,5699270,150]}}]})",
+  expect(R"({"type":"FeatureCollection","features":[)" + point +
+             R"(,{"type":"Feature","geometry":{"type":"Point","coordinates":[356320,5699270,150]}}]})",
          "feature 2", "longitude");
-  expect(R"({"type":"FeatureCollection","features":[)" + point + R"(,{"type":"Feature","geometry":{"type":"Polygon","coordinates":[]}}]})",
+  expect(R"({"type":"FeatureCollection","features":[)" + point +
+             R"(,{"type":"Feature","geometry":{"type":"Polygon","coordinates":[]}}]})",
          "feature 2", "Polygon");
   expect(R"({"type":"LineString","coordinates":[[6.93,51.43,150],[6.94,"x",150]]})", "geometry, position 2", "numbers");
   expect(R"({"type":"FeatureCollection","features":[)" + point + ",", "byte", "not JSON");
@@ -1545,13 +1559,26 @@ struct MissionFixture : PlanFixture {
   std::string bounded = in.path("bounded.ply");
   std::string low = testkit::data_path("nrw-dom1/low_waypoints.csv");
   MissionFixture() {
-    const auto made = run_cli({"simplify", testkit::data_path(kSample), "--max-error", "0.4", "--conservative", "-o",
-                               bounded, "-q"});
+    const auto made =
+        run_cli({"simplify", testkit::data_path(kSample), "--max-error", "0.4", "--conservative", "-o", bounded, "-q"});
     if (made.exit_code != 0) throw std::runtime_error("simplify failed: " + made.err);
   }
   testkit::CliResult plan(const std::string& output, std::vector<std::string> extra) const {
-    std::vector<std::string> args{"plan", bounded, "--waypoints", low, "-o", output, "--dsm", testkit::data_path(kSample),
-                                  "--max-agl", "30", "--spacing", "10", "--vertical-crs", "EPSG:5773", "-q"};
+    std::vector<std::string> args{"plan",
+                                  bounded,
+                                  "--waypoints",
+                                  low,
+                                  "-o",
+                                  output,
+                                  "--dsm",
+                                  testkit::data_path(kSample),
+                                  "--max-agl",
+                                  "30",
+                                  "--spacing",
+                                  "10",
+                                  "--vertical-crs",
+                                  "EPSG:5773",
+                                  "-q"};
     args.insert(args.end(), extra.begin(), extra.end());
     return run_cli(args);
   }
@@ -1564,8 +1591,11 @@ TEST(CliPlan, MissionsAndKmlCarryTheWaypointsInLatLonAndMeanSeaLevelHeights) {
   TempDir out;
   const std::vector<std::string> egm96{"--vertical-crs", "EPSG:5773"};
   auto run = [&](const std::string& name, bool quiet) {
-    std::vector<std::string> args{"plan", f.bounded, "--waypoints", f.waypoints, "-o", out.path(name), "--stats",
-                                  out.path(name + ".json"), "--dsm", testkit::data_path(kSample)};
+    std::vector<std::string> args{"plan",        f.bounded,
+                                  "--waypoints", f.waypoints,
+                                  "-o",          out.path(name),
+                                  "--stats",     out.path(name + ".json"),
+                                  "--dsm",       testkit::data_path(kSample)};
     args.insert(args.end(), egm96.begin(), egm96.end());
     if (quiet) args.push_back("-q");
     return run_cli(args);
@@ -1608,7 +1638,8 @@ TEST(CliPlan, MissionsAndKmlCarryTheWaypointsInLatLonAndMeanSeaLevelHeights) {
     EXPECT_EQ(items[i]["command"], 16);
     EXPECT_EQ(items[i]["frame"], 3);  // relative to home
     const json& p = items[i]["params"];
-    if (std::abs(p[4].get<double>() - lonlath.back()[1]) < 2e-9 && std::abs(p[5].get<double>() - lonlath.back()[0]) < 2e-9)
+    if (std::abs(p[4].get<double>() - lonlath.back()[1]) < 2e-9 &&
+        std::abs(p[5].get<double>() - lonlath.back()[0]) < 2e-9)
       last_waypoint = i;
   }
   ASSERT_GT(last_waypoint, 0u) << "the last waypoint is not an item";
@@ -1753,8 +1784,9 @@ TEST(CliPlan, MissionFromAHomeElsewhereLandsAtTheEndInAbsoluteAltitudes) {
   ASSERT_FALSE(std::isnan(spot[0])) << "no open spot near the first waypoint";
   char home[64];
   std::snprintf(home, sizeof home, "%.3f,%.3f", spot[0], spot[1]);
-  const auto run = f.plan(out.path("m.waypoints"), {"--home", home, "--end", "land", "--altitude-frame", "amsl",
-                                                    "--firmware", "ardupilot", "--speed", "4", "--stats", out.path("s.json")});
+  const auto run =
+      f.plan(out.path("m.waypoints"), {"--home", home, "--end", "land", "--altitude-frame", "amsl", "--firmware",
+                                       "ardupilot", "--speed", "4", "--stats", out.path("s.json")});
   ASSERT_EQ(run.exit_code, 0) << run.err;
   const auto items = read_mission_utm(out.path("m.waypoints"));
   const double ground = f.ground(spot[0], spot[1]);
@@ -1823,13 +1855,15 @@ TEST(CliBadInput, MissionHomeEndAndFirmwareRefusedInOneLine) {
       double low = INFINITY;
       for (double dx = -12; dx <= 12; dx += 1)
         for (double dy = -12; dy <= 12; dy += 1)
-          if (std::abs(x + dx - 356550) < 250 && std::abs(y + dy - 5699500) < 250) low = std::min(low, f.cell(x + dx, y + dy));
+          if (std::abs(x + dx - 356550) < 250 && std::abs(y + dy - 5699500) < 250)
+            low = std::min(low, f.cell(x + dx, y + dy));
       points += std::to_string(x) + " " + std::to_string(y) + " " + std::to_string(low) + "\n";
     }
   testkit::write_file(f.in.path("dtm.xyz"), points);
-  ASSERT_EQ(run_cli({"grid", f.in.path("dtm.xyz"), "--crs", "EPSG:25832", "--res", "5", "-o", f.in.path("dtm.tif"), "-q"})
-                .exit_code,
-            0);
+  ASSERT_EQ(
+      run_cli({"grid", f.in.path("dtm.xyz"), "--crs", "EPSG:25832", "--res", "5", "-o", f.in.path("dtm.tif"), "-q"})
+          .exit_code,
+      0);
   std::array<double, 2> roof{NAN, NAN};
   double top = -INFINITY;
   for (int row = 2; row < f.dsm.height - 2; ++row)
@@ -1922,8 +1956,8 @@ TEST(CliUsage, EveryCommandTakesJsonAndQuietSilencesItsSummary) {
 TEST(CliGlb, OfOverridesTheExtensionForMeshAndSimplify) {
   TempDir out;
   const std::string dsm = testkit::data_path(kSample);
-  const auto mesh = run_cli({"mesh", dsm, "-o", out.path("x.dat"), "--of", "glb", "--res", "5", "--stats",
-                             out.path("x.json"), "-q"});
+  const auto mesh =
+      run_cli({"mesh", dsm, "-o", out.path("x.dat"), "--of", "glb", "--res", "5", "--stats", out.path("x.json"), "-q"});
   ASSERT_EQ(mesh.exit_code, 0) << mesh.err;
   EXPECT_EQ(mesh.err, "");
   const std::string bytes = testkit::read_file(out.path("x.dat"));
@@ -1939,8 +1973,8 @@ TEST(CliGlb, OfOverridesTheExtensionForMeshAndSimplify) {
   ASSERT_EQ(run_cli({"mesh", dsm, "-o", out.path("z.glb"), "--of", "PLY", "--res", "5", "-q"}).exit_code, 0);
   EXPECT_EQ(testkit::read_file(out.path("z.glb")).substr(0, 4), "ply\n");
 
-  const auto simplify = run_cli({"simplify", dsm, "--max-error", "0.4", "-o", out.path("s.out"), "--of", "glb",
-                                 "--res", "5", "--json", "-q"});
+  const auto simplify = run_cli(
+      {"simplify", dsm, "--max-error", "0.4", "-o", out.path("s.out"), "--of", "glb", "--res", "5", "--json", "-q"});
   ASSERT_EQ(simplify.exit_code, 0) << simplify.err;
   EXPECT_EQ(testkit::read_file(out.path("s.out")).substr(0, 4), "glTF");
   EXPECT_EQ(json::parse(simplify.out)["dropped_triangles"], 0);
@@ -1969,11 +2003,16 @@ namespace {
 std::string xml_escaped(const std::string& text) {
   std::string out;
   for (char c : text) {
-    if (c == '"') out += "&quot;";
-    else if (c == '<') out += "&lt;";
-    else if (c == '>') out += "&gt;";
-    else if (c == '&') out += "&amp;";
-    else out += c;
+    if (c == '"')
+      out += "&quot;";
+    else if (c == '<')
+      out += "&lt;";
+    else if (c == '>')
+      out += "&gt;";
+    else if (c == '&')
+      out += "&amp;";
+    else
+      out += c;
   }
   return out;
 }
@@ -2005,8 +2044,8 @@ std::string write_mosaic(const TempDir& dir) {
       const std::string size = "xSize=\"" + std::to_string(w) + "\" ySize=\"" + std::to_string(h) + "\"";
       vrt += "    <SimpleSource>\n      <SourceFilename relativeToVRT=\"1\">" + name +
              "</SourceFilename>\n      <SourceBand>1</SourceBand>\n      <SrcRect xOff=\"0\" yOff=\"0\" " + size +
-             "/>\n      <DstRect xOff=\"" + std::to_string(cols[i]) + "\" yOff=\"" + std::to_string(rows[j]) +
-             "\" " + size + "/>\n    </SimpleSource>\n";
+             "/>\n      <DstRect xOff=\"" + std::to_string(cols[i]) + "\" yOff=\"" + std::to_string(rows[j]) + "\" " +
+             size + "/>\n    </SimpleSource>\n";
     }
   }
   vrt += "  </VRTRasterBand>\n</VRTDataset>\n";
@@ -2039,8 +2078,8 @@ size_t edges_not_shared(const std::string& ply, const dsmplan::Grid& grid) {
 TEST(CliScale, VrtMosaicOfPiecesGivesTheMeshOfTheWholeRaster) {
   TempDir dir;
   const std::string vrt = write_mosaic(dir);
-  const std::vector<std::string> options{"--max-error", "0.4", "--conservative", "--tile-size", "37",
-                                         "--block-tiles", "2", "-q", "--json"};
+  const std::vector<std::string> options{"--max-error", "0.4", "--conservative", "--tile-size", "37", "--block-tiles",
+                                         "2",           "-q",  "--json"};
   auto args = [&](const std::string& input, const std::string& output) {
     std::vector<std::string> a{"simplify", input, "-o", output};
     a.insert(a.end(), options.begin(), options.end());
@@ -2071,8 +2110,9 @@ TEST(CliScale, VrtMosaicOfPiecesGivesTheMeshOfTheWholeRaster) {
 TEST(CliScale, MpiTaskFarmOfTwoRanksWritesTheSameMesh) {
   TempDir dir;
   const std::string vrt = write_mosaic(dir);
-  const std::vector<std::string> simplify{"simplify", vrt, "--max-error", "0.4", "--conservative",
-                                          "--tile-size", "37", "--block-tiles", "2", "-q", "--json"};
+  const std::vector<std::string> simplify{"simplify",    vrt,  "--max-error",   "0.4", "--conservative",
+                                          "--tile-size", "37", "--block-tiles", "2",   "-q",
+                                          "--json"};
   std::vector<std::string> single = simplify;
   single.insert(single.end(), {"-o", dir.path("single.ply")});
   std::vector<std::string> farm{"--allow-run-as-root", "--oversubscribe", "-np", "2", DSMPLAN_CLI};
@@ -2091,8 +2131,20 @@ TEST(CliScale, MpiTaskFarmOfTwoRanksWritesTheSameMesh) {
     EXPECT_EQ(a[key], b[key]) << key;
   // A failure on a worker (a piece of the mosaic gone) reaches rank 0's one line, no hang.
   std::filesystem::remove(dir.path("piece_1_2.tif"));
-  std::vector<std::string> broken{"--allow-run-as-root", "--oversubscribe", "-np", "2", DSMPLAN_CLI, "simplify",
-                                  vrt, "--max-error", "0.4", "--block-tiles", "1", "-q", "-o", dir.path("broken.ply")};
+  std::vector<std::string> broken{"--allow-run-as-root",
+                                  "--oversubscribe",
+                                  "-np",
+                                  "2",
+                                  DSMPLAN_CLI,
+                                  "simplify",
+                                  vrt,
+                                  "--max-error",
+                                  "0.4",
+                                  "--block-tiles",
+                                  "1",
+                                  "-q",
+                                  "-o",
+                                  dir.path("broken.ply")};
   const auto failed = testkit::run_program("mpirun", broken);
   EXPECT_NE(failed.exit_code, 0);
   EXPECT_NE(failed.err.find("piece_1_2.tif"), std::string::npos) << failed.err;
@@ -2126,8 +2178,8 @@ TEST(CliScale, PlanOnAMosaicAlongACorridor) {
   EXPECT_EQ(path.front(), (std::array<double, 3>{356320, 5699270, 130}));
   EXPECT_EQ(path.back(), (std::array<double, 3>{356780, 5699730, 135}));
   // Nothing else is accepted with a DSM input that only a mesh input has.
-  const auto roadmap = run_cli({"plan", vrt, "--waypoints", waypoints, "-o", dir.path("x.csv"), "--roadmap",
-                                dir.path("r.roadmap"), "-q"});
+  const auto roadmap = run_cli(
+      {"plan", vrt, "--waypoints", waypoints, "-o", dir.path("x.csv"), "--roadmap", dir.path("r.roadmap"), "-q"});
   EXPECT_EQ(roadmap.exit_code, 2);  // a usage error
   EXPECT_NE(roadmap.err.find("--roadmap"), std::string::npos) << roadmap.err;
   EXPECT_FALSE(std::filesystem::exists(dir.path("x.csv")));
@@ -2139,8 +2191,8 @@ TEST(CliScale, MeshStreamedFromAMosaicIsTheWholeMesh) {
   TempDir dir;
   const std::string vrt = write_mosaic(dir);
   const auto whole = run_cli({"mesh", testkit::data_path(kSample), "-o", dir.path("whole.ply"), "-q"});
-  const auto streamed = run_cli({"mesh", vrt, "--stream", "-o", dir.path("streamed.ply"), "--stats",
-                                 dir.path("streamed.json"), "-q"});
+  const auto streamed =
+      run_cli({"mesh", vrt, "--stream", "-o", dir.path("streamed.ply"), "--stats", dir.path("streamed.json"), "-q"});
   ASSERT_EQ(whole.exit_code, 0) << whole.err;
   ASSERT_EQ(streamed.exit_code, 0) << streamed.err;
   const dsmplan::Mesh a = dsmplan::read_mesh(dir.path("whole.ply")), b = dsmplan::read_mesh(dir.path("streamed.ply"));

@@ -3,21 +3,15 @@
 // read_mesh must give back exactly what write_mesh wrote and refuse broken files; pictures must
 // have the promised size, change only where edges are drawn, and read back through libpng.
 #include "dsmplan/export.hpp"
-#include "dsmplan/wpml.hpp"
-#include "dsmplan/mission.hpp"
-#include "dsmplan/picture.hpp"
-#include "dsmplan/wgs84.hpp"
 
 #include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
 #include <CGAL/IO/polygon_soup_io.h>
-#include <gtest/gtest.h>
-#include <sys/wait.h>
 #include <gdal.h>
+#include <gtest/gtest.h>
 #include <ogr_api.h>
 #include <ogr_spatialref.h>
 #include <png.h>
-
-#include <nlohmann/json.hpp>
+#include <sys/wait.h>
 
 #include <algorithm>
 #include <array>
@@ -30,14 +24,19 @@
 #include <functional>
 #include <limits>
 #include <map>
+#include <nlohmann/json.hpp>
 #include <optional>
 #include <sstream>
 #include <vector>
 
 #include "dsmplan/mesh.hpp"
+#include "dsmplan/mission.hpp"
+#include "dsmplan/picture.hpp"
 #include "dsmplan/raster.hpp"
 #include "dsmplan/raster_io.hpp"
 #include "dsmplan/simplify.hpp"
+#include "dsmplan/wgs84.hpp"
+#include "dsmplan/wpml.hpp"
 #include "testkit.hpp"
 
 using namespace dsmplan;
@@ -81,7 +80,9 @@ void expect_reads_back(const Mesh& mesh, const std::string& path) {
 
 namespace {
 
-bool have_program(const std::string& name) { return std::system(("command -v " + name + " >/dev/null 2>&1").c_str()) == 0; }
+bool have_program(const std::string& name) {
+  return std::system(("command -v " + name + " >/dev/null 2>&1").c_str()) == 0;
+}
 
 // Runs a shell command, its output into `log`; the exit status.
 int run_logged(const std::string& command, const std::string& log) {
@@ -105,16 +106,17 @@ std::pair<long, long> ply_counts(const std::string& path) {
 }  // namespace
 
 TEST(OpensWhereUsersOpenIt, CloudCompareReadsEveryMeshFormatWhole) {
-  if (!have_program("CloudCompare") || !have_program("xvfb-run")) GTEST_SKIP() << "CloudCompare or xvfb-run not installed";
+  if (!have_program("CloudCompare") || !have_program("xvfb-run"))
+    GTEST_SKIP() << "CloudCompare or xvfb-run not installed";
   const Mesh mesh = real_mesh();
   testkit::TempDir dir;
   for (const char* name : {"mesh.ply", "mesh.obj", "mesh.off"}) {
     const std::string path = dir.path(name), out = dir.path(std::string(name) + ".cc.ply");
     write_mesh(mesh, path, mesh_format_for(path));
     // Opened and saved again as PLY by CloudCompare's command line: what it read, counted.
-    const int status = run_logged("xvfb-run -a CloudCompare -SILENT -NO_TIMESTAMP -O " + path +
-                                      " -M_EXPORT_FMT PLY -SAVE_MESHES FILE " + out,
-                                  dir.path("cc.log"));
+    const int status = run_logged(
+        "xvfb-run -a CloudCompare -SILENT -NO_TIMESTAMP -O " + path + " -M_EXPORT_FMT PLY -SAVE_MESHES FILE " + out,
+        dir.path("cc.log"));
     ASSERT_EQ(status, 0) << testkit::read_file(dir.path("cc.log"));
     const auto [vertices, faces] = ply_counts(out);
     EXPECT_EQ(vertices, long(mesh.vertices.size())) << name;
@@ -123,7 +125,8 @@ TEST(OpensWhereUsersOpenIt, CloudCompareReadsEveryMeshFormatWhole) {
 }
 
 TEST(OpensWhereUsersOpenIt, MeshLabReadsPlyAndOffWhole) {
-  if (!have_program("meshlabserver") || !have_program("xvfb-run")) GTEST_SKIP() << "meshlabserver or xvfb-run not installed";
+  if (!have_program("meshlabserver") || !have_program("xvfb-run"))
+    GTEST_SKIP() << "meshlabserver or xvfb-run not installed";
   const Mesh mesh = real_mesh();
   testkit::TempDir dir;
   // Not OBJ: Debian 12's meshlabserver (2020.09) aborts on every OBJ, a three-line triangle too
@@ -146,18 +149,21 @@ TEST(OpensWhereUsersOpenIt, BlenderImportsTheGlbInPlace) {
   const std::string glb = dir.path("mesh.glb");
   write_mesh(mesh, glb, MeshFormat::Glb);
   // Blender's own glTF importer; the mesh's world box (Blender is z-up, as the CRS) printed.
-  testkit::write_file(dir.path("import.py"),
-                      "import numpy\n"
-                      "if not hasattr(numpy, 'bool'): numpy.bool = bool  # Debian 12: Blender 3.4's addon, numpy 1.24\n"
-                      "import bpy\n"
-                      "bpy.ops.wm.read_factory_settings(use_empty=True)\n"
-                      "bpy.ops.import_scene.gltf(filepath='" + glb + "')\n"
-                      "for o in bpy.context.scene.objects:\n"
-                      "    if o.type != 'MESH': continue\n"
-                      "    w = [o.matrix_world @ v.co for v in o.data.vertices]\n"
-                      "    print('MESH %d %d %.3f %.3f %.3f %.3f %.3f %.3f' % (len(o.data.vertices), len(o.data.polygons),\n"
-                      "          min(p.x for p in w), max(p.x for p in w), min(p.y for p in w), max(p.y for p in w),\n"
-                      "          min(p.z for p in w), max(p.z for p in w)))\n");
+  testkit::write_file(
+      dir.path("import.py"),
+      "import numpy\n"
+      "if not hasattr(numpy, 'bool'): numpy.bool = bool  # Debian 12: Blender 3.4's addon, numpy 1.24\n"
+      "import bpy\n"
+      "bpy.ops.wm.read_factory_settings(use_empty=True)\n"
+      "bpy.ops.import_scene.gltf(filepath='" +
+          glb +
+          "')\n"
+          "for o in bpy.context.scene.objects:\n"
+          "    if o.type != 'MESH': continue\n"
+          "    w = [o.matrix_world @ v.co for v in o.data.vertices]\n"
+          "    print('MESH %d %d %.3f %.3f %.3f %.3f %.3f %.3f' % (len(o.data.vertices), len(o.data.polygons),\n"
+          "          min(p.x for p in w), max(p.x for p in w), min(p.y for p in w), max(p.y for p in w),\n"
+          "          min(p.z for p in w), max(p.z for p in w)))\n");
   const int status = run_logged("blender -b --factory-startup --python " + dir.path("import.py"), dir.path("b.log"));
   const std::string log = testkit::read_file(dir.path("b.log"));
   ASSERT_EQ(status, 0) << log;
@@ -165,8 +171,8 @@ TEST(OpensWhereUsersOpenIt, BlenderImportsTheGlbInPlace) {
   ASSERT_NE(at, std::string::npos) << log;
   long vertices = 0, faces = 0;
   double box[6];
-  ASSERT_EQ(std::sscanf(log.c_str() + at + 1, "MESH %ld %ld %lf %lf %lf %lf %lf %lf", &vertices, &faces, &box[0], &box[1],
-                        &box[2], &box[3], &box[4], &box[5]),
+  ASSERT_EQ(std::sscanf(log.c_str() + at + 1, "MESH %ld %ld %lf %lf %lf %lf %lf %lf", &vertices, &faces, &box[0],
+                        &box[1], &box[2], &box[3], &box[4], &box[5]),
             8);
   EXPECT_EQ(vertices, long(mesh.vertices.size()));
   EXPECT_EQ(faces, long(mesh.triangles.size()));
@@ -616,8 +622,8 @@ TEST(Render, PathAndWaypointsAreDrawnWhereTheyAreAndNowhereElse) {
   const Window window{grid.x0 + 100, grid.y0 - 160, grid.x0 + 160, grid.y0 - 100};
   RenderOptions options = plain(window, 4);
   const Image without = render_view(grid, nullptr, options);
-  const std::vector<Point3> path{{grid.x0 + 105, grid.y0 - 150, 150}, {grid.x0 + 130, grid.y0 - 110, 160},
-                                 {grid.x0 + 155, grid.y0 - 140, 150}};
+  const std::vector<Point3> path{
+      {grid.x0 + 105, grid.y0 - 150, 150}, {grid.x0 + 130, grid.y0 - 110, 160}, {grid.x0 + 155, grid.y0 - 140, 150}};
   LineLayer line;
   line.polylines = {path};
   options.lines.push_back(line);
@@ -633,7 +639,7 @@ TEST(Render, PathAndWaypointsAreDrawnWhereTheyAreAndNowhereElse) {
       double nearest = INFINITY;
       for (size_t k = 1; k < path.size(); ++k)
         nearest = std::min(nearest, segment_distance(x + 0.5, y + 0.5, px(path[k - 1][0]), py(path[k - 1][1]),
-                                                      px(path[k][0]), py(path[k][1])));
+                                                     px(path[k][0]), py(path[k][1])));
       const double to_marker = std::hypot(x + 0.5 - wx, y + 0.5 - wy);
       const bool differs = std::memcmp(pixel(with, x, y), pixel(without, x, y), 3) != 0;
       // 3-pixel line with a 1-pixel halo: 2.5 pixels from the centre line, plus antialiasing;
@@ -678,7 +684,8 @@ TEST(Render, FurnitureIsNeverCoveredAndNumbersAvoidItAndEachOther) {
   const Image bare = render_view(grid, nullptr, options);
   std::map<std::string, ImageRegion> furniture;
   for (const ImageRegion& r : bare.regions) furniture[r.what] = r;
-  for (const std::string what : {"title", "north arrow", "scale bar", "legend"}) ASSERT_TRUE(furniture.count(what)) << what;
+  for (const std::string what : {"title", "north arrow", "scale bar", "legend"})
+    ASSERT_TRUE(furniture.count(what)) << what;
   const auto at = [&](double x, double y) {  // a pixel centre back in the CRS
     return Point3{options.window->xmin + (x + 0.5) / 3, options.window->ymax - (y + 0.5) / 3, 150};
   };
@@ -710,15 +717,16 @@ TEST(Render, FurnitureIsNeverCoveredAndNumbersAvoidItAndEachOther) {
   };
   for (size_t i = 0; i < busy.regions.size(); ++i)
     for (size_t j = i + 1; j < busy.regions.size(); ++j)
-      EXPECT_FALSE(meets(busy.regions[i], busy.regions[j])) << busy.regions[i].what << " meets " << busy.regions[j].what;
+      EXPECT_FALSE(meets(busy.regions[i], busy.regions[j]))
+          << busy.regions[i].what << " meets " << busy.regions[j].what;
 
   // One waypoint under the legend's left end, where the (narrower) scale bar would not reach:
   // the two change corners, and the waypoint shows.
   MarkerLayer one;
   const ImageRegion &bar = furniture.at("scale bar"), &legend = furniture.at("legend");
   const int wx = legend.x0 + 8, wy = legend.y1 - 8;
-  ASSERT_LT(wx + 8, busy.width - 6 * 2 - (bar.x1 - bar.x0));     // clear of the scale bar moved right
-  ASSERT_GT(wx - 8, bar.x0 + (legend.x1 - legend.x0));            // and of the legend moved left
+  ASSERT_LT(wx + 8, busy.width - 6 * 2 - (bar.x1 - bar.x0));  // clear of the scale bar moved right
+  ASSERT_GT(wx - 8, bar.x0 + (legend.x1 - legend.x0));        // and of the legend moved left
   one.points = {at(wx, wy)};
   options.markers = {one};
   options.title.clear();
@@ -726,7 +734,8 @@ TEST(Render, FurnitureIsNeverCoveredAndNumbersAvoidItAndEachOther) {
   for (const ImageRegion& r : moved.regions)
     if (r.what == "legend") EXPECT_LT(r.x1, moved.width / 2 + 40);
   const uint8_t* p = pixel(moved, wx, wy);
-  EXPECT_TRUE(p[0] > 200 && p[1] > 150 && p[2] < 80) << int(p[0]) << "," << int(p[1]) << "," << int(p[2]);  // the disc's yellow
+  EXPECT_TRUE(p[0] > 200 && p[1] > 150 && p[2] < 80)
+      << int(p[0]) << "," << int(p[1]) << "," << int(p[2]);  // the disc's yellow
 }
 
 TEST(Render, NodataAndOutsideHaveTheirOwnColours) {
@@ -903,8 +912,10 @@ TEST(Profile, StepsAreTheCellsUnderThePathExactly) {
   // A diagonal path over the real sample, against a brute-force sampling of the cell under it:
   // every one of 20000 points along the path lies over the height of the step holding it.
   const Grid& grid = nrw_grid();
-  const std::vector<Point3> diagonal{{grid.x0 + 3.3, grid.y0 - 7.1, 150}, {grid.x0 + 250, grid.y0 - 190.7, 160},
-                                     {grid.x0 + 250, grid.y0 - 400, 155}, {grid.x0 + 480.2, grid.y0 - 260.9, 170}};
+  const std::vector<Point3> diagonal{{grid.x0 + 3.3, grid.y0 - 7.1, 150},
+                                     {grid.x0 + 250, grid.y0 - 190.7, 160},
+                                     {grid.x0 + 250, grid.y0 - 400, 155},
+                                     {grid.x0 + 480.2, grid.y0 - 260.9, 170}};
   const PathProfile real = profile_path(diagonal, grid, nullptr);
   ASSERT_FALSE(real.dsm.empty());
   EXPECT_EQ(real.dsm.front().from, 0);
@@ -1043,7 +1054,7 @@ TEST(Profile, TerrainIsTheCeilingsGroundAndItsGapsStayGaps) {
     const double d = (x + 0.5 - plot.left) / (plot.right - plot.left) * 180;
     if (d < 3 || d > 177) continue;
     const double terrain = mean_row(image, x, plot.top, plot.bottom, brown);
-    const bool gap = d > 130 + 2 && d < 150 - 2, near_gap = d > 130 - 2 && d < 150 + 2;
+    const bool gap = d > 130 + 2 && d<150 - 2, near_gap = d> 130 - 2 && d < 150 + 2;
     if (gap) {
       ++gap_columns;
       EXPECT_TRUE(std::isnan(terrain)) << "terrain drawn over its gap at column " << x;
@@ -1118,7 +1129,8 @@ TEST(Wgs84Transform, HorizontalAgreesWithGdalAndRoundTripsWithinAMillimetre) {
   utm.SetAxisMappingStrategy(OAMS_TRADITIONAL_GIS_ORDER);
   std::unique_ptr<OGRCoordinateTransformation> gdal(OGRCreateCoordinateTransformation(&utm, &wgs));
   ASSERT_TRUE(gdal);
-  for (const Point3& p : {Point3{356320, 5699270, 130}, Point3{357000, 5700000, 90}, Point3{356800.25, 5699745.5, 160}}) {
+  for (const Point3& p :
+       {Point3{356320, 5699270, 130}, Point3{357000, 5700000, 90}, Point3{356800.25, 5699745.5, 160}}) {
     const Point3 g = t.to_wgs84(p);
     double x = p[0], y = p[1];
     ASSERT_TRUE(gdal->Transform(1, &x, &y));
@@ -1295,18 +1307,21 @@ TEST(Tileset, JsonIsA3DTiles11TilesetOfOneTile) {
 TEST(OpensWhereUsersOpenIt, CesiumPlacesThe3DTilesetWhereGdalSays) {
   const std::string cesium = DSMPLAN_CESIUM_DIR "/node_modules/cesium";
   if (!std::filesystem::exists(cesium + "/Build/Cesium/Cesium.js")) {
-    ADD_FAILURE() << "CesiumJS is not installed in " DSMPLAN_CESIUM_DIR ": scripts/test.sh installs it (npm ci from tests/cesium)";
+    ADD_FAILURE() << "CesiumJS is not installed in " DSMPLAN_CESIUM_DIR
+                     ": scripts/test.sh installs it (npm ci from tests/cesium)";
     return;
   }
   testkit::TempDir dir;
   const std::string dsm = testkit::data_path("nrw-dom1/nrw_dom1_crop500m_1m.tif");
-  const testkit::CliResult glb = testkit::run_cli({"mesh", dsm, "--res", "2", "--zstep", "0", "-o", dir.path("city.glb"),
-                                                   "--3dtiles", "--allow-approximate-vertical", "-q", "--json"});
+  const testkit::CliResult glb =
+      testkit::run_cli({"mesh", dsm, "--res", "2", "--zstep", "0", "-o", dir.path("city.glb"), "--3dtiles",
+                        "--allow-approximate-vertical", "-q", "--json"});
   ASSERT_EQ(glb.exit_code, 0) << glb.err;
   const auto report = nlohmann::json::parse(glb.out);
   EXPECT_EQ(report["tileset"]["path"], dir.path("tileset.json"));
   EXPECT_LE(report["tileset"]["max_placement_error_m"].get<double>(), 0.02);
-  ASSERT_EQ(testkit::run_cli({"mesh", dsm, "--res", "2", "--zstep", "0", "-o", dir.path("city.ply"), "-q"}).exit_code, 0);
+  ASSERT_EQ(testkit::run_cli({"mesh", dsm, "--res", "2", "--zstep", "0", "-o", dir.path("city.ply"), "-q"}).exit_code,
+            0);
   const Mesh mesh = read_mesh(dir.path("city.ply"));
 
   // Vertices spread over the mesh, street and roof alike; the expected heights from GDAL.
@@ -1392,13 +1407,15 @@ void validate(const nlohmann::json& v, const nlohmann::json& schema, const std::
     if (t == "boolean") return v.is_boolean();
     if (t == "null") return v.is_null();
     if (t == "number") return v.is_number();
-    if (t == "integer") return v.is_number_integer() || (v.is_number_float() && std::floor(v.get<double>()) == v.get<double>());
+    if (t == "integer")
+      return v.is_number_integer() || (v.is_number_float() && std::floor(v.get<double>()) == v.get<double>());
     throw std::runtime_error("schema: unknown type " + t);
   };
   for (const auto& [key, rule] : schema.items()) {
     if (key == "type") {
-      const bool ok = rule.is_string() ? has_type(rule.get<std::string>())
-                                       : std::any_of(rule.begin(), rule.end(), [&](const auto& t) { return has_type(t); });
+      const bool ok = rule.is_string()
+                          ? has_type(rule.get<std::string>())
+                          : std::any_of(rule.begin(), rule.end(), [&](const auto& t) { return has_type(t); });
       if (!ok) return fail("not of type " + rule.dump());
     } else if (key == "const") {
       if (v != rule) fail("is " + v.dump() + ", not " + rule.dump());
@@ -1410,7 +1427,8 @@ void validate(const nlohmann::json& v, const nlohmann::json& schema, const std::
         if (v.is_object() && v.contains(name)) validate(v[name], sub, where + "/" + name, errors);
     } else if (key == "items") {
       const size_t first = schema.contains("prefixItems") ? schema["prefixItems"].size() : 0;
-      for (size_t i = first; v.is_array() && i < v.size(); ++i) validate(v[i], rule, where + "/" + std::to_string(i), errors);
+      for (size_t i = first; v.is_array() && i < v.size(); ++i)
+        validate(v[i], rule, where + "/" + std::to_string(i), errors);
     } else if (key == "prefixItems") {
       for (size_t i = 0; v.is_array() && i < v.size() && i < rule.size(); ++i)
         validate(v[i], rule[i], where + "/" + std::to_string(i), errors);
@@ -1418,7 +1436,8 @@ void validate(const nlohmann::json& v, const nlohmann::json& schema, const std::
       if (v.is_array() && (key == "minItems" ? v.size() < rule.get<size_t>() : v.size() > rule.get<size_t>()))
         fail("has " + std::to_string(v.size()) + " items, " + key + " " + rule.dump());
     } else if (key == "minimum" || key == "maximum") {
-      if (v.is_number() && (key == "minimum" ? v.get<double>() < rule.get<double>() : v.get<double>() > rule.get<double>()))
+      if (v.is_number() &&
+          (key == "minimum" ? v.get<double>() < rule.get<double>() : v.get<double>() > rule.get<double>()))
         fail(v.dump() + " is outside " + key + " " + rule.dump());
     } else if (key != "$schema" && key != "$comment") {
       throw std::runtime_error("schema: keyword not implemented: " + key);
@@ -1434,7 +1453,8 @@ std::vector<std::string> plan_schema_errors(const nlohmann::json& plan) {
 }
 
 // Muelheim an der Ruhr (the sample's area): lon, lat, height above mean sea level.
-const std::vector<Point3> kMission{{6.933290123, 51.426401234, 177.5}, {6.9341, 51.4269, 180.25}, {6.935, 51.4271, 179}};
+const std::vector<Point3> kMission{
+    {6.933290123, 51.426401234, 177.5}, {6.9341, 51.4269, 180.25}, {6.935, 51.4271, 179}};
 
 struct WplItem {
   int index, current, frame, command, autocontinue;
@@ -1617,7 +1637,9 @@ TEST(MissionText, EveryFirmwareFrameAndEndIsWhatArduPilotAndPx4Fly) {
         }
         const auto plan = nlohmann::json::parse(mission_to_qgc_plan(mission, options));
         EXPECT_TRUE(plan_schema_errors(plan).empty());
-        EXPECT_EQ(plan["mission"]["firmwareType"], firmware == Firmware::px4 ? 12 : firmware == Firmware::ardupilot ? 3 : 0);
+        EXPECT_EQ(plan["mission"]["firmwareType"], firmware == Firmware::px4         ? 12
+                                                   : firmware == Firmware::ardupilot ? 3
+                                                                                     : 0);
         EXPECT_EQ(plan["mission"]["globalPlanAltitudeMode"], frame == AltitudeFrame::relative ? 1 : 2);
         EXPECT_EQ(plan["mission"]["cruiseSpeed"], 3.5);
         EXPECT_EQ(plan["mission"]["hoverSpeed"], 2);
@@ -1733,7 +1755,8 @@ std::vector<std::pair<Mission, MissionOptions>> unflyable_missions() {
   with(MissionEnd::rtl, [](Mission& m, MissionOptions&) { m.route[1] = {356320, 5699270, 130}; });  // UTM, not degrees
   with(MissionEnd::rtl, [](Mission& m, MissionOptions&) { m.route[2][2] = NAN; });
   with(MissionEnd::rtl, [](Mission& m, MissionOptions&) { m.home[1] = INFINITY; });
-  with(MissionEnd::rtl, [](Mission& m, MissionOptions&) { m.route[0][0] += 1e-5; });  // the takeoff's top not above home
+  with(MissionEnd::rtl,
+       [](Mission& m, MissionOptions&) { m.route[0][0] += 1e-5; });  // the takeoff's top not above home
   with(MissionEnd::rtl, [](Mission& m, MissionOptions&) { m.route[0][2] = m.home[2] + 1.9; });  // too low a takeoff
   with(MissionEnd::land, [](Mission& m, MissionOptions&) { m.land = {NAN, NAN, NAN}; });
   for (const double speed : {0.0, -1.0, 101.0, double(NAN)}) {
@@ -1806,7 +1829,8 @@ TEST(MissionText, StraightRunsAreDroppedWithinTheTolerance) {
     for (size_t k = 1; k < kept.size(); ++k) {
       const Point3 &a = kept[k - 1], &b = kept[k];
       const double ab[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]}, ap[3] = {p[0] - a[0], p[1] - a[1], p[2] - a[2]};
-      const double t = std::clamp((ab[0] * ap[0] + ab[1] * ap[1] + ab[2] * ap[2]) / (ab[0] * ab[0] + ab[1] * ab[1] + ab[2] * ab[2]), 0.0, 1.0);
+      const double t = std::clamp(
+          (ab[0] * ap[0] + ab[1] * ap[1] + ab[2] * ap[2]) / (ab[0] * ab[0] + ab[1] * ab[1] + ab[2] * ab[2]), 0.0, 1.0);
       best = std::min(best, std::hypot(ap[0] - t * ab[0], ap[1] - t * ab[1], ap[2] - t * ab[2]));
     }
     EXPECT_LE(best, 0.01 + 1e-12);

@@ -37,8 +37,8 @@ std::vector<json> load_catalogue() {
 }
 
 std::string substitute(std::string text, const std::string& out, const std::string& work) {
-  for (const auto& [key, value] : {std::pair<std::string, std::string>{"{in}", kFixtures}, {"{out}", out},
-                                   {"{work}", work}}) {
+  for (const auto& [key, value] :
+       {std::pair<std::string, std::string>{"{in}", kFixtures}, {"{out}", out}, {"{work}", work}}) {
     for (size_t at; (at = text.find(key)) != std::string::npos;) text.replace(at, key.size(), value);
   }
   return text;
@@ -145,7 +145,8 @@ TEST_P(Hostile, FailsCleanly) {
   for (const auto& arg : c.at("args")) args.push_back(substitute(arg.get<std::string>(), out_dir, work_dir));
   const std::vector<std::string> fixtures_before = listing(kFixtures);
 
-  const testkit::CliResult result = run_limited(args, c.value("file_size_limit", 0L), c.value("address_space_limit", 0L));
+  const testkit::CliResult result =
+      run_limited(args, c.value("file_size_limit", 0L), c.value("address_space_limit", 0L));
 
   const std::string& err = result.err;
   EXPECT_NE(result.exit_code, 0);
@@ -171,7 +172,9 @@ TEST_P(Hostile, FailsCleanly) {
 }
 
 INSTANTIATE_TEST_SUITE_P(Catalogue, Hostile, testing::ValuesIn(load_catalogue()),
-                         [](const testing::TestParamInfo<json>& info) { return info.param.at("name").get<std::string>(); });
+                         [](const testing::TestParamInfo<json>& info) {
+                           return info.param.at("name").get<std::string>();
+                         });
 
 TEST(HostileCatalogue, CoversTheIssue) {
   // Issue 7 asks for at least 30 cases; the fixture folder stays small enough to keep in git.

@@ -341,7 +341,8 @@ TEST(Xy3Streamed, BandsGiveTheWholeGridsMesh) {
       MeshCollector sink(streamed);
       const MeshStreamResult result = triangulate_xy3(source, sink, options);
       ASSERT_EQ(streamed.vertices.size(), whole.vertices.size());
-      EXPECT_EQ(std::memcmp(streamed.vertices.data(), whole.vertices.data(), whole.vertices.size() * sizeof(Vertex)), 0);
+      EXPECT_EQ(std::memcmp(streamed.vertices.data(), whole.vertices.data(), whole.vertices.size() * sizeof(Vertex)),
+                0);
       EXPECT_EQ(testkit::triangle_set(streamed.triangles), testkit::triangle_set(whole.triangles));
       EXPECT_EQ(result.triangles, whole.triangles.size());
       if (band == 7) EXPECT_LT(source.largest_rows, holes.height / 3);

@@ -8,13 +8,13 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
-#include <iomanip>
 #include <cmath>
+#include <iomanip>
 #include <random>
 
 #include "dsmplan/columns.hpp"
-#include "dsmplan/point_io.hpp"
 #include "dsmplan/plan.hpp"
+#include "dsmplan/point_io.hpp"
 #include "dsmplan/simplify.hpp"
 #include "dsmplan/tools.hpp"
 #include "street_point.hpp"
@@ -56,9 +56,11 @@ double columns_distance(const Grid& grid, const Point3& p, const Point3& q, doub
   double best = reach;
   const double low = std::min(p[2], q[2]);
   const int c0 = std::max(0, static_cast<int>(std::floor((std::min(p[0], q[0]) - reach - grid.x0) / grid.cell_x)));
-  const int c1 = std::min(grid.width - 1, static_cast<int>(std::floor((std::max(p[0], q[0]) + reach - grid.x0) / grid.cell_x)));
+  const int c1 =
+      std::min(grid.width - 1, static_cast<int>(std::floor((std::max(p[0], q[0]) + reach - grid.x0) / grid.cell_x)));
   const int r0 = std::max(0, static_cast<int>(std::floor((grid.y0 - std::max(p[1], q[1]) - reach) / grid.cell_y)));
-  const int r1 = std::min(grid.height - 1, static_cast<int>(std::floor((grid.y0 - std::min(p[1], q[1]) + reach) / grid.cell_y)));
+  const int r1 =
+      std::min(grid.height - 1, static_cast<int>(std::floor((grid.y0 - std::min(p[1], q[1]) + reach) / grid.cell_y)));
   for (int r = r0; r <= r1; ++r)
     for (int c = c0; c <= c1; ++c) {
       const float h = grid.at(c, r);
@@ -191,8 +193,9 @@ Limits fly_missions(const Grid& dsm, const Grid* dtm, int missions, uint64_t see
 }
 
 void expect_flown(const Limits& limits, int missions, const char* name) {
-  std::printf("%s: %d of %d missions solved, least clearance to the columns %.3f m, greatest height above ground %.3f m\n",
-              name, limits.solved, limits.missions, limits.min_clearance, limits.max_agl);
+  std::printf(
+      "%s: %d of %d missions solved, least clearance to the columns %.3f m, greatest height above ground %.3f m\n",
+      name, limits.solved, limits.missions, limits.min_clearance, limits.max_agl);
   EXPECT_EQ(limits.missions, missions) << name << ": street waypoints not found";
   // Street to street under a 30 m ceiling: nearly all are flyable; a checker of no path checks nothing.
   EXPECT_GE(limits.solved, limits.missions * 8 / 10) << name;
@@ -256,42 +259,48 @@ TEST(PlanLimits, GroundWalkIsTheHighestPointAboveEveryCellCrossed) {
   // Rough ground (every block needs its cells walked) and smooth ground over more blocks (most
   // settled by their lowest cell): below_ceiling() against the exact walk either way.
   for (int seed = 11; seed < 16; ++seed)
-  for (bool smooth : {false, true}) {
-    Grid g = smooth ? Grid(130, 90, 356000.5, 5699030.25, 0.5, 0.75) : Grid(40, 30, 356000.5, 5699030.25, 0.5, 0.75);
-    std::mt19937_64 rng(seed);
-    std::uniform_real_distribution<double> unit(0, 1);
-    for (int r = 0; r < g.height; ++r)
-      for (int c = 0; c < g.width; ++c)
-        g.z[g.index(c, r)] = static_cast<float>(smooth ? 10 + 8 * std::sin(c / 17.0) + 0.05 * r + 0.3 * unit(rng) : 40 * unit(rng));
-    const GroundGrid ground(g);
-    for (int i = 0; i < 3000; ++i) {
-      auto point = [&] {
-        return Point3{g.x0 + unit(rng) * g.width * g.cell_x, g.y1() + unit(rng) * g.height * g.cell_y, 60 * unit(rng)};
-      };
-      Point3 p = point(), q = point();
-      if (i % 10 == 0) q[0] = p[0];  // along a column of cells
-      if (i % 10 == 1) q[1] = p[1];
-      if (i % 10 == 2) q = {p[0] + 2 * g.cell_x, p[1] - 2 * g.cell_y, q[2]};  // through corners, where rounding lets it
-      if (i % 10 == 3) q = {p[0] + 16 * g.cell_x, p[1] - 16 * g.cell_y, q[2]};
-      if (i % 10 == 4) {  // from a cell's corner diagonally: through every corner on the way, blocks' edges too
-        const int c = static_cast<int>(rng() % g.width), r = static_cast<int>(rng() % g.height), m = 1 + static_cast<int>(rng() % 24);
-        const int sx = rng() % 2 ? 1 : -1, sy = rng() % 2 ? 1 : -1;
-        p = {g.x0 + c * g.cell_x, g.y0 - r * g.cell_y, p[2]};
-        q = {p[0] + sx * m * g.cell_x, p[1] + sy * m * g.cell_y, q[2]};
+    for (bool smooth : {false, true}) {
+      Grid g = smooth ? Grid(130, 90, 356000.5, 5699030.25, 0.5, 0.75) : Grid(40, 30, 356000.5, 5699030.25, 0.5, 0.75);
+      std::mt19937_64 rng(seed);
+      std::uniform_real_distribution<double> unit(0, 1);
+      for (int r = 0; r < g.height; ++r)
+        for (int c = 0; c < g.width; ++c)
+          g.z[g.index(c, r)] =
+              static_cast<float>(smooth ? 10 + 8 * std::sin(c / 17.0) + 0.05 * r + 0.3 * unit(rng) : 40 * unit(rng));
+      const GroundGrid ground(g);
+      for (int i = 0; i < 3000; ++i) {
+        auto point = [&] {
+          return Point3{g.x0 + unit(rng) * g.width * g.cell_x, g.y1() + unit(rng) * g.height * g.cell_y,
+                        60 * unit(rng)};
+        };
+        Point3 p = point(), q = point();
+        if (i % 10 == 0) q[0] = p[0];  // along a column of cells
+        if (i % 10 == 1) q[1] = p[1];
+        if (i % 10 == 2)
+          q = {p[0] + 2 * g.cell_x, p[1] - 2 * g.cell_y, q[2]};  // through corners, where rounding lets it
+        if (i % 10 == 3) q = {p[0] + 16 * g.cell_x, p[1] - 16 * g.cell_y, q[2]};
+        if (i % 10 == 4) {  // from a cell's corner diagonally: through every corner on the way, blocks' edges too
+          const int c = static_cast<int>(rng() % g.width), r = static_cast<int>(rng() % g.height),
+                    m = 1 + static_cast<int>(rng() % 24);
+          const int sx = rng() % 2 ? 1 : -1, sy = rng() % 2 ? 1 : -1;
+          p = {g.x0 + c * g.cell_x, g.y0 - r * g.cell_y, p[2]};
+          q = {p[0] + sx * m * g.cell_x, p[1] + sy * m * g.cell_y, q[2]};
+        }
+        const double expected = height_above_ground(g, p, q);
+        if (std::isinf(expected)) {  // leaves the raster
+          EXPECT_EQ(ground.max_height_above(p, q), INFINITY) << i;
+          EXPECT_FALSE(ground.below_ceiling(p, q, 1e300)) << i;
+          continue;
+        }
+        ASSERT_NEAR(ground.max_height_above(p, q), expected, 1e-9) << i;
+        EXPECT_EQ(ground.below_ceiling(p, q, expected + 1e-6), true) << i;
+        EXPECT_EQ(ground.below_ceiling(p, q, expected - 1e-6), false)
+            << i << " smooth " << smooth << std::setprecision(17) << " p " << p[0] << " " << p[1] << " " << p[2]
+            << " q " << q[0] << " " << q[1] << " " << q[2];
+        EXPECT_EQ(ground.below_ceiling(p, q, expected + 3), true) << i;  // what the blocks' lowest cells settle
       }
-      const double expected = height_above_ground(g, p, q);
-      if (std::isinf(expected)) {  // leaves the raster
-        EXPECT_EQ(ground.max_height_above(p, q), INFINITY) << i;
-        EXPECT_FALSE(ground.below_ceiling(p, q, 1e300)) << i;
-        continue;
-      }
-      ASSERT_NEAR(ground.max_height_above(p, q), expected, 1e-9) << i;
-      EXPECT_EQ(ground.below_ceiling(p, q, expected + 1e-6), true) << i;
-      EXPECT_EQ(ground.below_ceiling(p, q, expected - 1e-6), false) << i << " smooth " << smooth << std::setprecision(17) << " p " << p[0] << " " << p[1] << " " << p[2] << " q " << q[0] << " " << q[1] << " " << q[2];
-      EXPECT_EQ(ground.below_ceiling(p, q, expected + 3), true) << i;  // what the blocks' lowest cells settle
+      EXPECT_EQ(ground.height_above({g.x0 - 1, g.y0 - 1, 0}), INFINITY);  // beyond the raster: nothing flies there
     }
-    EXPECT_EQ(ground.height_above({g.x0 - 1, g.y0 - 1, 0}), INFINITY);  // beyond the raster: nothing flies there
-  }
 }
 
 TEST(PlanLimits, ColumnsAboveTheMeshAreMeasuredExactly) {
@@ -300,7 +309,8 @@ TEST(PlanLimits, ColumnsAboveTheMeshAreMeasuredExactly) {
   Grid g(24, 20, 1000, 2000, 1, 1);
   std::mt19937_64 rng(5);
   for (int r = 0; r < g.height; ++r)
-    for (int c = 0; c < g.width; ++c) g.z[g.index(c, r)] = static_cast<float>((rng() % 4 == 0) ? 12 + rng() % 9 : rng() % 2);
+    for (int c = 0; c < g.width; ++c)
+      g.z[g.index(c, r)] = static_cast<float>((rng() % 4 == 0) ? 12 + rng() % 9 : rng() % 2);
   const Mesh mesh = triangulate_xy3(g);
   const ColumnError certified = certify_columns(mesh, g);
   const ClearanceIndex index(mesh);
@@ -317,7 +327,7 @@ TEST(PlanLimits, ColumnsAboveTheMeshAreMeasuredExactly) {
   EXPECT_GT(sampled, 1);
   EXPECT_GE(certified.max_below, sampled - 1e-9);
   EXPECT_LE(certified.max_below, sampled + 20.0 / n);  // the steepest slope (20 m a cell) times the sample step
-  EXPECT_GT(certified.uncovered_corners, 0u);  // the outer half cells: the mesh stops at the centres
+  EXPECT_GT(certified.uncovered_corners, 0u);          // the outer half cells: the mesh stops at the centres
 }
 
 TEST(PlanLimits, NoPathPassesThroughAHoleLowerThanItsRim) {

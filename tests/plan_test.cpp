@@ -18,13 +18,13 @@
 #include <set>
 #include <tuple>
 
+#include "dsmplan/columns.hpp"
+#include "dsmplan/corridor.hpp"
 #include "dsmplan/mesh.hpp"
 #include "dsmplan/raster.hpp"
 #include "dsmplan/raster_io.hpp"
-#include "dsmplan/simplify.hpp"
 #include "dsmplan/roadmap_file.hpp"
-#include "dsmplan/corridor.hpp"
-#include "dsmplan/columns.hpp"
+#include "dsmplan/simplify.hpp"
 #include "street_point.hpp"
 #include "testkit.hpp"
 
@@ -715,7 +715,8 @@ TEST(RoadmapFile, RoundTripGivesTheSameRoadmapAndPath) {
   testkit::TempDir dir;
   const std::string path = dir.path("map.bin");
   write_roadmap(path, built, mesh_fingerprint(mesh), options);
-  EXPECT_EQ(read_bytes(path).size(), 16 + 4 + 8 + 32 + 16 + built.nodes.size() * 28 + 4 + built.neighbour.size() * 4 + 8);
+  EXPECT_EQ(read_bytes(path).size(),
+            16 + 4 + 8 + 32 + 16 + built.nodes.size() * 28 + 4 + built.neighbour.size() * 4 + 8);
   const Roadmap read = read_roadmap(path, mesh_fingerprint(mesh), options);
   EXPECT_EQ(read.nodes, built.nodes);
   EXPECT_EQ(read.start, built.start);
@@ -763,8 +764,10 @@ TEST(RoadmapFile, AnotherMeshOtherOptionsOrDamageAreRefused) {
   nudged.vertices[nudged.vertices.size() / 2].z += 0.001;
   EXPECT_NE(mesh_fingerprint(nudged), fingerprint);
   expect_refused(path, mesh_fingerprint(nudged), options, "another mesh");
-  for (auto [field, value] : {std::pair{&PlanOptions::safety, 3.0}, {&PlanOptions::spacing, 20.0},
-                              {&PlanOptions::max_edge, 30.0}, {&PlanOptions::max_agl, 41.0}}) {
+  for (auto [field, value] : {std::pair{&PlanOptions::safety, 3.0},
+                              {&PlanOptions::spacing, 20.0},
+                              {&PlanOptions::max_edge, 30.0},
+                              {&PlanOptions::max_agl, 41.0}}) {
     PlanOptions other = options;
     other.*field = value;
     expect_refused(path, fingerprint, other, "was built with --");
@@ -808,8 +811,10 @@ namespace {
 // distance to the box clamped coordinate by coordinate.
 double point_column_distance(const Grid& g, const Point3& p, double reach) {
   double best = INFINITY;
-  const int c0 = std::max(0, int((p[0] - reach - g.x0) / g.cell_x)), c1 = std::min(g.width - 1, int((p[0] + reach - g.x0) / g.cell_x));
-  const int r0 = std::max(0, int((g.y0 - p[1] - reach) / g.cell_y)), r1 = std::min(g.height - 1, int((g.y0 - p[1] + reach) / g.cell_y));
+  const int c0 = std::max(0, int((p[0] - reach - g.x0) / g.cell_x)),
+            c1 = std::min(g.width - 1, int((p[0] + reach - g.x0) / g.cell_x));
+  const int r0 = std::max(0, int((g.y0 - p[1] - reach) / g.cell_y)),
+            r1 = std::min(g.height - 1, int((g.y0 - p[1] + reach) / g.cell_y));
   for (int row = r0; row <= r1; ++row)
     for (int col = c0; col <= c1; ++col) {
       if (!g.valid(col, row)) continue;
@@ -826,14 +831,14 @@ double point_column_distance(const Grid& g, const Point3& p, double reach) {
 TEST(ColumnClearance, HandCases) {
   Grid g(3, 3, 0, 3, 1, 1);
   for (float& z : g.z) z = 0;
-  g.z[g.index(1, 1)] = 10;  // a 10 m column over [1,2] x [1,2]
-  EXPECT_DOUBLE_EQ(column_clearance(g, {1.5, 1.5, 14}, {1.5, 1.5, 14}, 100), 4);             // above it
-  EXPECT_DOUBLE_EQ(column_clearance(g, {-5, 1.5, 15}, {5, 1.5, 15}, 100), 5);                // across it
-  EXPECT_NEAR(column_clearance(g, {3, 3, 11}, {3, 3, 11}, 100), std::sqrt(3.0), 1e-12);       // off a corner
-  EXPECT_DOUBLE_EQ(column_clearance(g, {1.5, 1.5, 5}, {1.5, 1.5, 20}, 100), 0);              // through it
-  EXPECT_NEAR(column_clearance(g, {0.5, 0.5, 2}, {0.5, 0.5, 2}, 100), std::sqrt(0.5), 1e-12);  // beside it
-  EXPECT_DOUBLE_EQ(column_clearance(g, {0.5, 0.5, 2}, {0.5, 0.5, 2}, 0.25), 0.25);           // capped
-  g.z[g.index(1, 1)] = Grid::nodata;                                                          // a hole is air
+  g.z[g.index(1, 1)] = 10;                                                        // a 10 m column over [1,2] x [1,2]
+  EXPECT_DOUBLE_EQ(column_clearance(g, {1.5, 1.5, 14}, {1.5, 1.5, 14}, 100), 4);  // above it
+  EXPECT_DOUBLE_EQ(column_clearance(g, {-5, 1.5, 15}, {5, 1.5, 15}, 100), 5);     // across it
+  EXPECT_NEAR(column_clearance(g, {3, 3, 11}, {3, 3, 11}, 100), std::sqrt(3.0), 1e-12);            // off a corner
+  EXPECT_DOUBLE_EQ(column_clearance(g, {1.5, 1.5, 5}, {1.5, 1.5, 20}, 100), 0);                    // through it
+  EXPECT_NEAR(column_clearance(g, {0.5, 0.5, 2}, {0.5, 0.5, 2}, 100), std::sqrt(0.5), 1e-12);      // beside it
+  EXPECT_DOUBLE_EQ(column_clearance(g, {0.5, 0.5, 2}, {0.5, 0.5, 2}, 0.25), 0.25);                 // capped
+  g.z[g.index(1, 1)] = Grid::nodata;                                                               // a hole is air
   EXPECT_NEAR(column_clearance(g, {1.5, 1.5, 4}, {1.5, 1.5, 4}, 100), std::hypot(4, 0.5), 1e-12);  // to the rim
   EXPECT_THROW(column_clearance(g, {0, 0, NAN}, {1, 1, 1}, 1), ArgumentError);
   // Found by fuzz/fuzz_pipeline (UBSan): a segment 3e9 cells off the grid cast its cell indices
@@ -847,7 +852,8 @@ TEST(ColumnClearance, AgreesWithDenseSamplingOnTheRealDsm) {
   std::uniform_real_distribution<double> u(0, 1);
   int near = 0;
   for (int trial = 0; trial < 80; ++trial) {
-    const double x = g.x0 + 30 + u(rng) * (g.width * g.cell_x - 60), y = g.y0 - 30 - u(rng) * (g.height * g.cell_y - 60);
+    const double x = g.x0 + 30 + u(rng) * (g.width * g.cell_x - 60),
+                 y = g.y0 - 30 - u(rng) * (g.height * g.cell_y - 60);
     const int col = int((x - g.x0) / g.cell_x), row = int((g.y0 - y) / g.cell_y);
     const Point3 p{x, y, g.at(col, row) + 1 + 8 * u(rng)};
     const double a = 2 * M_PI * u(rng), len = 3 + 12 * u(rng);
@@ -856,7 +862,8 @@ TEST(ColumnClearance, AgreesWithDenseSamplingOnTheRealDsm) {
     // Samples 1 cm apart: an upper bound within 5 mm (half a step) of the true distance.
     double sampled = cap;
     const int n = int(std::ceil(dist(p, q) / 0.01));
-    for (int i = 0; i <= n; ++i) sampled = std::min(sampled, point_column_distance(g, lerp(p, q, double(i) / n), cap + 1));
+    for (int i = 0; i <= n; ++i)
+      sampled = std::min(sampled, point_column_distance(g, lerp(p, q, double(i) / n), cap + 1));
     EXPECT_LE(exact, sampled + 1e-9) << trial;
     EXPECT_GE(exact, sampled - 0.005 - 1e-9) << trial;
     near += exact < cap;
@@ -969,8 +976,8 @@ TEST(PlanPath, NoPathNamesTheLeg) {
   const ClearanceIndex index(mesh);
   const auto waypoints = three_waypoints(mesh, index);
   PlanOptions sparse;
-  sparse.spacing = 200;  // a handful of samples
-  sparse.max_edge = 10;  // that cannot reach each other
+  sparse.spacing = 200;      // a handful of samples
+  sparse.max_edge = 10;      // that cannot reach each other
   sparse.refine_rounds = 0;  // and no refinement to help
   const PlanResult r = plan_path(index, waypoints, sparse);
   EXPECT_EQ(r.status, PlanStatus::NoPath);
@@ -1376,7 +1383,8 @@ Mesh maze(bool closed) {
   auto box = [&](double x0, double y0, double x1, double y1, double z1) {
     const auto v = static_cast<uint32_t>(mesh.vertices.size());
     for (double z : {0.0, z1})
-      mesh.vertices.insert(mesh.vertices.end(), {{x + x0, y + y0, z}, {x + x1, y + y0, z}, {x + x1, y + y1, z}, {x + x0, y + y1, z}});
+      mesh.vertices.insert(mesh.vertices.end(),
+                           {{x + x0, y + y0, z}, {x + x1, y + y0, z}, {x + x1, y + y1, z}, {x + x0, y + y1, z}});
     mesh.triangles.push_back({v + 4, v + 5, v + 6});
     mesh.triangles.push_back({v + 4, v + 6, v + 7});
     for (uint32_t k = 0; k < 4 && z1 > 0; ++k) {
@@ -1396,10 +1404,12 @@ Mesh maze(bool closed) {
 // clear, an edge when
 // brute-force clear; the goal reached from a node within 2h of b by a clear segment): the
 // least lattice cost to b, or infinity.
-double lattice_oracle(const Mesh& mesh, const Point3& origin, const Point3& a, const Point3& b, double h,
-                      double safety, double ceiling) {
+double lattice_oracle(const Mesh& mesh, const Point3& origin, const Point3& a, const Point3& b, double h, double safety,
+                      double ceiling) {
   const int span = 40;  // the maze fits in +-40 steps of 5 m
-  auto id = [&](int i, int j, int k) { return ((i + span) * (2 * span + 1) + (j + span)) * (2 * span + 1) + (k + span); };
+  auto id = [&](int i, int j, int k) {
+    return ((i + span) * (2 * span + 1) + (j + span)) * (2 * span + 1) + (k + span);
+  };
   auto at = [&](int i, int j, int k) { return Point3{a[0] + i * h, a[1] + j * h, a[2] + k * h}; };
   auto segment_ok = [&](const Point3& p, const Point3& q) {
     return std::max(p[2], q[2]) <= ceiling && brute_clearance(mesh, origin, p, q, safety + 1) >= safety;
@@ -1583,7 +1593,8 @@ TEST(PlanCorridor, PathAcrossWindowsKeepsClearOfTheWholeDsm) {
 TEST(PlanCorridor, WaypointOutsideTheDsmIsNamed) {
   const Grid& dsm = nrw_2m();
   GridView source(dsm);
-  const std::vector<Point3> waypoints{{dsm.center_x(10), dsm.center_y(10), 200}, {dsm.x1() + 50, dsm.center_y(10), 200}};
+  const std::vector<Point3> waypoints{{dsm.center_x(10), dsm.center_y(10), 200},
+                                      {dsm.x1() + 50, dsm.center_y(10), 200}};
   const CorridorResult result = plan_corridor(source, waypoints, PlanOptions{}, CorridorOptions{});
   EXPECT_EQ(result.plan.status, PlanStatus::InvalidWaypoint);
   EXPECT_EQ(result.plan.place(), "waypoint 2");
@@ -1614,7 +1625,8 @@ struct Box {
     return std::hypot(q[0] - p[0], q[1] - p[1], q[2] - p[2]);
   }
   std::shared_ptr<NoFlyZone> zone(const std::string& name) const {
-    return std::make_shared<NoFlyZone>(name, std::vector<std::array<double, 2>>{{x0, y0}, {x1, y0}, {x1, y1}, {x0, y1}});
+    return std::make_shared<NoFlyZone>(name,
+                                       std::vector<std::array<double, 2>>{{x0, y0}, {x1, y0}, {x1, y1}, {x0, y1}});
   }
 };
 
@@ -1631,7 +1643,8 @@ Point3 middle_of(const std::vector<Point3>& path) {
     const double d = Box::detail_length(path[k - 1], path[k]);
     if (d >= left) {
       const double t = left / d;
-      return {path[k - 1][0] + t * (path[k][0] - path[k - 1][0]), path[k - 1][1] + t * (path[k][1] - path[k - 1][1]), 0};
+      return {path[k - 1][0] + t * (path[k][0] - path[k - 1][0]), path[k - 1][1] + t * (path[k][1] - path[k - 1][1]),
+              0};
     }
     left -= d;
   }

@@ -3,6 +3,7 @@
 // and records are decoded with memcpy at the offsets of the ASPRS LAS 1.4 R15 specification,
 // synthetic LAS files are written by a small writer below, and cell medians are brute-forced by
 // sorting every cell's heights.
+#include <gdal.h>
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -11,6 +12,7 @@
 #include <cstdint>
 #include <cstdio>
 #include <cstring>
+#include <filesystem>
 #include <functional>
 #include <map>
 #include <random>
@@ -18,10 +20,6 @@
 #include <string>
 #include <utility>
 #include <vector>
-
-#include <gdal.h>
-
-#include <filesystem>
 
 #include "dsmplan/point_io.hpp"
 #include "dsmplan/points.hpp"
@@ -425,8 +423,8 @@ TiffGrid read_tiff(const std::string& path) {
 TEST(DelftGrid, ClassesTwoIsTheGroundMedianAndNeverAboveTheMaxDsm) {
   testkit::TempDir dir;
   const std::string dtm_path = dir.path("dtm.tif"), dsm_path = dir.path("dsm.tif");
-  const auto dtm_run = testkit::run_cli({"grid", kDelft1, kDelft2, "--crs", "EPSG:28992", "--res", "0.5", "--classes",
-                                         "2", "-o", dtm_path, "-q"});
+  const auto dtm_run = testkit::run_cli(
+      {"grid", kDelft1, kDelft2, "--crs", "EPSG:28992", "--res", "0.5", "--classes", "2", "-o", dtm_path, "-q"});
   ASSERT_EQ(dtm_run.exit_code, 0) << dtm_run.err;
   const auto dsm_run = testkit::run_cli({"grid", kDelft1, kDelft2, "--crs", "EPSG:28992", "--res", "0.5", "--fusion",
                                          "max", "--keep-all-classes", "-o", dsm_path, "-q"});
@@ -751,8 +749,8 @@ TEST(PointGrid, CancelStopsTheGridding) {
 }
 
 TEST(PointGrid, ClassesKeepOnlyTheListedAndContradictionsAreRefused) {
-  const PointCloud cloud = cloud_of({{0.5, 0.5, 1, 2}, {0.5, 0.5, 9, 6}, {1.5, 0.5, 30, 6}, {2.5, 0.5, 2, 2},
-                                     {2.5, 0.5, 4, 9}, {3.5, 0.5, -7, 7}});
+  const PointCloud cloud = cloud_of(
+      {{0.5, 0.5, 1, 2}, {0.5, 0.5, 9, 6}, {1.5, 0.5, 30, 6}, {2.5, 0.5, 2, 2}, {2.5, 0.5, 4, 9}, {3.5, 0.5, -7, 7}});
   GridPointsOptions options;
   options.keep_classes = {2};
   Grid grid = dsmplan::grid_points({cloud}, options);
@@ -795,8 +793,8 @@ TEST(PointGrid, ClassesKeepOnlyTheListedAndContradictionsAreRefused) {
   testkit::write_file(xyz, "0.5 0.5 1 2\n0.5 0.5 9 6\n2.5 0.5 2 2\n");
   for (const std::vector<std::string>& extra :
        {std::vector<std::string>{"--keep-all-classes"}, std::vector<std::string>{"--drop-classes", "6,2"}}) {
-    std::vector<std::string> args{"grid", xyz, "--crs", "EPSG:28992", "--res", "1", "--classes", "2", "-o",
-                                  dir.path("out.tif"), "-q"};
+    std::vector<std::string> args{"grid",      xyz, "--crs", "EPSG:28992",        "--res", "1",
+                                  "--classes", "2", "-o",    dir.path("out.tif"), "-q"};
     args.insert(args.end(), extra.begin(), extra.end());
     const auto result = testkit::run_cli(args);
     EXPECT_NE(result.exit_code, 0) << extra[0];
@@ -819,17 +817,17 @@ TEST(PointGrid, PointsInFeetAreRefusedNamingTheUnit) {
   testkit::TempDir dir;
   const std::string xyz = dir.path("points_ft.xyz");
   testkit::write_file(xyz, "11800000 7000000 300 2\n11800003 7000003 301 2\n");
-  const auto result = testkit::run_cli(
-      {"grid", xyz, "--crs", "EPSG:2283", "--res", "3", "-o", dir.path("dsm.tif"), "-q"});
+  const auto result =
+      testkit::run_cli({"grid", xyz, "--crs", "EPSG:2283", "--res", "3", "-o", dir.path("dsm.tif"), "-q"});
   EXPECT_NE(result.exit_code, 0);
   EXPECT_EQ(std::count(result.err.begin(), result.err.end(), '\n'), 1) << result.err;
   for (const char* phrase : {"points_ft.xyz", "US survey foot", "0.3048006 m", "metres"})
     EXPECT_NE(result.err.find(phrase), std::string::npos) << phrase << " in " << result.err;
   EXPECT_FALSE(std::filesystem::exists(dir.path("dsm.tif")));
   // In metres (UTM 18N) the same file grids.
-  EXPECT_EQ(testkit::run_cli({"grid", xyz, "--crs", "EPSG:32618", "--res", "3", "-o", dir.path("dsm.tif"), "-q"})
-                .exit_code,
-            0);
+  EXPECT_EQ(
+      testkit::run_cli({"grid", xyz, "--crs", "EPSG:32618", "--res", "3", "-o", dir.path("dsm.tif"), "-q"}).exit_code,
+      0);
 
   LasSpec spec;
   spec.offset[0] = 11800000, spec.offset[1] = 7000000;

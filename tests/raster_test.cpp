@@ -1,10 +1,7 @@
 // Raster stage: GDAL input (GeoTIFF, VRT mosaic, ESRI ASCII grid), nodata, CRS, resampling and
 // quantization, each checked against GDAL's own tools (gdal_translate, gdalbuildvrt, gdalwarp)
 // or brute force on the real NRW DSM.
-#include "dsmplan/point_io.hpp"
-#include "dsmplan/points.hpp"
 #include "dsmplan/raster.hpp"
-#include "dsmplan/raster_io.hpp"
 
 #include <cpl_conv.h>
 #include <gdal_priv.h>
@@ -18,6 +15,9 @@
 #include <functional>
 #include <numeric>
 
+#include "dsmplan/point_io.hpp"
+#include "dsmplan/points.hpp"
+#include "dsmplan/raster_io.hpp"
 #include "dsmplan/tools.hpp"
 #include "testkit.hpp"
 
@@ -264,7 +264,8 @@ TEST(Resample, GridsMadeInMemoryGetTheReadersChecks) {
     FAIL() << "a 5e-324 step was accepted";
   } catch (const ArgumentError& e) {
     EXPECT_EQ(e.field(), "zstep");  // the CLI shows it as --zstep
-    EXPECT_NE(std::string(e.what()).find("zstep: must be at least 1e-6 and at most 100"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("zstep: must be at least 1e-6 and at most 100"), std::string::npos)
+        << e.what();
   }
   EXPECT_EQ(quantize_height(123.456789, 1e-6), std::round(123.456789 * 1e6) / 1e6);
 }
@@ -510,8 +511,12 @@ TEST(Units, CrsInUsSurveyFeetIsRefusedNamingTheUnitAndTheUtmZoneOfItsCentre) {
 TEST(Units, HeightsInFeetAreRefusedByTheBandUnitTypeOrTheCompoundCrs) {
   testkit::TempDir dir;
   // Essen, lon 7.0: zone floor(187 / 6) + 1 = 32.
-  for (auto [unit, metres] : {std::pair{"ft", "(0.3048 m)"}, {"foot", "(0.3048 m)"}, {"US survey foot", "(0.3048006 m)"},
-                              {"ftUS", "(0.3048006 m)"}, {"us-ft", "(0.3048006 m)"}, {"Feet", "(0.3048 m)"}}) {
+  for (auto [unit, metres] : {std::pair{"ft", "(0.3048 m)"},
+                              {"foot", "(0.3048 m)"},
+                              {"US survey foot", "(0.3048006 m)"},
+                              {"ftUS", "(0.3048006 m)"},
+                              {"us-ft", "(0.3048006 m)"},
+                              {"Feet", "(0.3048 m)"}}) {
     SCOPED_TRACE(unit);
     const std::string path = unit_raster(dir, "dsm_vft.tif", "EPSG:25832", 7.0, 51.4, 1.0, unit);
     expect_phrases(input_error([&] { read_raster(path); }),
@@ -541,10 +546,9 @@ TEST(Units, HeightsInFeetAreRefusedByTheBandUnitTypeOrTheCompoundCrs) {
   EXPECT_EQ(navd88.crs.vertical_unit_m, 1.0);
   EXPECT_EQ(navd88.crs.linear_unit_m, 1.0);
   // The band cannot make feet metres under a CRS in feet, nor feet metres the other way round.
-  expect_phrases(input_error([&] {
-                   read_raster(unit_raster(dir, "both.tif", "EPSG:26918+5703", -77.5, 38.9, 1.0, "ft"));
-                 }),
-                 {"both.tif", "ft (0.3048 m)"});
+  expect_phrases(
+      input_error([&] { read_raster(unit_raster(dir, "both.tif", "EPSG:26918+5703", -77.5, 38.9, 1.0, "ft")); }),
+      {"both.tif", "ft (0.3048 m)"});
 }
 
 TEST(Units, GeographicRasterIsRefusedSuggestingTheUtmZoneOfItsCentre) {
@@ -557,7 +561,8 @@ TEST(Units, GeographicRasterIsRefusedSuggestingTheUtmZoneOfItsCentre) {
   for (const Place& place : {Place{"virginia", -77.5, 38.9, "EPSG:32618"}, Place{"essen", 6.9, 51.4, "EPSG:32632"},
                              Place{"sydney", 151.2, -33.9, "EPSG:32756"}, Place{"quito", -78.5, -0.2, "EPSG:32717"}}) {
     SCOPED_TRACE(place.name);
-    const std::string path = unit_raster(dir, std::string(place.name) + ".tif", "EPSG:4326", place.lon, place.lat, 1e-5);
+    const std::string path =
+        unit_raster(dir, std::string(place.name) + ".tif", "EPSG:4326", place.lon, place.lat, 1e-5);
     // Reading describes degrees (info, render take them); the tools refuse them.
     EXPECT_TRUE(read_raster(path).crs.geographic);
     expect_phrases(input_error([&] { mesh_dsm(mesh_job(path, dir)); }),

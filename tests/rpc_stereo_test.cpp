@@ -6,7 +6,6 @@
 // SGM's valid share and height range, and the flatness of a street stretch picked from the
 // image (robust plane fit residuals), printed.
 #include "dsmplan/rpc_stereo.hpp"
-#include "dsmplan/rpc_io.hpp"
 
 #include <gdal_priv.h>
 #include <gtest/gtest.h>
@@ -22,6 +21,7 @@
 #include <vector>
 
 #include "dsmplan/core.hpp"
+#include "dsmplan/rpc_io.hpp"
 #include "dsmplan/stereo.hpp"
 
 namespace {

@@ -9,7 +9,6 @@
 //     found by correlation in the two images of a pair meet the RPC epipolar curve;
 //   - bad input, one line naming the file and the key.
 #include "dsmplan/rpc.hpp"
-#include "dsmplan/rpc_io.hpp"
 
 #include <gdal.h>
 #include <gdal_alg.h>
@@ -28,6 +27,7 @@
 #include <vector>
 
 #include "dsmplan/core.hpp"
+#include "dsmplan/rpc_io.hpp"
 #include "dsmplan/tools.hpp"
 #include "gdal_rpc_oracle.hpp"
 
@@ -161,9 +161,11 @@ std::vector<GeoPoint> ground_grid(const RpcCamera& cam, int n) {
 std::vector<GeoPoint> lon_lat_grid(const RpcCamera& cam, int n) {
   const RpcModel& m = cam.model();
   double lon0 = 1e9, lon1 = -1e9, lat0 = 1e9, lat1 = -1e9;
-  for (const PixelPoint& c : {PixelPoint{0, 0}, PixelPoint{kCropSize, 0}, PixelPoint{0, kCropSize}, PixelPoint{kCropSize, kCropSize}}) {
+  for (const PixelPoint& c :
+       {PixelPoint{0, 0}, PixelPoint{kCropSize, 0}, PixelPoint{0, kCropSize}, PixelPoint{kCropSize, kCropSize}}) {
     const GeoPoint g = cam.localize(c, m.height_off);
-    lon0 = std::min(lon0, g.lon), lon1 = std::max(lon1, g.lon), lat0 = std::min(lat0, g.lat), lat1 = std::max(lat1, g.lat);
+    lon0 = std::min(lon0, g.lon), lon1 = std::max(lon1, g.lon), lat0 = std::min(lat0, g.lat),
+    lat1 = std::max(lat1, g.lat);
   }
   const double wl = 0.1 * (lon1 - lon0), wt = 0.1 * (lat1 - lat0);
   lon0 -= wl, lon1 += wl, lat0 -= wt, lat1 += wt;
@@ -171,7 +173,8 @@ std::vector<GeoPoint> lon_lat_grid(const RpcCamera& cam, int n) {
   for (double hn : {-0.9, -0.4, 0.0, 0.5, 0.95})
     for (int j = 0; j < n; ++j)
       for (int i = 0; i < n; ++i)
-        points.push_back({lon0 + (lon1 - lon0) * i / (n - 1), lat0 + (lat1 - lat0) * j / (n - 1), m.height_off + hn * m.height_scale});
+        points.push_back({lon0 + (lon1 - lon0) * i / (n - 1), lat0 + (lat1 - lat0) * j / (n - 1),
+                          m.height_off + hn * m.height_scale});
   return points;
 }
 
@@ -183,7 +186,8 @@ TEST(Rpc, ProjectAgreesWithGdalsTransformer) {
     for (const GeoPoint& g : ground_grid(cam, 9)) {
       const PixelPoint ours = cam.project(g);
       const PixelPoint theirs = gdal.project(g);  // the scene's position: less the crop's offset
-      worst = std::max(worst, std::hypot(ours.col - (theirs.col - cam.sensor_col()), ours.row - (theirs.row - cam.sensor_row())));
+      worst = std::max(
+          worst, std::hypot(ours.col - (theirs.col - cam.sensor_col()), ours.row - (theirs.row - cam.sensor_row())));
     }
   }
   std::printf("ground -> image, largest difference from GDAL's RPC transformer: %.2e px\n", worst);
@@ -298,7 +302,9 @@ Picture read_picture(const std::string& path) {
   if (!ds) return p;
   p.width = ds->GetRasterXSize(), p.height = ds->GetRasterYSize();
   p.v.resize(static_cast<size_t>(p.width) * p.height);
-  EXPECT_EQ(ds->GetRasterBand(1)->RasterIO(GF_Read, 0, 0, p.width, p.height, p.v.data(), p.width, p.height, GDT_Float32, 0, 0, nullptr), CE_None);
+  EXPECT_EQ(ds->GetRasterBand(1)->RasterIO(GF_Read, 0, 0, p.width, p.height, p.v.data(), p.width, p.height, GDT_Float32,
+                                           0, 0, nullptr),
+            CE_None);
   GDALClose(ds);
   return p;
 }
@@ -323,13 +329,14 @@ double ncc(const std::vector<double>& a, const Picture& B, double col, double ro
 }
 
 struct TieResiduals {
-  std::vector<double> across;  // signed distance across the epipolar curve, px
+  std::vector<double> across;             // signed distance across the epipolar curve, px
   double normal_col = 0, normal_row = 0;  // the unit normal of the curve (direction of `across`)
   double px_per_m = 0;                    // the curve's length per metre of height
 };
 
 TieResiduals tie_point_residuals(const std::string& a_name, const std::string& b_name) {
-  const RpcCamera camA = dsmplan::read_rpc_camera(data(a_name + ".tif")), camB = dsmplan::read_rpc_camera(data(b_name + ".tif"));
+  const RpcCamera camA = dsmplan::read_rpc_camera(data(a_name + ".tif")),
+                  camB = dsmplan::read_rpc_camera(data(b_name + ".tif"));
   const Picture A = read_picture(data(a_name + ".tif")), B = read_picture(data(b_name + ".tif"));
   TieResiduals out;
   const double h0 = 400, h1 = 1000;  // ellipsoidal heights searched (the city lies at ~500-800 m)
@@ -387,9 +394,10 @@ TEST(RpcSensorOffset, TiePointsMeetTheEpipolarCurveOnBothPairs) {
     std::sort(sorted.begin(), sorted.end());
     const double m = sorted[sorted.size() / 2];
     const double q1 = sorted[sorted.size() / 4], q3 = sorted[3 * sorted.size() / 4];
-    std::printf("%s / %s: %zu tie points (NCC > 0.9), distance across the epipolar curve: median %.3f px, "
-                "quartiles %.3f %.3f (curve normal %.2f %.2f, %.2f px per m of height)\n",
-                a.c_str(), b.c_str(), r.across.size(), m, q1, q3, r.normal_col, r.normal_row, r.px_per_m);
+    std::printf(
+        "%s / %s: %zu tie points (NCC > 0.9), distance across the epipolar curve: median %.3f px, "
+        "quartiles %.3f %.3f (curve normal %.2f %.2f, %.2f px per m of height)\n",
+        a.c_str(), b.c_str(), r.across.size(), m, q1, q3, r.normal_col, r.normal_row, r.px_per_m);
     EXPECT_LT(std::abs(m), 0.3) << a;
     // B's offset read half a pixel or a pixel otherwise (on both axes) moves B's curve by that
     // much: the tie points would lie off it by m + d (n_col + n_row).
@@ -428,7 +436,8 @@ TEST(RpcBadInput, GeomWithANonNumericCoefficient) {
   Scratch scratch;
   const std::string path = scratch.path("nan.geom");
   write_text(path, geom_with("line_num_coeff_12", "1.2e-4x"));
-  EXPECT_EQ(input_error([&] { dsmplan::read_ossim_geom(path); }), path + ": line_num_coeff_12: not a number: \"1.2e-4x\"");
+  EXPECT_EQ(input_error([&] { dsmplan::read_ossim_geom(path); }),
+            path + ": line_num_coeff_12: not a number: \"1.2e-4x\"");
   write_text(path, geom_with("lat_scale", "nan"));
   EXPECT_EQ(input_error([&] { dsmplan::read_ossim_geom(path); }), path + ": lat_scale: not a number: \"nan\"");
   write_text(path, geom_with("height_scale", "0"));
@@ -461,8 +470,9 @@ TEST(RpcBadInput, ImageWithoutRpc) {
   }
   fs::copy_file(data("post_event_img1.geom"), scratch.path("shifted.geom"));
   EXPECT_EQ(input_error([&] { dsmplan::read_rpc_camera(shifted); }),
-            shifted + ": transform: column origin 100.250000 is neither whole nor half: not a crop cut on the "
-                      "scene's pixel grid");
+            shifted +
+                ": transform: column origin 100.250000 is neither whole nor half: not a crop cut on the "
+                "scene's pixel grid");
 }
 
 // --- dsmplan info on a satellite image: the camera beside the raster's numbers.
@@ -485,7 +495,8 @@ TEST(RpcInfo, DescribesTheCamera) {
   const dsmplan::Json json = dsmplan::to_json(report);
   EXPECT_EQ(json["rpc"]["sensor_offset"][0], 12816);
   EXPECT_EQ(json["rpc"]["footprint"]["corners"].size(), 4u);
-  EXPECT_NE(dsmplan::to_text(report).find("RPC:         from " + data("post_event_img2.geom") + ", sensor offset 12816 7220 px"),
+  EXPECT_NE(dsmplan::to_text(report).find("RPC:         from " + data("post_event_img2.geom") +
+                                          ", sensor offset 12816 7220 px"),
             std::string::npos)
       << dsmplan::to_text(report);
 }
@@ -500,7 +511,8 @@ TEST(RpcInfo, ADsmHasNoCameraAndABadGeomIsOneLine) {
   options.input = scratch.path("crop.tif");
   fs::copy_file(data("pre_event_img1.tif"), options.input);
   write_text(scratch.path("crop.geom"), geom_with("long_scale", ""));
-  EXPECT_EQ(input_error([&] { dsmplan::describe_raster(options); }), scratch.path("crop.geom") + ": long_scale: missing");
+  EXPECT_EQ(input_error([&] { dsmplan::describe_raster(options); }),
+            scratch.path("crop.geom") + ": long_scale: missing");
 }
 
 }  // namespace

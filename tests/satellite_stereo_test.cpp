@@ -163,8 +163,8 @@ static void CliWritesAnEllipsoidalDsmInTheSceneUtmZone() {
   ASSERT_EQ(s["pairs"].size(), 1u);
   const auto& pair = s["pairs"][0];
   EXPECT_EQ(pair["images"], nlohmann::json::parse("[0,1]"));
-  for (const char* stage : {"read", "survey", "rectify", "pointing", "match", "triangulate", "transform", "fuse", "write",
-                            "total"})
+  for (const char* stage :
+       {"read", "survey", "rectify", "pointing", "match", "triangulate", "transform", "fuse", "write", "total"})
     EXPECT_TRUE(s["seconds"].contains(stage)) << stage;
   size_t valid = 0;
   std::vector<double> z;
@@ -180,8 +180,8 @@ static void CliWritesAnEllipsoidalDsmInTheSceneUtmZone() {
       kTestBounds[2] - kTestBounds[0], kTestBounds[3] - kTestBounds[1], kRes, pre.seconds,
       pair["height_range"][0].get<double>(), pair["height_range"][1].get<double>(),
       pair["survey_tie_points"].get<size_t>(), pair["tiles"].get<size_t>(),
-      pair["tiles_pointing_corrected"].get<size_t>(), s["points"].get<size_t>(), 100 * completeness,
-      quantile(z, 0.02), quantile(z, 0.5), quantile(z, 0.98));
+      pair["tiles_pointing_corrected"].get<size_t>(), s["points"].get<size_t>(), 100 * completeness, quantile(z, 0.02),
+      quantile(z, 0.5), quantile(z, 0.98));
   EXPECT_GT(completeness, 0.7);
   // The city lies at about 600-700 m above the ellipsoid (rpc_test: 450-900 m holds it).
   EXPECT_GT(quantile(z, 0.02), 450);
@@ -205,7 +205,8 @@ static void PreAndPostEventDsmsAgree() {
     for (double v : signed_diff) d.push_back(std::abs(v - shift));
     size_t over1 = 0;
     for (double v : d) over1 += v > 1;
-    median = quantile(d, 0.5), p90 = quantile(d, 0.9), share = static_cast<double>(over1) / static_cast<double>(d.size());
+    median = quantile(d, 0.5), p90 = quantile(d, 0.9),
+    share = static_cast<double>(over1) / static_cast<double>(d.size());
   };
   double raw_median, raw_p90, raw_share, median, p90, share;
   summary(0, raw_median, raw_p90, raw_share);
@@ -230,7 +231,8 @@ static void StreetsAreFlat() {
       // The stretch's ends on the ground: at 700 m, then at the median of the DSM's cells around.
       std::array<dsmplan::Point3, 2> ends;
       for (int k = 0; k < 2; ++k) {
-        const dsmplan::PixelPoint p = k ? dsmplan::PixelPoint{street.c1, street.r1} : dsmplan::PixelPoint{street.c0, street.r0};
+        const dsmplan::PixelPoint p =
+            k ? dsmplan::PixelPoint{street.c1, street.r1} : dsmplan::PixelPoint{street.c0, street.r0};
         double h = 700;
         for (int pass = 0; pass < 2; ++pass) {
           ends[k] = to_utm(p, h);
@@ -271,9 +273,11 @@ static void StreetsAreFlat() {
       for (size_t i = 0; i < pts.size(); ++i)
         if (res[i] <= 3 * 1.4826 * mad) kept.push_back(pts[i]);
       fit(kept, res);
-      std::printf("%s, %s (UTM %.1f, %.1f to %.1f, %.1f): %zu cells (%zu within 3 MADs): |residual| median %.2f m, p90 %.2f m\n",
-                  pre ? "pre" : "post", s.name, s.c0, s.r0, s.c1, s.r1, pts.size(), kept.size(), quantile(res, 0.5),
-                  quantile(res, 0.9));
+      std::printf(
+          "%s, %s (UTM %.1f, %.1f to %.1f, %.1f): %zu cells (%zu within 3 MADs): |residual| median %.2f m, p90 %.2f "
+          "m\n",
+          pre ? "pre" : "post", s.name, s.c0, s.r0, s.c1, s.r1, pts.size(), kept.size(), quantile(res, 0.5),
+          quantile(res, 0.9));
       EXPECT_LT(quantile(res, 0.5), 0.9) << s.name;
       EXPECT_LT(quantile(res, 0.9), 2.5) << s.name;
     }
@@ -342,11 +346,12 @@ std::string geom_with_height_range(const std::string& geom, double off, double s
     }
     return out;
   };
-  std::map<std::string, std::string> values{{"height_off", std::to_string(off)}, {"height_scale", std::to_string(scale)}};
+  std::map<std::string, std::string> values{{"height_off", std::to_string(off)},
+                                            {"height_scale", std::to_string(scale)}};
   const std::pair<const char*, std::array<double, 20>> sets[4] = {{"line_num_coeff_", renormalized(m.line_num)},
-                                                                   {"line_den_coeff_", renormalized(m.line_den)},
-                                                                   {"samp_num_coeff_", renormalized(m.samp_num)},
-                                                                   {"samp_den_coeff_", renormalized(m.samp_den)}};
+                                                                  {"line_den_coeff_", renormalized(m.line_den)},
+                                                                  {"samp_num_coeff_", renormalized(m.samp_num)},
+                                                                  {"samp_den_coeff_", renormalized(m.samp_den)}};
   for (const auto& [stem, coefficients] : sets)
     for (int k = 0; k < 20; ++k) {
       char key[40], value[40];
@@ -386,7 +391,8 @@ TEST(SatelliteStereo, BadInputOneLineNoOutput) {
   copy("pre_event_img2.tif", "missing.tif");
   testkit::write_file(dir.path("missing.geom"), geom_with(data("pre_event_img2.geom"), {{"samp_num_coeff_07", ""}}));
   copy("pre_event_img2.tif", "spoiled.tif");
-  testkit::write_file(dir.path("spoiled.geom"), geom_with(data("pre_event_img2.geom"), {{"line_den_coeff_03", "0.00x1"}}));
+  testkit::write_file(dir.path("spoiled.geom"),
+                      geom_with(data("pre_event_img2.geom"), {{"line_den_coeff_03", "0.00x1"}}));
   // The partner crop moved 20000 columns (10 km) east in its scene: no common ground.
   copy_crop_moved(b, dir.path("moved.tif"), 20000);
   copy("pre_event_img2.geom", "moved.geom");
@@ -428,7 +434,9 @@ TEST(SatelliteStereo, BadInputOneLineNoOutput) {
     std::vector<std::string> args{"stereo"};
     args.insert(args.end(), c.images.begin(), c.images.end());
     for (const char* more : {"-o", "OUT", "--res", "1", "--stats", "STATS", "-q"})
-      args.push_back(std::string(more) == "OUT" ? dir.path("dsm.tif") : std::string(more) == "STATS" ? dir.path("s.json") : more);
+      args.push_back(std::string(more) == "OUT"     ? dir.path("dsm.tif")
+                     : std::string(more) == "STATS" ? dir.path("s.json")
+                                                    : more);
     const auto result = testkit::run_cli(args);
     EXPECT_EQ(result.exit_code, 1) << c.name << ": " << result.err;
     EXPECT_NE(result.err.find(c.expected), std::string::npos) << c.name << ": " << result.err;
@@ -438,7 +446,8 @@ TEST(SatelliteStereo, BadInputOneLineNoOutput) {
   }
   // Usage: images and --cameras together, or neither; one image.
   for (const std::vector<std::string>& args :
-       {std::vector<std::string>{"stereo", a, b, "--cameras", dir.path("c.json"), "-o", dir.path("dsm.tif"), "--res", "1"},
+       {std::vector<std::string>{"stereo", a, b, "--cameras", dir.path("c.json"), "-o", dir.path("dsm.tif"), "--res",
+                                 "1"},
         std::vector<std::string>{"stereo", "-o", dir.path("dsm.tif"), "--res", "1"},
         std::vector<std::string>{"stereo", a, "-o", dir.path("dsm.tif"), "--res", "1"}}) {
     const auto result = testkit::run_cli(args);

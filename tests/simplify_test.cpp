@@ -18,7 +18,6 @@
 // REGRESSION failed on src/simplify before the 1 nm height slack and the put-back of co-linear
 // vertices off the new surface (both documented at the top of simplify.hpp).
 #include "dsmplan/simplify.hpp"
-#include "dsmplan/simplify_streamed.hpp"
 
 #include <CGAL/Delaunay_triangulation_2.h>
 #include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
@@ -37,6 +36,7 @@
 
 #include "dsmplan/mesh.hpp"
 #include "dsmplan/raster.hpp"
+#include "dsmplan/simplify_streamed.hpp"
 #include "testkit.hpp"
 
 using namespace dsmplan;
@@ -1077,7 +1077,8 @@ TEST(Certify, FarFromTheOriginTheLatticeIsExact) {
                    {grid.center_x(0), grid.center_y(8), -84}};
   mesh.triangles = {{0, 2, 1}};
   for (int r = 0; r < 9; ++r)
-    for (int c = 0; c < 9; ++c) grid.z[grid.index(c, r)] = static_cast<float>(42 - 15.75 * r - (c + r <= 8 ? 0.0005 : 0));
+    for (int c = 0; c < 9; ++c)
+      grid.z[grid.index(c, r)] = static_cast<float>(42 - 15.75 * r - (c + r <= 8 ? 0.0005 : 0));
   double expected = -INFINITY;  // the plane (exact in doubles here) less the stored float heights
   for (int r = 0; r < 9; ++r)
     for (int c = 0; c + r <= 8; ++c) expected = std::max(expected, 42 - 15.75 * r - double(grid.z[grid.index(c, r)]));

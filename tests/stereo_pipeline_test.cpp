@@ -25,9 +25,9 @@
 #include <string>
 #include <vector>
 
+#include "aerial_scene.hpp"
 #include "dsmplan/stereo_frames.hpp"
 #include "dsmplan/stereo_job.hpp"
-#include "aerial_scene.hpp"
 #include "dsmplan/tools.hpp"
 #include "testkit.hpp"
 
@@ -465,8 +465,9 @@ TEST(StereoCli, WritesTheDsmAndItsStats) {
   EXPECT_LE(report.min_height, scene.lo + 1);
   EXPECT_GE(report.max_height, scene.hi - 3);
   const DsmErrors en = dsm_errors(read_raster(dir.path("estimated.tif")), scene.truth);
-  std::printf("CLI, no height_range (estimated %.1f..%.1f m): completeness %.1f %%, median |error| %.3f m, > 1 m %.1f %%\n",
-              report.min_height, report.max_height, 100 * en.completeness, en.median, 100 * en.over1);
+  std::printf(
+      "CLI, no height_range (estimated %.1f..%.1f m): completeness %.1f %%, median |error| %.3f m, > 1 m %.1f %%\n",
+      report.min_height, report.max_height, 100 * en.completeness, en.median, 100 * en.over1);
   EXPECT_GT(en.completeness, 0.85);
   EXPECT_LT(en.median, 0.3);
   EXPECT_LT(en.over1, 0.15);

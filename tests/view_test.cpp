@@ -3,13 +3,13 @@
 // headless Chromium (scripts/test.sh installs it) renders the page with SwiftShader's WebGL, and
 // the screenshot is read back with libpng. Chromium missing is a failure, not a skip.
 #include <fcntl.h>
-#include <netinet/in.h>
-#include <sys/socket.h>
 #include <gtest/gtest.h>
 #include <httplib.h>
+#include <netinet/in.h>
 #include <png.h>
 #include <signal.h>
 #include <spawn.h>
+#include <sys/socket.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -380,9 +380,11 @@ TEST(View, NoDotfilesNoSymlinksOutNoForeignHostNoBlockingIdlers) {
     EXPECT_EQ(r->body.find("outside"), std::string::npos);
   }
   // DNS rebinding: a foreign name in Host is refused; addresses and localhost with our port are not.
-  for (const auto& [host, status] : std::vector<std::pair<std::string, int>>{
-           {"evil.example:" + port, 403}, {"127.0.0.1:" + port, 200}, {"localhost:" + port, 200},
-           {"127.0.0.1:1", 403}, {"", 403}}) {
+  for (const auto& [host, status] : std::vector<std::pair<std::string, int>>{{"evil.example:" + port, 403},
+                                                                             {"127.0.0.1:" + port, 200},
+                                                                             {"localhost:" + port, 200},
+                                                                             {"127.0.0.1:1", 403},
+                                                                             {"", 403}}) {
     const auto r = client.Get("/", httplib::Headers{{"Host", host}});
     ASSERT_TRUE(r) << host;
     EXPECT_EQ(r->status, status) << "Host: " << host;

@@ -67,8 +67,9 @@ AtomicFile::AtomicFile(std::string path) : path_(std::move(path)) {
   // A device, pipe or socket cannot be replaced by renaming (and must not be: as root, /dev/full
   // would become a regular file); a whole-file writer can only refuse it.
   if (fs::exists(target, ec) && !fs::is_regular_file(target, ec))
-    throw OutputError(path_, "cannot write: not a regular file (a device, pipe or socket); outputs are written to a "
-                             "temporary file and renamed into place");
+    throw OutputError(path_,
+                      "cannot write: not a regular file (a device, pipe or socket); outputs are written to a "
+                      "temporary file and renamed into place");
   fs::path folder = target.parent_path();
   if (folder.empty()) folder = ".";
   std::string pattern = (folder / ("." + target.filename().string() + ".partial-XXXXXX")).string();

@@ -2,6 +2,8 @@
 // leg cut into pieces, each piece planned by the PRM of plan_path() (Kavraki, Svestka, Latombe
 // & Overmars 1996) on the conservative bounded mesh of its own window of the DSM, read from the
 // GridSource window by window, so that a city never has to be meshed or held whole.
+#include "dsmplan/corridor.hpp"
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -9,9 +11,8 @@
 #include <string>
 
 #include "dsmplan/columns.hpp"
-#include "dsmplan/corridor.hpp"
-#include "dsmplan/simplify_streamed.hpp"
 #include "dsmplan/plan.hpp"
+#include "dsmplan/simplify_streamed.hpp"
 #include "plan/path_parts.hpp"
 
 namespace dsmplan {
@@ -36,12 +37,15 @@ std::unique_ptr<Window> make_window(GridSource& source, const Point3& a, const P
   const Grid& frame = source.frame();
   const double left = frame.center_x(0), right = frame.center_x(frame.width - 1);
   const double top = frame.center_y(0), bottom = frame.center_y(frame.height - 1);
-  const std::array<double, 4> area{std::max(left, std::min(a[0], b[0]) - margin),
-                                   std::max(bottom, std::min(a[1], b[1]) - margin),
-                                   std::min(right, std::max(a[0], b[0]) + margin),
-                                   std::min(top, std::max(a[1], b[1]) + margin)};
-  auto clamp_col = [&](double x) { return std::clamp(static_cast<int>(std::floor((x - frame.x0) / frame.cell_x)), 0, frame.width - 1); };
-  auto clamp_row = [&](double y) { return std::clamp(static_cast<int>(std::floor((frame.y0 - y) / frame.cell_y)), 0, frame.height - 1); };
+  const std::array<double, 4> area{
+      std::max(left, std::min(a[0], b[0]) - margin), std::max(bottom, std::min(a[1], b[1]) - margin),
+      std::min(right, std::max(a[0], b[0]) + margin), std::min(top, std::max(a[1], b[1]) + margin)};
+  auto clamp_col = [&](double x) {
+    return std::clamp(static_cast<int>(std::floor((x - frame.x0) / frame.cell_x)), 0, frame.width - 1);
+  };
+  auto clamp_row = [&](double y) {
+    return std::clamp(static_cast<int>(std::floor((frame.y0 - y) / frame.cell_y)), 0, frame.height - 1);
+  };
   const int c0 = clamp_col(area[0] - pad), c1 = clamp_col(area[2] + pad);
   const int r0 = clamp_row(area[3] + pad), r1 = clamp_row(area[1] - pad);
   auto window = std::make_unique<Window>();
@@ -161,13 +165,15 @@ CorridorResult plan_corridor(GridSource& dsm, const std::vector<Point3>& waypoin
       const bool at_via = piece.status == PlanStatus::InvalidWaypoint && via[k + end];
       result.waypoint = piece.status == PlanStatus::InvalidWaypoint && !at_via ? leg + end : leg;
       if (at_via) result.status = PlanStatus::NoPath;
-      result.reason = (at_via ? "via point of the leg: " : "") + piece.reason +
-                      (piece.status == PlanStatus::NoPath ? " (piece " + std::to_string(k + 1) + " of the corridor)" : "");
+      result.reason =
+          (at_via ? "via point of the leg: " : "") + piece.reason +
+          (piece.status == PlanStatus::NoPath ? " (piece " + std::to_string(k + 1) + " of the corridor)" : "");
       return out;
     }
     if (options.finish_piece) piece.path = options.finish_piece(piece.path);
     for (size_t s = 1; s < piece.path.size(); ++s) {
-      out.min_clearance_m = std::min(out.min_clearance_m, current->index->clearance(piece.path[s - 1], piece.path[s], cap));
+      out.min_clearance_m =
+          std::min(out.min_clearance_m, current->index->clearance(piece.path[s - 1], piece.path[s], cap));
       out.min_clearance_dsm_m =
           std::min(out.min_clearance_dsm_m, column_clearance(current->dsm, piece.path[s - 1], piece.path[s], cap));
       out.max_agl_m = std::max(out.max_agl_m, current->plan.ground->max_height_above(piece.path[s - 1], piece.path[s]));

@@ -5,7 +5,6 @@
 #include <gdal_alg.h>
 #include <gdal_priv.h>
 #include <ogr_spatialref.h>
-
 #include <proj.h>
 
 #include <algorithm>
@@ -118,7 +117,8 @@ void describe(const OGRSpatialReference& srs, Crs& crs) {
     // as 4979): heights above its datum's ellipsoid.
     OGRSpatialReference geographic;
     geographic.CopyGeogCSFrom(&srs);
-    crs.vertical_name = std::string(geographic.GetName() ? geographic.GetName() : "the datum's") + " ellipsoidal height";
+    crs.vertical_name =
+        std::string(geographic.GetName() ? geographic.GetName() : "the datum's") + " ellipsoidal height";
     double metres = 1;
     srs.GetAxis(nullptr, 2, nullptr, &metres);
     crs.vertical_unit = std::abs(metres - 1) < 1e-12 ? "metre" : "";
@@ -156,14 +156,38 @@ std::string unit_key(const std::string& name) {
 const std::map<std::string, double>& unit_table() {
   static const std::map<std::string, double> table = [] {
     constexpr double us_foot = 1200.0 / 3937.0;
-    std::map<std::string, double> units{
-        {"m", 1},           {"metre", 1},        {"metres", 1},      {"meter", 1},       {"meters", 1},
-        {"ft", 0.3048},     {"foot", 0.3048},    {"feet", 0.3048},   {"international foot", 0.3048},
-        {"ftus", us_foot},  {"us ft", us_foot},  {"ft us", us_foot}, {"us foot", us_foot}, {"us feet", us_foot},
-        {"foot us", us_foot}, {"us survey foot", us_foot}, {"us survey feet", us_foot}, {"survey foot", us_foot},
-        {"cm", 0.01},       {"centimetre", 0.01}, {"centimeter", 0.01}, {"centimetres", 0.01}, {"centimeters", 0.01},
-        {"mm", 0.001},      {"millimetre", 0.001}, {"millimeter", 0.001}, {"millimetres", 0.001},
-        {"millimeters", 0.001}, {"dm", 0.1},     {"km", 1000},       {"kilometre", 1000}, {"kilometer", 1000}};
+    std::map<std::string, double> units{{"m", 1},
+                                        {"metre", 1},
+                                        {"metres", 1},
+                                        {"meter", 1},
+                                        {"meters", 1},
+                                        {"ft", 0.3048},
+                                        {"foot", 0.3048},
+                                        {"feet", 0.3048},
+                                        {"international foot", 0.3048},
+                                        {"ftus", us_foot},
+                                        {"us ft", us_foot},
+                                        {"ft us", us_foot},
+                                        {"us foot", us_foot},
+                                        {"us feet", us_foot},
+                                        {"foot us", us_foot},
+                                        {"us survey foot", us_foot},
+                                        {"us survey feet", us_foot},
+                                        {"survey foot", us_foot},
+                                        {"cm", 0.01},
+                                        {"centimetre", 0.01},
+                                        {"centimeter", 0.01},
+                                        {"centimetres", 0.01},
+                                        {"centimeters", 0.01},
+                                        {"mm", 0.001},
+                                        {"millimetre", 0.001},
+                                        {"millimeter", 0.001},
+                                        {"millimetres", 0.001},
+                                        {"millimeters", 0.001},
+                                        {"dm", 0.1},
+                                        {"km", 1000},
+                                        {"kilometre", 1000},
+                                        {"kilometer", 1000}};
     PJ_CONTEXT* ctx = proj_context_create();
     int count = 0;
     PROJ_UNIT_INFO** list = proj_get_units_from_database(ctx, nullptr, "linear", false, &count);
@@ -315,7 +339,8 @@ std::string metric_problem(const Crs& given, const std::string& path, double cen
   if (crs.vertical_unit_m == 0)
     return "vertical unit '" + crs.vertical_unit +
            "' is not a length unit dsmplan knows: dsmplan measures heights in metres; declare them as metres "
-           "(e.g. gdal_edit.py -units m " + path + ") only if they are";
+           "(e.g. gdal_edit.py -units m " +
+           path + ") only if they are";
   const std::string unit = crs.vertical_unit + " (" + metres_text(crs.vertical_unit_m) + ")";
   const std::string measures = ": dsmplan measures heights in metres; ";
   if (!crs.vertical_name.empty()) {
@@ -330,8 +355,8 @@ std::string metric_problem(const Crs& given, const std::string& path, double cen
   std::snprintf(factor, sizeof factor, "%.10g", crs.vertical_unit_m);
   if (kind == DataKind::Raster) {
     const std::string out = metric_name(path, ".tif");
-    return "heights are in " + unit + measures + "convert them first, e.g. gdal_calc.py -A " + path +
-           " --calc=\"A*" + factor + "\" --outfile=" + out + " && gdal_edit.py -units m " + out;
+    return "heights are in " + unit + measures + "convert them first, e.g. gdal_calc.py -A " + path + " --calc=\"A*" +
+           factor + "\" --outfile=" + out + " && gdal_edit.py -units m " + out;
   }
   if (kind == DataKind::Mesh) return "heights are in " + unit + measures + "make the mesh again from a DSM in metres";
   return "heights are in " + unit + measures + "convert them to metres first (multiply by " + factor + ")";
@@ -348,7 +373,6 @@ void resolve_crs(Crs& crs) {
 }
 
 namespace {
-
 
 // One band of a GDAL raster, read by windows. Every window gets read_raster()'s treatment:
 // declared nodata and masked cells become NaN, scale and offset are applied, south-up rasters
@@ -367,12 +391,13 @@ public:
     if (width <= 0 || height <= 0) throw InputError(path, "", "raster has no cells");
     if (dataset_->GetRasterCount() < 1) throw InputError(path, "", "raster has no band");
     if (options.band < 1 || options.band > dataset_->GetRasterCount()) {
-      throw ArgumentError("band", "band " + std::to_string(options.band) + " does not exist in " + path +
-                                        " (it has " + std::to_string(dataset_->GetRasterCount()) + ")");
+      throw ArgumentError("band", "band " + std::to_string(options.band) + " does not exist in " + path + " (it has " +
+                                      std::to_string(dataset_->GetRasterCount()) + ")");
     }
     double gt[6];
     if (dataset_->GetGeoTransform(gt) != CE_None) throw InputError(path, "", "not geo-referenced (no geotransform)");
-    if (gt[2] != 0 || gt[4] != 0) throw InputError(path, "geotransform", "rotated or sheared rasters are not supported");
+    if (gt[2] != 0 || gt[4] != 0)
+      throw InputError(path, "geotransform", "rotated or sheared rasters are not supported");
     if (!(gt[1] > 0) || gt[5] == 0) throw InputError(path, "geotransform", "cell size must be positive");
     south_up_ = gt[5] > 0;
     frame_.width = width;
@@ -381,7 +406,8 @@ public:
     frame_.y0 = south_up_ ? gt[3] + height * gt[5] : gt[3];
     frame_.cell_x = gt[1];
     frame_.cell_y = std::abs(gt[5]);
-    if (const std::string problem = frame_problem(frame_); !problem.empty()) throw InputError(path, "geotransform", problem);
+    if (const std::string problem = frame_problem(frame_); !problem.empty())
+      throw InputError(path, "geotransform", problem);
     // --crs overrides what the file states, as gdal_translate -a_srs and `grid --crs` do.
     const OGRSpatialReference* srs = dataset_->GetSpatialRef();
     if (!options.assign_crs.empty()) {
@@ -406,9 +432,8 @@ public:
     // dsmplan measures in metres: x, y or heights in feet are refused here, before any cell is
     // read, naming the unit (degrees are the tools' to refuse: `info` and `render` take them).
     if (!options.allow_other_units) {
-      const std::string problem =
-          metric_problem(frame_.crs, path, frame_.x0 + width * frame_.cell_x / 2,
-                         frame_.y0 - height * frame_.cell_y / 2, /*units_only=*/true);
+      const std::string problem = metric_problem(frame_.crs, path, frame_.x0 + width * frame_.cell_x / 2,
+                                                 frame_.y0 - height * frame_.cell_y / 2, /*units_only=*/true);
       if (!problem.empty()) throw InputError(path, "", problem);
     }
     read_mask_ = !(band_->GetMaskFlags() & (GMF_ALL_VALID | GMF_NODATA));
@@ -478,8 +503,10 @@ public:
         if (rescale) z = static_cast<float>(z * scale_ + offset_);
         if (!(std::abs(z) <= kMaxHeight)) {
           char text[160];
-          std::snprintf(text, sizeof text, "height %.6g is no height on Earth (beyond +-100 km): a nodata sentinel "
-                        "the raster does not declare? Declare it as the band's nodata", z);
+          std::snprintf(text, sizeof text,
+                        "height %.6g is no height on Earth (beyond +-100 km): a nodata sentinel "
+                        "the raster does not declare? Declare it as the band's nodata",
+                        z);
           throw InputError(path_, cell_place(frame_, col0 + col, row0 + row), text);
         }
       }

@@ -24,8 +24,8 @@
 #include <utility>
 
 #include "dsmplan/core.hpp"
-#include "dsmplan/rpc_io.hpp"
 #include "dsmplan/rpc.hpp"
+#include "dsmplan/rpc_io.hpp"
 
 namespace dsmplan {
 
@@ -72,11 +72,11 @@ struct Keys {
 // The ten offsets and scales, named in lower case in a .geom ("line_off"), in upper case in
 // GDAL's RPC metadata ("LINE_OFF").
 void read_offsets_and_scales(const Keys& keys, bool upper_case, RpcModel& m) {
-  const std::pair<const char*, double*> fields[10] = {
-      {"line_off", &m.line_off},     {"samp_off", &m.samp_off},     {"lat_off", &m.lat_off},
-      {"long_off", &m.long_off},     {"height_off", &m.height_off}, {"line_scale", &m.line_scale},
-      {"samp_scale", &m.samp_scale}, {"lat_scale", &m.lat_scale},   {"long_scale", &m.long_scale},
-      {"height_scale", &m.height_scale}};
+  const std::pair<const char*, double*> fields[10] = {{"line_off", &m.line_off},     {"samp_off", &m.samp_off},
+                                                      {"lat_off", &m.lat_off},       {"long_off", &m.long_off},
+                                                      {"height_off", &m.height_off}, {"line_scale", &m.line_scale},
+                                                      {"samp_scale", &m.samp_scale}, {"lat_scale", &m.lat_scale},
+                                                      {"long_scale", &m.long_scale}, {"height_scale", &m.height_scale}};
   for (const auto& [name, field] : fields) {
     std::string key = name;
     if (upper_case)

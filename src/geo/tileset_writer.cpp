@@ -7,11 +7,10 @@
 // the curvature's sagitta, about d^2 / 8R across a mesh d wide. So it is fitted to PROJ's exact
 // transform by least squares, measured against it, and refused past kTilesetMaxPlacementError.
 #include <Eigen/Dense>
-#include <nlohmann/json.hpp>
-
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <nlohmann/json.hpp>
 #include <string>
 
 #include "core/text.hpp"
@@ -90,10 +89,10 @@ TilesetPlacement place_on_globe(const Mesh& mesh, const Wgs84Transform& to_ellip
   if (!(placement.max_error_m <= kTilesetMaxPlacementError)) {
     const Vector3d size = hi - lo;
     throw ArgumentError("tileset", "the mesh spans " + short_number(size.x()) + " x " + short_number(size.y()) +
-                                         " m: one tile transform would place it up to " +
-                                         short_number(placement.max_error_m) + " m from PROJ's position (at most " +
-                                         short_number(kTilesetMaxPlacementError) +
-                                         " m), the Earth curves beneath it; write tiles of about 2 km or less");
+                                       " m: one tile transform would place it up to " +
+                                       short_number(placement.max_error_m) + " m from PROJ's position (at most " +
+                                       short_number(kTilesetMaxPlacementError) +
+                                       " m), the Earth curves beneath it; write tiles of about 2 km or less");
   }
   // x_ecef = A x + (centre_ecef + b - A centre), as a column-major 4x4.
   const Vector3d translation = centre_ecef + offset - linear * centre;
@@ -107,13 +106,13 @@ TilesetPlacement place_on_globe(const Mesh& mesh, const Wgs84Transform& to_ellip
 
 std::string tileset_json(const TilesetPlacement& placement, const std::string& content_uri, const Crs& crs) {
   using Json = nlohmann::ordered_json;
-  const double diagonal =
-      2 * std::sqrt(placement.box[3] * placement.box[3] + placement.box[7] * placement.box[7] +
-                    placement.box[11] * placement.box[11]);
+  const double diagonal = 2 * std::sqrt(placement.box[3] * placement.box[3] + placement.box[7] * placement.box[7] +
+                                        placement.box[11] * placement.box[11]);
   Json extras = {{"generator", "dsmplan " DSMPLAN_VERSION},
                  {"content_crs", crs.name.empty() ? crs.definition : crs.name},
-                 {"content_axes", "the GLB's positions in content_crs (x east, y north, z up) once its y-up root turn "
-                                  "is undone; transform: to ECEF (EPSG:4978)"},
+                 {"content_axes",
+                  "the GLB's positions in content_crs (x east, y north, z up) once its y-up root turn "
+                  "is undone; transform: to ECEF (EPSG:4978)"},
                  {"heights", placement.heights},
                  {"max_placement_error_m", placement.max_error_m}};
   if (crs.epsg) extras["content_epsg"] = crs.epsg;
@@ -122,9 +121,8 @@ std::string tileset_json(const TilesetPlacement& placement, const std::string& c
                {"refine", "ADD"},
                {"transform", placement.transform},
                {"content", {{"uri", content_uri}}}};
-  const Json tileset = {{"asset", {{"version", "1.1"}, {"extras", extras}}},
-                        {"geometricError", diagonal},
-                        {"root", root}};
+  const Json tileset = {
+      {"asset", {{"version", "1.1"}, {"extras", extras}}}, {"geometricError", diagonal}, {"root", root}};
   return tileset.dump(2) + "\n";
 }
 

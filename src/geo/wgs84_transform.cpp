@@ -80,12 +80,14 @@ Wgs84Transform::Wgs84Transform(const Crs& crs, HeightReference target, const Ver
       // must be the data's own (the CRS is made 3D, not transformed).
       Pj a(proj_crs_get_datum_forced(ctx, source.get())), b(proj_crs_get_datum_forced(ctx, vertical.get()));
       if (!a || !b || !proj_is_equivalent_to_with_ctx(ctx, a.get(), b.get(), PJ_COMP_EQUIVALENT))
-        throw ArgumentError("vertical_crs", "'" + options.vertical_crs + "' gives ellipsoidal heights of " +
-                                                (b && proj_get_name(b.get()) ? proj_get_name(b.get()) : "another datum") +
-                                                ", the data's datum is " +
-                                                (a && proj_get_name(a.get()) ? proj_get_name(a.get()) : "unknown"));
+        throw ArgumentError("vertical_crs",
+                            "'" + options.vertical_crs + "' gives ellipsoidal heights of " +
+                                (b && proj_get_name(b.get()) ? proj_get_name(b.get()) : "another datum") +
+                                ", the data's datum is " +
+                                (a && proj_get_name(a.get()) ? proj_get_name(a.get()) : "unknown"));
       source.reset(proj_crs_promote_to_3D(ctx, nullptr, source.get()));
-      if (!source) throw ArgumentError("vertical_crs", "cannot make the data's CRS three-dimensional" + last_error(ctx));
+      if (!source)
+        throw ArgumentError("vertical_crs", "cannot make the data's CRS three-dimensional" + last_error(ctx));
       promoted = true;
     } else {
       if (!vertical || proj_get_type(vertical.get()) != PJ_TYPE_VERTICAL_CRS)
@@ -143,7 +145,8 @@ Wgs84Transform::Wgs84Transform(const Crs& crs, HeightReference target, const Ver
     Pj horizontal(proj_get_type(source.get()) == PJ_TYPE_COMPOUND_CRS ? proj_crs_get_sub_crs(ctx, source.get(), 0)
                                                                       : proj_clone(ctx, source.get()));
     Pj egm96(proj_create(ctx, "EPSG:5773"));
-    if (!horizontal || !egm96) throw ArgumentError("crs", "PROJ cannot build the EGM96 height reference" + last_error(ctx));
+    if (!horizontal || !egm96)
+      throw ArgumentError("crs", "PROJ cannot build the EGM96 height reference" + last_error(ctx));
     source.reset(proj_create_compound_crs(ctx, "data as EGM96", horizontal.get(), egm96.get()));
     if (!source) throw ArgumentError("crs", "PROJ cannot combine the data's CRS with EGM96" + last_error(ctx));
     best = best_operation(source.get());
@@ -154,20 +157,23 @@ Wgs84Transform::Wgs84Transform(const Crs& crs, HeightReference target, const Ver
   }
   description_ = proj_get_name(best.get()) ? proj_get_name(best.get()) : "unnamed";
   if (approximate_) {
-    description_ += "; heights taken as EGM96 heights (mean sea level) because " + why_egm96 +
-                    " (approximate heights: off by the difference between the data's datum and EGM96, typically under "
-                    "1 m, never by the geoid's height) to " +
-                    (target == HeightReference::MeanSeaLevel ? "EGM96 height (mean sea level)" : "WGS 84 ellipsoidal height");
+    description_ +=
+        "; heights taken as EGM96 heights (mean sea level) because " + why_egm96 +
+        " (approximate heights: off by the difference between the data's datum and EGM96, typically under "
+        "1 m, never by the geoid's height) to " +
+        (target == HeightReference::MeanSeaLevel ? "EGM96 height (mean sea level)" : "WGS 84 ellipsoidal height");
   } else {
     // PROJ's name leaves out a vertical step that is the identity (EGM96 to EGM96): say it.
     Pj vertical(proj_crs_get_sub_crs(ctx, source.get(), 1));
     Pj datum(ellipsoidal || promoted ? proj_crs_get_datum_forced(ctx, source.get()) : nullptr);
     const std::string ellipsoid_name =
         datum && proj_get_name(datum.get()) ? std::string(proj_get_name(datum.get())) + " ellipsoidal height" : "";
-    const char* from = vertical ? proj_get_name(vertical.get()) : !ellipsoid_name.empty() ? ellipsoid_name.c_str() : nullptr;
-    description_ += std::string("; heights from ") + (from ? from : "the data's vertical CRS") + " to " +
-                    (target == HeightReference::MeanSeaLevel ? "EGM96 height (mean sea level)"
-                                                             : "WGS 84 ellipsoidal height");
+    const char* from = vertical                  ? proj_get_name(vertical.get())
+                       : !ellipsoid_name.empty() ? ellipsoid_name.c_str()
+                                                 : nullptr;
+    description_ +=
+        std::string("; heights from ") + (from ? from : "the data's vertical CRS") + " to " +
+        (target == HeightReference::MeanSeaLevel ? "EGM96 height (mean sea level)" : "WGS 84 ellipsoidal height");
   }
   state_->operation.reset(proj_normalize_for_visualization(ctx, best.get()));
   if (!state_->operation) throw ArgumentError("crs", "PROJ cannot order the axes longitude first" + last_error(ctx));

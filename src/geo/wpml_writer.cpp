@@ -50,8 +50,8 @@
 
 #include "core/atomic_file.hpp"
 #include "dsmplan/mission.hpp"
-#include "dsmplan/wpml.hpp"
 #include "dsmplan/wgs84.hpp"
+#include "dsmplan/wpml.hpp"
 
 namespace dsmplan {
 
@@ -76,8 +76,9 @@ void check_for_wpml(const Mission& mission) {
   if (mission.end == MissionEnd::land) {
     const Point3& last = mission.route.back();
     if (std::abs(last[0] - mission.land[0]) > 1e-7 || std::abs(last[1] - mission.land[1]) > 1e-7)
-      throw ArgumentError("mission", "DJI's autoLand lands where the route ends: the landing point must lie below the "
-                                     "route's last point");
+      throw ArgumentError("mission",
+                          "DJI's autoLand lands where the route ends: the landing point must lie below the "
+                          "route's last point");
   }
   if (mission.route.size() > kMaxWaypoints)
     throw ArgumentError("mission", "DJI WPML numbers waypoints 0 to 65535; the route has " +
@@ -114,9 +115,12 @@ std::vector<double> ellipsoidal_heights(const Mission& mission, const std::strin
 
 const char* finish_action(MissionEnd end) {
   switch (end) {
-    case MissionEnd::rtl: return "goHome";
-    case MissionEnd::land: return "autoLand";
-    default: return "noAction";
+    case MissionEnd::rtl:
+      return "goHome";
+    case MissionEnd::land:
+      return "autoLand";
+    default:
+      return "noAction";
   }
 }
 
@@ -137,13 +141,15 @@ std::string mission_config(const Mission& mission, const MissionOptions& options
   // (M3E), one of the models the spec enumerates.
   return "    <wpml:missionConfig>\n"
          "      <wpml:flyToWaylineMode>safely</wpml:flyToWaylineMode>\n"
-         "      <wpml:finishAction>" + std::string(finish_action(mission.end)) + "</wpml:finishAction>\n"
+         "      <wpml:finishAction>" +
+         std::string(finish_action(mission.end)) +
+         "</wpml:finishAction>\n"
          "      <wpml:exitOnRCLost>executeLostAction</wpml:exitOnRCLost>\n"
          "      <wpml:executeRCLostAction>goBack</wpml:executeRCLostAction>\n"
-         "      <wpml:takeOffSecurityHeight>" + metres(mission.route.front()[2] - mission.home[2]) +
-         "</wpml:takeOffSecurityHeight>\n" +
-         reference +
-         "      <wpml:globalTransitionalSpeed>" + metres(options.speed) + "</wpml:globalTransitionalSpeed>\n"
+         "      <wpml:takeOffSecurityHeight>" +
+         metres(mission.route.front()[2] - mission.home[2]) + "</wpml:takeOffSecurityHeight>\n" + reference +
+         "      <wpml:globalTransitionalSpeed>" + metres(options.speed) +
+         "</wpml:globalTransitionalSpeed>\n"
          "      <wpml:droneInfo>\n"
          "        <wpml:droneEnumValue>77</wpml:droneEnumValue>\n"
          "        <wpml:droneSubEnumValue>0</wpml:droneSubEnumValue>\n"
@@ -153,7 +159,9 @@ std::string mission_config(const Mission& mission, const MissionOptions& options
 
 std::string coordinates(const Point3& p) {
   return "        <Point>\n"
-         "          <coordinates>" + degrees(p[0]) + "," + degrees(p[1]) + "</coordinates>\n"
+         "          <coordinates>" +
+         degrees(p[0]) + "," + degrees(p[1]) +
+         "</coordinates>\n"
          "        </Point>\n";
 }
 
@@ -166,72 +174,96 @@ std::string template_kml(const Mission& mission, const MissionOptions& options, 
   const std::string reference = "      <wpml:takeOffRefPoint>" + degrees(home[1]) + "," + degrees(home[0]) + "," +
                                 metres(home_ellipsoidal) + "</wpml:takeOffRefPoint>\n";
   std::string text = head() + "    <wpml:author>dsmplan</wpml:author>\n" + mission_config(mission, options, reference);
-  text += "    <Folder>\n"
-          "      <wpml:templateType>waypoint</wpml:templateType>\n"
-          "      <wpml:templateId>0</wpml:templateId>\n"
-          "      <wpml:waylineCoordinateSysParam>\n"
-          "        <wpml:coordinateMode>WGS84</wpml:coordinateMode>\n"
-          "        <wpml:heightMode>" + std::string(relative ? "relativeToStartPoint" : "EGM96") + "</wpml:heightMode>\n"
-          "      </wpml:waylineCoordinateSysParam>\n"
-          "      <wpml:autoFlightSpeed>" + metres(options.speed) + "</wpml:autoFlightSpeed>\n"
-          // Required though every point has its own height: the takeoff's, above the take-off point.
-          "      <wpml:globalHeight>" + metres(mission.route.front()[2] - home[2]) + "</wpml:globalHeight>\n"
-          // manual: no camera work, so no per-point gimbal angles to invent.
-          "      <wpml:gimbalPitchMode>manual</wpml:gimbalPitchMode>\n"
-          "      <wpml:globalWaypointHeadingParam>\n"
-          "        <wpml:waypointHeadingMode>followWayline</wpml:waypointHeadingMode>\n"
-          "        <wpml:waypointHeadingPathMode>followBadArc</wpml:waypointHeadingPathMode>\n"
-          "      </wpml:globalWaypointHeadingParam>\n"
-          "      <wpml:globalWaypointTurnMode>" + std::string(kTurnMode) + "</wpml:globalWaypointTurnMode>\n"
-          "      <wpml:globalUseStraightLine>1</wpml:globalUseStraightLine>\n";
+  text +=
+      "    <Folder>\n"
+      "      <wpml:templateType>waypoint</wpml:templateType>\n"
+      "      <wpml:templateId>0</wpml:templateId>\n"
+      "      <wpml:waylineCoordinateSysParam>\n"
+      "        <wpml:coordinateMode>WGS84</wpml:coordinateMode>\n"
+      "        <wpml:heightMode>" +
+      std::string(relative ? "relativeToStartPoint" : "EGM96") +
+      "</wpml:heightMode>\n"
+      "      </wpml:waylineCoordinateSysParam>\n"
+      "      <wpml:autoFlightSpeed>" +
+      metres(options.speed) +
+      "</wpml:autoFlightSpeed>\n"
+      // Required though every point has its own height: the takeoff's, above the take-off point.
+      "      <wpml:globalHeight>" +
+      metres(mission.route.front()[2] - home[2]) +
+      "</wpml:globalHeight>\n"
+      // manual: no camera work, so no per-point gimbal angles to invent.
+      "      <wpml:gimbalPitchMode>manual</wpml:gimbalPitchMode>\n"
+      "      <wpml:globalWaypointHeadingParam>\n"
+      "        <wpml:waypointHeadingMode>followWayline</wpml:waypointHeadingMode>\n"
+      "        <wpml:waypointHeadingPathMode>followBadArc</wpml:waypointHeadingPathMode>\n"
+      "      </wpml:globalWaypointHeadingParam>\n"
+      "      <wpml:globalWaypointTurnMode>" +
+      std::string(kTurnMode) +
+      "</wpml:globalWaypointTurnMode>\n"
+      "      <wpml:globalUseStraightLine>1</wpml:globalUseStraightLine>\n";
   for (size_t i = 0; i < mission.route.size(); ++i)
-    text += "      <Placemark>\n" + coordinates(mission.route[i]) +
-            "        <wpml:index>" + std::to_string(i) + "</wpml:index>\n"
+    text += "      <Placemark>\n" + coordinates(mission.route[i]) + "        <wpml:index>" + std::to_string(i) +
+            "</wpml:index>\n"
             "        <wpml:useGlobalHeight>0</wpml:useGlobalHeight>\n"
-            "        <wpml:ellipsoidHeight>" + metres(ellipsoidal[i]) + "</wpml:ellipsoidHeight>\n"
-            "        <wpml:height>" + metres(heights[i]) + "</wpml:height>\n"
+            "        <wpml:ellipsoidHeight>" +
+            metres(ellipsoidal[i]) +
+            "</wpml:ellipsoidHeight>\n"
+            "        <wpml:height>" +
+            metres(heights[i]) +
+            "</wpml:height>\n"
             "        <wpml:useGlobalSpeed>1</wpml:useGlobalSpeed>\n"
             "        <wpml:useGlobalHeadingParam>1</wpml:useGlobalHeadingParam>\n"
             "        <wpml:useGlobalTurnParam>1</wpml:useGlobalTurnParam>\n"
             "      </Placemark>\n";
-  text += "    </Folder>\n"
-          "  </Document>\n"
-          "</kml>\n";
+  text +=
+      "    </Folder>\n"
+      "  </Document>\n"
+      "</kml>\n";
   return text;
 }
 
 std::string waylines_wpml(const Mission& mission, const MissionOptions& options, const std::vector<double>& heights) {
   const bool relative = options.altitude_frame == AltitudeFrame::relative;
   std::string text = head() + mission_config(mission, options);
-  text += "    <Folder>\n"
-          "      <wpml:templateId>0</wpml:templateId>\n"
-          "      <wpml:executeHeightMode>" + std::string(relative ? "relativeToStartPoint" : "WGS84") +
-          "</wpml:executeHeightMode>\n"
-          "      <wpml:waylineId>0</wpml:waylineId>\n"
-          "      <wpml:autoFlightSpeed>" + metres(options.speed) + "</wpml:autoFlightSpeed>\n";
+  text +=
+      "    <Folder>\n"
+      "      <wpml:templateId>0</wpml:templateId>\n"
+      "      <wpml:executeHeightMode>" +
+      std::string(relative ? "relativeToStartPoint" : "WGS84") +
+      "</wpml:executeHeightMode>\n"
+      "      <wpml:waylineId>0</wpml:waylineId>\n"
+      "      <wpml:autoFlightSpeed>" +
+      metres(options.speed) + "</wpml:autoFlightSpeed>\n";
   // Waypoint 0 is route[0], the takeoff's top above home. The aircraft climbs to
   // takeOffSecurityHeight by itself and, flying "safely", then goes level to waypoint 0: left
   // out, it would climb to route[1]'s height and fly level to it, not the straight line from the
   // top that the planner checked. With it, the climb ends where waypoint 0 already is.
   for (size_t i = 0; i < mission.route.size(); ++i)
-    text += "      <Placemark>\n" + coordinates(mission.route[i]) +
-            "        <wpml:index>" + std::to_string(i) + "</wpml:index>\n"
-            "        <wpml:executeHeight>" + metres(heights[i]) + "</wpml:executeHeight>\n"
-            "        <wpml:waypointSpeed>" + metres(options.speed) + "</wpml:waypointSpeed>\n"
+    text += "      <Placemark>\n" + coordinates(mission.route[i]) + "        <wpml:index>" + std::to_string(i) +
+            "</wpml:index>\n"
+            "        <wpml:executeHeight>" +
+            metres(heights[i]) +
+            "</wpml:executeHeight>\n"
+            "        <wpml:waypointSpeed>" +
+            metres(options.speed) +
+            "</wpml:waypointSpeed>\n"
             "        <wpml:waypointHeadingParam>\n"
             "          <wpml:waypointHeadingMode>followWayline</wpml:waypointHeadingMode>\n"
             "          <wpml:waypointHeadingPathMode>followBadArc</wpml:waypointHeadingPathMode>\n"
             "        </wpml:waypointHeadingParam>\n"
             "        <wpml:waypointTurnParam>\n"
-            "          <wpml:waypointTurnMode>" + std::string(kTurnMode) + "</wpml:waypointTurnMode>\n"
+            "          <wpml:waypointTurnMode>" +
+            std::string(kTurnMode) +
+            "</wpml:waypointTurnMode>\n"
             // 0 as in DJI's sample: a damping distance applies only to the turning modes.
             "          <wpml:waypointTurnDampingDist>0</wpml:waypointTurnDampingDist>\n"
             "        </wpml:waypointTurnParam>\n"
             "        <wpml:useStraightLine>1</wpml:useStraightLine>\n"
             "      </Placemark>\n";
-  text += "    </Folder>\n"
-          "  </Document>\n"
-          "</kml>\n";
+  text +=
+      "    </Folder>\n"
+      "  </Document>\n"
+      "</kml>\n";
   return text;
 }
 

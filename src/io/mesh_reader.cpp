@@ -136,7 +136,8 @@ public:
           !parse_number(value.substr(0, slash), k) || !parse_number(value.substr(slash + 1, blank - slash - 1), n) ||
           k < 1 || n < 1 || k > n || n > 1000)
         throw InputError(path_, place, "crs_wkt_part " + shown(value) + " is not 'K/N PIECE'");
-      if (parts_total_ && *parts_total_ != n) throw InputError(path_, place, "crs_wkt_part: the parts disagree on their count");
+      if (parts_total_ && *parts_total_ != n)
+        throw InputError(path_, place, "crs_wkt_part: the parts disagree on their count");
       parts_total_ = n;
       parts_[k] = std::string(trim(value.substr(blank)));
     } else if (key == "vertical" && !vertical_) {
@@ -634,7 +635,8 @@ private:
   // Room for an element's records at once (no regrowth), never more than the rest of the file
   // could hold at a byte per property: a lying count reserves nothing it could not fill.
   void reserve_for(const PlyElement& element, Mesh& mesh) const {
-    const uint64_t most = (bytes_.size() - std::min(pos_, bytes_.size())) / std::max<size_t>(1, element.properties.size());
+    const uint64_t most =
+        (bytes_.size() - std::min(pos_, bytes_.size())) / std::max<size_t>(1, element.properties.size());
     const auto records = static_cast<size_t>(std::min(element.count, most));
     if (element.name == "vertex") detail::reserve_on_huge_pages(mesh.vertices, mesh.vertices.size() + records);
     for (const PlyProperty& p : element.properties)
@@ -656,8 +658,8 @@ private:
     for (int k = 0; k < 3; ++k) {
       if (!(index[k] >= 0 && index[k] < static_cast<double>(vertices_))) {
         fail(place(), "face " + std::to_string(face) + " refers to vertex " +
-                        std::to_string(static_cast<int64_t>(index[k])) + ", but there are " +
-                        std::to_string(vertices_) + " vertices");
+                          std::to_string(static_cast<int64_t>(index[k])) + ", but there are " +
+                          std::to_string(vertices_) + " vertices");
       }
       t[k] = static_cast<uint32_t>(index[k]);
     }

@@ -37,8 +37,7 @@ std::vector<std::string> wkt_parts(const std::string& wkt) {
     size_t end = std::min(wkt.size(), at + kWktPart);
     if (end < wkt.size()) {
       size_t cut = end;
-      while (cut > at + kWktPart / 2 && !(wkt[cut - 1] == ',' && !blank(wkt[cut])))
-        --cut;
+      while (cut > at + kWktPart / 2 && !(wkt[cut - 1] == ',' && !blank(wkt[cut]))) --cut;
       if (cut > at + kWktPart / 2) {
         end = cut;
       } else {  // no comma to cut after: any place with no blank on either side

@@ -95,7 +95,8 @@ std::vector<Item> mission_items(const Mission& mission, const MissionOptions& op
   check_points({mission.home}, "mission home");
   check_points(mission.route, "mission");
   for (const double speed : {options.speed, options.hover_speed})
-    if (!(speed > 0 && speed <= 100)) throw ArgumentError("mission", "speeds must lie in (0, 100] m/s, got " + fixed(speed, 3));
+    if (!(speed > 0 && speed <= 100))
+      throw ArgumentError("mission", "speeds must lie in (0, 100] m/s, got " + fixed(speed, 3));
   const Point3& top = mission.route.front();
   if (std::abs(top[0] - mission.home[0]) > 1e-7 || std::abs(top[1] - mission.home[1]) > 1e-7)
     throw ArgumentError("mission", "the route's first point is the top of the takeoff and must lie above home");
@@ -114,7 +115,8 @@ std::vector<Item> mission_items(const Mission& mission, const MissionOptions& op
   };
   // Takeoff at home to the top's altitude (params: pitch, -, -, yaw: the vehicle's own).
   std::vector<Item> items{at(kMavCmdNavTakeoff, {mission.home[0], mission.home[1], top[2]})};
-  items.push_back({kMavCmdDoChangeSpeed, kMavFrameMission, {1, options.speed, -1, 0}});  // ground speed, m/s, throttle as is
+  items.push_back(
+      {kMavCmdDoChangeSpeed, kMavFrameMission, {1, options.speed, -1, 0}});  // ground speed, m/s, throttle as is
   for (size_t i = 1; i < mission.route.size(); ++i)
     items.push_back(at(kMavCmdNavWaypoint, mission.route[i]));  // hold 0 s, acceptance and pass radius the autopilot's
   if (mission.end == MissionEnd::rtl) items.push_back({kMavCmdNavReturnToLaunch, kMavFrameMission, {0, 0, 0, 0}});
@@ -124,9 +126,12 @@ std::vector<Item> mission_items(const Mission& mission, const MissionOptions& op
 
 int mav_autopilot(Firmware firmware) {
   switch (firmware) {
-    case Firmware::px4: return 12;
-    case Firmware::ardupilot: return 3;
-    default: return 0;
+    case Firmware::px4:
+      return 12;
+    case Firmware::ardupilot:
+      return 3;
+    default:
+      return 0;
   }
 }
 
@@ -134,11 +139,20 @@ std::string xml_escaped(const std::string& text) {
   std::string out;
   for (const char c : text) {
     switch (c) {
-      case '&': out += "&amp;"; break;
-      case '<': out += "&lt;"; break;
-      case '>': out += "&gt;"; break;
-      case '"': out += "&quot;"; break;
-      default: out += c;
+      case '&':
+        out += "&amp;";
+        break;
+      case '<':
+        out += "&lt;";
+        break;
+      case '>':
+        out += "&gt;";
+        break;
+      case '"':
+        out += "&quot;";
+        break;
+      default:
+        out += c;
     }
   }
   return out;
@@ -148,7 +162,8 @@ std::string xml_escaped(const std::string& text) {
 
 std::string mission_to_qgc_plan(const Mission& mission, const MissionOptions& options) {
   const std::vector<Item> items = mission_items(mission, options);
-  const int mode = options.altitude_frame == AltitudeFrame::relative ? kQgcAltitudeModeRelative : kQgcAltitudeModeAbsolute;
+  const int mode =
+      options.altitude_frame == AltitudeFrame::relative ? kQgcAltitudeModeRelative : kQgcAltitudeModeAbsolute;
   std::string text =
       "{\n"
       "    \"fileType\": \"Plan\",\n"
@@ -159,43 +174,68 @@ std::string mission_to_qgc_plan(const Mission& mission, const MissionOptions& op
       "    },\n"
       "    \"groundStation\": \"QGroundControl\",\n"
       "    \"mission\": {\n"
-      "        \"cruiseSpeed\": " + parameter(options.speed, true) + ",\n"
-      "        \"firmwareType\": " + std::to_string(mav_autopilot(options.firmware)) + ",\n"
-      "        \"globalPlanAltitudeMode\": " + std::to_string(mode) + ",\n"
-      "        \"hoverSpeed\": " + parameter(options.hover_speed, true) + ",\n"
+      "        \"cruiseSpeed\": " +
+      parameter(options.speed, true) +
+      ",\n"
+      "        \"firmwareType\": " +
+      std::to_string(mav_autopilot(options.firmware)) +
+      ",\n"
+      "        \"globalPlanAltitudeMode\": " +
+      std::to_string(mode) +
+      ",\n"
+      "        \"hoverSpeed\": " +
+      parameter(options.hover_speed, true) +
+      ",\n"
       "        \"items\": [\n";
   for (size_t i = 0; i < items.size(); ++i) {
     const Item& item = items[i];
     text += "            {\n";
     if (item.positional)
-      text += "                \"AMSLAltAboveTerrain\": null,\n"
-              "                \"Altitude\": " + metres(item.altitude) + ",\n"
-              "                \"AltitudeMode\": " + std::to_string(mode) + ",\n";
-    text += "                \"autoContinue\": true,\n"
-            "                \"command\": " + std::to_string(item.command) + ",\n"
-            "                \"doJumpId\": " + std::to_string(i + 1) + ",\n"
-            "                \"frame\": " + std::to_string(item.frame) + ",\n"
-            "                \"params\": [";
+      text +=
+          "                \"AMSLAltAboveTerrain\": null,\n"
+          "                \"Altitude\": " +
+          metres(item.altitude) +
+          ",\n"
+          "                \"AltitudeMode\": " +
+          std::to_string(mode) + ",\n";
+    text +=
+        "                \"autoContinue\": true,\n"
+        "                \"command\": " +
+        std::to_string(item.command) +
+        ",\n"
+        "                \"doJumpId\": " +
+        std::to_string(i + 1) +
+        ",\n"
+        "                \"frame\": " +
+        std::to_string(item.frame) +
+        ",\n"
+        "                \"params\": [";
     for (const double q : item.param) text += parameter(q, true) + ", ";
     text += item.positional ? degrees(item.latitude) + ", " + degrees(item.longitude) + ", " + metres(item.altitude)
                             : std::string("0, 0, 0");
-    text += "],\n"
-            "                \"type\": \"SimpleItem\"\n"
-            "            }" + std::string(i + 1 < items.size() ? ",\n" : "\n");
+    text +=
+        "],\n"
+        "                \"type\": \"SimpleItem\"\n"
+        "            }" +
+        std::string(i + 1 < items.size() ? ",\n" : "\n");
   }
   const Point3& home = mission.home;
-  text += "        ],\n"
-          "        \"plannedHomePosition\": [" + degrees(home[1]) + ", " + degrees(home[0]) + ", " + metres(home[2]) +
-          "],\n"
-          "        \"vehicleType\": " + std::to_string(options.vehicle_type) + ",\n"
-          "        \"version\": 2\n"
-          "    },\n"
-          "    \"rallyPoints\": {\n"
-          "        \"points\": [],\n"
-          "        \"version\": 2\n"
-          "    },\n"
-          "    \"version\": 1\n"
-          "}\n";
+  text +=
+      "        ],\n"
+      "        \"plannedHomePosition\": [" +
+      degrees(home[1]) + ", " + degrees(home[0]) + ", " + metres(home[2]) +
+      "],\n"
+      "        \"vehicleType\": " +
+      std::to_string(options.vehicle_type) +
+      ",\n"
+      "        \"version\": 2\n"
+      "    },\n"
+      "    \"rallyPoints\": {\n"
+      "        \"points\": [],\n"
+      "        \"version\": 2\n"
+      "    },\n"
+      "    \"version\": 1\n"
+      "}\n";
   return text;
 }
 
@@ -229,47 +269,57 @@ std::string path_to_kml(const std::vector<Point3>& lonlatamsl, const std::vector
       "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n"
       "<kml xmlns=\"http://www.opengis.net/kml/2.2\">\n"
       "  <Document>\n"
-      "    <name>" + xml_escaped(options.name) + "</name>\n";
-  if (!options.description.empty())
-    text += "    <description>" + xml_escaped(options.description) + "</description>\n";
-  text += "    <Style id=\"path\">\n"
-          "      <LineStyle>\n"
-          "        <color>ffff00ff</color>\n"
-          "        <width>4</width>\n"
-          "      </LineStyle>\n"
-          "      <PolyStyle>\n"
-          "        <color>40ff00ff</color>\n"
-          "      </PolyStyle>\n"
-          "    </Style>\n"
-          "    <Style id=\"waypoint\">\n"
-          "      <IconStyle>\n"
-          "        <color>ffffff00</color>\n"
-          "      </IconStyle>\n"
-          "      <LabelStyle>\n"
-          "        <color>ffffff00</color>\n"
-          "      </LabelStyle>\n"
-          "    </Style>\n"
-          "    <Placemark>\n"
-          "      <name>path</name>\n"
-          "      <styleUrl>#path</styleUrl>\n"
-          "      <LineString>\n" + extrude +
-          "        <altitudeMode>absolute</altitudeMode>\n"
-          "        <coordinates>\n";
+      "    <name>" +
+      xml_escaped(options.name) + "</name>\n";
+  if (!options.description.empty()) text += "    <description>" + xml_escaped(options.description) + "</description>\n";
+  text +=
+      "    <Style id=\"path\">\n"
+      "      <LineStyle>\n"
+      "        <color>ffff00ff</color>\n"
+      "        <width>4</width>\n"
+      "      </LineStyle>\n"
+      "      <PolyStyle>\n"
+      "        <color>40ff00ff</color>\n"
+      "      </PolyStyle>\n"
+      "    </Style>\n"
+      "    <Style id=\"waypoint\">\n"
+      "      <IconStyle>\n"
+      "        <color>ffffff00</color>\n"
+      "      </IconStyle>\n"
+      "      <LabelStyle>\n"
+      "        <color>ffffff00</color>\n"
+      "      </LabelStyle>\n"
+      "    </Style>\n"
+      "    <Placemark>\n"
+      "      <name>path</name>\n"
+      "      <styleUrl>#path</styleUrl>\n"
+      "      <LineString>\n" +
+      extrude +
+      "        <altitudeMode>absolute</altitudeMode>\n"
+      "        <coordinates>\n";
   for (const Point3& p : lonlatamsl) text += "          " + tuple(p) + "\n";
-  text += "        </coordinates>\n"
-          "      </LineString>\n"
-          "    </Placemark>\n";
+  text +=
+      "        </coordinates>\n"
+      "      </LineString>\n"
+      "    </Placemark>\n";
   for (size_t i = 0; i < marks.size(); ++i)
-    text += "    <Placemark>\n"
-            "      <name>waypoint " + std::to_string(i + 1) + "</name>\n"
-            "      <styleUrl>#waypoint</styleUrl>\n"
-            "      <Point>\n" + extrude +
-            "        <altitudeMode>absolute</altitudeMode>\n"
-            "        <coordinates>" + tuple(marks[i]) + "</coordinates>\n"
-            "      </Point>\n"
-            "    </Placemark>\n";
-  text += "  </Document>\n"
-          "</kml>\n";
+    text +=
+        "    <Placemark>\n"
+        "      <name>waypoint " +
+        std::to_string(i + 1) +
+        "</name>\n"
+        "      <styleUrl>#waypoint</styleUrl>\n"
+        "      <Point>\n" +
+        extrude +
+        "        <altitudeMode>absolute</altitudeMode>\n"
+        "        <coordinates>" +
+        tuple(marks[i]) +
+        "</coordinates>\n"
+        "      </Point>\n"
+        "    </Placemark>\n";
+  text +=
+      "  </Document>\n"
+      "</kml>\n";
   return text;
 }
 

@@ -25,8 +25,8 @@ std::string path_to_csv(const std::vector<Point3>& path) {
 }
 
 std::string path_to_geojson(const std::vector<Point3>& lonlath, const std::string& properties) {
-  std::string text = "{\"type\":\"Feature\",\"properties\":" + properties +
-                     ",\"geometry\":{\"type\":\"LineString\",\"coordinates\":[";
+  std::string text =
+      "{\"type\":\"Feature\",\"properties\":" + properties + ",\"geometry\":{\"type\":\"LineString\",\"coordinates\":[";
   char buffer[96];
   for (size_t i = 0; i < lonlath.size(); ++i) {
     std::snprintf(buffer, sizeof buffer, "%s[%.9f,%.9f,%.3f]", i ? "," : "", lonlath[i][0], lonlath[i][1],

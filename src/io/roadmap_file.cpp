@@ -8,6 +8,8 @@
 //   mesh fingerprint u64, safety f64, spacing f64, max_edge f64, max_agl f64,
 //   nodes u64, listings u64, nodes * 3 f64 (x, y, z), (nodes + 1) u32 start, listings u32,
 //   checksum u64 (FNV-1a of every byte before it).
+#include "dsmplan/roadmap_file.hpp"
+
 #include <bit>
 #include <cmath>
 #include <cstdio>
@@ -19,7 +21,6 @@
 
 #include "core/atomic_file.hpp"
 #include "dsmplan/plan.hpp"
-#include "dsmplan/roadmap_file.hpp"
 
 namespace dsmplan {
 
@@ -57,7 +58,8 @@ struct Reader {
   size_t at = 0;
   template <class T>
   T get(const char* what) {
-    if (bytes.size() - at < sizeof(T)) throw InputError(file, "byte " + std::to_string(at), "ends inside " + std::string(what));
+    if (bytes.size() - at < sizeof(T))
+      throw InputError(file, "byte " + std::to_string(at), "ends inside " + std::string(what));
     T value;
     std::memcpy(&value, bytes.data() + at, sizeof value);
     at += sizeof value;
@@ -67,8 +69,9 @@ struct Reader {
 
 std::string mismatch(const char* option, double built, double asked) {
   char buffer[160];
-  std::snprintf(buffer, sizeof buffer, "was built with %s %.17g, this run asks for %.17g; build it again (delete the file)",
-                option, built, asked);
+  std::snprintf(buffer, sizeof buffer,
+                "was built with %s %.17g, this run asks for %.17g; build it again (delete the file)", option, built,
+                asked);
   return buffer;
 }
 
@@ -88,7 +91,9 @@ uint64_t mesh_fingerprint(const Mesh& mesh) {
 
 void write_roadmap(const std::string& path, const Roadmap& map, uint64_t fingerprint, const PlanOptions& options) {
   if (!options.constraints.empty())
-    throw ArgumentError("constraints", "a roadmap file does not record flight constraints (no-fly zones): build the roadmap where they are used");
+    throw ArgumentError(
+        "constraints",
+        "a roadmap file does not record flight constraints (no-fly zones): build the roadmap where they are used");
   std::string out(kMagic, sizeof kMagic);
   put(out, kVersion);
   put(out, fingerprint);
@@ -106,11 +111,15 @@ void write_roadmap(const std::string& path, const Roadmap& map, uint64_t fingerp
 
 Roadmap read_roadmap(const std::string& path, uint64_t fingerprint, const PlanOptions& options) {
   if (!options.constraints.empty())
-    throw ArgumentError("constraints", "a roadmap file does not record flight constraints (no-fly zones): build the roadmap where they are used");
+    throw ArgumentError(
+        "constraints",
+        "a roadmap file does not record flight constraints (no-fly zones): build the roadmap where they are used");
   RoadmapHeader header;
   Roadmap map = read_roadmap(path, &header);
   if (header.mesh_fingerprint != fingerprint)
-    throw InputError(path, "", "the roadmap was built for another mesh or another ground (--dsm, --dtm) (fingerprints differ); build it again");
+    throw InputError(path, "",
+                     "the roadmap was built for another mesh or another ground (--dsm, --dtm) (fingerprints differ); "
+                     "build it again");
   const double built[4] = {header.safety, header.spacing, header.max_edge, header.max_agl};
   const double asked[4] = {options.safety, options.spacing, options.max_edge, options.max_agl};
   const char* names[4] = {"--safety", "--spacing", "--max-edge", "--max-agl"};
@@ -130,7 +139,8 @@ Roadmap read_roadmap(const std::string& path, RoadmapHeader* header) {
   if (in.bad()) throw InputError(path, "", "cannot read the roadmap file");
   if (bytes.size() < sizeof kMagic || std::memcmp(bytes.data(), kMagic, sizeof kMagic) != 0)
     throw InputError(path, "", "not a dsmplan roadmap file (no DSMPLAN-ROADMAP signature)");
-  if (bytes.size() < kHeaderBytes + 8) throw InputError(path, "", "truncated roadmap file (" + std::to_string(bytes.size()) + " bytes)");
+  if (bytes.size() < kHeaderBytes + 8)
+    throw InputError(path, "", "truncated roadmap file (" + std::to_string(bytes.size()) + " bytes)");
   uint64_t stored_sum;
   std::memcpy(&stored_sum, bytes.data() + bytes.size() - 8, 8);
   if (stored_sum != fnv1a(reinterpret_cast<const unsigned char*>(bytes.data()), bytes.size() - 8)) {
@@ -155,15 +165,16 @@ Roadmap read_roadmap(const std::string& path, RoadmapHeader* header) {
     throw InputError(path, "", "roadmap file version " + std::to_string(version) + ", this dsmplan reads version 1");
   RoadmapHeader stored;
   stored.mesh_fingerprint = r.get<uint64_t>("the mesh fingerprint");
-  for (double* v : {&stored.safety, &stored.spacing, &stored.max_edge, &stored.max_agl}) *v = r.get<double>("the options");
+  for (double* v : {&stored.safety, &stored.spacing, &stored.max_edge, &stored.max_agl})
+    *v = r.get<double>("the options");
   if (header) *header = stored;
 
   const uint64_t nodes = r.get<uint64_t>("the node count"), listings = r.get<uint64_t>("the edge count");
   const uint64_t payload = bytes.size() - 8 - r.at;
   if (nodes >= UINT32_MAX || listings > UINT32_MAX || nodes * 28 + 4 + listings * 4 != payload)
-    throw InputError(path, "header", "declares " + std::to_string(nodes) + " nodes and " + std::to_string(listings) +
-                                         " edge listings, which do not fill the file's " + std::to_string(payload) +
-                                         " bytes");
+    throw InputError(path, "header",
+                     "declares " + std::to_string(nodes) + " nodes and " + std::to_string(listings) +
+                         " edge listings, which do not fill the file's " + std::to_string(payload) + " bytes");
   Roadmap map;
   map.nodes.resize(nodes);
   map.start.resize(nodes + 1);
@@ -179,7 +190,8 @@ Roadmap read_roadmap(const std::string& path, RoadmapHeader* header) {
   if (map.start[0] != 0 || map.start[nodes] != listings)
     throw InputError(path, "adjacency", "the edge lists do not span the edge listings");
   for (uint64_t i = 0; i < nodes; ++i) {
-    if (map.start[i] > map.start[i + 1]) throw InputError(path, "node " + std::to_string(i), "edge list ends before it starts");
+    if (map.start[i] > map.start[i + 1])
+      throw InputError(path, "node " + std::to_string(i), "edge list ends before it starts");
     // Checked here, not only by the next node's order check: this node's listings are read next.
     if (map.start[i + 1] > listings)
       throw InputError(path, "node " + std::to_string(i), "edge list runs past the file's edge listings");

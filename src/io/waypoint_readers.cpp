@@ -5,11 +5,10 @@
 #include <charconv>
 #include <cmath>
 #include <fstream>
+#include <nlohmann/json.hpp>
 #include <sstream>
 #include <string>
 #include <vector>
-
-#include <nlohmann/json.hpp>
 
 #include "dsmplan/waypoints.hpp"
 
@@ -44,7 +43,8 @@ bool parse_point(const std::string& line, Point3& p) {
 // A JSON value for a message: scalars and flat arrays as JSON, cut at 80 characters; anything
 // nested by its kind only (dumping it recurses as deep as it nests: 100,000 deep overflowed the stack).
 std::string brief(const Json& v) {
-  const bool flat = !v.is_structured() || std::none_of(v.begin(), v.end(), [](const Json& e) { return e.is_structured(); });
+  const bool flat =
+      !v.is_structured() || std::none_of(v.begin(), v.end(), [](const Json& e) { return e.is_structured(); });
   if (!flat) return v.is_array() ? "an array of arrays" : "an object";
   const std::string text = v.dump();
   return text.size() > 80 ? text.substr(0, 77) + "..." : text;
@@ -144,13 +144,15 @@ std::vector<Point3> read_waypoints_geojson(const std::string& path) {
       points.push_back(p);
     }
   };
-  const std::string type = doc.is_object() && doc.contains("type") && doc["type"].is_string() ? doc["type"].get<std::string>() : "";
+  const std::string type =
+      doc.is_object() && doc.contains("type") && doc["type"].is_string() ? doc["type"].get<std::string>() : "";
   if (type == "FeatureCollection") {
     if (!doc.contains("features") || !doc["features"].is_array())
       throw InputError(path, "", "a FeatureCollection needs a 'features' array");
     for (size_t i = 0; i < doc["features"].size(); ++i) {
       const Json& f = doc["features"][i];
-      if (!f.is_object() || !f.contains("geometry")) throw InputError(path, "feature " + std::to_string(i + 1), "has no geometry");
+      if (!f.is_object() || !f.contains("geometry"))
+        throw InputError(path, "feature " + std::to_string(i + 1), "has no geometry");
       take(f["geometry"], "feature " + std::to_string(i + 1));
     }
   } else if (type == "Feature") {

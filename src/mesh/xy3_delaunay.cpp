@@ -118,8 +118,7 @@ void break_ties(Delaunay& delaunay, const Key& key_of) {
     const Kernel::Point_2 p[4] = {face->vertex(0)->point(), face->vertex(1)->point(), face->vertex(2)->point(),
                                   opposite->point()};
     if (CGAL::side_of_oriented_circle(p[0], p[1], p[2], p[3]) != CGAL::ON_ORIENTED_BOUNDARY) continue;
-    const size_t key[4] = {key_of(face->vertex(0)), key_of(face->vertex(1)), key_of(face->vertex(2)),
-                           key_of(opposite)};
+    const size_t key[4] = {key_of(face->vertex(0)), key_of(face->vertex(1)), key_of(face->vertex(2)), key_of(opposite)};
     if (!inside_perturbed(p, key)) continue;
 
     delaunay.flip(face, i);
@@ -183,7 +182,7 @@ void triangulate_border(const Lattice& lattice, std::vector<Triangle>& triangles
 double max_edge_length(const Grid& grid, const MeshOptions& options) {
   if (!(options.max_edge_length >= 0 && (options.max_edge_length <= 1e6 || options.max_edge_length == INFINITY))) {
     throw ArgumentError("max_edge", "must be from 0 (2.5 cells) to 1e6, or inf (keep every triangle), got " +
-                                          short_number(options.max_edge_length));
+                                        short_number(options.max_edge_length));
   }
   return options.max_edge_length > 0 ? options.max_edge_length : 2.5 * std::max(grid.cell_x, grid.cell_y);
 }

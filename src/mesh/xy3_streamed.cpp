@@ -13,15 +13,15 @@ MeshStreamResult triangulate_xy3(GridSource& dsm, MeshSink& sink, const MeshOpti
                                  const Progress& progress) {
   const Grid& frame = dsm.frame();
   const double max_edge = max_edge_length(frame, options);
-  if (!std::isfinite(max_edge))
-    throw ArgumentError("max_edge", "must be finite to mesh a raster band by band");
+  if (!std::isfinite(max_edge)) throw ArgumentError("max_edge", "must be finite to mesh a raster band by band");
   // Circumradius of a lattice triangle with edges <= L: abc / (4 area) <= L^3 / (4 * cell_x cell_y / 2).
   const double radius = std::pow(max_edge, 3) / (2 * frame.cell_x * frame.cell_y);
   // In rows, as doubles first: --max-edge 1e6 over 1 m cells asks for a halo of 1e18 rows, beyond
   // an int (fuzz_pipeline); more rows than the grid has is the whole grid.
   const auto rows = [&](double count) { return count < frame.height ? static_cast<int>(count) : frame.height; };
   const int halo = rows(std::ceil((max_edge + 2 * radius) / frame.cell_y) + 2);
-  const int band = std::max(rows(options.band_rows > 0 ? options.band_rows : 256), rows(std::ceil(max_edge / frame.cell_y) + 1));
+  const int band =
+      std::max(rows(options.band_rows > 0 ? options.band_rows : 256), rows(std::ceil(max_edge / frame.cell_y) + 1));
   MeshStreamResult result;
   std::vector<uint64_t> valid_before{0};  // valid cells in the rows above row r, for r <= rows read
   std::vector<Triangle> pending;          // a band's triangles wait for the next band's vertices
@@ -53,8 +53,8 @@ MeshStreamResult triangulate_xy3(GridSource& dsm, MeshSink& sink, const MeshOpti
     for (const Triangle& t : local.triangles) {
       const int top = std::min({row_of[t[0]], row_of[t[1]], row_of[t[2]]});
       if (top < r0 || top >= r1) continue;  // another band's
-      kept.push_back({static_cast<uint32_t>(base + t[0]), static_cast<uint32_t>(base + t[1]),
-                      static_cast<uint32_t>(base + t[2])});
+      kept.push_back(
+          {static_cast<uint32_t>(base + t[0]), static_cast<uint32_t>(base + t[1]), static_cast<uint32_t>(base + t[2])});
     }
     sink.append(vertices, pending);
     result.vertices += vertices.size();

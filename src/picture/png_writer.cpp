@@ -74,7 +74,8 @@ void write_png(const Image& image, const std::string& path) {
   PngFailure failure;
   if (!write_rows(file.stream(), image.width, image.height, rows.data(), &failure)) {
     const bool io_error = std::ferror(file.stream()) && failure.error != 0;
-    throw OutputError(path, std::string("cannot write: ") + (io_error ? std::strerror(failure.error) : failure.message));
+    throw OutputError(path,
+                      std::string("cannot write: ") + (io_error ? std::strerror(failure.error) : failure.message));
   }
   file.commit();
 }

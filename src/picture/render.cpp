@@ -72,14 +72,14 @@ View make_view(const Grid& dsm, const RenderOptions& options) {
   }
   if (!(w.xmin < dsm.x1() && w.xmax > dsm.x0 && w.ymin < dsm.y0 && w.ymax > dsm.y1())) {
     throw ArgumentError("window", text(w.xmin) + "," + text(w.ymin) + "," + text(w.xmax) + "," + text(w.ymax) +
-                                        " lies outside the DSM (" + text(dsm.x0) + "," + text(dsm.y1()) + "," +
-                                        text(dsm.x1()) + "," + text(dsm.y0) + ")");
+                                      " lies outside the DSM (" + text(dsm.x0) + "," + text(dsm.y1()) + "," +
+                                      text(dsm.x1()) + "," + text(dsm.y0) + ")");
   }
   view.scale = options.pixels_per_cell / dsm.cell_x;
   const double width = (w.xmax - w.xmin) * view.scale, height = (w.ymax - w.ymin) * view.scale;
   if (!(width <= kMaxSide && height <= kMaxSide && width * height <= kMaxPixels)) {
-    throw ArgumentError("pixels_per_cell", "the picture would be " + text(std::round(width)) + " x " + text(std::round(height)) +
-                                      " pixels; use a smaller zoom or window");
+    throw ArgumentError("pixels_per_cell", "the picture would be " + text(std::round(width)) + " x " +
+                                               text(std::round(height)) + " pixels; use a smaller zoom or window");
   }
   view.width = std::max(1, static_cast<int>(std::lround(width)));
   view.height = std::max(1, static_cast<int>(std::lround(height)));
@@ -402,7 +402,8 @@ void check_layers(const RenderOptions& options) {
     if (!(layer.width > 0 && layer.width <= 100) || !(layer.alpha >= 0 && layer.alpha <= 1))
       throw ArgumentError("layer", "line width must be in (0, 100] pixels and alpha in [0, 1]");
   for (const MarkerLayer& layer : options.markers)
-    if (!(layer.radius > 0 && layer.radius <= 100)) throw ArgumentError("layer", "marker radius must be in (0, 100] pixels");
+    if (!(layer.radius > 0 && layer.radius <= 100))
+      throw ArgumentError("layer", "marker radius must be in (0, 100] pixels");
 }
 
 void draw_lines(Canvas& canvas, const View& view, const LineLayer& layer) {
@@ -432,8 +433,8 @@ void draw_markers(Canvas& canvas, const View& view, const MarkerLayer& layer) {
 
 Box disc_box(const View& view, const Point3& p, double r) {
   const double cx = view.px(p[0]), cy = view.py(p[1]);
-  return {static_cast<int>(std::floor(cx - r)), static_cast<int>(std::floor(cy - r)), static_cast<int>(std::ceil(cx + r)) + 1,
-          static_cast<int>(std::ceil(cy + r)) + 1};
+  return {static_cast<int>(std::floor(cx - r)), static_cast<int>(std::floor(cy - r)),
+          static_cast<int>(std::ceil(cx + r)) + 1, static_cast<int>(std::ceil(cy + r)) + 1};
 }
 
 // The numbers of the markers, each at the first of eight places around its disc that stays in
@@ -456,9 +457,14 @@ void draw_labels(Canvas& canvas, const View& view, const RenderOptions& options,
       const std::string text = std::to_string(i + 1);
       const int w = text_width(text, s), h = kGlyph * s, gap = 2;
       const int mx = (d.x0 + d.x1) / 2 - w / 2, my = (d.y0 + d.y1) / 2 - h / 2;
-      const std::array<std::pair<int, int>, 8> at{{{d.x1 + gap, my}, {d.x0 - gap - w, my}, {mx, d.y0 - gap - h},
-                                                   {mx, d.y1 + gap}, {d.x1 + gap, d.y0 - gap - h}, {d.x0 - gap - w, d.y0 - gap - h},
-                                                   {d.x1 + gap, d.y1 + gap}, {d.x0 - gap - w, d.y1 + gap}}};
+      const std::array<std::pair<int, int>, 8> at{{{d.x1 + gap, my},
+                                                   {d.x0 - gap - w, my},
+                                                   {mx, d.y0 - gap - h},
+                                                   {mx, d.y1 + gap},
+                                                   {d.x1 + gap, d.y0 - gap - h},
+                                                   {d.x0 - gap - w, d.y0 - gap - h},
+                                                   {d.x1 + gap, d.y1 + gap},
+                                                   {d.x0 - gap - w, d.y1 + gap}}};
       Box best;
       int best_cost = INT32_MAX;
       for (const auto& [x, y] : at) {
@@ -516,7 +522,9 @@ Image render_view(const Grid& dsm, const Mesh* mesh, const RenderOptions& option
 
   if (options.north_arrow) {
     const Box box = place(north_arrow_size(s), true, false);
-    if (fits(box)) draw_north_arrow(canvas, box, s), furniture.push_back(box), regions.push_back({"north arrow", box.x0, box.y0, box.x1, box.y1});
+    if (fits(box))
+      draw_north_arrow(canvas, box, s), furniture.push_back(box),
+          regions.push_back({"north arrow", box.x0, box.y0, box.x1, box.y1});
   }
   if (!options.title.empty()) {
     int title_s = s;
@@ -524,24 +532,31 @@ Image render_view(const Grid& dsm, const Mesh* mesh, const RenderOptions& option
     const auto [text, size] = fit_title(options.title, title_s, room);
     const Box box = place(size, false, false);
     if (!text.empty() && fits(box))
-      draw_title(canvas, text, box, title_s), furniture.push_back(box), regions.push_back({"title", box.x0, box.y0, box.x1, box.y1});
+      draw_title(canvas, text, box, title_s), furniture.push_back(box),
+          regions.push_back({"title", box.x0, box.y0, box.x1, box.y1});
   }
   // The scale bar and the legend share the bottom corners: the arrangement covering fewer waypoints.
   const bool scale_bar = options.scale_bar && !dsm.crs.geographic;
   const ScaleBar bar = measure_scale_bar(view);
   const auto [lo, hi] = height_range(dsm, cells_under(dsm, view.window));
   const Legend legend{metres(std::round(lo * 10) / 10), metres(std::round(hi * 10) / 10)};
-  const Box bar_left = place(scale_bar_size(bar, s), false, true), bar_right = place(scale_bar_size(bar, s), true, true);
-  const Box legend_right = place(legend_size(legend, s), true, true), legend_left = place(legend_size(legend, s), false, true);
+  const Box bar_left = place(scale_bar_size(bar, s), false, true),
+            bar_right = place(scale_bar_size(bar, s), true, true);
+  const Box legend_right = place(legend_size(legend, s), true, true),
+            legend_left = place(legend_size(legend, s), false, true);
   const bool swap = (scale_bar ? covered(bar_right) : 0) + (options.legend ? covered(legend_left) : 0) <
                     (scale_bar ? covered(bar_left) : 0) + (options.legend ? covered(legend_right) : 0);
   if (scale_bar && bar.bar >= 8) {
     const Box box = swap ? bar_right : bar_left;
-    if (fits(box)) draw_scale_bar(canvas, bar, box, s), furniture.push_back(box), regions.push_back({"scale bar", box.x0, box.y0, box.x1, box.y1});
+    if (fits(box))
+      draw_scale_bar(canvas, bar, box, s), furniture.push_back(box),
+          regions.push_back({"scale bar", box.x0, box.y0, box.x1, box.y1});
   }
   if (options.legend) {
     const Box box = swap ? legend_left : legend_right;
-    if (fits(box)) draw_legend(canvas, legend, box, s), furniture.push_back(box), regions.push_back({"legend", box.x0, box.y0, box.x1, box.y1});
+    if (fits(box))
+      draw_legend(canvas, legend, box, s), furniture.push_back(box),
+          regions.push_back({"legend", box.x0, box.y0, box.x1, box.y1});
   }
   const int label_scale = std::clamp(std::min(view.width, view.height) / 280, 1, 4);
   draw_labels(canvas, view, options, furniture, label_scale, regions);

@@ -45,8 +45,8 @@ struct ClearanceIndex::Layout {
   int cols_ = 0, rows_ = 0;
   struct Listing {
     std::array<uint32_t, 3> corners;  ///< the triangle's vertices: no second read to find them
-    float top;             ///< highest point of the triangle inside the bucket, rounded up
-    float x0, x1, y0, y1;  ///< the triangle's x,y bounding box, rounded outwards
+    float top;                        ///< highest point of the triangle inside the bucket, rounded up
+    float x0, x1, y0, y1;             ///< the triangle's x,y bounding box, rounded outwards
   };
   struct Bucket {
     uint32_t start;  ///< bucket b lists items_[start of b, start of b + 1), highest first
@@ -62,9 +62,8 @@ struct ClearanceIndex::Layout {
   double highest(int r0, int r1, int c0, int c1) const;
   double zmin_ = 0, zmax_ = 0;  ///< lowest and highest vertex
   GroundGrid floor_;
-  double margin_ = 0;           ///< conservative slack of the quick rejects
+  double margin_ = 0;  ///< conservative slack of the quick rejects
 };
-
 
 namespace {
 
@@ -643,9 +642,13 @@ bool ClearanceIndex::segment_clear(const Point3& p, const Point3& q, double d) c
 double ClearanceIndex::clearance(const Point3& p, const Point3& q, double max_d) const {
   return layout_->clearance(p, q, max_d);
 }
-double ClearanceIndex::clearance_bound(const Point3& p, double max_d) const { return layout_->clearance_bound(p, max_d); }
+double ClearanceIndex::clearance_bound(const Point3& p, double max_d) const {
+  return layout_->clearance_bound(p, max_d);
+}
 double ClearanceIndex::ground(double x, double y) const { return layout_->ground(x, y); }
-void ClearanceIndex::ground(const double* x, const double* y, double* z, size_t n) const { layout_->ground(x, y, z, n); }
+void ClearanceIndex::ground(const double* x, const double* y, double* z, size_t n) const {
+  layout_->ground(x, y, z, n);
+}
 const ClearanceIndex::Footprint& ClearanceIndex::footprint() const { return layout_->footprint_; }
 const Point3& ClearanceIndex::origin() const { return layout_->origin_; }
 double ClearanceIndex::bucket_size() const { return layout_->cell_; }

@@ -75,7 +75,9 @@ double column_clearance(const Grid& dsm, const Point3& p_, const Point3& q_, dou
   // r away, so once the best is within r it is the answer.
   // Cell indices clamped as doubles first: a segment far off the grid is billions of cells away,
   // beyond an int (fuzz_pipeline).
-  const auto cell = [](double v, int count) { return static_cast<int>(std::clamp(std::floor(v), -1.0, double(count))); };
+  const auto cell = [](double v, int count) {
+    return static_cast<int>(std::clamp(std::floor(v), -1.0, double(count)));
+  };
   for (double r = std::min(max_d, 2 * std::max(dsm.cell_x, dsm.cell_y));; r = std::min(max_d, 2 * r)) {
     const int c0 = std::max(0, cell((xmin - r - dsm.x0) / dsm.cell_x, dsm.width));
     const int c1 = std::min(dsm.width - 1, cell((xmax + r - dsm.x0) / dsm.cell_x, dsm.width));

@@ -35,7 +35,8 @@ Mesh hole_columns(const Grid& dsm, const Grid& columns) {
     if (!std::isnan(z)) lowest = std::min<double>(lowest, z);
   const double foot = lowest - 1;  // walls reach below every column: nothing passes under them
   auto hole = [&](int c, int r) {
-    return c >= 0 && r >= 0 && c < dsm.width && r < dsm.height && std::isnan(dsm.at(c, r)) && !std::isnan(columns.at(c, r));
+    return c >= 0 && r >= 0 && c < dsm.width && r < dsm.height && std::isnan(dsm.at(c, r)) &&
+           !std::isnan(columns.at(c, r));
   };
   auto vertex = [&](double x, double y, double z) {
     out.vertices.push_back({x, y, z});
@@ -53,7 +54,8 @@ Mesh hole_columns(const Grid& dsm, const Grid& columns) {
       out.triangles.push_back({a, c, d});
       // A wall on every side that does not face another cell of a hole (those share its top).
       auto wall = [&](double xa, double ya, double xb, double yb) {
-        const uint32_t p = vertex(xa, ya, top), q = vertex(xb, yb, top), s = vertex(xb, yb, foot), t = vertex(xa, ya, foot);
+        const uint32_t p = vertex(xa, ya, top), q = vertex(xb, yb, top), s = vertex(xb, yb, foot),
+                       t = vertex(xa, ya, foot);
         out.triangles.push_back({p, q, s});
         out.triangles.push_back({p, s, t});
       };

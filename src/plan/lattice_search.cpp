@@ -122,9 +122,7 @@ private:
     return (static_cast<uint64_t>((i + off) & mask) << 42) | (static_cast<uint64_t>((j + off) & mask) << 21) |
            static_cast<uint64_t>((k + off) & mask);
   }
-  static uint64_t edge_key(uint32_t u, uint32_t v) {
-    return u < v ? (uint64_t{u} << 32 | v) : (uint64_t{v} << 32 | u);
-  }
+  static uint64_t edge_key(uint32_t u, uint32_t v) { return u < v ? (uint64_t{u} << 32 | v) : (uint64_t{v} << 32 | u); }
 
   // The node (i, j, k), made on first sight.
   uint32_t node(int i, int j, int k) {
@@ -198,8 +196,7 @@ private:
 
 }  // namespace
 
-LatticeResult lattice_path(const FlightSpace& space, const Point3& a, const Point3& b, double step,
-                           size_t max_nodes) {
+LatticeResult lattice_path(const FlightSpace& space, const Point3& a, const Point3& b, double step, size_t max_nodes) {
   return LatticeSearch(space, a, b, step, max_nodes).run();
 }
 

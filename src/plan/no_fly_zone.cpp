@@ -38,7 +38,8 @@ NoFlyZone::NoFlyZone(std::string name, std::vector<std::array<double, 2>> polygo
     : name_(std::move(name)), polygon_(std::move(polygon)), bottom_(bottom), top_(top) {
   if (polygon_.size() > 1 && polygon_.front() == polygon_.back()) polygon_.pop_back();
   if (polygon_.size() < 3)
-    throw ArgumentError("no_fly_zone", "'" + name_ + "' needs at least 3 corners, got " + std::to_string(polygon_.size()));
+    throw ArgumentError("no_fly_zone",
+                        "'" + name_ + "' needs at least 3 corners, got " + std::to_string(polygon_.size()));
   for (const P2& c : polygon_)
     if (!std::isfinite(c[0]) || !std::isfinite(c[1]))
       throw ArgumentError("no_fly_zone", "'" + name_ + "' has a corner that is not finite");

@@ -19,9 +19,7 @@ inline FlightSpace flight_space(const ClearanceIndex& index, const PlanOptions& 
                      std::move(rules));
 }
 
-inline double distance(const Point3& a, const Point3& b) {
-  return std::hypot(a[0] - b[0], a[1] - b[1], a[2] - b[2]);
-}
+inline double distance(const Point3& a, const Point3& b) { return std::hypot(a[0] - b[0], a[1] - b[1], a[2] - b[2]); }
 
 /// A number with two decimals, for messages.
 std::string format_number(double v);

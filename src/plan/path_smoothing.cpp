@@ -11,8 +11,8 @@
 #include <stdexcept>
 #include <string>
 
-#include "dsmplan/plan.hpp"
 #include "core/text.hpp"
+#include "dsmplan/plan.hpp"
 #include "plan/path_parts.hpp"
 
 namespace dsmplan {

@@ -120,8 +120,7 @@ size_t memory_bound(size_t count, double bytes_each) {
 // Node numbers: the roadmap's, then the added samples in the order they were added.
 class Refinement {
 public:
-  Refinement(const Roadmap& map, const PointGrid& base_grid, const FlightSpace& space,
-             const PlanOptions& options)
+  Refinement(const Roadmap& map, const PointGrid& base_grid, const FlightSpace& space, const PlanOptions& options)
       : map_(map),
         base_grid_(base_grid),
         space_(space),

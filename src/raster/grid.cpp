@@ -55,7 +55,8 @@ std::string frame_problem(const Grid& frame) {
   const double far = std::max({std::abs(frame.x0), std::abs(frame.y0), std::abs(frame.x0 + frame.width * frame.cell_x),
                                std::abs(frame.y0 - frame.height * frame.cell_y)});
   if (!(far <= kMaxCoordinate))
-    return "the raster reaches " + short_number(far) + " CRS units from the origin: beyond any projected CRS (at most 1e9)";
+    return "the raster reaches " + short_number(far) +
+           " CRS units from the origin: beyond any projected CRS (at most 1e9)";
   const double finest = std::min(frame.cell_x, frame.cell_y);
   if (finest < 1e-9 * std::max(1.0, far))
     return "cells of " + short_number(finest) + " at " + short_number(far) +
@@ -65,13 +66,14 @@ std::string frame_problem(const Grid& frame) {
 
 void check_grid(const Grid& grid) {
   if (!(grid.cell_x > 0) || !(grid.cell_y > 0))
-    throw ArgumentError("DSM", "cells must have a positive size, got " + short_number(grid.cell_x) + " x " +
-                                   short_number(grid.cell_y));
+    throw ArgumentError(
+        "DSM", "cells must have a positive size, got " + short_number(grid.cell_x) + " x " + short_number(grid.cell_y));
   if (const std::string problem = frame_problem(grid); !problem.empty()) throw ArgumentError("DSM", problem);
   for (size_t i = 0; i < grid.z.size(); ++i)
     if (!std::isnan(grid.z[i]) && !(std::abs(grid.z[i]) <= kMaxHeight))
-      throw ArgumentError("DSM", "cell (col " + std::to_string(i % grid.width) + ", row " + std::to_string(i / grid.width) +
-                                     "): height " + short_number(grid.z[i]) + " is no height on Earth (beyond +-100 km)");
+      throw ArgumentError("DSM", "cell (col " + std::to_string(i % grid.width) + ", row " +
+                                     std::to_string(i / grid.width) + "): height " + short_number(grid.z[i]) +
+                                     " is no height on Earth (beyond +-100 km)");
 }
 
 HeightQuantizer::HeightQuantizer(double step) : step_(step) {
@@ -79,8 +81,8 @@ HeightQuantizer::HeightQuantizer(double step) : step_(step) {
   // and one finer than 1e-6 (below a float height's own resolution) overflows z / step: 5e-324
   // made every height infinite (fuzz_pipeline).
   if (std::isnan(step) || step > 100 || (step > 0 && step < 1e-6))
-    throw ArgumentError("zstep", "must be at least 1e-6 and at most 100 (0 or less: keep the heights), got " +
-                                       short_number(step));
+    throw ArgumentError(
+        "zstep", "must be at least 1e-6 and at most 100 (0 or less: keep the heights), got " + short_number(step));
   if (!(step > 0)) return;
   const double per_unit = 1.0 / step;
   if (std::abs(per_unit - std::round(per_unit)) < 1e-9 * per_unit) per_unit_ = std::round(per_unit);

@@ -63,19 +63,19 @@ Grid grid_points(const std::vector<PointCloud>& clouds, const GridPointsOptions&
   if (!options.keep_classes.empty()) {
     dropped.fill(true);
     for (int cls : options.keep_classes) {
-      if (cls < 0 || cls > 255) throw ArgumentError("keep_classes", "class " + std::to_string(cls) + " is not in 0-255");
+      if (cls < 0 || cls > 255)
+        throw ArgumentError("keep_classes", "class " + std::to_string(cls) + " is not in 0-255");
       if (dropped[cls]) kept_list += (kept_list.empty() ? "" : ", ") + std::to_string(cls);
       dropped[cls] = false;
     }
   }
   std::string dropped_list;
   for (int cls : options.drop_classes) {
-    if (cls < 0 || cls > 255)
-      throw ArgumentError("drop_classes", "class " + std::to_string(cls) + " is not in 0-255");
+    if (cls < 0 || cls > 255) throw ArgumentError("drop_classes", "class " + std::to_string(cls) + " is not in 0-255");
     if (!options.keep_classes.empty() &&
         std::find(options.keep_classes.begin(), options.keep_classes.end(), cls) != options.keep_classes.end())
       throw ArgumentError("keep_classes", "class " + std::to_string(cls) +
-                                           " is both kept (--classes) and dropped (--drop-classes); give it to one");
+                                              " is both kept (--classes) and dropped (--drop-classes); give it to one");
     dropped[cls] = true;
     dropped_list += (dropped_list.empty() ? "" : ", ") + std::to_string(cls);
   }
@@ -119,11 +119,11 @@ Grid grid_points(const std::vector<PointCloud>& clouds, const GridPointsOptions&
   });
   if (kept == 0)
     throw InputError("", "",
-                     total == 0                ? "the point clouds hold no points"
-                     : !kept_list.empty()      ? "no point of classes " + kept_list + " (--classes) among the " +
-                                                     std::to_string(total) + " points"
-                                               : "no points left after dropping classes " + dropped_list + " (all " +
-                                                     std::to_string(total) + " points had them)");
+                     total == 0           ? "the point clouds hold no points"
+                     : !kept_list.empty() ? "no point of classes " + kept_list + " (--classes) among the " +
+                                                std::to_string(total) + " points"
+                                          : "no points left after dropping classes " + dropped_list + " (all " +
+                                                std::to_string(total) + " points had them)");
   if (kept >= std::numeric_limits<uint32_t>::max())
     throw ArgumentError("points", std::to_string(kept) + " points are more than one grid can take; grid them in tiles");
 
@@ -133,14 +133,15 @@ Grid grid_points(const std::vector<PointCloud>& clouds, const GridPointsOptions&
   if (lattice.y0 < max_y) lattice.y0 += res;
   const double columns = std::floor((max_x - lattice.x0) / res) + 1, rows = std::floor((lattice.y0 - min_y) / res) + 1;
   if (!(columns >= 1 && rows >= 1 && columns * rows <= kMaxCells))  // also catches overflow to inf
-    throw ArgumentError("resolution", "a resolution of " + number(res) + " gives " + number(columns) + " x " + number(rows) +
-                                     " cells for the points' extent; choose a coarser one");
+    throw ArgumentError("resolution", "a resolution of " + number(res) + " gives " + number(columns) + " x " +
+                                          number(rows) + " cells for the points' extent; choose a coarser one");
   // The grid's float and the counting sort's bound per cell, a double per kept point.
   const std::string memory = memory_problem(columns * rows * (sizeof(float) + sizeof(uint32_t)) +
                                             double(kept) * sizeof(double) + options.other_bytes);
   if (!memory.empty())
     throw ArgumentError("resolution", "a resolution of " + number(res) + " gives " + number(columns) + " x " +
-                                     number(rows) + " cells for " + std::to_string(kept) + " points, which " + memory);
+                                          number(rows) + " cells for " + std::to_string(kept) + " points, which " +
+                                          memory);
   Grid grid(static_cast<int>(columns), static_cast<int>(rows), lattice.x0, lattice.y0, res, res);
   grid.crs = crs ? *crs : Crs{};
   auto cell_of = [&](double x, double y) { return grid.index(int(lattice.column(x)), int(lattice.row(y))); };

@@ -92,12 +92,12 @@ Grid resample(const Grid& grid, double resolution, Resampling method, const Prog
   const double finest = std::max(grid.cell_x, grid.cell_y);
   if (resolution < finest * (1 - 1e-9)) {
     throw ArgumentError("resolution", std::to_string(resolution) + " is finer than the DSM's cells (" +
-                                     std::to_string(finest) + "); resampling only aggregates");
+                                          std::to_string(finest) + "); resampling only aggregates");
   }
   const double extent = std::max(grid.width * grid.cell_x, grid.height * grid.cell_y);
   if (resolution > extent)
-    throw ArgumentError("resolution", short_number(resolution) + " is coarser than the whole raster (" + short_number(extent) +
-                                     " CRS units across): one cell, no surface");
+    throw ArgumentError("resolution", short_number(resolution) + " is coarser than the whole raster (" +
+                                          short_number(extent) + " CRS units across): one cell, no surface");
   if (resolution == grid.cell_x && resolution == grid.cell_y) {
     report(progress, 1);
     return grid;

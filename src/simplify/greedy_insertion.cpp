@@ -19,8 +19,8 @@
 #include <algorithm>
 #include <array>
 #include <atomic>
-#include <future>
 #include <cmath>
+#include <future>
 #include <limits>
 #include <memory>
 #include <mutex>
@@ -578,7 +578,8 @@ void check_bounded_options(const BoundedSimplifyOptions& options) {
   // Below a millimetre the float heights' own rounding (7.6e-6 m at 100 m) is as large as the
   // bound: insertion would chase rounding, cell after cell, instead of ending.
   if (!(options.max_error >= 1e-3) || !(options.max_error <= 1e4)) {
-    throw ArgumentError("max_error", "must be from 0.001 to 10000 (vertical units), got " + short_number(options.max_error));
+    throw ArgumentError("max_error",
+                        "must be from 0.001 to 10000 (vertical units), got " + short_number(options.max_error));
   }
   if (options.tile_size < 0) throw ArgumentError("tile_size", "must be >= 0 (0: automatic)");
   if (options.block_tiles < 0) throw ArgumentError("block_tiles", "must be >= 0 (0: automatic)");
@@ -588,8 +589,8 @@ BoundedLayout bounded_layout(int width, int height, const BoundedSimplifyOptions
   check_bounded_options(options);
   if (width < 2 || height < 2) throw ArgumentError("DSM", "needs at least 2 x 2 cells to triangulate");
   BoundedLayout layout;
-  layout.tile = options.delaunay ? std::max(width, height) : std::max(2, options.tile_size ? options.tile_size
-                                                                                            : default_tile_size);
+  layout.tile = options.delaunay ? std::max(width, height)
+                                 : std::max(2, options.tile_size ? options.tile_size : default_tile_size);
   layout.block_tiles = options.delaunay ? 1 : options.block_tiles ? options.block_tiles : default_block_tiles;
   layout.xs = split_points(width - 1, layout.tile);
   layout.ys = split_points(height - 1, layout.tile);
@@ -633,7 +634,8 @@ void BoundedAssembler::add(const BoundedBlock& block) {
     for (size_t c = 0; c < tile.cols.size(); ++c, ++k) {
       uint32_t& id = id_at(tile.cols[c], tile.rows[c]);
       if (id == no_id) {
-        if (next_id_ >= no_id) throw ArgumentError("DSM", "the mesh would have 2^32 vertices or more; raise --max-error");
+        if (next_id_ >= no_id)
+          throw ArgumentError("DSM", "the mesh would have 2^32 vertices or more; raise --max-error");
         id = static_cast<uint32_t>(next_id_++);
         vertices_.push_back({frame_.center_x(tile.cols[c]), frame_.center_y(tile.rows[c]), tile.heights[c]});
       }

@@ -185,7 +185,8 @@ std::vector<VertexMark> search(const Mesh& mesh, const Corners& corners, const P
 }  // namespace
 
 void check_paper_options(const PaperSimplifyOptions& options) {
-  if (!(options.dz >= 0 && options.dz <= 1000)) throw ArgumentError("dz", "must be from 0 to 1000, got " + short_number(options.dz));
+  if (!(options.dz >= 0 && options.dz <= 1000))
+    throw ArgumentError("dz", "must be from 0 to 1000, got " + short_number(options.dz));
   if (!(options.dco >= 0 && options.dco <= 1000))
     throw ArgumentError("dco", "must be from 0 to 1000, got " + short_number(options.dco));
 }

@@ -60,7 +60,8 @@ std::vector<std::pair<int, int>> height_range_pairs(const std::vector<FrameCamer
     for (int j = 0; j < n; ++j) {
       if (j == i) continue;
       double d2 = 0;
-      for (int k = 0; k < 3; ++k) d2 += (cameras[i].center[k] - cameras[j].center[k]) * (cameras[i].center[k] - cameras[j].center[k]);
+      for (int k = 0; k < 3; ++k)
+        d2 += (cameras[i].center[k] - cameras[j].center[k]) * (cameras[i].center[k] - cameras[j].center[k]);
       if (d2 > 0 && d2 < best_distance) best_distance = d2, best = j;
     }
     if (best >= 0) nearest.push_back({best_distance, {std::min(i, best), std::max(i, best)}});
@@ -73,8 +74,7 @@ std::vector<std::pair<int, int>> height_range_pairs(const std::vector<FrameCamer
   return pairs;
 }
 
-HeightRangeEstimate estimate_height_range(const std::vector<FrameCamera>& cameras,
-                                          const std::vector<GreyImage>& images,
+HeightRangeEstimate estimate_height_range(const std::vector<FrameCamera>& cameras, const std::vector<GreyImage>& images,
                                           const std::vector<std::pair<int, int>>& pairs,
                                           const HeightRangeOptions& options) {
   if (!(options.coarse_side >= 32 && options.max_disparities >= 16 && options.low_quantile >= 0 &&
@@ -97,8 +97,8 @@ HeightRangeEstimate estimate_height_range(const std::vector<FrameCamera>& camera
     rectify.unbounded_depth_disparities = options.max_disparities;
     RectifiedPair pair;
     try {
-      pair = rectify_pair(left, s > 1 ? shrunk(images[a], s) : images[a], right, s > 1 ? shrunk(images[b], s) : images[b],
-                          rectify);
+      pair = rectify_pair(left, s > 1 ? shrunk(images[a], s) : images[a], right,
+                          s > 1 ? shrunk(images[b], s) : images[b], rectify);
     } catch (const InputError&) {
       continue;  // no baseline, or images too narrow: another pair may do
     }

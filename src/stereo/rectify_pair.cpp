@@ -174,8 +174,9 @@ RectifiedPair rectify_pair(const FrameCamera& left, const GreyImage& left_image,
     pair.shift = 0;
     pair.num_disparities = std::min(options.unbounded_depth_disparities, rect.width - 1) / 16 * 16;
     if (pair.num_disparities < 16)
-      throw InputError("", "cameras", "the rectified images are too narrow (" + std::to_string(rect.width) +
-                                          " px) for a search of 16 disparities");
+      throw InputError(
+          "", "cameras",
+          "the rectified images are too narrow (" + std::to_string(rect.width) + " px) for a search of 16 disparities");
   }
   pair.right.cx = rect.cx + pair.shift;
   if (pair.num_disparities > options.max_disparities || pair.num_disparities >= rect.width)

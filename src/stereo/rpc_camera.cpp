@@ -17,9 +17,8 @@
 namespace dsmplan {
 
 std::array<double, 20> rpc_terms(double P, double L, double H) {
-  return {1.0,       L,         P,         H,         L * P,     L * H,     P * H,
-          L * L,     P * P,     H * H,     P * L * H, L * L * L, L * P * P, L * H * H,
-          L * L * P, P * P * P, P * H * H, L * L * H, P * P * H, H * H * H};
+  return {1.0,       L,         P,         H,         L * P,     L * H,     P * H,     L * L,     P * P,     H * H,
+          P * L * H, L * L * L, L * P * P, L * H * H, L * L * P, P * P * P, P * H * H, L * L * H, P * P * H, H * H * H};
 }
 
 namespace {
@@ -43,7 +42,8 @@ struct Normalised {
 };
 
 Normalised normalise(const RpcModel& m, const GeoPoint& g) {
-  return {(g.lat - m.lat_off) / m.lat_scale, (g.lon - m.long_off) / m.long_scale, (g.height - m.height_off) / m.height_scale};
+  return {(g.lat - m.lat_off) / m.lat_scale, (g.lon - m.long_off) / m.long_scale,
+          (g.height - m.height_off) / m.height_scale};
 }
 
 // Position (col, row) and its derivatives by (lon, lat), the terms computed once.
@@ -76,8 +76,8 @@ RpcCamera::RpcCamera(const RpcModel& model, double sensor_col, double sensor_row
   const RpcModel& m = model_;
   auto finite = [](double v) { return std::isfinite(v); };
   bool ok = finite(sensor_col) && finite(sensor_row);
-  for (double v : {m.line_off, m.samp_off, m.lat_off, m.long_off, m.height_off, m.line_scale, m.samp_scale,
-                   m.lat_scale, m.long_scale, m.height_scale})
+  for (double v : {m.line_off, m.samp_off, m.lat_off, m.long_off, m.height_off, m.line_scale, m.samp_scale, m.lat_scale,
+                   m.long_scale, m.height_scale})
     ok = ok && finite(v);
   for (const auto* a : {&m.line_num, &m.line_den, &m.samp_num, &m.samp_den})
     for (double v : *a) ok = ok && finite(v);
@@ -138,9 +138,9 @@ GeoPoint RpcCamera::localize(const PixelPoint& pixel, double height) const {
     g.lon += (J[3] * ec - J[1] * er) / det;
     g.lat += (-J[2] * ec + J[0] * er) / det;
   }
-  throw InputError("", "RPC", "the position (" + std::to_string(pixel.col) + ", " + std::to_string(pixel.row) +
-                                  ") at height " + std::to_string(height) +
-                                  " m does not localize: outside the model's domain");
+  throw InputError("", "RPC",
+                   "the position (" + std::to_string(pixel.col) + ", " + std::to_string(pixel.row) + ") at height " +
+                       std::to_string(height) + " m does not localize: outside the model's domain");
 }
 
 bool RpcCamera::in_domain(const GeoPoint& ground, double margin) const {

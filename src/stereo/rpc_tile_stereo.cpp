@@ -28,12 +28,13 @@ double seconds_since(std::chrono::steady_clock::time_point start) {
 // An image's grey levels as SGM input: rounded, clamped to 0..65535, no data as 0.
 std::vector<std::uint16_t> quantize(const FloatImage& im) {
   std::vector<std::uint16_t> q(im.pixels.size());
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, q.size(), 1 << 14), [&](const tbb::blocked_range<std::size_t>& r) {
-    for (std::size_t i = r.begin(); i < r.end(); ++i) {
-      const float v = im.pixels[i];
-      q[i] = std::isnan(v) ? 0 : static_cast<std::uint16_t>(std::lround(std::clamp(v, 0.f, 65535.f)));
-    }
-  });
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, q.size(), 1 << 14),
+                    [&](const tbb::blocked_range<std::size_t>& r) {
+                      for (std::size_t i = r.begin(); i < r.end(); ++i) {
+                        const float v = im.pixels[i];
+                        q[i] = std::isnan(v) ? 0 : static_cast<std::uint16_t>(std::lround(std::clamp(v, 0.f, 65535.f)));
+                      }
+                    });
   return q;
 }
 

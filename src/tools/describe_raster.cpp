@@ -3,8 +3,8 @@
 #include <cstdio>
 #include <filesystem>
 
-#include "dsmplan/tools.hpp"
 #include "dsmplan/rpc_io.hpp"
+#include "dsmplan/tools.hpp"
 #include "tools/report_json.hpp"
 
 namespace dsmplan {
@@ -123,7 +123,8 @@ std::string to_text(const RasterReport& report) {
     const RasterReport::Rpc& rpc = *report.rpc;
     double lon0 = 1e9, lon1 = -1e9, lat0 = 1e9, lat1 = -1e9;
     for (const GeoPoint& c : rpc.corners)
-      lon0 = std::min(lon0, c.lon), lon1 = std::max(lon1, c.lon), lat0 = std::min(lat0, c.lat), lat1 = std::max(lat1, c.lat);
+      lon0 = std::min(lon0, c.lon), lon1 = std::max(lon1, c.lon), lat0 = std::min(lat0, c.lat),
+      lat1 = std::max(lat1, c.lat);
     std::snprintf(text, sizeof text,
                   "RPC:         from %s, sensor offset %.10g %.10g px, heights %.10g .. %.10g m (WGS 84 ellipsoid)\n"
                   "Footprint:   lon %.6f .. %.6f, lat %.6f .. %.6f (corners at %.10g m)\n",

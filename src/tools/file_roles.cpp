@@ -19,7 +19,8 @@ namespace {
 // links of the existing part resolved.
 bool same_file(const std::string& a, const std::string& b) {
   struct stat sa, sb;
-  if (::stat(a.c_str(), &sa) == 0 && ::stat(b.c_str(), &sb) == 0) return sa.st_dev == sb.st_dev && sa.st_ino == sb.st_ino;
+  if (::stat(a.c_str(), &sa) == 0 && ::stat(b.c_str(), &sb) == 0)
+    return sa.st_dev == sb.st_dev && sa.st_ino == sb.st_ino;
   std::error_code ea, eb;
   const std::filesystem::path pa = std::filesystem::weakly_canonical(std::filesystem::absolute(a), ea);
   const std::filesystem::path pb = std::filesystem::weakly_canonical(std::filesystem::absolute(b), eb);
@@ -31,7 +32,8 @@ std::vector<NamedFile> with_vrt_sources(const std::vector<NamedFile>& inputs) {
   std::vector<NamedFile> all = inputs;
   for (const NamedFile& in : inputs) {
     std::string extension = std::filesystem::path(in.path).extension().string();
-    std::transform(extension.begin(), extension.end(), extension.begin(), [](unsigned char c) { return std::tolower(c); });
+    std::transform(extension.begin(), extension.end(), extension.begin(),
+                   [](unsigned char c) { return std::tolower(c); });
     if (extension != ".vrt") continue;
     GDALAllRegister();
     CPLPushErrorHandler(CPLQuietErrorHandler);  // a broken VRT is the reader's to report, once
@@ -52,8 +54,8 @@ void refuse_overwrites(const std::vector<NamedFile>& given_inputs, const std::ve
     const NamedFile& out = outputs[i];
     if (out.path.empty()) continue;
     auto refuse = [&](const NamedFile& other, const char* role) {
-      throw ArgumentError(out.flag, "'" + out.path + "' is the same file as " + other.flag + " '" + other.path +
-                                        "' (" + role + "): an output never replaces what the run reads or writes");
+      throw ArgumentError(out.flag, "'" + out.path + "' is the same file as " + other.flag + " '" + other.path + "' (" +
+                                        role + "): an output never replaces what the run reads or writes");
     };
     for (const NamedFile& in : inputs)
       if (!in.path.empty() && same_file(out.path, in.path)) refuse(in, "an input");

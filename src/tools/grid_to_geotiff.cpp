@@ -44,7 +44,7 @@ GridSummary grid_to_geotiff(const GridOptions& options, const Progress& progress
 
 Json to_json(const GridSummary& summary) {
   const auto number = [](double v) { return std::isnan(v) ? Json() : Json(v); };
-  return {{"cells", summary.cells}, {"valid", summary.valid},          {"nodata", summary.nodata},
+  return {{"cells", summary.cells}, {"valid", summary.valid},         {"nodata", summary.nodata},
           {"holes", summary.holes}, {"z_min", number(summary.z_min)}, {"z_max", number(summary.z_max)}};
 }
 

@@ -14,8 +14,8 @@
 #include "core/text.hpp"
 #include "dsmplan/core.hpp"
 #include "dsmplan/export.hpp"
-#include "dsmplan/wgs84.hpp"
 #include "dsmplan/tools.hpp"
+#include "dsmplan/wgs84.hpp"
 
 namespace dsmplan {
 
@@ -53,9 +53,10 @@ inline bool is_mesh_file(const std::string& path) {
 /// InputError naming the DSM `path` and its size when a job's mesh came out empty.
 inline void require_triangles(size_t triangles, int width, int height, const std::string& path) {
   if (triangles > 0) return;
-  throw InputError(path, "",
-                   std::to_string(width) + " x " + std::to_string(height) +
-                       " cells give no triangle: a mesh needs three valid cells, not in a line, within --max-edge of each other");
+  throw InputError(
+      path, "",
+      std::to_string(width) + " x " + std::to_string(height) +
+          " cells give no triangle: a mesh needs three valid cells, not in a line, within --max-edge of each other");
 }
 
 /// The centre of a raster's or a mesh's x,y extent, in its CRS: where require_projected() takes

@@ -4,8 +4,8 @@
 #include <filesystem>
 
 #include "dsmplan/export.hpp"
-#include "dsmplan/wgs84.hpp"
 #include "dsmplan/tools.hpp"
+#include "dsmplan/wgs84.hpp"
 #include "tools/job_parts.hpp"
 #include "tools/report_json.hpp"
 

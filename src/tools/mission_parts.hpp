@@ -31,7 +31,7 @@ struct FlightLimits {
 /// the farthest point before the first whose direct segment fails. Every segment of the result
 /// keeps the limits, or is one of `path`'s own. O(n x run) clearance queries.
 std::vector<Point3> fewest_straight_legs(const std::vector<Point3>& path, const std::vector<Point3>& waypoints,
-                                        const FlightLimits& limits);
+                                         const FlightLimits& limits);
 
 /// Home, the top of the takeoff above it, and the landing; the legs they add to the route.
 struct MissionSite {
@@ -68,6 +68,7 @@ std::string mission_place(const PlanResult& result, const MissionSite& site, siz
 /// check_vertical_legs() for a DSM read window by window (plan along a corridor): the columns
 /// around each vertical leg read from `dsm` (holes as high as their rim); no ceiling check (the
 /// takeoff top is as high above the ground as the first waypoint, which is checked).
-void check_vertical_legs_in(GridSource& dsm, const MissionSite& site, const std::vector<Point3>& waypoints, double safety);
+void check_vertical_legs_in(GridSource& dsm, const MissionSite& site, const std::vector<Point3>& waypoints,
+                            double safety);
 
 }  // namespace dsmplan::detail

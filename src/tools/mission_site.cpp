@@ -2,16 +2,15 @@
 // from home planned like any other, the vertical climb and descent checked against the data, and
 // the fewest mission items whose straight lines keep the limits. The item order and what the
 // autopilots check of it: src/io/mission_writers.cpp.
-#include "tools/mission_parts.hpp"
-
 #include "core/text.hpp"
+#include "tools/mission_parts.hpp"
 
 namespace dsmplan::detail {
 
 namespace {
 
-constexpr double kSameSpot = 1e-6;      // m: a home this close to the first waypoint is under it
-constexpr double kTouchdown = 1.0;      // m above the ground where the check of a climb starts
+constexpr double kSameSpot = 1e-6;         // m: a home this close to the first waypoint is under it
+constexpr double kTouchdown = 1.0;         // m above the ground where the check of a climb starts
 constexpr double kWrittenRounding = 0.01;  // m: what verify_limits() allows for written decimals
 
 bool same_point(const Point3& a, const Point3& b) {
@@ -30,7 +29,7 @@ bool FlightLimits::keeps(const Point3& p, const Point3& q) const {
 }
 
 std::vector<Point3> fewest_straight_legs(const std::vector<Point3>& path, const std::vector<Point3>& waypoints,
-                                        const FlightLimits& limits) {
+                                         const FlightLimits& limits) {
   if (path.size() < 3) return path;
   // The waypoints are visited in order: the path's points that are them are kept.
   std::vector<bool> visit(path.size(), false);
@@ -59,7 +58,8 @@ MissionSite mission_site(const MissionJobOptions& options, const std::vector<Poi
   double x = first[0], y = first[1];
   const auto& [a, b] = options.home;
   if (!std::isnan(a) || !std::isnan(b)) {
-    if (!std::isfinite(a) || !std::isfinite(b)) throw ArgumentError("--home", "must be two finite numbers, x,y or lon,lat");
+    if (!std::isfinite(a) || !std::isfinite(b))
+      throw ArgumentError("--home", "must be two finite numbers, x,y or lon,lat");
     const bool degrees = std::abs(a) <= 180 && std::abs(b) <= 90;
     const Point3 p = degrees ? from_lonlat(a, b) : Point3{a, b, 0};
     x = p[0], y = p[1];
@@ -98,15 +98,18 @@ void check_vertical(const Point3& top, double ground, const FlightLimits& limits
   const Point3 bottom{top[0], top[1], std::min(top[2], ground + kTouchdown + limits.safety)};
   const double d = limits.clearance(bottom, top);
   if (d >= limits.safety - kWrittenRounding) {
-    if (limits.ground && std::isfinite(limits.max_agl) && !limits.ground->below_ceiling(bottom, top, limits.max_agl + 0.05))
+    if (limits.ground && std::isfinite(limits.max_agl) &&
+        !limits.ground->below_ceiling(bottom, top, limits.max_agl + 0.05))
       throw ArgumentError(flag, std::string("the ") + what + " rises above --max-agl " + two_decimals(limits.max_agl));
     return;
   }
   const double surface = dsm_z ? dsm_z(top[0], top[1]) : NAN;
   if (surface > ground + kTouchdown)
     throw ArgumentError(flag, std::string("under a roof or tree: the DSM stands ") + two_decimals(surface - ground) +
-                                  " m above the ground there (x " + two_decimals(top[0]) + ", y " + two_decimals(top[1]) + ")");
-  throw ArgumentError(flag, std::string("the ") + what + " at x " + two_decimals(top[0]) + ", y " + two_decimals(top[1]) +
+                                  " m above the ground there (x " + two_decimals(top[0]) + ", y " +
+                                  two_decimals(top[1]) + ")");
+  throw ArgumentError(flag, std::string("the ") + what + " at x " + two_decimals(top[0]) + ", y " +
+                                two_decimals(top[1]) +
                                 (d <= 0 ? " goes through an obstacle"
                                         : " passes " + two_decimals(d) + " m from an obstacle, closer than --safety " +
                                               two_decimals(limits.safety)) +
@@ -118,7 +121,8 @@ void check_vertical(const Point3& top, double ground, const FlightLimits& limits
 void check_vertical_legs(const MissionSite& site, const std::vector<Point3>& waypoints, const FlightLimits& limits,
                          const std::function<double(double, double)>& dsm_z) {
   check_vertical(site.takeoff_top, site.home[2], limits, dsm_z, "--home", "climb from home");
-  if (site.end == MissionEnd::land) check_vertical(waypoints.back(), site.land[2], limits, dsm_z, "--end", "descent to land");
+  if (site.end == MissionEnd::land)
+    check_vertical(waypoints.back(), site.land[2], limits, dsm_z, "--end", "descent to land");
 }
 
 std::string mission_place(const PlanResult& result, const MissionSite& site, size_t user_waypoints) {
@@ -138,7 +142,8 @@ std::string mission_place(const PlanResult& result, const MissionSite& site, siz
   return {};
 }
 
-void check_vertical_legs_in(GridSource& dsm, const MissionSite& site, const std::vector<Point3>& waypoints, double safety) {
+void check_vertical_legs_in(GridSource& dsm, const MissionSite& site, const std::vector<Point3>& waypoints,
+                            double safety) {
   const Grid& frame = dsm.frame();
   const auto check = [&](const Point3& top, double ground, const char* flag, const char* what) {
     const double r = safety + 2 * std::max(frame.cell_x, frame.cell_y);
@@ -152,7 +157,8 @@ void check_vertical_legs_in(GridSource& dsm, const MissionSite& site, const std:
     FlightLimits limits;
     limits.columns = &columns;
     limits.safety = safety;
-    check_vertical(top, ground, limits, [&](double x, double y) { return columns.height_at(x, y); }, flag, what);
+    check_vertical(
+        top, ground, limits, [&](double x, double y) { return columns.height_at(x, y); }, flag, what);
   };
   check(site.takeoff_top, site.home[2], "--home", "climb from home");
   if (site.end == MissionEnd::land) check(waypoints.back(), site.land[2], "--end", "descent to land");

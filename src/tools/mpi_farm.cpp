@@ -2,6 +2,8 @@
 // Blocks are independent by construction (simplify.hpp, "out of core"), so the farm only moves
 // block indices out and blocks back; rank 0 numbers and writes them in order, as one process
 // would.
+#include "dsmplan/mpi_farm.hpp"
+
 #include <mpi.h>
 
 #include <chrono>
@@ -11,7 +13,6 @@
 #include <map>
 #include <thread>
 
-#include "dsmplan/mpi_farm.hpp"
 #include "dsmplan/tools.hpp"
 
 namespace dsmplan {

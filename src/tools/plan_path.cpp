@@ -9,22 +9,22 @@
 #include <optional>
 #include <string>
 
+#include "core/text.hpp"
 #include "dsmplan/columns.hpp"
-#include "dsmplan/wpml.hpp"
-#include "dsmplan/point_io.hpp"
 #include "dsmplan/corridor.hpp"
 #include "dsmplan/export.hpp"
 #include "dsmplan/mission.hpp"
-#include "dsmplan/wgs84.hpp"
 #include "dsmplan/plan.hpp"
+#include "dsmplan/plan_job.hpp"
+#include "dsmplan/point_io.hpp"
 #include "dsmplan/roadmap_file.hpp"
 #include "dsmplan/simplify.hpp"
-#include "dsmplan/plan_job.hpp"
 #include "dsmplan/tools.hpp"
+#include "dsmplan/wgs84.hpp"
+#include "dsmplan/wpml.hpp"
+#include "tools/job_parts.hpp"
 #include "tools/mission_parts.hpp"
 #include "tools/report_json.hpp"
-#include "tools/job_parts.hpp"
-#include "core/text.hpp"
 
 namespace dsmplan {
 
@@ -56,23 +56,25 @@ Grid read_companion(const std::string& path, const char* what, const Crs& mesh_c
                     double xmax, double ymax) {
   Grid grid = read_raster(path);
   if (grid.crs.epsg && mesh_crs.epsg && grid.crs.epsg != mesh_crs.epsg)
-    throw InputError(path, "", std::string("the ") + what + "'s CRS is EPSG:" + std::to_string(grid.crs.epsg) +
-                                   ", the mesh's EPSG:" + std::to_string(mesh_crs.epsg));
+    throw InputError(path, "",
+                     std::string("the ") + what + "'s CRS is EPSG:" + std::to_string(grid.crs.epsg) +
+                         ", the mesh's EPSG:" + std::to_string(mesh_crs.epsg));
   if (!(grid.x1() > xmin && grid.x0 < xmax && grid.y0 > ymin && grid.y1() < ymax))
-    throw InputError(path, "", std::string("the ") + what + " (x " + two_decimals(grid.x0) + " to " +
-                                   two_decimals(grid.x1()) + ", y " + two_decimals(grid.y1()) + " to " +
-                                   two_decimals(grid.y0) + ") does not overlap the mesh (x " + two_decimals(xmin) +
-                                   " to " + two_decimals(xmax) + ", y " + two_decimals(ymin) + " to " +
-                                   two_decimals(ymax) + ")");
+    throw InputError(path, "",
+                     std::string("the ") + what + " (x " + two_decimals(grid.x0) + " to " + two_decimals(grid.x1()) +
+                         ", y " + two_decimals(grid.y1()) + " to " + two_decimals(grid.y0) +
+                         ") does not overlap the mesh (x " + two_decimals(xmin) + " to " + two_decimals(xmax) + ", y " +
+                         two_decimals(ymin) + " to " + two_decimals(ymax) + ")");
   // The DSM's columns are what the path is checked against: where the mesh reaches beyond them,
   // a path could fly unchecked (the terrain only bounds the ceiling, and beyond it nothing flies).
   const double hx = grid.cell_x / 2 + 1e-9, hy = grid.cell_y / 2 + 1e-9;
   if (std::string(what) == "DSM" &&
       !(grid.x0 <= xmin + hx && grid.x1() >= xmax - hx && grid.y1() <= ymin + hy && grid.y0 >= ymax - hy))
-    throw InputError(path, "", "the DSM (x " + two_decimals(grid.x0) + " to " + two_decimals(grid.x1()) + ", y " +
-                                   two_decimals(grid.y1()) + " to " + two_decimals(grid.y0) + ") does not cover the mesh (x " +
-                                   two_decimals(xmin) + " to " + two_decimals(xmax) + ", y " + two_decimals(ymin) + " to " +
-                                   two_decimals(ymax) + "): a path there would go unchecked");
+    throw InputError(path, "",
+                     "the DSM (x " + two_decimals(grid.x0) + " to " + two_decimals(grid.x1()) + ", y " +
+                         two_decimals(grid.y1()) + " to " + two_decimals(grid.y0) + ") does not cover the mesh (x " +
+                         two_decimals(xmin) + " to " + two_decimals(xmax) + ", y " + two_decimals(ymin) + " to " +
+                         two_decimals(ymax) + "): a path there would go unchecked");
   return grid;
 }
 
@@ -90,14 +92,15 @@ void refuse_near_columns(const std::vector<Point3>& waypoints, const Grid& colum
 }
 
 // InputError naming the first waypoint above the ceiling (in the planner's words), before any work.
-void refuse_above_ceiling(const std::vector<Point3>& waypoints, const GroundGrid& ground, const PlanJobOptions& options) {
+void refuse_above_ceiling(const std::vector<Point3>& waypoints, const GroundGrid& ground,
+                          const PlanJobOptions& options) {
   for (size_t i = 0; i < waypoints.size(); ++i) {
     const double above = ground.height_above(waypoints[i]);
     if (above <= options.plan.max_agl) continue;
     throw InputError(options.waypoints, "waypoint " + std::to_string(i + 1),
                      std::isinf(above) ? "outside the ground's extent (no ground below it to count --max-agl from)"
-                                       : "above the ceiling: " + two_decimals(above) + " m above the ground, --max-agl " +
-                                             two_decimals(options.plan.max_agl));
+                                       : "above the ceiling: " + two_decimals(above) +
+                                             " m above the ground, --max-agl " + two_decimals(options.plan.max_agl));
   }
 }
 
@@ -116,14 +119,16 @@ void verify_limits(const std::vector<Point3>& path, const Grid* columns, const G
   if (columns) {
     report.min_clearance_dsm_m = cap;
     for (size_t k = 1; k < path.size(); ++k) {
-      const double d = column_clearance(*columns, path[k - 1], path[k], report.min_clearance_dsm_m);  // up to the least so far
+      const double d =
+          column_clearance(*columns, path[k - 1], path[k], report.min_clearance_dsm_m);  // up to the least so far
       if (d < report.min_clearance_dsm_m) report.min_clearance_dsm_m = d, worst_columns = k;
     }
     report.dsm_tolerance_m = 0.01;
     if (!(report.min_clearance_dsm_m >= options.plan.safety - report.dsm_tolerance_m))
       throw InputError(place, "",
-                       "the path passes " + two_decimals(report.min_clearance_dsm_m) + " m from the DSM's columns (segment " +
-                           std::to_string(worst_columns) + "), closer than --safety " + two_decimals(options.plan.safety) +
+                       "the path passes " + two_decimals(report.min_clearance_dsm_m) +
+                           " m from the DSM's columns (segment " + std::to_string(worst_columns) +
+                           "), closer than --safety " + two_decimals(options.plan.safety) +
                            ": a bug, please report it; nothing written");
   }
   if (!(report.max_agl_m <= options.plan.max_agl + 0.05))
@@ -143,10 +148,13 @@ PlanReport plan_job(const PlanJobOptions& options, const Progress& progress) {
   // Missions and KML state heights above mean sea level (EGM96); GeoJSON above the ellipsoid.
   const bool msl_out = out_ext == "plan" || out_ext == "waypoints" || out_ext == "kmz" || out_ext == "kml";
   if (!options.format.empty() && out_ext != "csv" && !geojson_out && !msl_out)
-    throw ArgumentError("--of", "unknown path format '" + options.format + "' (use csv, geojson, plan, waypoints, kmz or kml)");
+    throw ArgumentError("--of",
+                        "unknown path format '" + options.format + "' (use csv, geojson, plan, waypoints, kmz or kml)");
   if (out_ext != "csv" && !geojson_out && !msl_out)
-    throw ArgumentError("-o", "the path is written as .csv (x,y,z in the mesh's CRS), .geojson (WGS 84), .plan "
-                              "(QGroundControl), .waypoints (QGC WPL 110), .kmz (DJI WPML) or .kml, got '" + options.output + "'");
+    throw ArgumentError("-o",
+                        "the path is written as .csv (x,y,z in the mesh's CRS), .geojson (WGS 84), .plan "
+                        "(QGroundControl), .waypoints (QGC WPL 110), .kmz (DJI WPML) or .kml, got '" +
+                            options.output + "'");
   // Missions take off from home and end (MissionJobOptions); the other formats are the path alone.
   const bool mission_out = out_ext == "plan" || out_ext == "waypoints" || out_ext == "kmz";
   if (!mission_out && (!std::isnan(options.mission.home[0]) || !std::isnan(options.mission.home[1])))
@@ -158,7 +166,8 @@ PlanReport plan_job(const PlanJobOptions& options, const Progress& progress) {
   if (mission_out)
     for (const auto& [flag, speed] : {std::pair{"--speed", options.mission.format.speed},
                                       std::pair{"--hover-speed", options.mission.format.hover_speed}})
-      if (!(speed > 0 && speed <= 100)) throw ArgumentError(flag, "must lie in (0, 100] m/s, got " + two_decimals(speed));
+      if (!(speed > 0 && speed <= 100))
+        throw ArgumentError(flag, "must lie in (0, 100] m/s, got " + two_decimals(speed));
   check_plan_options(options.plan);
   if (!options.roadmap.empty() && options.plan.planner != PlannerKind::prm)
     throw ArgumentError("--roadmap", "only the prm planner keeps a roadmap; rrtconnect grows its trees per query");
@@ -257,115 +266,119 @@ PlanReport plan_job(const PlanJobOptions& options, const Progress& progress) {
     report.dsm_tolerance_m = 0.01;
     report.max_agl_m = planned.max_agl_m;
     if (!(report.min_clearance_dsm_m >= options.plan.safety - report.dsm_tolerance_m))
-      throw InputError(options.mesh, "", "the path comes within " + two_decimals(report.min_clearance_dsm_m) +
-                                             " m of the DSM's columns, less than --safety; a bug, please report it; nothing written");
+      throw InputError(options.mesh, "",
+                       "the path comes within " + two_decimals(report.min_clearance_dsm_m) +
+                           " m of the DSM's columns, less than --safety; a bug, please report it; nothing written");
     if (!(report.max_agl_m <= options.plan.max_agl + 0.05))
-      throw InputError(options.mesh, "", "the path rises " + two_decimals(report.max_agl_m) +
-                                             " m above the ground, above --max-agl; a bug, please report it; nothing written");
+      throw InputError(options.mesh, "",
+                       "the path rises " + two_decimals(report.max_agl_m) +
+                           " m above the ground, above --max-agl; a bug, please report it; nothing written");
   } else {
-  PlanOptions plan = options.plan;
-  double half_diagonal = INFINITY;
-  // The DSM's columns, holes as high as their rim: what the path must keep `safety` from
-  // (columns.hpp, "holding a mesh plan to the DSM's columns").
-  Grid columns;
-  double xmin = INFINITY, ymin = INFINITY, xmax = -INFINITY, ymax = -INFINITY;
-  for (const Vertex& v : mesh.vertices)
-    xmin = std::min(xmin, v.x), ymin = std::min(ymin, v.y), xmax = std::max(xmax, v.x), ymax = std::max(ymax, v.y);
-  if (!options.dsm.empty()) {
-    reading.lap();
-    Grid dsm = read_companion(options.dsm, "DSM", mesh.crs, xmin, ymin, xmax, ymax);
-    seconds_reading += reading.lap();
-    columns = dsm;
-    fill_holes_from_rim(columns, RimHeight::highest);
-    // A waypoint above the ceiling is refused now, before the work on the mesh.
-    plan.ground = std::make_shared<GroundGrid>(dsm);
-    if (options.dtm.empty()) refuse_above_ceiling(waypoints, *plan.ground, options);
-    refuse_near_columns(waypoints, columns, options);
-    // The valid cells' columns against the mesh; the holes' are added to it whole below.
-    ColumnError above;
-    VerticalError below;
-    report.safety_margin_m = column_margin(mesh, dsm, &above, &below);
-    report.mesh_max_below_dsm_m = below.max_below;
-    report.column_max_above_mesh_m = above.max_below;
-    half_diagonal = std::hypot(dsm.cell_x, dsm.cell_y) / 2;
-    plan.safety += report.safety_margin_m;
-    // The holes' columns join the obstacles: a mesh has voids there.
-    const Mesh holes = hole_columns(dsm, columns);
-    const uint32_t offset = static_cast<uint32_t>(mesh.vertices.size());
-    mesh.vertices.insert(mesh.vertices.end(), holes.vertices.begin(), holes.vertices.end());
-    for (Triangle t : holes.triangles) mesh.triangles.push_back({t[0] + offset, t[1] + offset, t[2] + offset});
-  }
-  if (!options.dtm.empty()) {
-    reading.lap();
-    Grid dtm = read_companion(options.dtm, "DTM", mesh.crs, xmin, ymin, xmax, ymax);
-    seconds_reading += reading.lap();
-    plan.ground = std::make_shared<GroundGrid>(std::move(dtm));
-    refuse_above_ceiling(waypoints, *plan.ground, options);
-  }
-  const ClearanceIndex index(mesh);
-  report.ground = !options.dtm.empty() ? "dtm" : !options.dsm.empty() ? "dsm" : "mesh floor";
-  // What a mission's straight items and vertical legs are held to: the DSM's columns when known,
-  // else the mesh; the ceiling over the ground in use.
-  const GroundGrid& ground = plan.ground ? *plan.ground : index.floor();
-  detail::FlightLimits limits;
-  limits.columns = options.dsm.empty() ? nullptr : &columns;
-  limits.mesh = &index;
-  limits.ground = &ground;
-  limits.safety = options.plan.safety;
-  limits.max_agl = options.plan.max_agl;
-  if (mission_out) {
-    const auto ground_z = [&](double x, double y) { return -ground.height_above({x, y, 0}); };
-    site = detail::mission_site(options.mission, waypoints, ground_z, from_lonlat);
-    const auto dsm_z = [&](double x, double y) { return options.dsm.empty() ? NAN : double(columns.height_at(x, y)); };
-    detail::check_vertical_legs(site, waypoints, limits, dsm_z);
-    route = detail::route_waypoints(waypoints, site);
-  }
-  report.seconds_load = clock.lap();
-  report.seconds_read = seconds_reading;
-
-  // A roadmap file is reused when it exists (and fits this mesh, ground and options), else made.
-  if (!options.roadmap.empty()) {
-    const uint64_t fingerprint = mesh_fingerprint(mesh) ^ (plan.ground ? plan.ground->fingerprint() : 0);
-    Roadmap map;
-    if (std::ifstream(options.roadmap).good()) {
-      map = read_roadmap(options.roadmap, fingerprint, plan);
-      report.roadmap_reused = true;
-    } else {
-      map = build_roadmap(index, plan, sub_progress(progress, 0.2, 0.9));
-      write_roadmap(options.roadmap, map, fingerprint, plan);
+    PlanOptions plan = options.plan;
+    double half_diagonal = INFINITY;
+    // The DSM's columns, holes as high as their rim: what the path must keep `safety` from
+    // (columns.hpp, "holding a mesh plan to the DSM's columns").
+    Grid columns;
+    double xmin = INFINITY, ymin = INFINITY, xmax = -INFINITY, ymax = -INFINITY;
+    for (const Vertex& v : mesh.vertices)
+      xmin = std::min(xmin, v.x), ymin = std::min(ymin, v.y), xmax = std::max(xmax, v.x), ymax = std::max(ymax, v.y);
+    if (!options.dsm.empty()) {
+      reading.lap();
+      Grid dsm = read_companion(options.dsm, "DSM", mesh.crs, xmin, ymin, xmax, ymax);
+      seconds_reading += reading.lap();
+      columns = dsm;
+      fill_holes_from_rim(columns, RimHeight::highest);
+      // A waypoint above the ceiling is refused now, before the work on the mesh.
+      plan.ground = std::make_shared<GroundGrid>(dsm);
+      if (options.dtm.empty()) refuse_above_ceiling(waypoints, *plan.ground, options);
+      refuse_near_columns(waypoints, columns, options);
+      // The valid cells' columns against the mesh; the holes' are added to it whole below.
+      ColumnError above;
+      VerticalError below;
+      report.safety_margin_m = column_margin(mesh, dsm, &above, &below);
+      report.mesh_max_below_dsm_m = below.max_below;
+      report.column_max_above_mesh_m = above.max_below;
+      half_diagonal = std::hypot(dsm.cell_x, dsm.cell_y) / 2;
+      plan.safety += report.safety_margin_m;
+      // The holes' columns join the obstacles: a mesh has voids there.
+      const Mesh holes = hole_columns(dsm, columns);
+      const uint32_t offset = static_cast<uint32_t>(mesh.vertices.size());
+      mesh.vertices.insert(mesh.vertices.end(), holes.vertices.begin(), holes.vertices.end());
+      for (Triangle t : holes.triangles) mesh.triangles.push_back({t[0] + offset, t[1] + offset, t[2] + offset});
     }
-    const double seconds_roadmap = clock.lap();
-    result = query_roadmap(map, index, route, plan);
-    result.seconds_roadmap = report.roadmap_reused ? 0 : seconds_roadmap;
-    report.seconds_load += report.roadmap_reused ? seconds_roadmap : 0;
-    report.seconds_read += report.roadmap_reused ? seconds_roadmap : 0;
-  } else {
-    result = plan_path(index, route, plan, sub_progress(progress, 0.2, 0.9));
-  }
-  take_planner_figures(result, report);
-  if (result.status != PlanStatus::Solved) {
-    std::string why = result.reason;
-    // Worth a word only when the mesh does not fit its DSM (more than a conservative mesh needs).
-    if (report.safety_margin_m > half_diagonal + 1e-9)
-      why += " (on the mesh the safety distance is --safety " + two_decimals(options.plan.safety) + " widened by " +
-             two_decimals(report.safety_margin_m) + " m, as far as the DSM's columns may lie inside this mesh; a " +
-             "conservative mesh of the DSM itself needs half a cell diagonal)";
-    throw InputError(options.waypoints, failure_place(result), why);
-  }
-  // A mission flies straight from item to item: as few items as keep the limits on those lines
-  // (before the clearance below is measured on them).
-  if (mission_out) result.path = detail::fewest_straight_legs(result.path, route, limits);
+    if (!options.dtm.empty()) {
+      reading.lap();
+      Grid dtm = read_companion(options.dtm, "DTM", mesh.crs, xmin, ymin, xmax, ymax);
+      seconds_reading += reading.lap();
+      plan.ground = std::make_shared<GroundGrid>(std::move(dtm));
+      refuse_above_ceiling(waypoints, *plan.ground, options);
+    }
+    const ClearanceIndex index(mesh);
+    report.ground = !options.dtm.empty() ? "dtm" : !options.dsm.empty() ? "dsm" : "mesh floor";
+    // What a mission's straight items and vertical legs are held to: the DSM's columns when known,
+    // else the mesh; the ceiling over the ground in use.
+    const GroundGrid& ground = plan.ground ? *plan.ground : index.floor();
+    detail::FlightLimits limits;
+    limits.columns = options.dsm.empty() ? nullptr : &columns;
+    limits.mesh = &index;
+    limits.ground = &ground;
+    limits.safety = options.plan.safety;
+    limits.max_agl = options.plan.max_agl;
+    if (mission_out) {
+      const auto ground_z = [&](double x, double y) { return -ground.height_above({x, y, 0}); };
+      site = detail::mission_site(options.mission, waypoints, ground_z, from_lonlat);
+      const auto dsm_z = [&](double x, double y) {
+        return options.dsm.empty() ? NAN : double(columns.height_at(x, y));
+      };
+      detail::check_vertical_legs(site, waypoints, limits, dsm_z);
+      route = detail::route_waypoints(waypoints, site);
+    }
+    report.seconds_load = clock.lap();
+    report.seconds_read = seconds_reading;
 
-  report.path_points = result.path.size();
-  report.path_length_m = path_length(result.path);
-  // Measured on their own, not taken from the planner: the numbers a user checks the path by.
-  const double cap = options.plan.safety + options.plan.max_agl;
-  report.min_clearance_m = cap;
-  for (size_t k = 1; k < result.path.size(); ++k)
-    // Measured up to the least so far: the same minimum, without searching 100 m around every segment.
-    report.min_clearance_m = index.clearance(result.path[k - 1], result.path[k], report.min_clearance_m);
-  verify_limits(result.path, options.dsm.empty() ? nullptr : &columns, plan.ground ? *plan.ground : index.floor(), options,
-                cap, report, options.dsm.empty() ? options.mesh : options.dsm);
+    // A roadmap file is reused when it exists (and fits this mesh, ground and options), else made.
+    if (!options.roadmap.empty()) {
+      const uint64_t fingerprint = mesh_fingerprint(mesh) ^ (plan.ground ? plan.ground->fingerprint() : 0);
+      Roadmap map;
+      if (std::ifstream(options.roadmap).good()) {
+        map = read_roadmap(options.roadmap, fingerprint, plan);
+        report.roadmap_reused = true;
+      } else {
+        map = build_roadmap(index, plan, sub_progress(progress, 0.2, 0.9));
+        write_roadmap(options.roadmap, map, fingerprint, plan);
+      }
+      const double seconds_roadmap = clock.lap();
+      result = query_roadmap(map, index, route, plan);
+      result.seconds_roadmap = report.roadmap_reused ? 0 : seconds_roadmap;
+      report.seconds_load += report.roadmap_reused ? seconds_roadmap : 0;
+      report.seconds_read += report.roadmap_reused ? seconds_roadmap : 0;
+    } else {
+      result = plan_path(index, route, plan, sub_progress(progress, 0.2, 0.9));
+    }
+    take_planner_figures(result, report);
+    if (result.status != PlanStatus::Solved) {
+      std::string why = result.reason;
+      // Worth a word only when the mesh does not fit its DSM (more than a conservative mesh needs).
+      if (report.safety_margin_m > half_diagonal + 1e-9)
+        why += " (on the mesh the safety distance is --safety " + two_decimals(options.plan.safety) + " widened by " +
+               two_decimals(report.safety_margin_m) + " m, as far as the DSM's columns may lie inside this mesh; a " +
+               "conservative mesh of the DSM itself needs half a cell diagonal)";
+      throw InputError(options.waypoints, failure_place(result), why);
+    }
+    // A mission flies straight from item to item: as few items as keep the limits on those lines
+    // (before the clearance below is measured on them).
+    if (mission_out) result.path = detail::fewest_straight_legs(result.path, route, limits);
+
+    report.path_points = result.path.size();
+    report.path_length_m = path_length(result.path);
+    // Measured on their own, not taken from the planner: the numbers a user checks the path by.
+    const double cap = options.plan.safety + options.plan.max_agl;
+    report.min_clearance_m = cap;
+    for (size_t k = 1; k < result.path.size(); ++k)
+      // Measured up to the least so far: the same minimum, without searching 100 m around every segment.
+      report.min_clearance_m = index.clearance(result.path[k - 1], result.path[k], report.min_clearance_m);
+    verify_limits(result.path, options.dsm.empty() ? nullptr : &columns, plan.ground ? *plan.ground : index.floor(),
+                  options, cap, report, options.dsm.empty() ? options.mesh : options.dsm);
   }
   dsmplan::report(progress, 0.95);
 
@@ -393,17 +406,20 @@ PlanReport plan_job(const PlanJobOptions& options, const Progress& progress) {
     } else {
       for (const Point3& p : waypoints) marks.push_back(to_msl->to_wgs84(p));
       MissionOptions kml = options.mission.format;
-      kml.description = "dsmplan path from " + mesh.crs.name + "; heights above mean sea level (EGM96) by: " +
-                        to_msl->description();
+      kml.description =
+          "dsmplan path from " + mesh.crs.name + "; heights above mean sea level (EGM96) by: " + to_msl->description();
       write_text_file(options.output, path_to_kml(lonlatamsl, marks, kml));
     }
   } else {
     std::vector<Point3> lonlath;
     lonlath.reserve(result.path.size());
     for (const Point3& p : result.path) lonlath.push_back(wgs84->to_wgs84(p));
-    Json properties{{"crs_source", mesh.crs.name}, {"transformation", report.transformation},
-                    {"height", "metres above the WGS 84 ellipsoid"}, {"safety_m", options.plan.safety},
-                    {"path_length_m", report.path_length_m}, {"min_clearance_m", report.min_clearance_m}};
+    Json properties{{"crs_source", mesh.crs.name},
+                    {"transformation", report.transformation},
+                    {"height", "metres above the WGS 84 ellipsoid"},
+                    {"safety_m", options.plan.safety},
+                    {"path_length_m", report.path_length_m},
+                    {"min_clearance_m", report.min_clearance_m}};
     write_text_file(options.output, path_to_geojson(lonlath, properties.dump()));
   }
   dsmplan::report(progress, 1);
@@ -452,17 +468,19 @@ Json to_json(const PlanReport& r) {
 
 std::string to_text(const PlanReport& r) {
   char buffer[512];
-  std::snprintf(buffer, sizeof buffer,
-                "%s: %zu points, %.1f m, min clearance %.2f m to the mesh%s; %s %zu nodes, %zu edges "
-                "(%.2f s%s), query %.3f s, smoothing %.3f s\n",
-                r.output.c_str(), r.path_points, r.path_length_m, r.min_clearance_m,
-                std::isnan(r.min_clearance_dsm_m)
-                    ? ""
-                    : (", " + std::to_string(r.min_clearance_dsm_m).substr(0, std::to_string(r.min_clearance_dsm_m).find('.') + 3) +
-                       " m to the DSM's columns")
-                          .c_str(),
-                r.planner == "prm" ? "roadmap" : "trees", r.roadmap_nodes, r.roadmap_edges, r.seconds_roadmap,
-                r.roadmap_reused ? ", reused" : "", r.seconds_query, r.seconds_smooth);
+  std::snprintf(
+      buffer, sizeof buffer,
+      "%s: %zu points, %.1f m, min clearance %.2f m to the mesh%s; %s %zu nodes, %zu edges "
+      "(%.2f s%s), query %.3f s, smoothing %.3f s\n",
+      r.output.c_str(), r.path_points, r.path_length_m, r.min_clearance_m,
+      std::isnan(r.min_clearance_dsm_m)
+          ? ""
+          : (", " +
+             std::to_string(r.min_clearance_dsm_m).substr(0, std::to_string(r.min_clearance_dsm_m).find('.') + 3) +
+             " m to the DSM's columns")
+                .c_str(),
+      r.planner == "prm" ? "roadmap" : "trees", r.roadmap_nodes, r.roadmap_edges, r.seconds_roadmap,
+      r.roadmap_reused ? ", reused" : "", r.seconds_query, r.seconds_smooth);
   std::string text = buffer;
   if (std::isfinite(r.max_agl_m)) {
     char ceiling[160];

@@ -6,8 +6,8 @@
 #include <filesystem>
 
 #include "core/text.hpp"
-#include "dsmplan/picture_job.hpp"
 #include "dsmplan/picture.hpp"
+#include "dsmplan/picture_job.hpp"
 #include "dsmplan/plan_job.hpp"
 #include "dsmplan/tools.hpp"
 #include "tools/job_parts.hpp"
@@ -148,7 +148,8 @@ std::string to_text(const ProfileReport& r) {
                   r.max_agl);
   }
   char line[512];
-  std::snprintf(line, sizeof line, "%s: path %.1f m along the ground, %s, %s\n", r.output.c_str(), r.length, below, above);
+  std::snprintf(line, sizeof line, "%s: path %.1f m along the ground, %s, %s\n", r.output.c_str(), r.length, below,
+                above);
   return line;
 }
 

@@ -6,12 +6,12 @@
 #include <limits>
 
 #include "core/text.hpp"
-#include "dsmplan/picture_job.hpp"
 #include "dsmplan/export.hpp"
 #include "dsmplan/picture.hpp"
+#include "dsmplan/picture_job.hpp"
 #include "dsmplan/plan.hpp"
-#include "dsmplan/roadmap_file.hpp"
 #include "dsmplan/plan_job.hpp"
+#include "dsmplan/roadmap_file.hpp"
 #include "dsmplan/tools.hpp"
 
 namespace dsmplan {

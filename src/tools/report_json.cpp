@@ -35,7 +35,9 @@ double as_stored(double height) {
 
 Json tileset_report_json(const std::optional<TilesetReport>& tileset) {
   if (!tileset) return nullptr;
-  return {{"path", tileset->path}, {"max_placement_error_m", tileset->max_placement_error_m}, {"heights", tileset->heights}};
+  return {{"path", tileset->path},
+          {"max_placement_error_m", tileset->max_placement_error_m},
+          {"heights", tileset->heights}};
 }
 
 }  // namespace dsmplan

@@ -309,7 +309,8 @@ SatelliteStereoReport satellite_stereo_job(const SatelliteStereoOptions& options
             const FloatImage ri = read_window(R, rw.c0, rw.r0, rw.width(), rw.height());
             pr.seconds_read += seconds_since(tr);
             const RpcTile tile{0, 0, lw.width(), lw.height(), pr.rpc_height_min, pr.rpc_height_max};
-            const auto found = tie_point_heights(L.camera.crop(lw.c0, lw.r0), li, R.camera.crop(rw.c0, rw.r0), ri, tile);
+            const auto found =
+                tie_point_heights(L.camera.crop(lw.c0, lw.r0), li, R.camera.crop(rw.c0, rw.r0), ri, tile);
             heights.insert(heights.end(), found.begin(), found.end());
           }
         pr.survey_tie_points = heights.size();
@@ -435,8 +436,7 @@ SatelliteStereoReport satellite_stereo_job(const SatelliteStereoOptions& options
     try {
       result = rpc_tile_stereo(L.camera.crop(lw.c0, lw.r0), li, R.camera.crop(rw.c0, rw.r0), ri, tile, tile_options);
     } catch (const ArgumentError& error) {
-      throw InputError(L.path, "tile at (" + std::to_string(b.c0) + ", " + std::to_string(b.r0) + ")",
-                       error.what());
+      throw InputError(L.path, "tile at (" + std::to_string(b.c0) + ", " + std::to_string(b.r0) + ")", error.what());
     }
     ++pr.tiles;
     pr.tiles_pointing_corrected += result.pointing_corrected;
@@ -451,7 +451,8 @@ SatelliteStereoReport satellite_stereo_job(const SatelliteStereoOptions& options
     t0 = std::chrono::steady_clock::now();
     std::vector<double> x, y, z;
     x.reserve(result.points.size()), y.reserve(result.points.size()), z.reserve(result.points.size());
-    for (const RpcStereoPoint& p : result.points) x.push_back(p.ground.lon), y.push_back(p.ground.lat), z.push_back(p.ground.height);
+    for (const RpcStereoPoint& p : result.points)
+      x.push_back(p.ground.lon), y.push_back(p.ground.lat), z.push_back(p.ground.height);
     const std::vector<int> ok = to_output.apply(x, y, z);
     for (std::size_t i = 0; i < x.size(); ++i)
       if (ok[i]) point_sets[tiles[t].pair].push_back({x[i], y[i], z[i]});
@@ -487,12 +488,13 @@ SatelliteStereoReport satellite_stereo_job(const SatelliteStereoOptions& options
       CPLErrorReset();
       std::unique_ptr<GDALDataset, DatasetCloser> written(
           GDALDataset::Open(file.temp_path().c_str(), GDAL_OF_RASTER | GDAL_OF_UPDATE));
-      if (!written) throw OutputError(options.output, std::string("cannot reopen to state the heights: ") + CPLGetLastErrorMsg());
+      if (!written)
+        throw OutputError(options.output, std::string("cannot reopen to state the heights: ") + CPLGetLastErrorMsg());
       OGRSpatialReference geographic;
       geographic.CopyGeogCSFrom(&srs);
       const std::string datum = geographic.GetName() ? geographic.GetName() : "";
-      written->SetMetadataItem(kHeightsKey, datum == "WGS 84" ? kHeightsValue
-                                                              : ("heights above the " + datum + " ellipsoid").c_str());
+      written->SetMetadataItem(
+          kHeightsKey, datum == "WGS 84" ? kHeightsValue : ("heights above the " + datum + " ellipsoid").c_str());
       written.reset();
       if (CPLGetLastErrorType() >= CE_Failure)
         throw OutputError(options.output, std::string("cannot state the heights: ") + CPLGetLastErrorMsg());

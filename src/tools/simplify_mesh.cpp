@@ -6,9 +6,9 @@
 #include <cstdio>
 
 #include "dsmplan/export.hpp"
-#include "dsmplan/wgs84.hpp"
 #include "dsmplan/simplify.hpp"
 #include "dsmplan/tools.hpp"
+#include "dsmplan/wgs84.hpp"
 #include "tools/job_parts.hpp"
 #include "tools/report_json.hpp"
 
@@ -18,8 +18,8 @@ namespace {
 
 // `bytes_per_cell`: what the job will need per cell of the (resampled) DSM, refused up front
 // when the machine has less.
-Grid read_dsm(const std::string& path, const SimplifyJobOptions& options, double bytes_per_cell,
-              SimplifyReport& report, const Progress& progress) {
+Grid read_dsm(const std::string& path, const SimplifyJobOptions& options, double bytes_per_cell, SimplifyReport& report,
+              const Progress& progress) {
   ReadRasterOptions read = options.read;
   if (!options.resolution) read.extra_bytes_per_cell = bytes_per_cell;
   Grid dsm = read_raster(path, read, progress);

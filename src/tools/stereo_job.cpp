@@ -1,6 +1,8 @@
 // dsmplan stereo: frame-camera images with known poses to a GeoTIFF DSM (issue 16), the
 // pipeline of Adolf & Hirschmüller, Section 2, run by stereo_dsm() (src/stereo, no GDAL); here
 // only what needs files: CAMERAS.json, the images through GDAL, the GeoTIFF out.
+#include "dsmplan/stereo_job.hpp"
+
 #include <gdal_priv.h>
 
 #include <chrono>
@@ -11,7 +13,6 @@
 #include <sstream>
 
 #include "dsmplan/stereo_frames.hpp"
-#include "dsmplan/stereo_job.hpp"
 #include "dsmplan/tools.hpp"
 
 namespace dsmplan {
@@ -324,8 +325,8 @@ StereoReport stereo_job(const StereoJobOptions& options, const Progress& progres
 Json to_json(const StereoReport& r) {
   Json pairs = Json::array();
   for (const auto& [a, b] : r.pairs) pairs.push_back({a, b});
-  const double total =
-      r.seconds_read + r.seconds_height_range + r.seconds_rectify + r.seconds_match + r.seconds_triangulate + r.seconds_fuse + r.seconds_write;
+  const double total = r.seconds_read + r.seconds_height_range + r.seconds_rectify + r.seconds_match +
+                       r.seconds_triangulate + r.seconds_fuse + r.seconds_write;
   return {{"cameras", r.cameras},
           {"output", r.output},
           {"camera_count", r.camera_count},

@@ -9,9 +9,9 @@
 #include <map>
 #include <sstream>
 
+#include "core/text.hpp"
 #include "dsmplan/plan_job.hpp"
 #include "dsmplan/view.hpp"
-#include "core/text.hpp"
 
 namespace dsmplan {
 
@@ -22,11 +22,16 @@ namespace {
 // Module scripts are run only when served with a JavaScript type (HTML spec, "fetch a module
 // script"), so the type matters here, not only for politeness.
 const char* content_type(const fs::path& file) {
-  static const std::map<std::string, const char*> types{
-      {".html", "text/html; charset=utf-8"}, {".js", "text/javascript; charset=utf-8"},
-      {".mjs", "text/javascript; charset=utf-8"}, {".json", "application/json"},
-      {".css", "text/css"}, {".glb", "model/gltf-binary"}, {".csv", "text/csv; charset=utf-8"},
-      {".png", "image/png"}, {".svg", "image/svg+xml"}, {".wasm", "application/wasm"}};
+  static const std::map<std::string, const char*> types{{".html", "text/html; charset=utf-8"},
+                                                        {".js", "text/javascript; charset=utf-8"},
+                                                        {".mjs", "text/javascript; charset=utf-8"},
+                                                        {".json", "application/json"},
+                                                        {".css", "text/css"},
+                                                        {".glb", "model/gltf-binary"},
+                                                        {".csv", "text/csv; charset=utf-8"},
+                                                        {".png", "image/png"},
+                                                        {".svg", "image/svg+xml"},
+                                                        {".wasm", "application/wasm"}};
   const auto it = types.find(lower_case(file.extension().string()));
   return it == types.end() ? "application/octet-stream" : it->second;
 }
@@ -64,7 +69,8 @@ bool host_is_ours(const std::string& host, const std::string& port) {
   const std::string name = lower_case(host.substr(0, colon));
   if (name == "localhost") return true;
   if (name.front() == '[') return name.back() == ']';  // IPv6 literal
-  return std::all_of(name.begin(), name.end(), [](char c) { return std::isdigit(static_cast<unsigned char>(c)) || c == '.'; });
+  return std::all_of(name.begin(), name.end(),
+                     [](char c) { return std::isdigit(static_cast<unsigned char>(c)) || c == '.'; });
 }
 
 }  // namespace
@@ -114,8 +120,9 @@ void serve_view(const ViewOptions& options, const std::function<void(const std::
     fs::path file;
     if (const auto it = data.find(url); it != data.end()) {
       file = it->second;
-    } else if (url.empty() || url[0] != '/' || url.find("..") != std::string::npos || url.find("//") != std::string::npos ||
-               url.find('\\') != std::string::npos || url.find('\0') != std::string::npos || url.find("/.") != std::string::npos) {
+    } else if (url.empty() || url[0] != '/' || url.find("..") != std::string::npos ||
+               url.find("//") != std::string::npos || url.find('\\') != std::string::npos ||
+               url.find('\0') != std::string::npos || url.find("/.") != std::string::npos) {
       // ".." climbs out of the folder; "//etc" would join as the absolute "/etc"; "/." is a
       // dotfile or dot folder (.git, .env, .npmrc), never part of the viewer.
       return refuse(response, "only files inside the viewer's folder, no dotfiles");
@@ -160,7 +167,8 @@ void serve_view(const ViewOptions& options, const std::function<void(const std::
                 " (in use, or not an address of this machine)");
   }
   const std::string authority =
-      (options.host.find(':') != std::string::npos ? "[" + options.host + "]" : options.host) + ":" + std::to_string(port);
+      (options.host.find(':') != std::string::npos ? "[" + options.host + "]" : options.host) + ":" +
+      std::to_string(port);
   port_text = std::to_string(port);
   std::string url = "http://" + authority + "/?mesh=/data/mesh.glb";
   if (!options.path.empty()) url += "&path=/data/path.csv";

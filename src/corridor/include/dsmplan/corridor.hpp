@@ -45,15 +45,15 @@ struct CorridorOptions {
 };
 
 struct CorridorResult {
-  PlanResult plan;                ///< the path through all waypoints; status, place and reason as plan_path()
-  size_t windows = 0;             ///< pieces planned (one window each)
+  PlanResult plan;     ///< the path through all waypoints; status, place and reason as plan_path()
+  size_t windows = 0;  ///< pieces planned (one window each)
   size_t largest_window_cells = 0;
-  VerticalError mesh_error;       ///< the windows' meshes against the DSM, merged (certified per tile)
-  double min_clearance_m = 0;     ///< least clearance of the path to its windows' meshes
-  double min_clearance_dsm_m = 0; ///< least clearance to the DSM columns (holes as high as their rim)
-  double max_agl_m = -INFINITY;   ///< greatest height of the path above the ground (exact)
-  double safety_margin_m = 0;     ///< the largest widening of the safety distance on a window's mesh (column_margin())
-  double seconds_windows = 0;     ///< reading and meshing the windows
+  VerticalError mesh_error;        ///< the windows' meshes against the DSM, merged (certified per tile)
+  double min_clearance_m = 0;      ///< least clearance of the path to its windows' meshes
+  double min_clearance_dsm_m = 0;  ///< least clearance to the DSM columns (holes as high as their rim)
+  double max_agl_m = -INFINITY;    ///< greatest height of the path above the ground (exact)
+  double safety_margin_m = 0;      ///< the largest widening of the safety distance on a window's mesh (column_margin())
+  double seconds_windows = 0;      ///< reading and meshing the windows
 };
 
 /// Plans through `waypoints` (CRS coordinates) over `dsm` along a corridor (see above). Throws

@@ -17,7 +17,8 @@ namespace dsmplan {
 
 struct ReadRasterOptions {
   int band = 1;
-  std::string assign_crs;  ///< CRS of the raster, overriding what it states ("EPSG:25832", WKT, ...), as gdal_translate -a_srs
+  std::string
+      assign_crs;  ///< CRS of the raster, overriding what it states ("EPSG:25832", WKT, ...), as gdal_translate -a_srs
   bool allow_no_crs = false;
   /// Describe x, y or heights in a unit other than the metre instead of refusing them (`info`).
   bool allow_other_units = false;

@@ -57,8 +57,8 @@ struct MissionOptions {
   /// m/s along the route: a MAV_CMD_DO_CHANGE_SPEED (ground speed) after the takeoff, and the
   /// .plan's cruiseSpeed. (0, 100].
   double speed = 5;
-  double hover_speed = 5;  ///< m/s, .plan's hoverSpeed (QGC's time estimate for multirotors). (0, 100]
-  int vehicle_type = 2;    ///< .plan: MAV_TYPE, 2 = quadrotor
+  double hover_speed = 5;             ///< m/s, .plan's hoverSpeed (QGC's time estimate for multirotors). (0, 100]
+  int vehicle_type = 2;               ///< .plan: MAV_TYPE, 2 = quadrotor
   std::string name = "dsmplan path";  ///< KML: the Document's name
   std::string description;            ///< KML: the Document's description (e.g. the transformation), may be empty
   bool extrude = false;               ///< KML: <extrude>1</extrude>, a wall from the path down to the ground
@@ -89,7 +89,6 @@ std::string mission_to_qgc_plan(const Mission& mission, const MissionOptions& op
 /// keeps it), then the items as mission_to_qgc_plan() lists them (current 0, autocontinue 1).
 /// Latitude comes before longitude. Errors as mission_to_qgc_plan().
 std::string mission_to_qgc_wpl(const Mission& mission, const MissionOptions& options = {});
-
 
 /// KML 2.2: a Document with a Placemark "path" whose LineString has <altitudeMode>absolute
 /// </altitudeMode> and "lon,lat,alt" tuples one a line, then a Point Placemark "waypoint k"

@@ -25,8 +25,7 @@ uint64_t mesh_fingerprint(const Mesh& mesh);
 /// Writes `map` atomically (the whole file or nothing). OutputError when it cannot.
 /// Both functions throw ArgumentError("constraints") when options.constraints is not empty: the
 /// file does not record them, so a roadmap built under them is not kept.
-void write_roadmap(const std::string& path, const Roadmap& map, uint64_t mesh_fingerprint,
-                   const PlanOptions& options);
+void write_roadmap(const std::string& path, const Roadmap& map, uint64_t mesh_fingerprint, const PlanOptions& options);
 
 /// Reads a roadmap written by write_roadmap(). InputError(path, place, why) when the file
 /// cannot be read, is not a roadmap file, is truncated or damaged (checksum), declares counts

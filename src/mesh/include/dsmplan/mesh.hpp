@@ -67,12 +67,13 @@ private:
 };
 
 struct MeshOptions {
-  double zstep = 0.1;  ///< vertical resolution: heights are quantized to multiples of it (<= 0: keep; else 1e-6 to 100, else ArgumentError)
+  double zstep = 0.1;  ///< vertical resolution: heights are quantized to multiples of it (<= 0: keep; else 1e-6 to 100,
+                       ///< else ArgumentError)
   /// Longest x,y edge a triangle may have, in CRS units. 0 means 2.5 times the larger cell size,
   /// which bridges a single missing cell (edges of 2 cells) and leaves wider gaps open.
   /// Use infinity to keep the whole Delaunay triangulation.
   double max_edge_length = 0;  ///< CRS units, 0 to 1e6 (0: 2.5 cells), or infinity: keep every triangle
-  int band_rows = 0;  ///< out of core: rows a band (0: 256)
+  int band_rows = 0;           ///< out of core: rows a band (0: 256)
 };
 
 /// The longest edge allowed for `grid` under `options` (resolves the 0 default).

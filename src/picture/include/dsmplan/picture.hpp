@@ -25,7 +25,7 @@ struct ImageRegion {
 
 struct Image {
   int width = 0, height = 0;
-  std::vector<uint8_t> rgb;  ///< row-major from the top-left, 3 bytes (R, G, B) per pixel
+  std::vector<uint8_t> rgb;          ///< row-major from the top-left, 3 bytes (R, G, B) per pixel
   std::vector<ImageRegion> regions;  ///< render_view(): the furniture and the labels, as laid out
 };
 
@@ -42,9 +42,9 @@ Window parse_window(const std::string& text);
 struct LineLayer {
   std::vector<std::vector<Point3>> polylines;
   std::array<uint8_t, 3> colour{200, 0, 120};
-  double width = 3;    ///< pixels
-  float alpha = 1;     ///< 0..1
-  bool halo = true;    ///< a white edge one pixel wider on each side, to stand out on any ground
+  double width = 3;  ///< pixels
+  float alpha = 1;   ///< 0..1
+  bool halo = true;  ///< a white edge one pixel wider on each side, to stand out on any ground
 };
 
 /// Numbered discs, e.g. waypoints: 1, 2, 3 ... in order.
@@ -58,12 +58,12 @@ struct MarkerLayer {
 struct RenderOptions {
   std::vector<LineLayer> lines;      ///< drawn over the mesh edges, in order
   std::vector<MarkerLayer> markers;  ///< drawn last
-  std::optional<Window> window;  ///< none: the whole grid
-  double pixels_per_cell = 4;    ///< zoom: pixels per cell along x (y keeps the same scale)
-  bool edges = true;             ///< draw the mesh's triangle edges
+  std::optional<Window> window;      ///< none: the whole grid
+  double pixels_per_cell = 4;        ///< zoom: pixels per cell along x (y keeps the same scale)
+  bool edges = true;                 ///< draw the mesh's triangle edges
   bool scale_bar = true, north_arrow = true;
   bool legend = true;  ///< the height tint's ramp with its two ends in metres
-  std::string title;  ///< drawn at the top-left (built-in 8x8 bitmap font, ASCII; others print as '?')
+  std::string title;   ///< drawn at the top-left (built-in 8x8 bitmap font, ASCII; others print as '?')
 };
 
 /// A picture of `dsm` seen from above, north up, with `mesh` (may be null) drawn over it.
@@ -113,10 +113,10 @@ struct ProfileStep {
 /// merged). Heights above a cell are taken at both ends of each piece: the path is straight
 /// between its points, so they are the least and greatest over the piece, exactly.
 struct PathProfile {
-  double length = 0;              ///< x,y length of the path
-  std::vector<double> distance;   ///< per path point, its distance from the start
-  std::vector<ProfileStep> dsm;   ///< the DSM cells under the path, in order
-  std::vector<ProfileStep> dtm;   ///< the DTM's, when there is one (its own cells)
+  double length = 0;             ///< x,y length of the path
+  std::vector<double> distance;  ///< per path point, its distance from the start
+  std::vector<ProfileStep> dsm;  ///< the DSM cells under the path, in order
+  std::vector<ProfileStep> dtm;  ///< the DTM's, when there is one (its own cells)
   /// Least path height above the DSM cell below (negative: inside it), and where; NaN when no
   /// valid DSM cell is under the path.
   double min_above_dsm = NAN, min_above_dsm_at = NAN;

@@ -73,7 +73,6 @@
 
 namespace dsmplan {
 
-
 /// Exact distance between the segment [p, q] and the triangle (a, b, c); 0 when they touch or
 /// intersect. See the top of this header. O(1).
 double segment_triangle_distance(const Point3& p, const Point3& q, const Point3& a, const Point3& b, const Point3& c);
@@ -150,7 +149,7 @@ public:
   size_t memory_bytes() const;
 
 private:
-  struct Layout;  ///< the vertices, buckets, listings and blocks: src/plan/clearance_index.cpp
+  struct Layout;                          ///< the vertices, buckets, listings and blocks: src/plan/clearance_index.cpp
   std::shared_ptr<const Layout> layout_;  ///< immutable once built, so copies share it
 };
 

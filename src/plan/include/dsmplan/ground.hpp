@@ -16,10 +16,10 @@
 // a cell; the segment is walked cell by cell (Amanatides & Woo, "A Fast Voxel Traversal
 // Algorithm for Ray Tracing", Eurographics 1987). Where it passes exactly through a corner, the
 // two cells touching it only there are measured too, and so are the cells its ends touch and,
-// along a line between cells, the cells on both sides: each cell counts as its closed square. Cost O(cells crossed). below_ceiling()
-// walks the 8 x 8 blocks the segment crosses instead, settles each by its lowest ground when
-// it can, and walks the cells of the others only (and the whole segment where it passes
-// exactly through a block's corner): O(blocks crossed) for most segments.
+// along a line between cells, the cells on both sides: each cell counts as its closed square. Cost O(cells crossed).
+// below_ceiling() walks the 8 x 8 blocks the segment crosses instead, settles each by its lowest ground when it can,
+// and walks the cells of the others only (and the whole segment where it passes exactly through a block's corner):
+// O(blocks crossed) for most segments.
 #pragma once
 
 #include <cstdint>

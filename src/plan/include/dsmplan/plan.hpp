@@ -121,14 +121,14 @@ enum class PlannerKind { prm, rrt_connect };
 
 struct PlanOptions {
   PlannerKind planner = PlannerKind::prm;  ///< what plan_path() runs
-  double safety = 2;       ///< least distance to the mesh, CRS units (the paper's 2 m)
-  double spacing = 20;     ///< relative sample distance: samples = volume / spacing^3
-  double max_edge = 34.5;  ///< longest roadmap edge, CRS units
-  double max_agl = 120;    ///< the ceiling: no point of a path higher above the ground (see `ground`)
-  int connections = 10;    ///< roadmap samples each waypoint is joined to, at most
-  bool smooth = true;      ///< shortcut smoothing
-  bool spline = true;      ///< then corner rounding by a quadratic B-spline, each chord re-checked
-  int threads = 0;         ///< 0: every core
+  double safety = 2;                       ///< least distance to the mesh, CRS units (the paper's 2 m)
+  double spacing = 20;                     ///< relative sample distance: samples = volume / spacing^3
+  double max_edge = 34.5;                  ///< longest roadmap edge, CRS units
+  double max_agl = 120;                    ///< the ceiling: no point of a path higher above the ground (see `ground`)
+  int connections = 10;                    ///< roadmap samples each waypoint is joined to, at most
+  bool smooth = true;                      ///< shortcut smoothing
+  bool spline = true;                      ///< then corner rounding by a quadratic B-spline, each chord re-checked
+  int threads = 0;                         ///< 0: every core
   /// RRT-Connect only (the PRM's samples are quasi-random, it has none): its random numbers.
   /// The same seed, mesh and waypoints give the same path.
   uint64_t seed = 1;
@@ -145,12 +145,10 @@ struct PlanOptions {
   size_t refine_max_samples = 1000000;        ///< samples a query adds, at most
   size_t refine_max_lattice_nodes = 2000000;  ///< nodes one lattice search makes, at most
   size_t refine_max_search_work = 100000000;  ///< candidate edges a leg's lazy searches look at, at most
-  /// The ground max_agl counts from (ground.hpp): the DTM, or the DSM's cells; null: the
-  /// mesh's floor (ClearanceIndex::floor()). Every point of every path keeps
-  /// height above it <= max_agl, not only the samples.
+  /// The ground max_agl counts from (ground.hpp): the DTM, or the DSM's cells; null: the mesh's
+  /// floor (ClearanceIndex::floor()). Every point of every path keeps height above it <= max_agl.
   std::shared_ptr<const GroundGrid> ground;
-  /// Further rules every point of every path keeps (flight_space.hpp: a NoFlyZone, or your own
-  /// FlightConstraint); every planner asks them through the same FlightSpace.
+  /// Further rules every point of every path keeps (flight_space.hpp: NoFlyZone, or your own).
   std::vector<std::shared_ptr<const FlightConstraint>> constraints;
 };
 

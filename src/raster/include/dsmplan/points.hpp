@@ -28,7 +28,6 @@ struct PointCloud {
   void add(double px, double py, double pz, uint8_t cls);
 };
 
-
 enum class Fusion {
   Median,  ///< median height of the points in a cell (mean of the two middle ones when even)
   Max

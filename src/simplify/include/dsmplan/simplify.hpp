@@ -152,7 +152,6 @@ struct VerticalError {
 
 // ---- the certified error ------------------------------------------------------------------
 
-
 /// Vertical deviation of `mesh` from `dsm` at every valid cell centre (see the top). Both must
 /// be in the same CRS. O(cells + triangles).
 VerticalError certify(const Mesh& mesh, const Grid& dsm, const Progress& progress = {});

@@ -95,5 +95,4 @@ private:
   std::array<double, 4> linear_inverse_{};
 };
 
-
 }  // namespace dsmplan

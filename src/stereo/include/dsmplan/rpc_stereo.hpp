@@ -196,7 +196,7 @@ struct RpcTileStereoOptions {
   int margin = 32;
   /// With fewer tie points the tile keeps the RPCs as given (no pointing correction).
   int min_tie_points = 10;
-  int max_disparities = 512;  ///< ArgumentError("height range") when the range needs more
+  int max_disparities = 512;     ///< ArgumentError("height range") when the range needs more
   double max_residual_px = 1.0;  ///< disparity_to_points' bound
 };
 
@@ -220,6 +220,7 @@ struct RpcTileStereo {
 /// rows (TBB); SGM's two sweeps. Memory: the two windows, four rectified images (4 bytes a
 /// pixel) and SGM's (stereo.hpp).
 RpcTileStereo rpc_tile_stereo(const RpcCamera& left, const FloatImage& left_image, const RpcCamera& right,
-                              const FloatImage& right_image, const RpcTile& tile, const RpcTileStereoOptions& options = {});
+                              const FloatImage& right_image, const RpcTile& tile,
+                              const RpcTileStereoOptions& options = {});
 
 }  // namespace dsmplan

@@ -188,12 +188,12 @@ struct HeightRangeOptions {
 
 /// What estimate_height_range() found.
 struct HeightRangeEstimate {
-  double min_height = 0, max_height = 0;  ///< the range to use (margins included)
-  double low = 0, high = 0;               ///< the quantiles of the coarse points (no margin)
-  double coarse_step = 0;                 ///< largest height of one coarse disparity step, world units
+  double min_height = 0, max_height = 0;   ///< the range to use (margins included)
+  double low = 0, high = 0;                ///< the quantiles of the coarse points (no margin)
+  double coarse_step = 0;                  ///< largest height of one coarse disparity step, world units
   std::vector<std::pair<int, int>> pairs;  ///< the pairs that gave points
-  std::size_t points = 0;                 ///< coarse points connected to the median (used)
-  int scale = 1;                          ///< largest shrink factor used
+  std::size_t points = 0;                  ///< coarse points connected to the median (used)
+  int scale = 1;                           ///< largest shrink factor used
 };
 
 /// The pairs the coarse pass matches: for every camera its nearest other camera (centre
@@ -208,8 +208,7 @@ std::vector<std::pair<int, int>> height_range_pairs(const std::vector<FrameCamer
 /// range. images[i] must be set for the cameras of `pairs`.
 /// A pair that cannot be rectified or gives no point is skipped; InputError ("cameras: ...")
 /// when no pair gives at least 100 points. Time: one SGM of the shrunk images per pair.
-HeightRangeEstimate estimate_height_range(const std::vector<FrameCamera>& cameras,
-                                          const std::vector<GreyImage>& images,
+HeightRangeEstimate estimate_height_range(const std::vector<FrameCamera>& cameras, const std::vector<GreyImage>& images,
                                           const std::vector<std::pair<int, int>>& pairs,
                                           const HeightRangeOptions& options = {});
 

@@ -45,18 +45,18 @@ Json to_json(const RenderReport& report);
 // ---- dsmplan profile ------------------------------------------------------------------------
 
 struct ProfileJobOptions {
-  std::string dsm;        ///< DSM raster: the silhouette under the path
-  std::string path;       ///< path CSV (x,y,z as `dsmplan plan` writes them), in the DSM's CRS
-  std::string output;     ///< .png
-  std::string dtm;        ///< terrain raster (optional): the ground of the ceiling, a brown line
-  std::string waypoints;  ///< waypoint CSV (optional): numbered markers on the path
+  std::string dsm;         ///< DSM raster: the silhouette under the path
+  std::string path;        ///< path CSV (x,y,z as `dsmplan plan` writes them), in the DSM's CRS
+  std::string output;      ///< .png
+  std::string dtm;         ///< terrain raster (optional): the ground of the ceiling, a brown line
+  std::string waypoints;   ///< waypoint CSV (optional): numbered markers on the path
   ProfileOptions profile;  ///< size, title (empty: "PATH over DSM"), safety, max_agl
 };
 
 struct ProfileReport {
   std::string output;
   int width = 0, height = 0;
-  double length = 0;                        ///< the path's x,y length
+  double length = 0;                                         ///< the path's x,y length
   double min_above_dsm = NAN, min_above_dsm_at = NAN;        ///< least height above the DSM cell below, where
   double max_above_ground = NAN, max_above_ground_at = NAN;  ///< greatest above the ground, where
   bool ground_is_dtm = false;

@@ -37,7 +37,7 @@ struct MissionJobOptions {
 };
 
 struct PlanJobOptions {
-  std::string mesh;       ///< mesh file (read_mesh: .ply, .obj, .off), a 2.5D obstacle surface
+  std::string mesh;  ///< mesh file (read_mesh: .ply, .obj, .off), a 2.5D obstacle surface
   /// .csv: x,y,z in the mesh's CRS (read_waypoints_csv); .geojson/.json: WGS 84 longitude,
   /// latitude, ellipsoidal height (read_waypoints_geojson), transformed by Wgs84Transform.
   std::string waypoints;
@@ -49,8 +49,8 @@ struct PlanJobOptions {
   /// .kmz the same mission for DJI aircraft (write_wpml_kmz); .kml a KML 2.2 LineString
   /// with altitudeMode absolute and the waypoints as Points (path_to_kml), every path point.
   std::string output;
-  std::string format;     ///< csv, geojson, plan, waypoints or kml; empty: from the output's extension
-  PlanOptions plan;       ///< planner (prm, rrt_connect), seed, safety, spacing, max_edge, max_agl, threads
+  std::string format;  ///< csv, geojson, plan, waypoints or kml; empty: from the output's extension
+  PlanOptions plan;    ///< planner (prm, rrt_connect), seed, safety, spacing, max_edge, max_agl, threads
   /// Roadmap file (PRM): read when it exists (read_roadmap(): refused when made for another mesh
   /// or other options), else built and written there for the next query.
   std::string roadmap;
@@ -111,12 +111,11 @@ struct PlanReport {
 /// Mesh file + waypoints -> roadmap -> path (plan_path(), see plan.hpp) -> CSV, GeoJSON, a
 /// mission (.plan, .waypoints) or KML, written atomically. The transformation to WGS 84 is made
 /// before planning: ArgumentError("--vertical-crs") then for an unknown or approximate vertical
-/// reference that is not allowed (Wgs84Transform). Options and the output's extension are checked before anything is read.
-/// A bad waypoint is an InputError(waypoints file, "waypoint N", why: outside the extent, under
-/// the surface, closer than the safety distance); a leg without a path InputError(waypoints
-/// file, "waypoints N to M", why); fewer than two waypoints InputError(waypoints file); a
-/// roadmap file of another mesh or other options InputError(roadmap file); with a DSM, a path
-/// closer to its columns than safety - dsm_tolerance_m InputError(DSM file). Nothing is
+/// reference that is not allowed (Wgs84Transform). Options and the output's extension are checked before anything is
+/// read. A bad waypoint is an InputError(waypoints file, "waypoint N", why: outside the extent, under the surface,
+/// closer than the safety distance); a leg without a path InputError(waypoints file, "waypoints N to M", why); fewer
+/// than two waypoints InputError(waypoints file); a roadmap file of another mesh or other options InputError(roadmap
+/// file); with a DSM, a path closer to its columns than safety - dsm_tolerance_m InputError(DSM file). Nothing is
 /// written then. seconds_load includes reading a reused roadmap.
 PlanReport plan_job(const PlanJobOptions& options, const Progress& progress = {});
 /// Keys: path_length_m, min_clearance_m, roadmap_nodes, roadmap_edges, seconds_load (=

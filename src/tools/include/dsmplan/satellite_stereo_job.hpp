@@ -57,17 +57,17 @@
 namespace dsmplan {
 
 struct SatelliteStereoOptions {
-  std::vector<std::string> images;  ///< two or more, with RPCs
-  std::string output;               ///< GeoTIFF (.tif, .tiff)
-  double resolution = 0;            ///< cell size, metres
-  std::string crs;                  ///< output CRS; empty: WGS 84 / UTM of the scene (see above)
+  std::vector<std::string> images;              ///< two or more, with RPCs
+  std::string output;                           ///< GeoTIFF (.tif, .tiff)
+  double resolution = 0;                        ///< cell size, metres
+  std::string crs;                              ///< output CRS; empty: WGS 84 / UTM of the scene (see above)
   std::optional<std::array<double, 4>> bounds;  ///< x0, y0, x1, y1 in the output CRS; none: the pairs' footprints
   int tile_size = 512;                          ///< left-image pixels per tile side, 64..4096
 };
 
 struct SatellitePairReport {
-  int left = 0, right = 0;     ///< indices into images
-  double overlap = 0;          ///< share of the left image's lattice seen by the right image
+  int left = 0, right = 0;                        ///< indices into images
+  double overlap = 0;                             ///< share of the left image's lattice seen by the right image
   double rpc_height_min = 0, rpc_height_max = 0;  ///< the RPCs' common height range, metres
   double height_min = 0, height_max = 0;          ///< the scene's heights searched (step 3)
   std::size_t survey_tie_points = 0;              ///< tie points whose heights gave step 3

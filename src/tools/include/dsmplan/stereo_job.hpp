@@ -30,13 +30,14 @@ namespace dsmplan {
 /// (estimate_height_range(), stereo_frames.hpp): the nearest cameras' images shrunk to about
 /// 320 px, matched over every depth, triangulated; of the heights connected to their median
 /// without a wide gap, the 0.2 % and 99.8 % quantiles widened by 10 % of their difference and two
-/// coarse disparity steps. InputError (key height_range) when no such pair matches. `image` is any GDAL raster, relative to the JSON's folder: one band
-/// (grey) or three or more (RGB taken as luminance 0.299 R + 0.587 G + 0.114 B), 8 or 16 bit.
+/// coarse disparity steps. InputError (key height_range) when no such pair matches. `image` is any GDAL raster,
+/// relative to the JSON's folder: one band (grey) or three or more (RGB taken as luminance 0.299 R + 0.587 G + 0.114
+/// B), 8 or 16 bit.
 struct StereoJobOptions {
   std::string cameras;  ///< CAMERAS.json
   std::string output;   ///< GeoTIFF (.tif, .tiff)
   double resolution = 0;
-  std::string pairs = "auto";  ///< "auto" or "0-1,1-2,..."
+  std::string pairs = "auto";                   ///< "auto" or "0-1,1-2,..."
   std::optional<std::array<double, 4>> bounds;  ///< x0, y0, x1, y1; none: the pairs' overlap on the ground
 };
 
@@ -51,8 +52,8 @@ struct StereoReport {
   size_t matched_pixels = 0, points = 0, points_in_grid = 0;
   size_t points_outside_range = 0;  ///< triangulated outside height_range, dropped as mismatches
   GridSummary summary;
-  double seconds_read = 0, seconds_height_range = 0, seconds_rectify = 0, seconds_match = 0, seconds_triangulate = 0, seconds_fuse = 0,
-         seconds_write = 0;
+  double seconds_read = 0, seconds_height_range = 0, seconds_rectify = 0, seconds_match = 0, seconds_triangulate = 0,
+         seconds_fuse = 0, seconds_write = 0;
 };
 
 /// Reads CAMERAS.json and the images, checks everything (one InputError naming the file and the

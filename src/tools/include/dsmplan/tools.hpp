@@ -19,10 +19,9 @@
 #include "dsmplan/core.hpp"
 #include "dsmplan/corridor.hpp"
 #include "dsmplan/export.hpp"
+#include "dsmplan/mesh.hpp"
 #include "dsmplan/mission.hpp"
 #include "dsmplan/picture.hpp"
-#include "dsmplan/wgs84.hpp"
-#include "dsmplan/mesh.hpp"
 #include "dsmplan/plan.hpp"
 #include "dsmplan/points.hpp"
 #include "dsmplan/raster.hpp"
@@ -30,6 +29,7 @@
 #include "dsmplan/rpc.hpp"
 #include "dsmplan/simplify.hpp"
 #include "dsmplan/simplify_streamed.hpp"
+#include "dsmplan/wgs84.hpp"
 
 namespace dsmplan {
 
@@ -144,7 +144,7 @@ struct MeshReport {
   size_t dropped_triangles = 0;  ///< left out of a GLB as degenerate in float32 (write_mesh)
   Crs crs;
   std::vector<std::pair<std::string, double>> seconds;  ///< read, resample, triangulate, write, total
-  bool streamed = false;  ///< meshed band by band: holes were not counted (null)
+  bool streamed = false;                                ///< meshed band by band: holes were not counted (null)
   std::optional<TilesetReport> tileset;
 };
 
