@@ -45,13 +45,7 @@ void write_png(const GreyImage& image, const std::string& path) {
   if (!out) throw std::runtime_error(path + ": cannot be written");
 }
 
-nlohmann::json camera_json(const FrameCamera& c, const std::string& image) {
-  nlohmann::json rotation = nlohmann::json::array();
-  for (const auto& row : c.rotation) rotation.push_back({row[0], row[1], row[2]});
-  return {{"image", image},       {"width", c.width},  {"height", c.height}, {"fx", c.fx},
-          {"fy", c.fy},           {"cx", c.cx},        {"cy", c.cy},         {"distortion", c.distortion},
-          {"rotation", rotation}, {"center", c.center}};
-}
+using aerial::camera_json;
 
 int render(const std::string& dir) {
   std::filesystem::create_directories(dir);

@@ -17,6 +17,8 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <nlohmann/json.hpp>
+#include <string>
 #include <vector>
 
 #include "dsmplan/raster.hpp"
@@ -204,6 +206,15 @@ inline Grid crop(const Grid& dsm, int col0, int row0, int n) {
   for (int r = 0; r < n; ++r)
     for (int c = 0; c < n; ++c) out.z[out.index(c, r)] = dsm.at(col0 + c, row0 + r);
   return out;
+}
+
+/// A camera as its entry in CAMERAS.json (the README's contract), reading `image`.
+inline nlohmann::json camera_json(const dsmplan::FrameCamera& c, const std::string& image) {
+  nlohmann::json rotation = nlohmann::json::array();
+  for (const auto& row : c.rotation) rotation.push_back({row[0], row[1], row[2]});
+  return {{"image", image},       {"width", c.width},  {"height", c.height}, {"fx", c.fx},
+          {"fy", c.fy},           {"cx", c.cx},        {"cy", c.cy},         {"distortion", c.distortion},
+          {"rotation", rotation}, {"center", c.center}};
 }
 
 }  // namespace aerial

@@ -375,13 +375,7 @@ void write_png(const GreyImage& image, const std::string& path, int bands = 1) {
   ASSERT_TRUE(out);
 }
 
-nlohmann::json camera_json(const FrameCamera& c, const std::string& image) {
-  nlohmann::json rotation = nlohmann::json::array();
-  for (const auto& row : c.rotation) rotation.push_back({row[0], row[1], row[2]});
-  return {{"image", image},       {"width", c.width},  {"height", c.height}, {"fx", c.fx},
-          {"fy", c.fy},           {"cx", c.cx},        {"cy", c.cy},         {"distortion", c.distortion},
-          {"rotation", rotation}, {"center", c.center}};
-}
+using aerial::camera_json;
 
 // The first two views as files: img_0.png (grey), img_1.png (RGB), and the cameras.json to
 // return; `rendered` false: smooth stand-ins of the right size (for errors found before matching).
