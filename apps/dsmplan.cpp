@@ -177,6 +177,11 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   stereo_cmd->add_option("--bounds", stereo_bounds, "x0,y0,x1,y1 of the DSM (CRS units); default: the pairs' overlap");
   stereo_cmd->add_option("--stats", stereo_stats, "Write counts and seconds per stage as JSON");
+  double fusion_memory_mb = 1024;
+  stereo_cmd
+      ->add_option("--fusion-memory", fusion_memory_mb,
+                   "MB of memory for the points before the fusion spills sorted runs to $TMPDIR (or /tmp)")
+      ->capture_default_str();
   stereo_cmd->add_flag("-q,--quiet", quiet, "No progress output");
 
   MeshJobOptions mesh;
@@ -451,6 +456,10 @@ int main(int argc, char** argv) {
         throw ArgumentError("--cameras",
                             "give either satellite images with RPCs (dsmplan stereo IMG1 IMG2 ...) or "
                             "--cameras CAMERAS.json for frame cameras, not both");
+      if (!(fusion_memory_mb >= 0.0625 && fusion_memory_mb < 1e9))
+        throw ArgumentError("--fusion-memory", "must be at least 0.0625 (MB)");
+      stereo.fusion_memory_bytes = satellite.fusion_memory_bytes =
+          static_cast<std::size_t>(fusion_memory_mb * 1048576.0);
       if (!stereo.cameras.empty()) {
         if (!satellite.crs.empty())
           throw ArgumentError("--crs", "belongs to satellite images; CAMERAS.json states its CRS");

@@ -131,6 +131,7 @@ const Made& made(bool pre) {
     options.output = out;
     options.resolution = kRes;
     options.bounds = kTestBounds;
+    options.fusion_memory_bytes = 1 << 18;  // 32,768 points: the fusion spills sorted runs to disk
     m.stats = nlohmann::json::parse(dsmplan::to_json(dsmplan::satellite_stereo_job(options)).dump());
   }
   m.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
@@ -284,6 +285,26 @@ static void StreetsAreFlat() {
   }
 }
 
+// The post-event DSM was fused through runs spilled to disk (made()); made again by the CLI with
+// the points in memory it must be the same, cell for cell.
+static void SpilledFusionEqualsTheFusionInMemory() {
+  const Made& spilled = made(false);
+  EXPECT_GT(spilled.stats["fusion_runs_spilled"].get<size_t>(), 3u);
+  testkit::TempDir dir;
+  const std::string out = dir.path("post_in_memory.tif");
+  const auto result =
+      testkit::run_cli({"stereo", data("post_event_img1.tif"), data("post_event_img2.tif"), "-o", out, "--res", "1",
+                        "--bounds", bounds_text(kTestBounds), "--stats", dir.path("post.json"), "-q"});
+  ASSERT_EQ(result.exit_code, 0) << result.err;
+  EXPECT_EQ(nlohmann::json::parse(testkit::read_file(dir.path("post.json")))["fusion_runs_spilled"].get<size_t>(), 0u);
+  const Grid in_memory = dsmplan::read_raster(out);
+  ASSERT_EQ(in_memory.z.size(), spilled.dsm.z.size());
+  size_t differ = 0;
+  for (size_t i = 0; i < in_memory.z.size(); ++i)
+    differ += std::isnan(in_memory.z[i]) ? !std::isnan(spilled.dsm.z[i]) : !(in_memory.z[i] == spilled.dsm.z[i]);
+  EXPECT_EQ(differ, 0u);
+}
+
 // One test, so that each pair's DSM is made once (ctest runs every test in a process of its own).
 TEST(SatelliteStereo, WindowOfBothPairsEllipsoidalAgreeingWithFlatStreets) {
   {
@@ -297,6 +318,10 @@ TEST(SatelliteStereo, WindowOfBothPairsEllipsoidalAgreeingWithFlatStreets) {
   {
     SCOPED_TRACE("streets");
     StreetsAreFlat();
+  }
+  {
+    SCOPED_TRACE("the fusion in bounded memory");
+    SpilledFusionEqualsTheFusionInMemory();
   }
 }
 

@@ -22,10 +22,12 @@
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <random>
+#include <span>
 #include <string>
 #include <vector>
 
 #include "aerial_scene.hpp"
+#include "dsmplan/median_fusion.hpp"
 #include "dsmplan/stereo_frames.hpp"
 #include "dsmplan/stereo_job.hpp"
 #include "dsmplan/tools.hpp"
@@ -160,6 +162,77 @@ TEST(StereoFusion, MedianPerCellNodataWhereNothingFell) {
   EXPECT_FLOAT_EQ(grid.at(2, 1), 5);
   EXPECT_TRUE(std::isnan(grid.at(1, 0)));
   EXPECT_TRUE(std::isnan(grid.at(0, 1)));
+}
+
+// The oracle: every cell's heights gathered, sorted, the middle one (or the mean of the two).
+std::vector<float> brute_force_medians(const Grid& grid, const std::vector<Vec3>& points) {
+  std::vector<std::vector<float>> heights(grid.cells());
+  for (const Vec3& p : points) {
+    int col, row;
+    if (std::isfinite(p[2]) && grid.cell_at(p[0], p[1], col, row))
+      heights[grid.index(col, row)].push_back(static_cast<float>(p[2]));
+  }
+  std::vector<float> z(grid.cells(), Grid::nodata);
+  for (size_t i = 0; i < heights.size(); ++i) {
+    auto& h = heights[i];
+    if (h.empty()) continue;
+    std::sort(h.begin(), h.end());
+    z[i] = h.size() % 2 ? h[h.size() / 2] : 0.5f * (h[h.size() / 2 - 1] + h[h.size() / 2]);
+  }
+  return z;
+}
+
+TEST(StereoFusion, SpilledRunsMergeToTheSameMediansAsInMemory) {
+  Grid grid = dsm_grid({100, 200, 150, 240}, 1.0);  // 50 x 40 cells
+  std::mt19937_64 random(7);
+  std::uniform_real_distribution<double> x(95, 155), y(195, 245), z(-30, 60);
+  std::vector<Vec3> points(300000);
+  for (Vec3& p : points) p = {x(random), y(random), std::round(z(random) * 4) / 4};  // ties too
+  points[10][2] = NAN, points[20][2] = INFINITY, points[30] = {1e300, 0, 1};
+  const std::vector<float> expected = brute_force_medians(grid, points);
+  size_t inside = 0;
+  for (float v : expected) inside += !std::isnan(v);
+  ASSERT_GT(inside, grid.cells() * 9 / 10);
+
+  Grid in_memory = grid;
+  const size_t fused = fuse_median(in_memory, {points});
+  testkit::TempDir dir;
+  MedianFusionOptions options;
+  options.memory_bytes = 1 << 16;  // 8,192 points a run
+  options.temp_dir = dir.dir().string();
+  MedianFusion fusion(grid, options);
+  for (size_t at = 0; at < points.size(); at += 7777)  // handed over in uneven parts, as tiles come
+    fusion.add(std::span(points).subspan(at, std::min<size_t>(7777, points.size() - at)));
+  EXPECT_GT(fusion.runs_spilled(), 20u);
+  EXPECT_TRUE(dir.files().empty());  // the spill file is anonymous
+  Grid spilled = grid;
+  EXPECT_EQ(fusion.finish(spilled), fused);
+  EXPECT_GT(fused, points.size() * 6 / 10);  // the grid is 2/3 of the points' area
+  EXPECT_LT(fused, points.size() - 2);
+  for (size_t i = 0; i < expected.size(); ++i) {
+    ASSERT_EQ(std::isnan(expected[i]), std::isnan(in_memory.z[i])) << i;
+    ASSERT_EQ(std::isnan(expected[i]), std::isnan(spilled.z[i])) << i;
+    if (std::isnan(expected[i])) continue;
+    ASSERT_EQ(expected[i], in_memory.z[i]) << i;
+    ASSERT_EQ(expected[i], spilled.z[i]) << i;
+  }
+}
+
+TEST(StereoFusion, UnwritableTemporaryDirectoryAndTooSmallABudgetAreNamed) {
+  Grid grid = dsm_grid({0, 0, 10, 10}, 1.0);
+  MedianFusionOptions options;
+  options.memory_bytes = 1000;
+  EXPECT_THROW(MedianFusion(grid, options), ArgumentError);
+  options.memory_bytes = 1 << 16;
+  options.temp_dir = "/nonexistent/dsmplan-spill";
+  MedianFusion fusion(grid, options);
+  const std::vector<Vec3> points(10000, Vec3{5.5, 5.5, 1});
+  try {
+    fusion.add(points);
+    FAIL() << "no error";
+  } catch (const OutputError& error) {
+    EXPECT_NE(std::string(error.what()).find("/nonexistent/dsmplan-spill"), std::string::npos) << error.what();
+  }
 }
 
 TEST(StereoPairs, ExplicitAndAuto) {

@@ -9,6 +9,7 @@
 #include <cmath>
 #include <string>
 
+#include "dsmplan/median_fusion.hpp"
 #include "dsmplan/stereo_frames.hpp"
 
 namespace dsmplan {
@@ -33,7 +34,7 @@ FrameStereoStats stereo_dsm(const std::vector<FrameCamera>& cameras, const std::
   }
   if (pairs.empty()) throw InputError("", "cameras", "no pair of cameras to match");
   FrameStereoStats stats;
-  std::vector<std::vector<Vec3>> points;
+  MedianFusion fusion(grid, options.fusion);
   SgmMatcher matcher;
   for (std::size_t k = 0; k < pairs.size(); ++k) {
     const auto [a, b] = pairs[k];
@@ -71,11 +72,10 @@ FrameStereoStats stereo_dsm(const std::vector<FrameCamera>& cameras, const std::
     for (float d : disparity.left) stats.matched_pixels += !std::isnan(d);
 
     start = std::chrono::steady_clock::now();
-    points.push_back(triangulate(pair, disparity));
+    std::vector<Vec3> set = triangulate(pair, disparity);
     // The scene lies within the height range: a point more than 10 % of the range outside it
     // (the disparity search reaches about that far beyond, rectify_pair) is a mismatch. The
     // margin keeps the noise of points on the lowest (or highest) surface.
-    std::vector<Vec3>& set = points.back();
     const std::size_t before = set.size();
     const double margin = 0.1 * (options.rectify.max_height - options.rectify.min_height);
     std::erase_if(set, [&](const Vec3& p) {
@@ -84,13 +84,17 @@ FrameStereoStats stereo_dsm(const std::vector<FrameCamera>& cameras, const std::
     stats.points_outside_range += before - set.size();
     stats.points += set.size();
     stats.seconds_triangulate += seconds_since(start);
+    start = std::chrono::steady_clock::now();
+    fusion.add(set);
+    stats.seconds_fuse += seconds_since(start);
     ++stats.pairs;
     report(progress, 0.95 * (k + 1) / pairs.size());
   }
   const auto start = std::chrono::steady_clock::now();
-  stats.points_in_grid = fuse_median(grid, points);
+  stats.points_in_grid = fusion.finish(grid);
+  stats.fusion_runs_spilled = fusion.runs_spilled();
   for (float z : grid.z) stats.valid_cells += !std::isnan(z);
-  stats.seconds_fuse = seconds_since(start);
+  stats.seconds_fuse += seconds_since(start);
   report(progress, 1.0);
   return stats;
 }

@@ -22,6 +22,7 @@
 #include <mutex>
 
 #include "core/atomic_file.hpp"
+#include "dsmplan/median_fusion.hpp"
 #include "dsmplan/rpc.hpp"
 #include "dsmplan/rpc_io.hpp"
 #include "dsmplan/rpc_stereo.hpp"
@@ -415,7 +416,10 @@ SatelliteStereoReport satellite_stereo_job(const SatelliteStereoOptions& options
   if (tiles.empty()) throw InputError(images[0].path, "--bounds", "lies outside every pair's footprint");
 
   // Step 4 and 5 per tile.
-  std::vector<std::vector<Vec3>> point_sets(pairs.size());
+  MedianFusionOptions fusion_options;
+  fusion_options.memory_bytes = options.fusion_memory_bytes;
+  MedianFusion fusion(grid, fusion_options);
+  std::vector<Vec3> points;
   RpcTileStereoOptions tile_options;
   for (std::size_t t = 0; t < tiles.size(); ++t) {
     PairWork& w = pairs[tiles[t].pair];
@@ -454,19 +458,23 @@ SatelliteStereoReport satellite_stereo_job(const SatelliteStereoOptions& options
     for (const RpcStereoPoint& p : result.points)
       x.push_back(p.ground.lon), y.push_back(p.ground.lat), z.push_back(p.ground.height);
     const std::vector<int> ok = to_output.apply(x, y, z);
+    points.clear();
     for (std::size_t i = 0; i < x.size(); ++i)
-      if (ok[i]) point_sets[tiles[t].pair].push_back({x[i], y[i], z[i]});
+      if (ok[i]) points.push_back({x[i], y[i], z[i]});
+    out.points += points.size();
     out.seconds_transform += seconds_since(t0);
+    t0 = std::chrono::steady_clock::now();
+    fusion.add(points);
+    out.seconds_fuse += seconds_since(t0);
     report(progress, 0.1 + 0.8 * static_cast<double>(t + 1) / static_cast<double>(tiles.size()));
   }
 
   start = std::chrono::steady_clock::now();
-  for (const auto& set : point_sets) out.points += set.size();
-  out.points_in_grid = fuse_median(grid, point_sets);
-  point_sets.clear();
+  out.points_in_grid = fusion.finish(grid);
+  out.fusion_runs_spilled = fusion.runs_spilled();
   out.summary = summarize(grid);
   out.completeness = grid.cells() ? static_cast<double>(out.summary.valid) / static_cast<double>(grid.cells()) : 0;
-  out.seconds_fuse = seconds_since(start);
+  out.seconds_fuse += seconds_since(start);
   for (PairWork& w : pairs) {
     const SatellitePairReport& pr = w.report;
     out.seconds_read += pr.seconds_read;
@@ -538,6 +546,7 @@ Json to_json(const SatelliteStereoReport& r) {
           {"height", r.height},
           {"points", r.points},
           {"points_in_grid", r.points_in_grid},
+          {"fusion_runs_spilled", r.fusion_runs_spilled},
           {"completeness", r.completeness},
           {"dsm", to_json(r.summary)},
           {"seconds",

@@ -20,7 +20,7 @@
 //   frame_camera.cpp   project(), undistort(), pixel rays;
 //   rectify_pair.cpp   epipolar rectification (Fusiello, Trucco & Verri 2000) and resampling;
 //   triangulate.cpp    disparities to world points through the rectified cameras;
-//   fuse_median.cpp    ortho-projection and the median per cell;
+//   fuse_median.cpp    ortho-projection and the median per cell (MedianFusion, median_fusion.hpp);
 //   select_pairs.cpp   `auto` and explicit pairs, overlap and base-to-height ratio;
 //   height_range.cpp   the scene's height range from a coarse pass, when it is not given;
 //   frame_pipeline.cpp the whole chain for a set of cameras and images (stereo_dsm()).
@@ -46,6 +46,7 @@
 #include <vector>
 
 #include "dsmplan/core.hpp"
+#include "dsmplan/median_fusion.hpp"
 #include "dsmplan/raster.hpp"
 #include "dsmplan/stereo.hpp"
 
@@ -149,7 +150,8 @@ Grid dsm_grid(const std::array<double, 4>& bounds, double resolution);
 /// Ortho-projection and fusion (the paper's Section 2): each point falls into the cell holding
 /// its (x, y); each cell gets the median of its heights (the mean of the two middle ones for an
 /// even count), nodata where none fell. `grid` gives the geometry; its heights are replaced.
-/// Returns the number of points that fell into the grid. O(n log n).
+/// Returns the number of points that fell into the grid. O(n log n). MedianFusion (median_fusion.hpp)
+/// does the same with the points handed over as they come, in bounded memory.
 std::size_t fuse_median(Grid& grid, const std::vector<std::vector<Vec3>>& point_sets);
 
 /// What pair selection needs of the scene.
@@ -220,20 +222,23 @@ HeightRangeEstimate estimate_height_range(const std::vector<FrameCamera>& camera
 using DenseMatcher = std::function<Disparity(const ImageView& left, const ImageView& right, const SgmOptions& options)>;
 
 struct FrameStereoOptions {
-  RectifyOptions rectify;  ///< min_height, max_height: the scene's heights
-  SgmOptions sgm;          ///< num_disparities and min_disparity are set per pair
-  DenseMatcher matcher;    ///< empty: dsmplan's SGM (SgmMatcher, its buffer kept between pairs)
+  RectifyOptions rectify;      ///< min_height, max_height: the scene's heights
+  SgmOptions sgm;              ///< num_disparities and min_disparity are set per pair
+  DenseMatcher matcher;        ///< empty: dsmplan's SGM (SgmMatcher, its buffer kept between pairs)
+  MedianFusionOptions fusion;  ///< the points' memory budget (median_fusion.hpp)
 };
 
 struct FrameStereoStats {
   std::size_t pairs = 0, matched_pixels = 0, points = 0, points_in_grid = 0, valid_cells = 0;
   std::size_t points_outside_range = 0;  ///< more than 10 % of the height range outside it: dropped
+  std::size_t fusion_runs_spilled = 0;   ///< runs the fusion wrote to disk (0: all points fitted in memory)
   double seconds_rectify = 0, seconds_match = 0, seconds_triangulate = 0, seconds_fuse = 0;
 };
 
 /// Every pair rectified, matched (sgm_match), triangulated, its points more than 10 % of the
 /// height range outside that range dropped (options.rectify: the scene is stated to lie within
-/// it), then all points fused into `grid` (fuse_median; its geometry as given). images[i]
+/// it), each pair's points handed to a MedianFusion as they are made (memory: one pair's images
+/// and points, and options.fusion's budget), then fused into `grid` (its geometry as given). images[i]
 /// belongs to cameras[i] and must have its size (InputError "camera i: image is W x H, the
 /// camera says ..."). Progress per pair.
 FrameStereoStats stereo_dsm(const std::vector<FrameCamera>& cameras, const std::vector<GreyImage>& images,

@@ -17,8 +17,9 @@
 //      memory: windows, not images) and run through rpc_tile_stereo(): affine rectification,
 //      pointing correction, SGM with the left-right check, triangulation through the RPCs;
 //   5. the points (longitude, latitude, height above the WGS 84 ellipsoid) to the output CRS by
-//      PROJ (through GDAL's OGRCoordinateTransformation), then every pair's points fused into the
-//      grid by the median per cell (fuse_median(), stereo_frames.hpp); no data where none fell.
+//      PROJ (through GDAL's OGRCoordinateTransformation), handed tile by tile to the fusion, which
+//      takes the median per cell over every pair's points (MedianFusion, median_fusion.hpp); no
+//      data where none fell.
 //
 // Output: a Float32 GeoTIFF (nodata -9999) in the output CRS, written atomically. The default
 // CRS is WGS 84 / UTM of the zone holding the first image's centre (EPSG:326zz north, 327zz
@@ -32,9 +33,10 @@
 // metadata names that datum), a compound one (e.g. EPSG:32637+3855, EGM2008 heights) gets its
 // heights converted by PROJ (the geoid grid must be installed) and states them in its GeoKeys.
 //
-// Memory: per tile two windows, the rectified images and SGM's buffer (stereo.hpp); for all
-// pairs, 24 bytes per triangulated point, kept until the fusion (12 more during it), and the
-// grid (4 bytes a cell); checked with require_memory() before the grid is made.
+// Memory, bounded whatever the scene's size: per tile two windows, the rectified images, SGM's
+// buffer (stereo.hpp) and the tile's points; the fusion's fusion_memory_bytes (beyond it, 8 bytes
+// a point on disk in the temporary directory); the grid (4 bytes a cell, checked with
+// require_memory() before it is made).
 //
 // Errors (one line each, nothing written): InputError naming the image for an image without RPCs,
 // a bad .geom (a missing, repeated or non-numeric coefficient: the .geom and the key), an image
@@ -63,6 +65,9 @@ struct SatelliteStereoOptions {
   std::string crs;                              ///< output CRS; empty: WGS 84 / UTM of the scene (see above)
   std::optional<std::array<double, 4>> bounds;  ///< x0, y0, x1, y1 in the output CRS; none: the pairs' footprints
   int tile_size = 512;                          ///< left-image pixels per tile side, 64..4096
+  /// The fusion's memory for points, bytes (8 a point; beyond it sorted runs go to a temporary
+  /// file in $TMPDIR or /tmp: MedianFusion, median_fusion.hpp); at least 64 KiB.
+  std::size_t fusion_memory_bytes = std::size_t{1} << 30;
 };
 
 struct SatellitePairReport {
@@ -85,6 +90,7 @@ struct SatelliteStereoReport {
   std::array<double, 4> bounds{};
   int width = 0, height = 0;
   std::size_t points = 0, points_in_grid = 0;
+  std::size_t fusion_runs_spilled = 0;  ///< 0: the points fitted in fusion_memory_bytes
   GridSummary summary;
   double completeness = 0;  ///< valid cells / cells of the grid
   double seconds_read = 0, seconds_survey = 0, seconds_rectify = 0, seconds_pointing = 0, seconds_match = 0,
@@ -96,7 +102,7 @@ SatelliteStereoReport satellite_stereo_job(const SatelliteStereoOptions& options
 /// Keys: images, output, crs {name, epsg, wkt}, pairs [{images [i, j], overlap, rpc_height_range,
 /// height_range, survey_tie_points, tiles, tiles_pointing_corrected, tie_points, tile_pixels,
 /// matched_pixels, points, seconds {read, survey, rectify, pointing, match, triangulate}}], bounds,
-/// width, height, points, points_in_grid, completeness, dsm {cells, valid, nodata, holes, z_min,
+/// width, height, points, points_in_grid, fusion_runs_spilled, completeness, dsm {cells, valid, nodata, holes, z_min,
 /// z_max}, seconds {read, survey, rectify, pointing, match, triangulate, transform, fuse, write, total}.
 Json to_json(const SatelliteStereoReport& report);
 

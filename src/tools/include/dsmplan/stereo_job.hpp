@@ -39,6 +39,9 @@ struct StereoJobOptions {
   double resolution = 0;
   std::string pairs = "auto";                   ///< "auto" or "0-1,1-2,..."
   std::optional<std::array<double, 4>> bounds;  ///< x0, y0, x1, y1; none: the pairs' overlap on the ground
+  /// The fusion's memory for points, bytes (8 a point; beyond it sorted runs go to a temporary
+  /// file in $TMPDIR or /tmp: MedianFusion, median_fusion.hpp); at least 64 KiB.
+  std::size_t fusion_memory_bytes = std::size_t{1} << 30;
 };
 
 struct StereoReport {
@@ -51,6 +54,7 @@ struct StereoReport {
   int width = 0, height = 0;
   size_t matched_pixels = 0, points = 0, points_in_grid = 0;
   size_t points_outside_range = 0;  ///< triangulated outside height_range, dropped as mismatches
+  size_t fusion_runs_spilled = 0;   ///< 0: the points fitted in fusion_memory_bytes
   GridSummary summary;
   double seconds_read = 0, seconds_height_range = 0, seconds_rectify = 0, seconds_match = 0, seconds_triangulate = 0,
          seconds_fuse = 0, seconds_write = 0;
@@ -62,7 +66,7 @@ struct StereoReport {
 /// nothing was matched (no output is written then).
 StereoReport stereo_job(const StereoJobOptions& options, const Progress& progress = {});
 /// Keys: cameras, output, camera_count, pairs [[i,j],...], height_range, height_range_estimated, bounds, width, height,
-/// matched_pixels, points, points_outside_height_range, points_in_grid, dsm {cells, valid, nodata,
+/// matched_pixels, points, points_outside_height_range, points_in_grid, fusion_runs_spilled, dsm {cells, valid, nodata,
 /// holes, z_min, z_max},
 /// seconds {read, height_range, rectify, match, triangulate, fuse, write, total}.
 Json to_json(const StereoReport& report);
