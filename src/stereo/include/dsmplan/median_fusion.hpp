@@ -37,7 +37,7 @@ struct MedianFusionOptions {
 };
 
 class MedianFusion {
- public:
+public:
   /// Points will fall into `grid`'s cells (its geometry only is kept; at most 2^32 cells,
   /// ArgumentError otherwise).
   explicit MedianFusion(const Grid& grid, const MedianFusionOptions& options = {});
@@ -59,7 +59,7 @@ class MedianFusion {
   /// none fell. Returns points(). Call once; the fusion is empty afterwards.
   std::size_t finish(Grid& grid);
 
- private:
+private:
   struct Run {
     std::uint64_t offset, count;  // in keys
   };
