@@ -15,14 +15,20 @@
 namespace dsmplan {
 
 double machine_memory_bytes() {
-  const long pages = ::sysconf(_SC_PHYS_PAGES), page = ::sysconf(_SC_PAGE_SIZE);
-  double bytes = pages > 0 && page > 0 ? static_cast<double>(pages) * static_cast<double>(page) : INFINITY;
-  // In a container the cgroup's limit is what the kernel enforces ("max" when there is none).
-  for (const char* limit_file : {"/sys/fs/cgroup/memory.max", "/sys/fs/cgroup/memory/memory.limit_in_bytes"}) {
-    std::ifstream in(limit_file);
-    double limit = 0;
-    if (in >> limit && limit > 0 && limit < bytes) bytes = limit;
-  }
+  // The machine and its container are read once (files: tens of microseconds, and a planner
+  // asks at every query); the user's own limits below can change while the process runs.
+  static const double machine = [] {
+    const long pages = ::sysconf(_SC_PHYS_PAGES), page = ::sysconf(_SC_PAGE_SIZE);
+    double bytes = pages > 0 && page > 0 ? static_cast<double>(pages) * static_cast<double>(page) : INFINITY;
+    // In a container the cgroup's limit is what the kernel enforces ("max" when there is none).
+    for (const char* limit_file : {"/sys/fs/cgroup/memory.max", "/sys/fs/cgroup/memory/memory.limit_in_bytes"}) {
+      std::ifstream in(limit_file);
+      double limit = 0;
+      if (in >> limit && limit > 0 && limit < bytes) bytes = limit;
+    }
+    return bytes;
+  }();
+  double bytes = machine;
   // A limit the user sets for dsmplan alone (a shared machine; or a program under
   // AddressSanitizer, whose shadow memory rules out ulimit -v).
   if (const char* limit = std::getenv("DSMPLAN_MAX_MEMORY"); limit && *limit) {

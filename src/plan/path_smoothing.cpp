@@ -5,7 +5,11 @@
 // Bezier from the middle of one segment over the corner to the middle of the next, as in
 // Chaikin's corner cutting, Chaikin 1974), drawn as chords and every chord re-checked.
 // Also the waypoint checks every planner runs first.
+#include <tbb/parallel_for.h>
+#include <tbb/parallel_reduce.h>
+
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <cstdio>
 #include <stdexcept>
@@ -55,13 +59,43 @@ std::string waypoint_problem(const Point3& w, const FlightSpace& space) {
   return {};
 }
 
+// space.motion_valid(p, q), with a cheap refusal first: a motion is valid only if each of its
+// points is, and most long shortcuts that fail (nearly all the candidates below) come too close
+// to the mesh at their middle or quarters. Three point checks are cheaper than the segment's
+// walk over the ground; the answer is motion_valid's.
+bool shortcut_valid(const FlightSpace& space, const Point3& p, const Point3& q) {
+  for (double t : {0.5, 0.25, 0.75})
+    if (!space.state_valid({p[0] + t * (q[0] - p[0]), p[1] + t * (q[1] - p[1]), p[2] + t * (q[2] - p[2])}))
+      return false;
+  return space.motion_valid(p, q);
+}
+
 // From each point, straight on to the farthest later point the segment to which is clear
-// (the next point always is: it is a checked edge).
+// (the next point always is: it is a checked edge). A point's candidates are checked on every
+// core, each part of them from its far end, and the farthest clear one wins: the path is the one
+// a check from the far end down, one by one, gives.
 std::vector<Point3> shortcut(const std::vector<Point3>& leg, const FlightSpace& space) {
+  constexpr size_t kSerial = 8;  // fewer candidates: not worth the threads
   std::vector<Point3> out{leg.front()};
   for (size_t i = 0; i + 1 < leg.size();) {
     size_t j = leg.size() - 1;
-    while (j > i + 1 && !space.motion_valid(leg[i], leg[j])) --j;
+    if (j - i <= kSerial) {
+      while (j > i + 1 && !shortcut_valid(space, leg[i], leg[j])) --j;
+    } else {
+      std::atomic<size_t> farthest = i + 1;
+      tbb::parallel_for(
+          tbb::blocked_range<size_t>(i + 2, leg.size(), 4),
+          [&](const tbb::blocked_range<size_t>& range) {
+            for (size_t k = range.end(); k-- > range.begin() && k > farthest.load(std::memory_order_relaxed);)
+              if (shortcut_valid(space, leg[i], leg[k])) {
+                for (size_t seen = farthest.load(); seen < k && !farthest.compare_exchange_weak(seen, k);) {
+                }
+                return;
+              }
+          },
+          tbb::simple_partitioner());
+      j = farthest.load();
+    }
     out.push_back(leg[j]);
     i = j;
   }
@@ -144,11 +178,17 @@ void finish_path(const std::vector<std::vector<Point3>>& legs, const FlightSpace
     for (size_t k = i ? 1 : 0; k < legs[i].size(); ++k) result.raw_path.push_back(legs[i][k]);
     for (size_t k = i ? 1 : 0; k < smooth.size(); ++k) result.path.push_back(smooth[k]);
   }
-  // Every segment was checked on its way in; this says so once more, cheaply, because a path
-  // that is not clear must never leave the library.
-  for (size_t k = 1; k < result.path.size(); ++k)
-    if (!space.motion_valid(result.path[k - 1], result.path[k]))
-      throw std::logic_error("planner produced a segment closer than the safety distance or above the ceiling");
+  // Every segment was checked on its way in; this says so once more, on every core, because a
+  // path that is not clear must never leave the library.
+  const bool clear = tbb::parallel_reduce(
+      tbb::blocked_range<size_t>(1, result.path.size(), 64), true,
+      [&](const tbb::blocked_range<size_t>& range, bool ok) {
+        for (size_t k = range.begin(); ok && k < range.end(); ++k)
+          ok = space.motion_valid(result.path[k - 1], result.path[k]);
+        return ok;
+      },
+      [](bool a, bool b) { return a && b; });
+  if (!clear) throw std::logic_error("planner produced a segment closer than the safety distance or above the ceiling");
   result.status = PlanStatus::Solved;
 }
 
