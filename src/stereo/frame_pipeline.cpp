@@ -71,22 +71,27 @@ FrameStereoStats stereo_dsm(const std::vector<FrameCamera>& cameras, const std::
     stats.seconds_match += seconds_since(start);
     for (float d : disparity.left) stats.matched_pixels += !std::isnan(d);
 
-    start = std::chrono::steady_clock::now();
-    std::vector<Vec3> set = triangulate(pair, disparity);
-    // The scene lies within the height range: a point more than 10 % of the range outside it
-    // (the disparity search reaches about that far beyond, rectify_pair) is a mismatch. The
-    // margin keeps the noise of points on the lowest (or highest) surface.
-    const std::size_t before = set.size();
-    const double margin = 0.1 * (options.rectify.max_height - options.rectify.min_height);
-    std::erase_if(set, [&](const Vec3& p) {
-      return !(p[2] >= options.rectify.min_height - margin && p[2] <= options.rectify.max_height + margin);
-    });
-    stats.points_outside_range += before - set.size();
-    stats.points += set.size();
-    stats.seconds_triangulate += seconds_since(start);
-    start = std::chrono::steady_clock::now();
-    fusion.add(set);
-    stats.seconds_fuse += seconds_since(start);
+    // Triangulated and fused a band of rows at a time: a pair's points are never all held (24
+    // bytes a pixel against the disparity's 4).
+    constexpr int kBand = 256;
+    for (int row = 0; row < disparity.height; row += kBand) {
+      start = std::chrono::steady_clock::now();
+      std::vector<Vec3> set = triangulate(pair, disparity, row, row + kBand);
+      // The scene lies within the height range: a point more than 10 % of the range outside it
+      // (the disparity search reaches about that far beyond, rectify_pair) is a mismatch. The
+      // margin keeps the noise of points on the lowest (or highest) surface.
+      const std::size_t before = set.size();
+      const double margin = 0.1 * (options.rectify.max_height - options.rectify.min_height);
+      std::erase_if(set, [&](const Vec3& p) {
+        return !(p[2] >= options.rectify.min_height - margin && p[2] <= options.rectify.max_height + margin);
+      });
+      stats.points_outside_range += before - set.size();
+      stats.points += set.size();
+      stats.seconds_triangulate += seconds_since(start);
+      start = std::chrono::steady_clock::now();
+      fusion.add(set);
+      stats.seconds_fuse += seconds_since(start);
+    }
     ++stats.pairs;
     report(progress, 0.95 * (k + 1) / pairs.size());
   }

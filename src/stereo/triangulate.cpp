@@ -8,6 +8,7 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
+#include <algorithm>
 #include <cmath>
 
 #include "dsmplan/stereo_frames.hpp"
@@ -24,12 +25,13 @@ bool triangulate(const RectifiedPair& pair, double u, double v, double d, Vec3& 
   return true;
 }
 
-std::vector<Vec3> triangulate(const RectifiedPair& pair, const Disparity& disparity) {
+std::vector<Vec3> triangulate(const RectifiedPair& pair, const Disparity& disparity, int row_begin, int row_end) {
   const int W = disparity.width, H = disparity.height;
   if (W != pair.left.width || H != pair.left.height)
     throw ArgumentError("disparity", "size differs from the rectified pair's");
-  std::vector<std::vector<Vec3>> rows(H);
-  tbb::parallel_for(tbb::blocked_range<int>(0, H), [&](const tbb::blocked_range<int>& range) {
+  row_begin = std::clamp(row_begin, 0, H), row_end = std::clamp(row_end, row_begin, H);
+  std::vector<std::vector<Vec3>> rows(static_cast<std::size_t>(row_end - row_begin));
+  tbb::parallel_for(tbb::blocked_range<int>(row_begin, row_end), [&](const tbb::blocked_range<int>& range) {
     for (int v = range.begin(); v < range.end(); ++v)
       for (int u = 0; u < W; ++u) {
         const std::size_t i = static_cast<std::size_t>(v) * W + u;
@@ -42,7 +44,7 @@ std::vector<Vec3> triangulate(const RectifiedPair& pair, const Disparity& dispar
         const std::size_t row = static_cast<std::size_t>(v) * W;
         if (!pair.right_mask[row + r0] || !pair.right_mask[row + r1]) continue;
         Vec3 X;
-        if (triangulate(pair, u, v, d, X)) rows[v].push_back(X);
+        if (triangulate(pair, u, v, d, X)) rows[v - row_begin].push_back(X);
       }
   });
   std::vector<Vec3> points;

@@ -41,6 +41,7 @@
 #include <array>
 #include <cstddef>
 #include <functional>
+#include <limits>
 #include <string>
 #include <utility>
 #include <vector>
@@ -141,8 +142,10 @@ std::vector<std::uint16_t> to_uint16(const GreyImage& image);
 /// The world point of left rectified pixel (u, v) with disparity d; false when d + shift <= 0.
 bool triangulate(const RectifiedPair& pair, double u, double v, double d, Vec3& X);
 /// Every valid left pixel's world point (NaN disparities, pixels outside either original image,
-/// and points behind either camera skipped). O(pixels).
-std::vector<Vec3> triangulate(const RectifiedPair& pair, const Disparity& disparity);
+/// and points behind either camera skipped), row by row, of the rows [row_begin, row_end) (clamped
+/// to the image; all by default). O(pixels of those rows).
+std::vector<Vec3> triangulate(const RectifiedPair& pair, const Disparity& disparity, int row_begin = 0,
+                              int row_end = std::numeric_limits<int>::max());
 
 /// The DSM grid of `bounds` (xmin, ymin, xmax, ymax, world units) at cell size `resolution`:
 /// cell (0, 0) touches (xmin, ymax); width = ceil((xmax - xmin)/res), height likewise.
