@@ -3,8 +3,8 @@
 // Fig. 6, as in Hirschmüller's and OpenCV's implementations): a top-down sweep (paths from the
 // left, top-left, top and top-right) and a bottom-up sweep (the other four), each summing its
 // paths per row. The two sweeps run at the same time from both ends of the image; a row's half
-// sum is stored by whichever sweep reaches it first, and the second one adds its own half and
-// hands the row on (RowSink). With one thread the top-down sweep stores every row and the
+// sum is stored by whichever sweep reaches it first, and the second one adds its own half to it
+// as it computes it, and hands the row on (RowSink). With one thread the top-down sweep stores every row and the
 // bottom-up one finishes them; the sums are the same integers either way.
 //
 // Why no waiting can deadlock: a sweep claims a row (atomic counter) before computing it, and the
@@ -112,13 +112,16 @@ void aggregate(const Problem& problem, Simd simd, bool concurrent, const RowSink
         row.before[r] = paths[i & 1][r].data(), row.before_min[r] = minima[i & 1][r].data();
         row.now[r] = paths[(i + 1) & 1][r].data(), row.now_min[r] = minima[(i + 1) & 1][r].data();
       }
-      row.sums = first ? stored.data() + row_sums * y : mine.data();
-      sweep_row(row, simd);
       if (first) {
+        row.sums = stored.data() + row_sums * y, row.other_half = nullptr;
+        sweep_row(row, simd);
         ready[y].store(1, std::memory_order_release);
       } else {
+        // The kernel adds the stored half as it writes its own (one pass over the row's sums
+        // instead of two); the wait is for the one row where the sweeps meet.
         while (!ready[y].load(std::memory_order_acquire)) std::this_thread::yield();
-        add_rows(mine.data(), stored.data() + row_sums * y, row_sums, simd);
+        row.sums = mine.data(), row.other_half = stored.data() + row_sums * y;
+        sweep_row(row, simd);
         sink(y, mine.data());
       }
     }

@@ -3,7 +3,7 @@
 //   census_cost.cpp       the Census transform (Zabih & Woodfill, ECCV 1994) and the Hamming cost
 //   sgm_aggregate.cpp     the two sweeps over the image that sum the 8 (or 4) paths, and a scalar
 //                         reference of the recurrence for the tests
-//   sgm_simd.cpp          the per-row kernels (cost, path step, winners) for SSE2 and AVX2
+//   sgm_simd.cpp          the per-row kernels (cost, path step, winners) for SSE2, AVX2, AVX-512
 //   disparity_refine.cpp  sub-pixel step, right image's disparity, left-right check
 //   speckle_filter.cpp    the removal of small segments
 //   sgm_match.cpp         sgm_match(): checks, bands of rows, the steps in order
@@ -66,8 +66,9 @@ int adapted_p2(const SgmOptions& options, double intensity_unit, unsigned step);
 
 // ---- sgm_aggregate.cpp -----------------------------------------------------------------------
 
-enum class Simd { sse2, avx2, avx2_vpopcnt };
-/// AVX2 with VPOPCNTQ, AVX2, SSE2: the best this CPU has
+enum class Simd { sse2, avx2, avx2_vpopcnt, avx512 };
+/// AVX-512 (BW + VPOPCNTDQ), AVX2 with VPOPCNTQ, AVX2, SSE2: the best this CPU has. AVX-512 rows
+/// whose D16 is not a multiple of 32 go to the AVX2 + VPOPCNTQ kernels (same integers).
 Simd best_simd();
 const char* simd_name(Simd simd);
 
@@ -129,14 +130,15 @@ struct SweepRow {
   std::int16_t* along[2] = {};               ///< two pixels' L of the path along the row (ping-pong)
   const std::int16_t* zero_pixel = nullptr;  ///< a path buffer pixel of zeros: where a path starts
   std::int16_t* sums = nullptr;              ///< out: W x d16
+  /// The other sweep's half sums of this row (W x d16), added to `sums` as they are written; or
+  /// null (this sweep is the first at the row).
+  const std::int16_t* other_half = nullptr;
 };
 inline int path_stride(int d16) { return d16 + block; }
 
 void sweep_row(const SweepRow& row, Simd simd);
 /// The cost of one pixel as the kernels compute it (d16 values, padding included), for the tests.
 void cost_pixel(const SweepRow& row, int x, std::int16_t* out, Simd simd);
-/// sums += other, n values.
-void add_rows(std::int16_t* sums, const std::int16_t* other, std::size_t n, Simd simd);
 
 /// Winners of one row of sums: best[x] = the least-cost disparity index k of left pixel x, and
 /// for the right image best_right[j] with j = W - 1 - x_right - min_disparity (see .cpp),
