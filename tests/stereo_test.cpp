@@ -106,12 +106,12 @@ TEST(Cost, KernelsGiveHammingDistancesAndTheOutOfViewAndPaddingCosts) {
     for (const int num_disparities : {1, 13, 16, 35, 64}) {
       if (min_disparity + num_disparities > width) continue;
       const int d16 = padded_disparities(num_disparities);
-      std::vector<std::uint64_t> reversed(width + 2 * block, 0);
-      for (int t = 0; t < width; ++t) reversed[block + t] = right[width - 1 - t];
+      std::vector<std::uint64_t> reversed(width + 2 * widest_lanes, 0);
+      for (int t = 0; t < width; ++t) reversed[widest_lanes + t] = right[width - 1 - t];
       SweepRow row;
       row.width = width, row.d16 = d16, row.num_disparities = num_disparities, row.min_disparity = min_disparity;
       row.out_of_view_cost = 62, row.pad_cost = 1000;
-      row.census_left = left.data(), row.right_reversed = reversed.data() + block;
+      row.census_left = left.data(), row.right_reversed = reversed.data() + widest_lanes;
       const auto expected =
           cost_volume_reference(left.data(), right.data(), width, 1, min_disparity, num_disparities, 62);
       for (const Simd simd : simd_levels())

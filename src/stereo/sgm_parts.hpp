@@ -40,7 +40,8 @@ std::vector<std::int16_t> cost_volume_reference(const std::uint64_t* census_left
 
 // ---- the matching problem as the kernels see it ------------------------------------------------
 
-constexpr int block = 16;  ///< disparities per step of the kernels (D is padded to a multiple)
+constexpr int block = 16;         ///< disparities per step of the kernels (D is padded to a multiple)
+constexpr int widest_lanes = 32;  ///< int16 lanes of the widest kernels (AVX-512)
 inline int padded_disparities(int num_disparities) { return (num_disparities + block - 1) / block * block; }
 /// Values of the path buffers beyond either end of the disparity range: "infinite" (saturating).
 constexpr std::int16_t infinite_cost = 0x7fff;
@@ -122,7 +123,8 @@ struct SweepRow {
   const std::int16_t* p2_by_step = nullptr;
   /// Path buffers of the vertical directions (straight, diagonal A from x - step, diagonal B
   /// from x + step): the previous row's L, read, and this row's, written; each W pixels of
-  /// stride d16 + block, the values at offset block / 2. Minima per pixel beside them.
+  /// stride path_stride(d16), the values at offset path_offset, one more path_offset of
+  /// infinite values after the last pixel. Minima per pixel beside them.
   const std::int16_t* before[3] = {};
   std::int16_t* now[3] = {};
   const std::int16_t* before_min[3] = {};
@@ -134,7 +136,12 @@ struct SweepRow {
   /// null (this sweep is the first at the row).
   const std::int16_t* other_half = nullptr;
 };
-inline int path_stride(int d16) { return d16 + block; }
+/// Where a pixel's values start in the path buffers (int16): beyond the values at -1 and D16 that
+/// the recurrence reads (infinite), this puts them on 64-byte boundaries (in 64-byte aligned
+/// buffers, D16 a multiple of 32), so the widest kernel's loads and stores of L each touch one
+/// cache line.
+constexpr int path_offset = 32;
+inline int path_stride(int d16) { return d16 + path_offset; }
 
 void sweep_row(const SweepRow& row, Simd simd);
 /// The cost of one pixel as the kernels compute it (d16 values, padding included), for the tests.
