@@ -131,7 +131,9 @@ struct SweepRow {
   std::int16_t* now_min[3] = {};
   std::int16_t* along[2] = {};               ///< two pixels' L of the path along the row (ping-pong)
   const std::int16_t* zero_pixel = nullptr;  ///< a path buffer pixel of zeros: where a path starts
-  std::int16_t* sums = nullptr;              ///< out: W x d16
+  /// out: W x d16; where other_half is null, aligned to the widest vector (64 bytes) and written
+  /// with non-temporal stores
+  std::int16_t* sums = nullptr;
   /// The other sweep's half sums of this row (W x d16), added to `sums` as they are written; or
   /// null (this sweep is the first at the row).
   const std::int16_t* other_half = nullptr;

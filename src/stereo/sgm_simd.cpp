@@ -36,6 +36,7 @@ using vec = __m128i;
 constexpr int lanes = 8;
 inline vec loadu(const std::int16_t* p) { return _mm_loadu_si128(reinterpret_cast<const __m128i*>(p)); }
 inline void storeu(std::int16_t* p, vec v) { _mm_storeu_si128(reinterpret_cast<__m128i*>(p), v); }
+inline void stream(std::int16_t* p, vec v) { _mm_stream_si128(reinterpret_cast<__m128i*>(p), v); }
 inline vec set1(std::int16_t v) { return _mm_set1_epi16(v); }
 inline vec adds(vec a, vec b) { return _mm_adds_epi16(a, b); }
 inline vec subs(vec a, vec b) { return _mm_subs_epi16(a, b); }
