@@ -163,4 +163,8 @@ void refine_row(const std::int16_t* sums, int width, int d16, int num_disparitie
                 const std::int32_t* best, const std::int16_t* right_cost, const std::int16_t* best_right, float* left,
                 float* right);
 
+/// left_right_check() of stereo.hpp on one row (W values each): sgm_match() checks each row as
+/// soon as both its disparities are known, on the sweeps' threads.
+std::size_t left_right_check_row(float* left, const float* right, int width, double max_difference);
+
 }  // namespace dsmplan::stereo
