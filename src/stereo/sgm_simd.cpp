@@ -45,7 +45,10 @@ inline vec vmin(vec a, vec b) { return _mm_min_epi16(a, b); }
 inline vec vand(vec a, vec b) { return _mm_and_si128(a, b); }
 inline vec vandnot(vec a, vec b) { return _mm_andnot_si128(a, b); }
 inline vec vor(vec a, vec b) { return _mm_or_si128(a, b); }
-inline vec cmpgt(vec a, vec b) { return _mm_cmpgt_epi16(a, b); }
+inline vec select_gt(vec a, vec b, vec if_greater, vec otherwise) {
+  const vec greater = _mm_cmpgt_epi16(a, b);
+  return _mm_or_si128(_mm_and_si128(greater, if_greater), _mm_andnot_si128(greater, otherwise));
+}
 inline vec iota() { return _mm_setr_epi16(0, 1, 2, 3, 4, 5, 6, 7); }
 inline int first_equal(vec a, vec b) {
   const int mask = _mm_movemask_epi8(_mm_cmpeq_epi16(a, b));
