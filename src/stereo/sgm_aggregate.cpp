@@ -4,8 +4,8 @@
 // left, top-left, top and top-right) and a bottom-up sweep (the other four), each summing its
 // paths per row. The two sweeps run at the same time from both ends of the image; a row's half
 // sum is stored by whichever sweep reaches it first, and the second one adds its own half to it
-// as it computes it, and hands the row on (RowSink). With one thread the top-down sweep stores every row and the
-// bottom-up one finishes them; the sums are the same integers either way.
+// as it computes it, and hands the row on (RowSink). With one thread the top-down sweep stores
+// every row and the bottom-up one finishes them; the sums are the same integers either way.
 //
 // Why no waiting can deadlock: a sweep claims a row (atomic counter) before computing it, and the
 // second one only waits for a row whose first claimer is computing it right now, on another
