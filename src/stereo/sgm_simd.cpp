@@ -9,8 +9,9 @@
 // target("avx2") region for AVX2, for AVX2 whose Hamming distances use AVX-512's VPOPCNTQ
 // (AVX512VL + AVX512_VPOPCNTDQ: a third fewer instructions per pixel and disparity), and for
 // AVX-512BW with 32 lanes (half the instructions again, where D16 is a multiple of 32; other
-// rows take the 256-bit kernel); best_simd() picks the best one the CPU has at run time. All compute the same integers
-// (tests/stereo_test.cpp checks them against each other and a scalar reference).
+// rows take the 256-bit kernel); best_simd() picks the best one the CPU has at run time. All
+// compute the same integers (tests/stereo_test.cpp checks them against each other and a scalar
+// reference).
 // Everything instruction-set specific has internal linkage, so no AVX2 copy of a shared inline
 // function can be picked by the linker for the baseline code.
 //
