@@ -17,7 +17,8 @@
 // Timing: every round runs dsmplan, HH and 3WAY once each, in turn (A B C A B C ...), so that all
 // see the shared machine in the same state; the median over the rounds is printed with min-max
 // and the 1-minute load before and after. Each matcher object is made once and reused (OpenCV's
-// keeps its buffers between calls, so does dsmplan::SgmMatcher). argv[1] = rounds (default 5).
+// keeps its buffers between calls, so does dsmplan::SgmMatcher). argv[1] = rounds (default 5);
+// argv[2] = "dsmplan": dsmplan alone (no OpenCV tuning), for alternating runs of two builds.
 #include <tbb/global_control.h>
 
 #include <algorithm>
@@ -81,6 +82,7 @@ cv::Ptr<cv::StereoSGBM> make_sgbm(int mode, const SgbmSetting& s) {
 int main(int argc, char** argv) {
   std::setvbuf(stdout, nullptr, _IOLBF, 0);  // progress shows when piped to a file
   const int rounds = argc > 1 ? std::max(1, std::atoi(argv[1])) : 5;
+  const bool ours_alone = argc > 2 && std::string(argv[2]) == "dsmplan";
   const aloe::Pair pair = aloe::read_pair(DSMPLAN_DATA_DIR "/middlebury-aloe");
   const int width = pair.left.width, height = pair.left.height;
   const double work = double(width) * height * num_disparities;
@@ -106,6 +108,7 @@ int main(int argc, char** argv) {
   std::vector<cv::Ptr<cv::StereoSGBM>> matchers;
   for (const auto& [mode, name] : {std::pair{int(cv::StereoSGBM::MODE_HH), "OpenCV MODE_HH"},
                                    std::pair{int(cv::StereoSGBM::MODE_SGBM_3WAY), "OpenCV MODE_SGBM_3WAY"}}) {
+    if (ours_alone) break;
     SgbmSetting best{};
     double best_bad1 = 2;
     const int cn = 1;
@@ -127,6 +130,7 @@ int main(int argc, char** argv) {
                           {}});
   }
 #else
+  (void)ours_alone;
   std::printf("OpenCV not found at configure time: dsmplan alone (apt-get install libopencv-dev)\n");
 #endif
 

@@ -36,7 +36,8 @@ namespace {
 std::vector<Simd> simd_levels() {
   std::vector<Simd> levels = {Simd::sse2};
   if (best_simd() != Simd::sse2) levels.push_back(Simd::avx2);
-  if (best_simd() == Simd::avx2_vpopcnt) levels.push_back(Simd::avx2_vpopcnt);
+  if (best_simd() == Simd::avx2_vpopcnt || best_simd() == Simd::avx512) levels.push_back(Simd::avx2_vpopcnt);
+  if (best_simd() == Simd::avx512) levels.push_back(Simd::avx512);
   return levels;
 }
 
@@ -102,15 +103,15 @@ TEST(Cost, KernelsGiveHammingDistancesAndTheOutOfViewAndPaddingCosts) {
   for (auto& v : left) v = random() >> 2;  // 62 bits
   for (auto& v : right) v = random() >> 2;
   for (const int min_disparity : {0, -7, 5})
-    for (const int num_disparities : {1, 13, 16, 35}) {
+    for (const int num_disparities : {1, 13, 16, 35, 64}) {
       if (min_disparity + num_disparities > width) continue;
       const int d16 = padded_disparities(num_disparities);
-      std::vector<std::uint64_t> reversed(width + 2 * block, 0);
-      for (int t = 0; t < width; ++t) reversed[block + t] = right[width - 1 - t];
+      std::vector<std::uint64_t> reversed(width + 2 * widest_lanes, 0);
+      for (int t = 0; t < width; ++t) reversed[widest_lanes + t] = right[width - 1 - t];
       SweepRow row;
       row.width = width, row.d16 = d16, row.num_disparities = num_disparities, row.min_disparity = min_disparity;
       row.out_of_view_cost = 62, row.pad_cost = 1000;
-      row.census_left = left.data(), row.right_reversed = reversed.data() + block;
+      row.census_left = left.data(), row.right_reversed = reversed.data() + widest_lanes;
       const auto expected =
           cost_volume_reference(left.data(), right.data(), width, 1, min_disparity, num_disparities, 62);
       for (const Simd simd : simd_levels())
@@ -163,7 +164,8 @@ TEST(Aggregation, SimdSweepsEqualThePlainRecurrence) {
   };
   for (const Case c : {Case{23, 17, 0, 21, 8, true, 255, 9, 7}, Case{19, 11, -3, 16, 8, true, 255, 5, 5},
                        Case{30, 9, 2, 5, 4, true, 255, 9, 7}, Case{17, 13, 1, 33, 8, false, 255, 7, 7},
-                       Case{25, 14, 0, 12, 8, true, 4095, 9, 7}}) {
+                       Case{25, 14, 0, 12, 8, true, 4095, 9, 7}, Case{70, 12, -5, 64, 8, true, 255, 9, 7},
+                       Case{45, 10, 3, 40, 4, true, 255, 9, 7}}) {
     SgmOptions options;
     options.paths = c.paths, options.adapt_p2 = c.adapt, options.p1 = 9, options.p2 = 130;
     options.census_width = c.census_width, options.census_height = c.census_height;
@@ -212,55 +214,61 @@ TEST(Aggregation, PenaltyFollowsTheIntensityStep) {
 
 // ---- winners, sub-pixel ------------------------------------------------------------------------
 
+// The disparities are floats: about one float step (2^-23 relative), at least 1e-6.
+double float_tolerance(double want) { return std::max(1e-6, 1.2e-7 * std::abs(want)); }
+
 TEST(Winners, LeastSumsOfBothImagesAndTheParabola) {
-  const int width = 29, d = 11, d16 = padded_disparities(d), min_disparity = -2;
-  std::mt19937 random(3);
-  std::uniform_int_distribution<int> value(0, 40);  // few values: ties
-  std::vector<std::int16_t> sums(static_cast<std::size_t>(width) * d16);
-  for (int x = 0; x < width; ++x)
-    for (int k = 0; k < d16; ++k) sums[static_cast<std::size_t>(x) * d16 + k] = k < d ? value(random) : 30000;
-  const auto s = [&](int x, int k) { return sums[static_cast<std::size_t>(x) * d16 + k]; };
-  for (const Simd simd : simd_levels()) {
-    std::vector<std::int32_t> best(width);
-    std::vector<std::int16_t> right_cost(width + d16), best_right(width + d16);
-    winners_row(sums.data(), width, d16, d, best.data(), right_cost.data(), best_right.data(), simd);
-    std::vector<float> left(width), right(width);
-    refine_row(sums.data(), width, d16, d, min_disparity, true, best.data(), right_cost.data(), best_right.data(),
-               left.data(), right.data());
-    for (int x = 0; x < width; ++x) {
-      int k = 0;
-      for (int j = 1; j < d; ++j)
-        if (s(x, j) < s(x, k)) k = j;
-      const int xr = x - min_disparity - k;
-      if (xr < 0 || xr >= width) {
-        EXPECT_TRUE(std::isnan(left[x])) << x;
-        continue;
+  // D16 = 16 and 64: the AVX-512 kernel takes the second, 32 disparities at a time.
+  for (const auto& [width, d] : {std::pair{29, 11}, std::pair{83, 60}}) {
+    const int d16 = padded_disparities(d), min_disparity = -2;
+    std::mt19937 random(3);
+    std::uniform_int_distribution<int> value(0, 40);  // few values: ties
+    std::vector<std::int16_t> sums(static_cast<std::size_t>(width) * d16);
+    for (int x = 0; x < width; ++x)
+      for (int k = 0; k < d16; ++k) sums[static_cast<std::size_t>(x) * d16 + k] = k < d ? value(random) : 30000;
+    const auto s = [&](int x, int k) { return sums[static_cast<std::size_t>(x) * d16 + k]; };
+    for (const Simd simd : simd_levels()) {
+      std::vector<std::int32_t> best(width);
+      std::vector<std::int16_t> right_cost(width + d16), best_right(width + d16);
+      winners_row(sums.data(), width, d16, d, best.data(), right_cost.data(), best_right.data(), simd);
+      std::vector<float> left(width), right(width);
+      refine_row(sums.data(), width, d16, d, min_disparity, true, best.data(), right_cost.data(), best_right.data(),
+                 left.data(), right.data());
+      for (int x = 0; x < width; ++x) {
+        int k = 0;
+        for (int j = 1; j < d; ++j)
+          if (s(x, j) < s(x, k)) k = j;
+        const int xr = x - min_disparity - k;
+        if (xr < 0 || xr >= width) {
+          EXPECT_TRUE(std::isnan(left[x])) << x;
+          continue;
+        }
+        double want = min_disparity + k;
+        if (k > 0 && k < d - 1) {
+          const double a = s(x, k - 1), b = s(x, k), c = s(x, k + 1);
+          if (a - 2 * b + c > 0) want += (a - c) / (2 * (a - 2 * b + c));
+        }
+        EXPECT_NEAR(left[x], want, float_tolerance(want)) << simd_name(simd) << " x " << x;
       }
-      double want = min_disparity + k;
-      if (k > 0 && k < d - 1) {
-        const double a = s(x, k - 1), b = s(x, k), c = s(x, k + 1);
-        if (a - 2 * b + c > 0) want += (a - c) / (2 * (a - 2 * b + c));
+      for (int xr = 0; xr < width; ++xr) {
+        int k_best = -1;
+        for (int k = 0; k < d; ++k) {
+          const int x = xr + min_disparity + k;
+          if (x < 0 || x >= width) continue;
+          if (k_best < 0 || s(x, k) < s(xr + min_disparity + k_best, k_best)) k_best = k;
+        }
+        if (k_best < 0) {
+          EXPECT_TRUE(std::isnan(right[xr]));
+          continue;
+        }
+        const int x = xr + min_disparity + k_best;
+        double want = min_disparity + k_best;
+        if (k_best > 0 && k_best < d - 1 && x > 0 && x + 1 < width) {
+          const double a = s(x - 1, k_best - 1), b = s(x, k_best), c = s(x + 1, k_best + 1);
+          if (a - 2 * b + c > 0) want += (a - c) / (2 * (a - 2 * b + c));
+        }
+        EXPECT_NEAR(right[xr], want, float_tolerance(want)) << simd_name(simd) << " right x " << xr;
       }
-      EXPECT_NEAR(left[x], want, 1e-6) << simd_name(simd) << " x " << x;
-    }
-    for (int xr = 0; xr < width; ++xr) {
-      int k_best = -1;
-      for (int k = 0; k < d; ++k) {
-        const int x = xr + min_disparity + k;
-        if (x < 0 || x >= width) continue;
-        if (k_best < 0 || s(x, k) < s(xr + min_disparity + k_best, k_best)) k_best = k;
-      }
-      if (k_best < 0) {
-        EXPECT_TRUE(std::isnan(right[xr]));
-        continue;
-      }
-      const int x = xr + min_disparity + k_best;
-      double want = min_disparity + k_best;
-      if (k_best > 0 && k_best < d - 1 && x > 0 && x + 1 < width) {
-        const double a = s(x - 1, k_best - 1), b = s(x, k_best), c = s(x + 1, k_best + 1);
-        if (a - 2 * b + c > 0) want += (a - c) / (2 * (a - 2 * b + c));
-      }
-      EXPECT_NEAR(right[xr], want, 1e-6) << simd_name(simd) << " right x " << xr;
     }
   }
 }

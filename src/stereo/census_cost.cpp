@@ -33,10 +33,9 @@ std::vector<std::uint16_t> to_u16(const ImageView& image, int row0, int rows) {
 namespace {
 
 // One bit plane of the transform for a whole row: written for the compiler to vectorise, and
-// cloned for AVX2 (chosen at load time by the CPU; the baseline stays SSE2).
-__attribute__((target_clones("avx2", "default"))) void shift_in_comparisons(std::uint64_t* census,
-                                                                            const std::uint16_t* neighbours,
-                                                                            const std::uint16_t* centres, int n) {
+// cloned for x86-64-v4 (AVX-512) and AVX2 (chosen at load time by the CPU; the baseline stays SSE2).
+__attribute__((target_clones("arch=x86-64-v4", "avx2", "default"))) void shift_in_comparisons(
+    std::uint64_t* census, const std::uint16_t* neighbours, const std::uint16_t* centres, int n) {
   for (int x = 0; x < n; ++x) census[x] = (census[x] << 1) | static_cast<std::uint64_t>(neighbours[x] < centres[x]);
 }
 

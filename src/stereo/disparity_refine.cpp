@@ -57,6 +57,18 @@ void refine_row(const std::int16_t* sums, int width, int d16, int num_disparitie
   }
 }
 
+std::size_t left_right_check_row(float* left, const float* right, int width, double max_difference) {
+  std::size_t removed = 0;
+  for (int x = 0; x < width; ++x) {
+    float& d = left[x];
+    if (std::isnan(d)) continue;
+    const long x_right = std::lround(x - d);
+    const bool confirmed = x_right >= 0 && x_right < width && std::abs(d - right[x_right]) <= max_difference;
+    if (!confirmed) d = std::numeric_limits<float>::quiet_NaN(), ++removed;  // NaN compares false: removed
+  }
+  return removed;
+}
+
 }  // namespace dsmplan::stereo
 
 namespace dsmplan {
@@ -64,15 +76,10 @@ namespace dsmplan {
 std::size_t left_right_check(std::vector<float>& left, const std::vector<float>& right, int width, int height,
                              double max_difference) {
   std::size_t removed = 0;
-  for (int y = 0; y < height; ++y)
-    for (int x = 0; x < width; ++x) {
-      float& d = left[static_cast<std::size_t>(y) * width + x];
-      if (std::isnan(d)) continue;
-      const long x_right = std::lround(x - d);
-      const bool confirmed = x_right >= 0 && x_right < width &&
-                             std::abs(d - right[static_cast<std::size_t>(y) * width + x_right]) <= max_difference;
-      if (!confirmed) d = std::numeric_limits<float>::quiet_NaN(), ++removed;  // NaN compares false: removed
-    }
+  for (int y = 0; y < height; ++y) {
+    const std::size_t start = static_cast<std::size_t>(y) * width;
+    removed += stereo::left_right_check_row(left.data() + start, right.data() + start, width, max_difference);
+  }
   return removed;
 }
 

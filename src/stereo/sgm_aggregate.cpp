@@ -3,9 +3,9 @@
 // Fig. 6, as in Hirschmüller's and OpenCV's implementations): a top-down sweep (paths from the
 // left, top-left, top and top-right) and a bottom-up sweep (the other four), each summing its
 // paths per row. The two sweeps run at the same time from both ends of the image; a row's half
-// sum is stored by whichever sweep reaches it first, and the second one adds its own half and
-// hands the row on (RowSink). With one thread the top-down sweep stores every row and the
-// bottom-up one finishes them; the sums are the same integers either way.
+// sum is stored by whichever sweep reaches it first, and the second one adds its own half to it
+// as it computes it, and hands the row on (RowSink). With one thread the top-down sweep stores
+// every row and the bottom-up one finishes them; the sums are the same integers either way.
 //
 // Why no waiting can deadlock: a sweep claims a row (atomic counter) before computing it, and the
 // second one only waits for a row whose first claimer is computing it right now, on another
@@ -60,6 +60,24 @@ void set_penalties(Problem& problem, const SgmOptions& options, int census_bits,
     problem.p2_by_step[step] = static_cast<std::int16_t>(adapted_p2(options, intensity_unit, step));
 }
 
+namespace {
+
+// Buffers of int16 on 64-byte boundaries (a cache line, the widest vector).
+struct FreeAligned {
+  void operator()(std::int16_t* p) const { std::free(p); }
+};
+using Aligned = std::unique_ptr<std::int16_t[], FreeAligned>;
+
+Aligned aligned_values(std::size_t count, std::int16_t value) {
+  const std::size_t bytes = (count * sizeof(std::int16_t) + 63) / 64 * 64;
+  Aligned buffer(static_cast<std::int16_t*>(std::aligned_alloc(64, bytes)));
+  if (!buffer) throw std::bad_alloc();
+  std::fill_n(buffer.get(), bytes / sizeof(std::int16_t), value);
+  return buffer;
+}
+
+}  // namespace
+
 void aggregate(const Problem& problem, Simd simd, bool concurrent, const RowSink& sink,
                std::unique_ptr<LargeBuffer>& storage) {
   const int width = problem.width, height = problem.height;
@@ -75,19 +93,21 @@ void aggregate(const Problem& problem, Simd simd, bool concurrent, const RowSink
 
   const auto sweep = [&](bool top_down) {
     const int directions = problem.diagonals ? 3 : 1;
-    std::vector<std::int16_t> paths[2][3], minima[2][3];
+    const std::size_t path_values = static_cast<std::size_t>(width) * stride + path_offset;
+    Aligned paths[2][3];
+    std::vector<std::int16_t> minima[2][3];
     for (int b = 0; b < 2; ++b)
       for (int r = 0; r < directions; ++r) {
-        paths[b][r].assign(static_cast<std::size_t>(width) * stride, infinite_cost);
+        paths[b][r] = aligned_values(path_values, infinite_cost);
         minima[b][r].assign(width, 0);
       }
-    std::vector<std::int16_t> along[2] = {std::vector<std::int16_t>(stride, infinite_cost),
-                                          std::vector<std::int16_t>(stride, infinite_cost)};
-    const std::vector<std::int16_t> zero_pixel(stride, 0);
-    std::vector<std::int16_t> mine(row_sums);
-    // The right census of the row, reversed, with a block of padding on both sides (the kernels
+    const Aligned along[2] = {aligned_values(stride + path_offset, infinite_cost),
+                              aligned_values(stride + path_offset, infinite_cost)};
+    const Aligned zero_pixel = aligned_values(stride + path_offset, 0);
+    const Aligned mine = aligned_values(row_sums, 0);
+    // The right census of the row, reversed, with a vector of padding on both sides (the kernels
     // read whole vectors that may overlap the ends; those lanes are replaced).
-    std::vector<std::uint64_t> right_reversed(static_cast<std::size_t>(width) + 2 * block, 0);
+    std::vector<std::uint64_t> right_reversed(static_cast<std::size_t>(width) + 2 * widest_lanes, 0);
 
     SweepRow row;
     row.width = width, row.d16 = d16, row.num_disparities = problem.num_disparities;
@@ -95,9 +115,9 @@ void aggregate(const Problem& problem, Simd simd, bool concurrent, const RowSink
     row.pad_cost = problem.pad_cost, row.p1 = problem.p1;
     row.forward = top_down, row.diagonals = problem.diagonals;
     row.p2_by_step = problem.p2_by_step.data();
-    row.right_reversed = right_reversed.data() + block;
-    row.along[0] = along[0].data(), row.along[1] = along[1].data();
-    row.zero_pixel = zero_pixel.data();
+    row.right_reversed = right_reversed.data() + widest_lanes;
+    row.along[0] = along[0].get(), row.along[1] = along[1].get();
+    row.zero_pixel = zero_pixel.get();
     for (int i = 0; i < height; ++i) {
       const int y = top_down ? i : height - 1 - i;
       const std::size_t start = static_cast<std::size_t>(y) * width;
@@ -105,21 +125,24 @@ void aggregate(const Problem& problem, Simd simd, bool concurrent, const RowSink
       row.first_row = i == 0;
       row.census_left = problem.census_left + start;
       const std::uint64_t* census_right = problem.census_right + start;
-      for (int t = 0; t < width; ++t) right_reversed[block + t] = census_right[width - 1 - t];
+      for (int t = 0; t < width; ++t) right_reversed[widest_lanes + t] = census_right[width - 1 - t];
       row.intensity = problem.intensity + start;
       row.intensity_before = i == 0 ? nullptr : problem.intensity + (top_down ? start - width : start + width);
       for (int r = 0; r < directions; ++r) {
-        row.before[r] = paths[i & 1][r].data(), row.before_min[r] = minima[i & 1][r].data();
-        row.now[r] = paths[(i + 1) & 1][r].data(), row.now_min[r] = minima[(i + 1) & 1][r].data();
+        row.before[r] = paths[i & 1][r].get(), row.before_min[r] = minima[i & 1][r].data();
+        row.now[r] = paths[(i + 1) & 1][r].get(), row.now_min[r] = minima[(i + 1) & 1][r].data();
       }
-      row.sums = first ? stored.data() + row_sums * y : mine.data();
-      sweep_row(row, simd);
       if (first) {
+        row.sums = stored.data() + row_sums * y, row.other_half = nullptr;
+        sweep_row(row, simd);
         ready[y].store(1, std::memory_order_release);
       } else {
+        // The kernel adds the stored half as it writes its own (one pass over the row's sums
+        // instead of two); the wait is for the one row where the sweeps meet.
         while (!ready[y].load(std::memory_order_acquire)) std::this_thread::yield();
-        add_rows(mine.data(), stored.data() + row_sums * y, row_sums, simd);
-        sink(y, mine.data());
+        row.sums = mine.get(), row.other_half = stored.data() + row_sums * y;
+        sweep_row(row, simd);
+        sink(y, mine.get());
       }
     }
   };

@@ -172,11 +172,12 @@ Disparity SgmMatcher::match(const ImageView& left, const ImageView& right) {
             const std::size_t start = static_cast<std::size_t>(image_row) * width;
             refine_row(sums, width, d16, options.num_disparities, options.min_disparity, options.subpixel, best.data(),
                        right_cost.data(), best_right.data(), out.left.data() + start, out.right.data() + start);
+            if (options.lr_max_difference >= 0)
+              left_right_check_row(out.left.data() + start, out.right.data() + start, width, options.lr_max_difference);
           },
           workspace_->sums);
     }
   });
-  if (options.lr_max_difference >= 0) left_right_check(out.left, out.right, width, height, options.lr_max_difference);
   if (options.speckle_min_pixels > 0)
     remove_small_segments(out.left, width, height, options.speckle_min_pixels, options.speckle_max_difference);
   if (!options.right_disparity) out.right.clear(), out.right.shrink_to_fit();

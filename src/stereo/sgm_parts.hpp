@@ -3,7 +3,7 @@
 //   census_cost.cpp       the Census transform (Zabih & Woodfill, ECCV 1994) and the Hamming cost
 //   sgm_aggregate.cpp     the two sweeps over the image that sum the 8 (or 4) paths, and a scalar
 //                         reference of the recurrence for the tests
-//   sgm_simd.cpp          the per-row kernels (cost, path step, winners) for SSE2 and AVX2
+//   sgm_simd.cpp          the per-row kernels (cost, path step, winners) for SSE2, AVX2, AVX-512
 //   disparity_refine.cpp  sub-pixel step, right image's disparity, left-right check
 //   speckle_filter.cpp    the removal of small segments
 //   sgm_match.cpp         sgm_match(): checks, bands of rows, the steps in order
@@ -40,7 +40,8 @@ std::vector<std::int16_t> cost_volume_reference(const std::uint64_t* census_left
 
 // ---- the matching problem as the kernels see it ------------------------------------------------
 
-constexpr int block = 16;  ///< disparities per step of the kernels (D is padded to a multiple)
+constexpr int block = 16;         ///< disparities per step of the kernels (D is padded to a multiple)
+constexpr int widest_lanes = 32;  ///< int16 lanes of the widest kernels (AVX-512)
 inline int padded_disparities(int num_disparities) { return (num_disparities + block - 1) / block * block; }
 /// Values of the path buffers beyond either end of the disparity range: "infinite" (saturating).
 constexpr std::int16_t infinite_cost = 0x7fff;
@@ -66,8 +67,9 @@ int adapted_p2(const SgmOptions& options, double intensity_unit, unsigned step);
 
 // ---- sgm_aggregate.cpp -----------------------------------------------------------------------
 
-enum class Simd { sse2, avx2, avx2_vpopcnt };
-/// AVX2 with VPOPCNTQ, AVX2, SSE2: the best this CPU has
+enum class Simd { sse2, avx2, avx2_vpopcnt, avx512 };
+/// AVX-512 (BW + VPOPCNTDQ), AVX2 with VPOPCNTQ, AVX2, SSE2: the best this CPU has. AVX-512 rows
+/// whose D16 is not a multiple of 32 go to the AVX2 + VPOPCNTQ kernels (same integers).
 Simd best_simd();
 const char* simd_name(Simd simd);
 
@@ -121,22 +123,31 @@ struct SweepRow {
   const std::int16_t* p2_by_step = nullptr;
   /// Path buffers of the vertical directions (straight, diagonal A from x - step, diagonal B
   /// from x + step): the previous row's L, read, and this row's, written; each W pixels of
-  /// stride d16 + block, the values at offset block / 2. Minima per pixel beside them.
+  /// stride path_stride(d16), the values at offset path_offset, one more path_offset of
+  /// infinite values after the last pixel. Minima per pixel beside them.
   const std::int16_t* before[3] = {};
   std::int16_t* now[3] = {};
   const std::int16_t* before_min[3] = {};
   std::int16_t* now_min[3] = {};
   std::int16_t* along[2] = {};               ///< two pixels' L of the path along the row (ping-pong)
   const std::int16_t* zero_pixel = nullptr;  ///< a path buffer pixel of zeros: where a path starts
-  std::int16_t* sums = nullptr;              ///< out: W x d16
+  /// out: W x d16; where other_half is null, aligned to the widest vector (64 bytes) and written
+  /// with non-temporal stores
+  std::int16_t* sums = nullptr;
+  /// The other sweep's half sums of this row (W x d16), added to `sums` as they are written; or
+  /// null (this sweep is the first at the row).
+  const std::int16_t* other_half = nullptr;
 };
-inline int path_stride(int d16) { return d16 + block; }
+/// Where a pixel's values start in the path buffers (int16): beyond the values at -1 and D16 that
+/// the recurrence reads (infinite), this puts them on 64-byte boundaries (in 64-byte aligned
+/// buffers, D16 a multiple of 32), so the widest kernel's loads and stores of L each touch one
+/// cache line.
+constexpr int path_offset = 32;
+inline int path_stride(int d16) { return d16 + path_offset; }
 
 void sweep_row(const SweepRow& row, Simd simd);
 /// The cost of one pixel as the kernels compute it (d16 values, padding included), for the tests.
 void cost_pixel(const SweepRow& row, int x, std::int16_t* out, Simd simd);
-/// sums += other, n values.
-void add_rows(std::int16_t* sums, const std::int16_t* other, std::size_t n, Simd simd);
 
 /// Winners of one row of sums: best[x] = the least-cost disparity index k of left pixel x, and
 /// for the right image best_right[j] with j = W - 1 - x_right - min_disparity (see .cpp),
@@ -151,5 +162,9 @@ void winners_row(const std::int16_t* sums, int width, int d16, int num_dispariti
 void refine_row(const std::int16_t* sums, int width, int d16, int num_disparities, int min_disparity, bool subpixel,
                 const std::int32_t* best, const std::int16_t* right_cost, const std::int16_t* best_right, float* left,
                 float* right);
+
+/// left_right_check() of stereo.hpp on one row (W values each): sgm_match() checks each row as
+/// soon as both its disparities are known, on the sweeps' threads.
+std::size_t left_right_check_row(float* left, const float* right, int width, double max_difference);
 
 }  // namespace dsmplan::stereo

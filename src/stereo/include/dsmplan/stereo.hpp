@@ -33,9 +33,9 @@
 // The disparity range is [min_disparity, min_disparity + num_disparities).
 //
 // Guarantees. The result does not depend on the number of threads nor on the instruction set
-// (the SIMD kernels, AVX2 (with AVX-512's VPOPCNTQ where there) when the CPU has it else SSE2,
-// compute the same integers as a scalar reference). Costs and sums are 16-bit integers that cannot overflow under the
-// limits checked on the options (P2 <= 1000).
+// (the SIMD kernels, AVX-512BW, AVX2 (with AVX-512's VPOPCNTQ where there) or SSE2, the best the
+// CPU has, compute the same integers as a scalar reference). Costs and sums are 16-bit integers
+// that cannot overflow under the limits checked on the options (P2 <= 1000).
 //
 // Errors: ArgumentError (dsmplan/core.hpp) naming the argument for images of different
 // sizes, empty images, bit depths other than 8 and 16, a disparity range that does not fit the
@@ -43,10 +43,10 @@
 // when even one band of rows cannot be held in memory.
 //
 // Complexity and memory. Time O(W·H·D) for W x H pixels and D = num_disparities (8 paths: about
-// 16 saturated 16-bit operations per pixel and disparity, 8 or 16 at a time). Memory, with D16 =
-// D rounded up to a multiple of 16:
+// 16 saturated 16-bit operations per pixel and disparity, 8, 16 or 32 at a time). Memory, with
+// D16 = D rounded up to a multiple of 16:
 //   2 bytes per pixel and disparity (2·W·H·D16: the half of the paths' sum the first of the two
-//   sweeps leaves for the second), plus about 28·W·(D16 + 16) bytes of row buffers, plus 28 bytes
+//   sweeps leaves for the second), plus about 28·W·(D16 + 32) bytes of row buffers, plus 28 bytes
 //   per pixel (census, intensities, outputs).
 // When that exceeds the memory bound (max_memory_bytes, default half the machine's memory), the
 // image is matched in horizontal bands of rows that overlap by band_overlap rows above and below;
