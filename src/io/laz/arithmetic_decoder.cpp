@@ -25,10 +25,14 @@ void BitModel::update() {
   bits_until_update = update_cycle;
 }
 
-SymbolModel::SymbolModel(uint32_t n) : symbols(n), last_symbol(n - 1), distribution(n), symbol_count(n) {
-  if (symbols > 16) {
-    uint32_t table_bits = 3;
-    while (symbols > (1u << (table_bits + 2))) ++table_bits;
+void SymbolModel::init(uint32_t n) {
+  symbols = n;
+  last_symbol = n - 1;
+  distribution.assign(n, 0);
+  symbol_count.assign(n, 0);
+  if (symbols > 2) {  // the smallest power of two >= the symbols, at least 32 (see laz_private.hpp)
+    uint32_t table_bits = 5;
+    while (symbols > (1u << table_bits)) ++table_bits;
     table_size = 1u << table_bits;
     table_shift = kSymbolLengthShift - table_bits;
     decoder_table.assign(table_size + 2, 0);

@@ -9,7 +9,10 @@
 // around them is ours.
 #pragma once
 
+#include <algorithm>
+#include <bit>
 #include <cstdint>
+#include <cstring>
 #include <memory>
 #include <string>
 #include <vector>
@@ -53,6 +56,20 @@ public:
     ++overrun_;
     return 0;
   }
+  // The next `n` (0 to 4) bytes, big-endian, as the low bits of the result. One bounds check for
+  // all of them while four bytes remain; byte by byte (zeros past the end) near the end.
+  uint32_t get_bytes(uint32_t n) {
+    if (end_ - next_ >= 4) {
+      uint32_t word;  // the stream is big-endian
+      std::memcpy(&word, next_, 4);
+      if constexpr (std::endian::native == std::endian::little) word = __builtin_bswap32(word);
+      next_ += n;
+      return static_cast<uint32_t>(uint64_t{word} >> (32 - 8 * n));  // 64 bits: n = 0 shifts by 32
+    }
+    uint32_t v = 0;
+    for (uint32_t i = 0; i < n; ++i) v = v << 8 | get();
+    return v;
+  }
   uint32_t overrun() const { return overrun_; }
   size_t remaining() const { return static_cast<size_t>(end_ - next_); }
 
@@ -68,16 +85,23 @@ struct BitModel {
   void update();
 };
 
-// Adaptive multi-symbol model (15-bit cumulative distribution; a decoder look-up table for more
-// than 16 symbols, which only speeds up the search: the decoded symbol is the same either way).
+// Adaptive multi-symbol model (15-bit cumulative distribution). LASzip gives only models of more
+// than 16 symbols a decoder table, of a quarter to half an entry per symbol, and finds the symbol
+// by bisection between two entries (or, without a table, by bisection over all symbols). Here
+// every model of more than two symbols has one, of one to two entries per symbol (at least 32):
+// the entries bracket the symbol so closely that the search mostly ends at once, where each step
+// of a bisection is a branch the processor cannot predict. The table only speeds up the search:
+// the decoded symbol is the same (the update schedule, which the encoder shares, is unchanged).
 class SymbolModel {
 public:
-  explicit SymbolModel(uint32_t symbols);
+  SymbolModel() = default;  // no symbols yet: init() before use (models made on first use)
+  explicit SymbolModel(uint32_t symbols) { init(symbols); }
+  void init(uint32_t symbols);
   void reset();  // back to the equiprobable start, as at the beginning of every chunk
   void update();
 
-  uint32_t symbols;
-  uint32_t last_symbol;
+  uint32_t symbols = 0;
+  uint32_t last_symbol = 0;
   uint32_t table_size = 0, table_shift = 0;
   uint32_t total_count = 0, update_cycle = 0, symbols_until_update = 0;
   std::vector<uint32_t> distribution, symbol_count, decoder_table;
@@ -115,32 +139,33 @@ public:
     return bit;
   }
 
-  uint32_t decode_symbol(SymbolModel& m) {
+  // The hot path of the whole decoder (about a dozen symbols a point): inlined into the items.
+  [[gnu::always_inline]] uint32_t decode_symbol(SymbolModel& m) {
     uint32_t symbol, x, y = length_;
-    if (!m.decoder_table.empty()) {
-      length_ >>= 15;
+    const uint32_t* distribution = m.distribution.data();
+    length_ >>= 15;
+    if (m.table_size) {
       const uint32_t scaled = value_ / length_;
       // A valid stream keeps value < length, so the index is at most table_size; a corrupt one
       // must not read past the table.
-      uint32_t t = scaled >> m.table_shift;
-      if (t > m.table_size) t = m.table_size;
-      symbol = m.decoder_table[t];
-      uint32_t upper = m.decoder_table[t + 1] + 1;
+      const uint32_t t = std::min(scaled >> m.table_shift, m.table_size);
+      const uint32_t* table = m.decoder_table.data();
+      symbol = table[t];
+      uint32_t upper = table[t + 1] + 1;
       while (upper > symbol + 1) {
         const uint32_t middle = (symbol + upper) >> 1;
-        if (m.distribution[middle] > scaled)
+        if (distribution[middle] > scaled)
           upper = middle;
         else
           symbol = middle;
       }
-      x = m.distribution[symbol] * length_;
-      if (symbol != m.last_symbol) y = m.distribution[symbol + 1] * length_;
+      x = distribution[symbol] * length_;
+      if (symbol != m.last_symbol) y = distribution[symbol + 1] * length_;
     } else {
       x = symbol = 0;
-      length_ >>= 15;
       uint32_t upper = m.symbols, middle = upper >> 1;
       do {
-        const uint32_t z = length_ * m.distribution[middle];
+        const uint32_t z = length_ * distribution[middle];
         if (z > value_) {
           upper = middle;
           y = z;
@@ -152,7 +177,8 @@ public:
     }
     value_ -= x;
     length_ = y - x;
-    if (length_ < kMinLength) renormalize();
+    // Without a branch: whether a symbol needs new bytes is as unpredictable as the symbol.
+    renormalize();
     ++m.symbol_count[symbol];
     if (--m.symbols_until_update == 0) m.update();
     return symbol;
@@ -178,10 +204,12 @@ public:
   }
 
 private:
+  // Shifts in bytes until length >= 2^24 again: as many as length has leading zero bytes
+  // (none when it is large enough; length is never 0, every symbol keeps a share of it).
   void renormalize() {
-    do {
-      value_ = (value_ << 8) | source_.get();
-    } while ((length_ <<= 8) < kMinLength);
+    const uint32_t bytes = static_cast<uint32_t>(std::countl_zero(length_)) >> 3;
+    value_ = static_cast<uint32_t>(uint64_t{value_} << (8 * bytes)) | source_.get_bytes(bytes);
+    length_ = static_cast<uint32_t>(uint64_t{length_} << (8 * bytes));
   }
 
   uint32_t value_ = 0, length_ = 0;
@@ -210,16 +238,18 @@ public:
 
 private:
   // Models come into being when first used: a fresh model is what LASzip's per-chunk reset
-  // makes of an existing one, and most of the 32 length classes never occur in a chunk.
+  // makes of an existing one, and most of the 32 length classes never occur in a chunk. They
+  // are held by value, not behind pointers: the model of a corrector depends on the symbol just
+  // decoded, so every pointer to follow would lengthen the chain from one symbol to the next.
   SymbolModel& k_model(uint32_t context) {
-    auto& m = k_models_[context];
-    if (!m) m = std::make_unique<SymbolModel>(corr_bits_ + 1);
-    return *m;
+    SymbolModel& m = k_models_[context];
+    if (m.symbols == 0) m.init(corr_bits_ + 1);
+    return m;
   }
   SymbolModel& corrector_model(uint32_t k) {
-    auto& m = corrector_models_[k - 1];
-    if (!m) m = std::make_unique<SymbolModel>(k <= bits_high_ ? 1u << k : 1u << bits_high_);
-    return *m;
+    SymbolModel& m = corrector_models_[k - 1];
+    if (m.symbols == 0) m.init(k <= bits_high_ ? 1u << k : 1u << bits_high_);
+    return m;
   }
 
   int32_t read_corrector(ArithmeticDecoder& decoder, SymbolModel& bits_model) {
@@ -231,19 +261,20 @@ private:
       const uint32_t low_bits = k_ - bits_high_;
       c = (c << low_bits) | decoder.read_bits(low_bits);
     }
-    // c in [0, 2^k): the upper half are the positive correctors 2^(k-1)+1 .. 2^k, the lower half
-    // the negative ones -(2^k-1) .. -2^(k-1). Unsigned arithmetic: k = 31 must not overflow.
-    if (c >= (1u << (k_ - 1))) return static_cast<int32_t>(c + 1);
-    return static_cast<int32_t>(c - ((1u << k_) - 1));
+    // c in [0, 2^k): the upper half are the positive correctors 2^(k-1)+1 .. 2^k (c + 1), the
+    // lower half the negative ones -(2^k-1) .. -2^(k-1) (c + 1 - 2^k). Without a branch (the
+    // sign is a coin toss); unsigned arithmetic: k = 31 must not overflow.
+    const uint32_t negative = c < (1u << (k_ - 1)) ? 1u << k_ : 0u;
+    return static_cast<int32_t>(c + 1 - negative);
   }
 
   uint32_t bits_high_;
   uint32_t corr_bits_ = 0, corr_range_ = 0;
   int32_t corr_min_ = 0;
   uint32_t k_ = 0;
-  std::vector<std::unique_ptr<SymbolModel>> k_models_;          // per context
-  BitModel zero_or_one_;                                        // k == 0: the corrector is 0 or 1
-  std::vector<std::unique_ptr<SymbolModel>> corrector_models_;  // index k-1 for k in 1..corr_bits
+  std::vector<SymbolModel> k_models_;          // per context
+  BitModel zero_or_one_;                       // k == 0: the corrector is 0 or 1
+  std::vector<SymbolModel> corrector_models_;  // index k-1 for k in 1..corr_bits
 };
 
 // The running median of the last five values (LASzip's StreamingMedian5): predicts x and y steps.
