@@ -30,9 +30,10 @@ void SymbolModel::init(uint32_t n) {
   last_symbol = n - 1;
   distribution.assign(n, 0);
   symbol_count.assign(n, 0);
-  if (symbols > 2) {  // the smallest power of two >= the symbols, at least 32 (see laz_private.hpp)
+  if (symbols > 2) {  // twice the smallest power of two >= the symbols, at least 64 (see laz_private.hpp)
     uint32_t table_bits = 5;
     while (symbols > (1u << table_bits)) ++table_bits;
+    ++table_bits;
     table_size = 1u << table_bits;
     table_shift = kSymbolLengthShift - table_bits;
     decoder_table.assign(table_size + 2, 0);
