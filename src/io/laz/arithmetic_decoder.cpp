@@ -3,6 +3,8 @@
 // src/integercompressor.cpp, src/laszip_common_v2.hpp) and A. Said, "Introduction to Arithmetic
 // Coding Theory and Practice", HP Labs HPL-2004-76. The update schedules and scalings must match
 // the encoder's exactly, or every symbol after the first update decodes wrong.
+#include <algorithm>
+
 #include "laz_private.hpp"
 
 namespace dsmplan::laz::detail {
@@ -36,7 +38,7 @@ void SymbolModel::init(uint32_t n) {
     ++table_bits;
     table_size = 1u << table_bits;
     table_shift = kSymbolLengthShift - table_bits;
-    decoder_table.assign(table_size + 2, 0);
+    decoder_table.assign(table_size + 2 + 4, 0);  // + 4: see update()
   }
   reset();
 }
@@ -62,15 +64,21 @@ void SymbolModel::update() {
       sum += symbol_count[k];
     }
   } else {
+    // Entries s+1 .. w go to symbol k-1. Four entries are written whether or not all of them
+    // do (most symbols take zero to four): one past w is written again by the symbol it belongs
+    // to, or by the fill after the last symbol, later than here; cheaper than a branch per entry.
+    uint32_t* table = decoder_table.data();  // 4 entries more than the decoder reads (see init)
     uint32_t s = 0;
     for (uint32_t k = 0; k < symbols; ++k) {
       distribution[k] = (scale * sum) >> (31 - kSymbolLengthShift);
       sum += symbol_count[k];
-      const uint32_t w = distribution[k] >> table_shift;
-      while (s < w) decoder_table[++s] = k - 1;
+      const uint32_t w = distribution[k] >> table_shift;  // < table_size
+      table[s + 1] = table[s + 2] = table[s + 3] = table[s + 4] = k - 1;
+      for (uint32_t i = s + 5; i <= w; ++i) table[i] = k - 1;
+      s = std::max(s, w);
     }
-    decoder_table[0] = 0;
-    while (s <= table_size) decoder_table[++s] = symbols - 1;
+    table[0] = 0;
+    while (s <= table_size) table[++s] = symbols - 1;
   }
   update_cycle = (5 * update_cycle) >> 2;
   const uint32_t max_cycle = (symbols + 6) << 3;
