@@ -32,14 +32,13 @@ void SymbolModel::init(uint32_t n) {
   last_symbol = n - 1;
   distribution.assign(n, 0);
   symbol_count.assign(n, 0);
-  if (symbols > 2) {  // twice the smallest power of two >= the symbols, at least 64 (see laz_private.hpp)
-    uint32_t table_bits = 5;
-    while (symbols > (1u << table_bits)) ++table_bits;
-    ++table_bits;
-    table_size = 1u << table_bits;
-    table_shift = kSymbolLengthShift - table_bits;
-    decoder_table.assign(table_size + 2 + 4, 0);  // + 4: see update()
-  }
+  // Twice the smallest power of two >= the symbols, at least 64 entries (see laz_private.hpp).
+  uint32_t table_bits = 5;
+  while (symbols > (1u << table_bits)) ++table_bits;
+  ++table_bits;
+  table_size = 1u << table_bits;
+  table_shift = kSymbolLengthShift - table_bits;
+  decoder_table.assign(table_size + 2 + 4, 0);  // + 4: see update()
   reset();
 }
 
@@ -58,28 +57,21 @@ void SymbolModel::update() {
   }
   const uint32_t scale = 0x80000000u / total_count;
   uint32_t sum = 0;
-  if (decoder_table.empty()) {
-    for (uint32_t k = 0; k < symbols; ++k) {
-      distribution[k] = (scale * sum) >> (31 - kSymbolLengthShift);
-      sum += symbol_count[k];
-    }
-  } else {
-    // Entries s+1 .. w go to symbol k-1. Four entries are written whether or not all of them
-    // do (most symbols take zero to four): one past w is written again by the symbol it belongs
-    // to, or by the fill after the last symbol, later than here; cheaper than a branch per entry.
-    uint32_t* table = decoder_table.data();  // 4 entries more than the decoder reads (see init)
-    uint32_t s = 0;
-    for (uint32_t k = 0; k < symbols; ++k) {
-      distribution[k] = (scale * sum) >> (31 - kSymbolLengthShift);
-      sum += symbol_count[k];
-      const uint32_t w = distribution[k] >> table_shift;  // < table_size
-      table[s + 1] = table[s + 2] = table[s + 3] = table[s + 4] = k - 1;
-      for (uint32_t i = s + 5; i <= w; ++i) table[i] = k - 1;
-      s = std::max(s, w);
-    }
-    table[0] = 0;
-    while (s <= table_size) table[++s] = symbols - 1;
+  // Entries s+1 .. w go to symbol k-1. Four entries are written whether or not all of them do
+  // (most symbols take zero to four): one past w is written again by the symbol it belongs to,
+  // or by the fill after the last symbol, later than here; cheaper than a branch per entry.
+  uint32_t* table = decoder_table.data();  // 4 entries more than the decoder reads (see init)
+  uint32_t s = 0;
+  for (uint32_t k = 0; k < symbols; ++k) {
+    distribution[k] = (scale * sum) >> (31 - kSymbolLengthShift);
+    sum += symbol_count[k];
+    const uint32_t w = distribution[k] >> table_shift;  // < table_size
+    table[s + 1] = table[s + 2] = table[s + 3] = table[s + 4] = k - 1;
+    for (uint32_t i = s + 5; i <= w; ++i) table[i] = k - 1;
+    s = std::max(s, w);
   }
+  table[0] = 0;
+  while (s <= table_size) table[++s] = symbols - 1;
   update_cycle = (5 * update_cycle) >> 2;
   const uint32_t max_cycle = (symbols + 6) << 3;
   if (update_cycle > max_cycle) update_cycle = max_cycle;

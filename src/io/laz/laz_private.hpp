@@ -88,11 +88,11 @@ struct BitModel {
 // Adaptive multi-symbol model (15-bit cumulative distribution). LASzip gives only models of more
 // than 16 symbols a decoder table, of a quarter to half an entry per symbol, and finds the symbol
 // by bisection between two entries (or, without a table, by bisection over all symbols). Here
-// every model of more than two symbols has one, of two to four entries per symbol (at least 64):
-// the entries bracket the symbol so closely that the search mostly ends at once, where each step
-// of a bisection is a branch the processor cannot predict (one to two entries per symbol: 4 %
-// slower; four to eight: no faster, dearer updates). The table only speeds up the search: the
-// decoded symbol is the same (the update schedule, which the encoder shares, is unchanged).
+// every model has one, of two to four entries per symbol (at least 64): the entries bracket the
+// symbol so closely that the search mostly ends at once, where each step of a bisection is a
+// branch the processor cannot predict (one to two entries per symbol: 4 % slower; four to eight:
+// no faster, dearer updates). The table only speeds up the search: the decoded symbol is the
+// same (the update schedule, which the encoder shares, is unchanged).
 class SymbolModel {
 public:
   SymbolModel() = default;  // no symbols yet: init() before use (models made on first use)
@@ -145,37 +145,22 @@ public:
     uint32_t symbol, x, y = length_;
     const uint32_t* distribution = m.distribution.data();
     length_ >>= 15;
-    if (m.table_size) {
-      const uint32_t scaled = value_ / length_;
-      // A valid stream keeps value < length, so the index is at most table_size; a corrupt one
-      // must not read past the table.
-      const uint32_t t = std::min(scaled >> m.table_shift, m.table_size);
-      const uint32_t* table = m.decoder_table.data();
-      symbol = table[t];
-      uint32_t upper = table[t + 1] + 1;
-      while (upper > symbol + 1) {
-        const uint32_t middle = (symbol + upper) >> 1;
-        if (distribution[middle] > scaled)
-          upper = middle;
-        else
-          symbol = middle;
-      }
-      x = distribution[symbol] * length_;
-      if (symbol != m.last_symbol) y = distribution[symbol + 1] * length_;
-    } else {
-      x = symbol = 0;
-      uint32_t upper = m.symbols, middle = upper >> 1;
-      do {
-        const uint32_t z = length_ * distribution[middle];
-        if (z > value_) {
-          upper = middle;
-          y = z;
-        } else {
-          symbol = middle;
-          x = z;
-        }
-      } while ((middle = (symbol + upper) >> 1) != symbol);
+    const uint32_t scaled = value_ / length_;
+    // A valid stream keeps value < length, so the index is at most table_size; a corrupt one
+    // must not read past the table.
+    const uint32_t t = std::min(scaled >> m.table_shift, m.table_size);
+    const uint32_t* table = m.decoder_table.data();
+    symbol = table[t];
+    uint32_t upper = table[t + 1] + 1;
+    while (upper > symbol + 1) {
+      const uint32_t middle = (symbol + upper) >> 1;
+      if (distribution[middle] > scaled)
+        upper = middle;
+      else
+        symbol = middle;
     }
+    x = distribution[symbol] * length_;
+    if (symbol != m.last_symbol) y = distribution[symbol + 1] * length_;
     value_ -= x;
     length_ = y - x;
     // Without a branch: whether a symbol needs new bytes is as unpredictable as the symbol.
