@@ -50,33 +50,32 @@ struct CorruptStream {
 class ByteSource {
 public:
   ByteSource() = default;
-  ByteSource(const uint8_t* begin, const uint8_t* end) : next_(begin), end_(end) {}
+  ByteSource(const uint8_t* begin, const uint8_t* end) : data_(begin), size_(static_cast<size_t>(end - begin)) {}
   uint8_t get() {
-    if (next_ < end_) return *next_++;
-    ++overrun_;
-    return 0;
+    const uint8_t byte = pos_ < size_ ? data_[pos_] : 0;
+    ++pos_;
+    return byte;
   }
-  // The next `n` (0 to 4) bytes, big-endian, as the low bits of the result. One bounds check for
-  // all of them while four bytes remain; byte by byte (zeros past the end) near the end.
-  uint32_t get_bytes(uint32_t n) {
-    if (end_ - next_ >= 4) {
-      uint32_t word;  // the stream is big-endian
-      std::memcpy(&word, next_, 4);
+  // The next four bytes, big-endian (zeros past the end), without moving on: one bounds check
+  // for all of them while four bytes remain, byte by byte near the end.
+  uint32_t peek4() const {
+    if (pos_ + 4 <= size_) {
+      uint32_t word;
+      std::memcpy(&word, data_ + pos_, 4);
       if constexpr (std::endian::native == std::endian::little) word = __builtin_bswap32(word);
-      next_ += n;
-      return static_cast<uint32_t>(uint64_t{word} >> (32 - 8 * n));  // 64 bits: n = 0 shifts by 32
+      return word;
     }
-    uint32_t v = 0;
-    for (uint32_t i = 0; i < n; ++i) v = v << 8 | get();
-    return v;
+    uint32_t word = 0;
+    for (size_t i = pos_; i < pos_ + 4; ++i) word = word << 8 | (i < size_ ? data_[i] : 0);
+    return word;
   }
-  uint32_t overrun() const { return overrun_; }
-  size_t remaining() const { return static_cast<size_t>(end_ - next_); }
+  void skip(uint32_t bytes) { pos_ += bytes; }
+  size_t overrun() const { return pos_ > size_ ? pos_ - size_ : 0; }
+  size_t remaining() const { return pos_ < size_ ? size_ - pos_ : 0; }
 
 private:
-  const uint8_t* next_ = nullptr;
-  const uint8_t* end_ = nullptr;
-  uint32_t overrun_ = 0;
+  const uint8_t* data_ = nullptr;
+  size_t size_ = 0, pos_ = 0;
 };
 
 // Adaptive binary model (Said's "adaptive bit model"; 13-bit probabilities).
@@ -120,7 +119,7 @@ public:
     value_ |= uint32_t{source_.get()} << 8;
     value_ |= uint32_t{source_.get()};
   }
-  uint32_t overrun() const { return source_.overrun(); }
+  size_t overrun() const { return source_.overrun(); }
   size_t remaining() const { return source_.remaining(); }
 
   uint32_t decode_bit(BitModel& m) {
@@ -191,11 +190,14 @@ public:
 
 private:
   // Shifts in bytes until length >= 2^24 again: as many as length has leading zero bytes
-  // (none when it is large enough; length is never 0, every symbol keeps a share of it).
+  // (none when it is large enough; length is never 0, every symbol keeps a share of it, and
+  // "| 1" spares the compiler a branch for 0). The bytes come in as one 64-bit shift of value
+  // and the next four bytes: no loop, no branch on how many.
   void renormalize() {
-    const uint32_t bytes = static_cast<uint32_t>(std::countl_zero(length_)) >> 3;
-    value_ = static_cast<uint32_t>(uint64_t{value_} << (8 * bytes)) | source_.get_bytes(bytes);
-    length_ = static_cast<uint32_t>(uint64_t{length_} << (8 * bytes));
+    const uint32_t shift = static_cast<uint32_t>(std::countl_zero(length_ | 1)) & 24;  // 0, 8, 16 or 24
+    value_ = static_cast<uint32_t>(((uint64_t{value_} << 32) | source_.peek4()) >> (32 - shift));
+    length_ <<= shift;
+    source_.skip(shift >> 3);
   }
 
   uint32_t value_ = 0, length_ = 0;
