@@ -266,9 +266,25 @@ private:
 };
 
 // The running median of the last five values (LASzip's StreamingMedian5): predicts x and y steps.
+// Its five values stay sorted; a new one replaces the largest or the smallest, by turns that
+// depend on where the values fall (high_: the largest goes), and the median is the middle one.
+// LASzip shifts the values with a branch at each comparison, coin tosses for noisy coordinates;
+// here the new value goes into the four kept ones by a min/max insertion, which has no branch
+// and gives the same five values in the same order.
 class Median5 {
 public:
-  void add(int32_t v);
+  void add(int32_t v) {
+    int32_t* s = values_;
+    int32_t a[4];
+    for (int i = 0; i < 4; ++i) a[i] = high_ ? s[i] : s[i + 1];
+    const bool high = high_ ? v < s[2] : !(s[2] < v);
+    s[0] = std::min(a[0], v);
+    s[1] = std::min(a[1], std::max(a[0], v));
+    s[2] = std::min(a[2], std::max(a[1], v));
+    s[3] = std::min(a[3], std::max(a[2], v));
+    s[4] = std::max(a[3], v);
+    high_ = high;
+  }
   int32_t get() const { return values_[2]; }
 
 private:
