@@ -275,8 +275,8 @@ class Median5 {
 public:
   void add(int32_t v) {
     int32_t* s = values_;
-    int32_t a[4];
-    for (int i = 0; i < 4; ++i) a[i] = high_ ? s[i] : s[i + 1];
+    const int32_t* kept = s + (high_ ? 0 : 1);  // an index, not a branch per value
+    const int32_t a[4] = {kept[0], kept[1], kept[2], kept[3]};
     const bool high = high_ ? v < s[2] : !(s[2] < v);
     s[0] = std::min(a[0], v);
     s[1] = std::min(a[1], std::max(a[0], v));
