@@ -134,7 +134,7 @@ public:
       value_ -= x;
       length_ -= x;
     }
-    if (length_ < kMinLength) renormalize();
+    renormalize();  // without a branch, as in decode_symbol
     if (--m.bits_until_update == 0) m.update();
     return bit;
   }
@@ -178,7 +178,7 @@ public:
     length_ >>= bits;
     const uint32_t value = value_ / length_;
     value_ -= length_ * value;
-    if (length_ < kMinLength) renormalize();
+    renormalize();  // without a branch, as in decode_symbol
     if (value >= (1u << bits)) throw CorruptStream{"the arithmetic code is corrupt (raw bits out of range)"};
     return value;
   }
