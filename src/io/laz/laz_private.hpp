@@ -109,8 +109,6 @@ public:
 
 class ArithmeticDecoder {
 public:
-  static constexpr uint32_t kMinLength = 0x01000000u;
-
   void start(const uint8_t* begin, const uint8_t* end) {
     source_ = ByteSource(begin, end);
     length_ = 0xFFFFFFFFu;
