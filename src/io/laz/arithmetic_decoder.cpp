@@ -60,18 +60,18 @@ void SymbolModel::update() {
   // Entries s+1 .. w go to symbol k-1. Four entries are written whether or not all of them do
   // (most symbols take zero to four): one past w is written again by the symbol it belongs to,
   // or by the fill after the last symbol, later than here; cheaper than a branch per entry.
-  uint32_t* table = decoder_table.data();  // 4 entries more than the decoder reads (see init)
+  uint16_t* table = decoder_table.data();  // 4 entries more than the decoder reads (see init)
   uint32_t s = 0;
   for (uint32_t k = 0; k < symbols; ++k) {
     distribution[k] = (scale * sum) >> (31 - kSymbolLengthShift);
     sum += symbol_count[k];
     const uint32_t w = distribution[k] >> table_shift;  // < table_size
-    table[s + 1] = table[s + 2] = table[s + 3] = table[s + 4] = k - 1;
-    for (uint32_t i = s + 5; i <= w; ++i) table[i] = k - 1;
+    table[s + 1] = table[s + 2] = table[s + 3] = table[s + 4] = static_cast<uint16_t>(k - 1);
+    for (uint32_t i = s + 5; i <= w; ++i) table[i] = static_cast<uint16_t>(k - 1);
     s = std::max(s, w);
   }
   table[0] = 0;
-  while (s <= table_size) table[++s] = symbols - 1;
+  while (s <= table_size) table[++s] = static_cast<uint16_t>(symbols - 1);
   update_cycle = (5 * update_cycle) >> 2;
   const uint32_t max_cycle = (symbols + 6) << 3;
   if (update_cycle > max_cycle) update_cycle = max_cycle;

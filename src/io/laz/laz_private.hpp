@@ -104,7 +104,8 @@ public:
   uint32_t last_symbol = 0;
   uint32_t table_size = 0, table_shift = 0;
   uint32_t total_count = 0, update_cycle = 0, symbols_until_update = 0;
-  std::vector<uint32_t> distribution, symbol_count, decoder_table;
+  std::vector<uint32_t> distribution, symbol_count;
+  std::vector<uint16_t> decoder_table;  // symbols (at most 516): 16 bits keep more models in the L1 cache
 };
 
 class ArithmeticDecoder {
@@ -146,7 +147,7 @@ public:
     // A valid stream keeps value < length, so the index is at most table_size; a corrupt one
     // must not read past the table.
     const uint32_t t = std::min(scaled >> m.table_shift, m.table_size);
-    const uint32_t* table = m.decoder_table.data();
+    const uint16_t* table = m.decoder_table.data();
     symbol = table[t];
     uint32_t upper = table[t + 1] + 1;
     while (upper > symbol + 1) {
