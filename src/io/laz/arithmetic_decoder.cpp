@@ -63,7 +63,7 @@ void SymbolModel::update() {
   uint16_t* table = decoder_table.data();  // 4 entries more than the decoder reads (see init)
   uint32_t s = 0;
   for (uint32_t k = 0; k < symbols; ++k) {
-    distribution[k] = (scale * sum) >> (31 - kSymbolLengthShift);
+    distribution[k] = static_cast<uint16_t>((scale * sum) >> (31 - kSymbolLengthShift));
     sum += symbol_count[k];
     const uint32_t w = distribution[k] >> table_shift;  // < table_size
     table[s + 1] = table[s + 2] = table[s + 3] = table[s + 4] = static_cast<uint16_t>(k - 1);

@@ -104,8 +104,11 @@ public:
   uint32_t last_symbol = 0;
   uint32_t table_size = 0, table_shift = 0;
   uint32_t total_count = 0, update_cycle = 0, symbols_until_update = 0;
-  std::vector<uint32_t> distribution, symbol_count;
-  std::vector<uint16_t> decoder_table;  // symbols (at most 516): 16 bits keep more models in the L1 cache
+  // 16 bits where they suffice, to keep more models in the L1 cache: the distribution is below
+  // 2^15, the symbols (table entries) number at most 516.
+  std::vector<uint16_t> distribution;
+  std::vector<uint32_t> symbol_count;
+  std::vector<uint16_t> decoder_table;
 };
 
 class ArithmeticDecoder {
@@ -141,7 +144,7 @@ public:
   // The hot path of the whole decoder (about a dozen symbols a point): inlined into the items.
   [[gnu::always_inline]] uint32_t decode_symbol(SymbolModel& m) {
     uint32_t symbol, x, y = length_;
-    const uint32_t* distribution = m.distribution.data();
+    const uint16_t* distribution = m.distribution.data();
     length_ >>= 15;
     const uint32_t scaled = value_ / length_;
     // A valid stream keeps value < length, so the index is at most table_size; a corrupt one
@@ -157,8 +160,8 @@ public:
       else
         symbol = middle;
     }
-    x = distribution[symbol] * length_;
-    if (symbol != m.last_symbol) y = distribution[symbol + 1] * length_;
+    x = uint32_t{distribution[symbol]} * length_;
+    if (symbol != m.last_symbol) y = uint32_t{distribution[symbol + 1]} * length_;
     value_ -= x;
     length_ = y - x;
     // Without a branch: whether a symbol needs new bytes is as unpredictable as the symbol.
