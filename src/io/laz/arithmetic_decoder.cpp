@@ -30,22 +30,20 @@ void BitModel::update() {
 void SymbolModel::init(uint32_t n) {
   symbols = n;
   last_symbol = n - 1;
-  distribution.assign(n, 0);
-  symbol_count.assign(n, 0);
   // Twice the smallest power of two >= the symbols, at least 64 entries (see laz_private.hpp).
   uint32_t table_bits = 5;
   while (symbols > (1u << table_bits)) ++table_bits;
   ++table_bits;
   table_size = 1u << table_bits;
   table_shift = kSymbolLengthShift - table_bits;
-  decoder_table.assign(table_size + 2 + 4, 0);  // + 4: see update()
+  block_.assign(2 * symbols + table_size + 2 + 4, 0);  // table: + 4, see update()
   reset();
 }
 
 void SymbolModel::reset() {
   total_count = 0;
   update_cycle = symbols;
-  for (auto& count : symbol_count) count = 1;
+  std::fill_n(symbol_count(), symbols, uint16_t{1});
   update();
   symbols_until_update = update_cycle = (symbols + 6) >> 1;
 }
@@ -53,14 +51,17 @@ void SymbolModel::reset() {
 void SymbolModel::update() {
   if ((total_count += update_cycle) > kSymbolMaxCount) {
     total_count = 0;
-    for (auto& count : symbol_count) total_count += (count = (count + 1) >> 1);
+    uint16_t* count = symbol_count();
+    for (uint32_t k = 0; k < symbols; ++k) total_count += (count[k] = static_cast<uint16_t>((count[k] + 1) >> 1));
   }
   const uint32_t scale = 0x80000000u / total_count;
   uint32_t sum = 0;
+  uint16_t* distribution = this->distribution();
+  const uint16_t* symbol_count = this->symbol_count();
+  uint16_t* table = decoder_table();  // 4 entries more than the decoder reads (see init)
   // Entries s+1 .. w go to symbol k-1. Four entries are written whether or not all of them do
   // (most symbols take zero to four): one past w is written again by the symbol it belongs to,
   // or by the fill after the last symbol, later than here; cheaper than a branch per entry.
-  uint16_t* table = decoder_table.data();  // 4 entries more than the decoder reads (see init)
   uint32_t s = 0;
   for (uint32_t k = 0; k < symbols; ++k) {
     distribution[k] = static_cast<uint16_t>((scale * sum) >> (31 - kSymbolLengthShift));

@@ -104,11 +104,17 @@ public:
   uint32_t last_symbol = 0;
   uint32_t table_size = 0, table_shift = 0;
   uint32_t total_count = 0, update_cycle = 0, symbols_until_update = 0;
-  // 16 bits where they suffice, to keep more models in the L1 cache: the distribution is below
-  // 2^15, the symbols (table entries) number at most 516.
-  std::vector<uint16_t> distribution;
-  std::vector<uint32_t> symbol_count;
-  std::vector<uint16_t> decoder_table;
+
+  // The distribution, the symbol counts and the decoder table, in one block of 16-bit numbers
+  // (more models stay in the L1 cache): the distribution is below 2^15; the counts add up to
+  // total_count, at most 2^15 plus one update cycle ((516 + 6) * 8) before the update halves
+  // them; the symbols (table entries) number at most 516.
+  uint16_t* distribution() { return block_.data(); }
+  uint16_t* symbol_count() { return block_.data() + symbols; }
+  uint16_t* decoder_table() { return block_.data() + 2 * symbols; }
+
+private:
+  std::vector<uint16_t> block_;
 };
 
 class ArithmeticDecoder {
@@ -144,13 +150,13 @@ public:
   // The hot path of the whole decoder (about a dozen symbols a point): inlined into the items.
   [[gnu::always_inline]] uint32_t decode_symbol(SymbolModel& m) {
     uint32_t symbol, x, y = length_;
-    const uint16_t* distribution = m.distribution.data();
+    const uint16_t* distribution = m.distribution();
     length_ >>= 15;
     const uint32_t scaled = value_ / length_;
     // A valid stream keeps value < length, so the index is at most table_size; a corrupt one
     // must not read past the table.
     const uint32_t t = std::min(scaled >> m.table_shift, m.table_size);
-    const uint16_t* table = m.decoder_table.data();
+    const uint16_t* table = m.decoder_table();
     symbol = table[t];
     uint32_t upper = table[t + 1] + 1;
     while (upper > symbol + 1) {
@@ -166,7 +172,7 @@ public:
     length_ = y - x;
     // Without a branch: whether a symbol needs new bytes is as unpredictable as the symbol.
     renormalize();
-    ++m.symbol_count[symbol];
+    ++m.symbol_count()[symbol];
     if (--m.symbols_until_update == 0) m.update();
     return symbol;
   }
