@@ -285,7 +285,9 @@ public:
     int32_t* s = values_;
     const int32_t* kept = s + (high_ ? 0 : 1);  // an index, not a branch per value
     const int32_t a[4] = {kept[0], kept[1], kept[2], kept[3]};
-    const bool high = high_ ? v < s[2] : !(s[2] < v);
+    // Next time the largest goes if v is below the median (or equal to it, after the smallest
+    // went): v < median + 1 in 64 bits, again no branch.
+    const bool high = int64_t{v} < int64_t{s[2]} + (high_ ? 0 : 1);
     s[0] = std::min(a[0], v);
     s[1] = std::min(a[1], std::max(a[0], v));
     s[2] = std::min(a[2], std::max(a[1], v));
