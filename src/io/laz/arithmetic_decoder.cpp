@@ -3,6 +3,8 @@
 // src/integercompressor.cpp, src/laszip_common_v2.hpp) and A. Said, "Introduction to Arithmetic
 // Coding Theory and Practice", HP Labs HPL-2004-76. The update schedules and scalings must match
 // the encoder's exactly, or every symbol after the first update decodes wrong.
+#include <algorithm>
+
 #include "laz_private.hpp"
 
 namespace dsmplan::laz::detail {
@@ -25,21 +27,23 @@ void BitModel::update() {
   bits_until_update = update_cycle;
 }
 
-SymbolModel::SymbolModel(uint32_t n) : symbols(n), last_symbol(n - 1), distribution(n), symbol_count(n) {
-  if (symbols > 16) {
-    uint32_t table_bits = 3;
-    while (symbols > (1u << (table_bits + 2))) ++table_bits;
-    table_size = 1u << table_bits;
-    table_shift = kSymbolLengthShift - table_bits;
-    decoder_table.assign(table_size + 2, 0);
-  }
+void SymbolModel::init(uint32_t n) {
+  symbols = n;
+  last_symbol = n - 1;
+  // Twice the smallest power of two >= the symbols, at least 64 entries (see laz_private.hpp).
+  uint32_t table_bits = 5;
+  while (symbols > (1u << table_bits)) ++table_bits;
+  ++table_bits;
+  table_size = 1u << table_bits;
+  table_shift = kSymbolLengthShift - table_bits;
+  block_.assign(2 * symbols + table_size + 2 + 4, 0);  // table: + 4, see update()
   reset();
 }
 
 void SymbolModel::reset() {
   total_count = 0;
   update_cycle = symbols;
-  for (auto& count : symbol_count) count = 1;
+  std::fill_n(symbol_count(), symbols, uint16_t{1});
   update();
   symbols_until_update = update_cycle = (symbols + 6) >> 1;
 }
@@ -47,26 +51,28 @@ void SymbolModel::reset() {
 void SymbolModel::update() {
   if ((total_count += update_cycle) > kSymbolMaxCount) {
     total_count = 0;
-    for (auto& count : symbol_count) total_count += (count = (count + 1) >> 1);
+    uint16_t* count = symbol_count();
+    for (uint32_t k = 0; k < symbols; ++k) total_count += (count[k] = static_cast<uint16_t>((count[k] + 1) >> 1));
   }
   const uint32_t scale = 0x80000000u / total_count;
   uint32_t sum = 0;
-  if (decoder_table.empty()) {
-    for (uint32_t k = 0; k < symbols; ++k) {
-      distribution[k] = (scale * sum) >> (31 - kSymbolLengthShift);
-      sum += symbol_count[k];
-    }
-  } else {
-    uint32_t s = 0;
-    for (uint32_t k = 0; k < symbols; ++k) {
-      distribution[k] = (scale * sum) >> (31 - kSymbolLengthShift);
-      sum += symbol_count[k];
-      const uint32_t w = distribution[k] >> table_shift;
-      while (s < w) decoder_table[++s] = k - 1;
-    }
-    decoder_table[0] = 0;
-    while (s <= table_size) decoder_table[++s] = symbols - 1;
+  uint16_t* distribution = this->distribution();
+  const uint16_t* symbol_count = this->symbol_count();
+  uint16_t* table = decoder_table();  // 4 entries more than the decoder reads (see init)
+  // Entries s+1 .. w go to symbol k-1. Four entries are written whether or not all of them do
+  // (most symbols take zero to four): one past w is written again by the symbol it belongs to,
+  // or by the fill after the last symbol, later than here; cheaper than a branch per entry.
+  uint32_t s = 0;
+  for (uint32_t k = 0; k < symbols; ++k) {
+    distribution[k] = static_cast<uint16_t>((scale * sum) >> (31 - kSymbolLengthShift));
+    sum += symbol_count[k];
+    const uint32_t w = distribution[k] >> table_shift;  // < table_size
+    table[s + 1] = table[s + 2] = table[s + 3] = table[s + 4] = static_cast<uint16_t>(k - 1);
+    for (uint32_t i = s + 5; i <= w; ++i) table[i] = static_cast<uint16_t>(k - 1);
+    s = std::max(s, w);
   }
+  table[0] = 0;
+  while (s <= table_size) table[++s] = static_cast<uint16_t>(symbols - 1);
   update_cycle = (5 * update_cycle) >> 2;
   const uint32_t max_cycle = (symbols + 6) << 3;
   if (update_cycle > max_cycle) update_cycle = max_cycle;
@@ -94,57 +100,6 @@ IntegerDecompressor::IntegerDecompressor(uint32_t bits, uint32_t contexts, uint3
   }
   k_models_.resize(contexts);
   corrector_models_.resize(corr_bits_);
-}
-
-void Median5::add(int32_t v) {
-  int32_t* s = values_;
-  if (high_) {
-    if (v < s[2]) {
-      s[4] = s[3];
-      s[3] = s[2];
-      if (v < s[0]) {
-        s[2] = s[1];
-        s[1] = s[0];
-        s[0] = v;
-      } else if (v < s[1]) {
-        s[2] = s[1];
-        s[1] = v;
-      } else {
-        s[2] = v;
-      }
-    } else {
-      if (v < s[3]) {
-        s[4] = s[3];
-        s[3] = v;
-      } else {
-        s[4] = v;
-      }
-      high_ = false;
-    }
-  } else {
-    if (s[2] < v) {
-      s[0] = s[1];
-      s[1] = s[2];
-      if (s[4] < v) {
-        s[2] = s[3];
-        s[3] = s[4];
-        s[4] = v;
-      } else if (s[3] < v) {
-        s[2] = s[3];
-        s[3] = v;
-      } else {
-        s[2] = v;
-      }
-    } else {
-      if (s[1] < v) {
-        s[0] = s[1];
-        s[1] = v;
-      } else {
-        s[0] = v;
-      }
-      high_ = true;
-    }
-  }
 }
 
 }  // namespace dsmplan::laz::detail

@@ -9,7 +9,10 @@
 // around them is ours.
 #pragma once
 
+#include <algorithm>
+#include <bit>
 #include <cstdint>
+#include <cstring>
 #include <memory>
 #include <string>
 #include <vector>
@@ -47,19 +50,32 @@ struct CorruptStream {
 class ByteSource {
 public:
   ByteSource() = default;
-  ByteSource(const uint8_t* begin, const uint8_t* end) : next_(begin), end_(end) {}
+  ByteSource(const uint8_t* begin, const uint8_t* end) : data_(begin), size_(static_cast<size_t>(end - begin)) {}
   uint8_t get() {
-    if (next_ < end_) return *next_++;
-    ++overrun_;
-    return 0;
+    const uint8_t byte = pos_ < size_ ? data_[pos_] : 0;
+    ++pos_;
+    return byte;
   }
-  uint32_t overrun() const { return overrun_; }
-  size_t remaining() const { return static_cast<size_t>(end_ - next_); }
+  // The next four bytes, big-endian (zeros past the end), without moving on: one bounds check
+  // for all of them while four bytes remain, byte by byte near the end.
+  uint32_t peek4() const {
+    if (pos_ + 4 <= size_) {
+      uint32_t word;
+      std::memcpy(&word, data_ + pos_, 4);
+      if constexpr (std::endian::native == std::endian::little) word = __builtin_bswap32(word);
+      return word;
+    }
+    uint32_t word = 0;
+    for (size_t i = pos_; i < pos_ + 4; ++i) word = word << 8 | (i < size_ ? data_[i] : 0);
+    return word;
+  }
+  void skip(uint32_t bytes) { pos_ += bytes; }
+  size_t overrun() const { return pos_ > size_ ? pos_ - size_ : 0; }
+  size_t remaining() const { return pos_ < size_ ? size_ - pos_ : 0; }
 
 private:
-  const uint8_t* next_ = nullptr;
-  const uint8_t* end_ = nullptr;
-  uint32_t overrun_ = 0;
+  const uint8_t* data_ = nullptr;
+  size_t size_ = 0, pos_ = 0;
 };
 
 // Adaptive binary model (Said's "adaptive bit model"; 13-bit probabilities).
@@ -68,25 +84,41 @@ struct BitModel {
   void update();
 };
 
-// Adaptive multi-symbol model (15-bit cumulative distribution; a decoder look-up table for more
-// than 16 symbols, which only speeds up the search: the decoded symbol is the same either way).
+// Adaptive multi-symbol model (15-bit cumulative distribution). LASzip gives only models of more
+// than 16 symbols a decoder table, of a quarter to half an entry per symbol, and finds the symbol
+// by bisection between two entries (or, without a table, by bisection over all symbols). Here
+// every model has one, of two to four entries per symbol (at least 64): the entries bracket the
+// symbol so closely that the search mostly ends at once, where each step of a bisection is a
+// branch the processor cannot predict (one to two entries per symbol: 4 % slower; four to eight:
+// no faster, dearer updates). The table only speeds up the search: the decoded symbol is the
+// same (the update schedule, which the encoder shares, is unchanged).
 class SymbolModel {
 public:
-  explicit SymbolModel(uint32_t symbols);
+  SymbolModel() = default;  // no symbols yet: init() before use (models made on first use)
+  explicit SymbolModel(uint32_t symbols) { init(symbols); }
+  void init(uint32_t symbols);
   void reset();  // back to the equiprobable start, as at the beginning of every chunk
   void update();
 
-  uint32_t symbols;
-  uint32_t last_symbol;
+  uint32_t symbols = 0;
+  uint32_t last_symbol = 0;
   uint32_t table_size = 0, table_shift = 0;
   uint32_t total_count = 0, update_cycle = 0, symbols_until_update = 0;
-  std::vector<uint32_t> distribution, symbol_count, decoder_table;
+
+  // The distribution, the symbol counts and the decoder table, in one block of 16-bit numbers
+  // (more models stay in the L1 cache): the distribution is below 2^15; the counts add up to
+  // total_count, at most 2^15 plus one update cycle ((516 + 6) * 8) before the update halves
+  // them; the symbols (table entries) number at most 516.
+  uint16_t* distribution() { return block_.data(); }
+  uint16_t* symbol_count() { return block_.data() + symbols; }
+  uint16_t* decoder_table() { return block_.data() + 2 * symbols; }
+
+private:
+  std::vector<uint16_t> block_;
 };
 
 class ArithmeticDecoder {
 public:
-  static constexpr uint32_t kMinLength = 0x01000000u;
-
   void start(const uint8_t* begin, const uint8_t* end) {
     source_ = ByteSource(begin, end);
     length_ = 0xFFFFFFFFu;
@@ -95,7 +127,7 @@ public:
     value_ |= uint32_t{source_.get()} << 8;
     value_ |= uint32_t{source_.get()};
   }
-  uint32_t overrun() const { return source_.overrun(); }
+  size_t overrun() const { return source_.overrun(); }
   size_t remaining() const { return source_.remaining(); }
 
   uint32_t decode_bit(BitModel& m) {
@@ -110,50 +142,37 @@ public:
       value_ -= x;
       length_ -= x;
     }
-    if (length_ < kMinLength) renormalize();
+    renormalize();  // without a branch, as in decode_symbol
     if (--m.bits_until_update == 0) m.update();
     return bit;
   }
 
-  uint32_t decode_symbol(SymbolModel& m) {
+  // The hot path of the whole decoder (about a dozen symbols a point): inlined into the items.
+  [[gnu::always_inline]] uint32_t decode_symbol(SymbolModel& m) {
     uint32_t symbol, x, y = length_;
-    if (!m.decoder_table.empty()) {
-      length_ >>= 15;
-      const uint32_t scaled = value_ / length_;
-      // A valid stream keeps value < length, so the index is at most table_size; a corrupt one
-      // must not read past the table.
-      uint32_t t = scaled >> m.table_shift;
-      if (t > m.table_size) t = m.table_size;
-      symbol = m.decoder_table[t];
-      uint32_t upper = m.decoder_table[t + 1] + 1;
-      while (upper > symbol + 1) {
-        const uint32_t middle = (symbol + upper) >> 1;
-        if (m.distribution[middle] > scaled)
-          upper = middle;
-        else
-          symbol = middle;
-      }
-      x = m.distribution[symbol] * length_;
-      if (symbol != m.last_symbol) y = m.distribution[symbol + 1] * length_;
-    } else {
-      x = symbol = 0;
-      length_ >>= 15;
-      uint32_t upper = m.symbols, middle = upper >> 1;
-      do {
-        const uint32_t z = length_ * m.distribution[middle];
-        if (z > value_) {
-          upper = middle;
-          y = z;
-        } else {
-          symbol = middle;
-          x = z;
-        }
-      } while ((middle = (symbol + upper) >> 1) != symbol);
+    const uint16_t* distribution = m.distribution();
+    length_ >>= 15;
+    const uint32_t scaled = value_ / length_;
+    // A valid stream keeps value < length, so the index is at most table_size; a corrupt one
+    // must not read past the table.
+    const uint32_t t = std::min(scaled >> m.table_shift, m.table_size);
+    const uint16_t* table = m.decoder_table();
+    symbol = table[t];
+    uint32_t upper = table[t + 1] + 1;
+    while (upper > symbol + 1) {
+      const uint32_t middle = (symbol + upper) >> 1;
+      if (distribution[middle] > scaled)
+        upper = middle;
+      else
+        symbol = middle;
     }
+    x = uint32_t{distribution[symbol]} * length_;
+    if (symbol != m.last_symbol) y = uint32_t{distribution[symbol + 1]} * length_;
     value_ -= x;
     length_ = y - x;
-    if (length_ < kMinLength) renormalize();
-    ++m.symbol_count[symbol];
+    // Without a branch: whether a symbol needs new bytes is as unpredictable as the symbol.
+    renormalize();
+    ++m.symbol_count()[symbol];
     if (--m.symbols_until_update == 0) m.update();
     return symbol;
   }
@@ -167,7 +186,7 @@ public:
     length_ >>= bits;
     const uint32_t value = value_ / length_;
     value_ -= length_ * value;
-    if (length_ < kMinLength) renormalize();
+    renormalize();  // without a branch, as in decode_symbol
     if (value >= (1u << bits)) throw CorruptStream{"the arithmetic code is corrupt (raw bits out of range)"};
     return value;
   }
@@ -178,10 +197,15 @@ public:
   }
 
 private:
+  // Shifts in bytes until length >= 2^24 again: as many as length has leading zero bytes
+  // (none when it is large enough; length is never 0, every symbol keeps a share of it, and
+  // "| 1" spares the compiler a branch for 0). The bytes come in as one 64-bit shift of value
+  // and the next four bytes: no loop, no branch on how many.
   void renormalize() {
-    do {
-      value_ = (value_ << 8) | source_.get();
-    } while ((length_ <<= 8) < kMinLength);
+    const uint32_t shift = static_cast<uint32_t>(std::countl_zero(length_ | 1)) & 24;  // 0, 8, 16 or 24
+    value_ = static_cast<uint32_t>(((uint64_t{value_} << 32) | source_.peek4()) >> (32 - shift));
+    length_ <<= shift;
+    source_.skip(shift >> 3);
   }
 
   uint32_t value_ = 0, length_ = 0;
@@ -210,16 +234,18 @@ public:
 
 private:
   // Models come into being when first used: a fresh model is what LASzip's per-chunk reset
-  // makes of an existing one, and most of the 32 length classes never occur in a chunk.
+  // makes of an existing one, and most of the 32 length classes never occur in a chunk. They
+  // are held by value, not behind pointers: the model of a corrector depends on the symbol just
+  // decoded, so every pointer to follow would lengthen the chain from one symbol to the next.
   SymbolModel& k_model(uint32_t context) {
-    auto& m = k_models_[context];
-    if (!m) m = std::make_unique<SymbolModel>(corr_bits_ + 1);
-    return *m;
+    SymbolModel& m = k_models_[context];
+    if (m.symbols == 0) m.init(corr_bits_ + 1);
+    return m;
   }
   SymbolModel& corrector_model(uint32_t k) {
-    auto& m = corrector_models_[k - 1];
-    if (!m) m = std::make_unique<SymbolModel>(k <= bits_high_ ? 1u << k : 1u << bits_high_);
-    return *m;
+    SymbolModel& m = corrector_models_[k - 1];
+    if (m.symbols == 0) m.init(k <= bits_high_ ? 1u << k : 1u << bits_high_);
+    return m;
   }
 
   int32_t read_corrector(ArithmeticDecoder& decoder, SymbolModel& bits_model) {
@@ -231,25 +257,44 @@ private:
       const uint32_t low_bits = k_ - bits_high_;
       c = (c << low_bits) | decoder.read_bits(low_bits);
     }
-    // c in [0, 2^k): the upper half are the positive correctors 2^(k-1)+1 .. 2^k, the lower half
-    // the negative ones -(2^k-1) .. -2^(k-1). Unsigned arithmetic: k = 31 must not overflow.
-    if (c >= (1u << (k_ - 1))) return static_cast<int32_t>(c + 1);
-    return static_cast<int32_t>(c - ((1u << k_) - 1));
+    // c in [0, 2^k): the upper half are the positive correctors 2^(k-1)+1 .. 2^k (c + 1), the
+    // lower half the negative ones -(2^k-1) .. -2^(k-1) (c + 1 - 2^k). Without a branch (the
+    // sign is a coin toss); unsigned arithmetic: k = 31 must not overflow.
+    const uint32_t negative = c < (1u << (k_ - 1)) ? 1u << k_ : 0u;
+    return static_cast<int32_t>(c + 1 - negative);
   }
 
   uint32_t bits_high_;
   uint32_t corr_bits_ = 0, corr_range_ = 0;
   int32_t corr_min_ = 0;
   uint32_t k_ = 0;
-  std::vector<std::unique_ptr<SymbolModel>> k_models_;          // per context
-  BitModel zero_or_one_;                                        // k == 0: the corrector is 0 or 1
-  std::vector<std::unique_ptr<SymbolModel>> corrector_models_;  // index k-1 for k in 1..corr_bits
+  std::vector<SymbolModel> k_models_;          // per context
+  BitModel zero_or_one_;                       // k == 0: the corrector is 0 or 1
+  std::vector<SymbolModel> corrector_models_;  // index k-1 for k in 1..corr_bits
 };
 
 // The running median of the last five values (LASzip's StreamingMedian5): predicts x and y steps.
+// Its five values stay sorted; a new one replaces the largest or the smallest, by turns that
+// depend on where the values fall (high_: the largest goes), and the median is the middle one.
+// LASzip shifts the values with a branch at each comparison, coin tosses for noisy coordinates;
+// here the new value goes into the four kept ones by a min/max insertion, which has no branch
+// and gives the same five values in the same order.
 class Median5 {
 public:
-  void add(int32_t v);
+  void add(int32_t v) {
+    int32_t* s = values_;
+    const int32_t* kept = s + (high_ ? 0 : 1);  // an index, not a branch per value
+    const int32_t a[4] = {kept[0], kept[1], kept[2], kept[3]};
+    // Next time the largest goes if v is below the median (or equal to it, after the smallest
+    // went): v < median + 1 in 64 bits, again no branch.
+    const bool high = int64_t{v} < int64_t{s[2]} + (high_ ? 0 : 1);
+    s[0] = std::min(a[0], v);
+    s[1] = std::min(a[1], std::max(a[0], v));
+    s[2] = std::min(a[2], std::max(a[1], v));
+    s[3] = std::min(a[3], std::max(a[2], v));
+    s[4] = std::max(a[3], v);
+    high_ = high;
+  }
   int32_t get() const { return values_[2]; }
 
 private:
