@@ -261,7 +261,7 @@ void print_low(const std::vector<LowRow>& rows) {
       "| mesh | max_agl m | refinement | legs solved | roadmap s | query s (all legs) | total s | roadmap nodes | "
       "lattice nodes | samples added | rounds | path m |\n|---|---|---|---|---|---|---|---|---|---|---|---|\n");
   for (const LowRow& r : rows)
-    std::printf("| %s | %.0f | %s | %d/%d | %.3f | %.3f | %.3f | %s | %s | %s | %d | %.0f |\n", r.mesh.c_str(), r.agl,
+    std::printf("| %s | %.0f | %s | %d/%d | %.4f | %.4f | %.4f | %s | %s | %s | %d | %.0f |\n", r.mesh.c_str(), r.agl,
                 r.refine ? "on" : "off", r.legs_solved, r.legs, r.roadmap, r.query, r.roadmap + r.query,
                 grouped(r.nodes).c_str(), grouped(r.lattice).c_str(), grouped(r.refined).c_str(), r.rounds, r.length);
 }

@@ -34,4 +34,4 @@ for k in keys:
     name=' '.join(k[1:])
     extra=''
     if k[0]=='low': extra=f" (solved {base[0][k[:-1]+('solved',)]} / {new[0][k[:-1]+('solved',)]})"
-    print(f'| {name}{extra} | {statistics.median(b):.3f} | {statistics.median(n):.3f} | {statistics.median(ratios):.2f} ({min(ratios):.2f}-{max(ratios):.2f}) |')
+    print(f'| {name}{extra} | {statistics.median(b):.4f} | {statistics.median(n):.4f} | {statistics.median(ratios):.2f} ({min(ratios):.2f}-{max(ratios):.2f}) |')
