@@ -338,6 +338,61 @@ TEST(StereoPipeline, RenderedNrwCropBackToItsDsm) {
   EXPECT_LT(over3, 0.05);
 }
 
+// Large images are matched in bands of rectified rows: forced here with bands of 96 rows (the
+// views are 480 px), the DSM must be as good against the truth as the whole pair's and agree with
+// it in nearly every cell; and images read on demand hold at most the pair's two at a time.
+TEST(StereoPipeline, BandsOfRowsAndImagesReadOnDemand) {
+  RenderedScene& scene = rendered_scene();
+  const Grid& truth = scene.truth;
+  const std::vector<FrameCamera> cameras(scene.cameras.begin(), scene.cameras.begin() + 3);
+  const std::vector<GreyImage> images = scene.views(3);
+  FrameStereoOptions options;
+  options.rectify.min_height = scene.lo;
+  options.rectify.max_height = scene.hi;
+  const std::vector<std::pair<int, int>> pairs{{0, 1}, {1, 2}, {0, 2}};
+  Grid whole = dsm_grid({truth.x0, truth.y1(), truth.x1(), truth.y0}, 1.0);
+  const FrameStereoStats whole_stats = stereo_dsm(cameras, images, pairs, whole, options);
+  EXPECT_EQ(whole_stats.bands, pairs.size());
+
+  options.band_rows = 96;
+  options.band_margin = 48;
+  Grid banded = whole;
+  int live = 0, most = 0, reads = 0;
+  const ImageSource source = [&](int i) {
+    ++reads;
+    most = std::max(most, ++live);
+    return std::shared_ptr<const GreyImage>(new GreyImage(images[i]), [&live](const GreyImage* image) {
+      --live;
+      delete image;
+    });
+  };
+  const FrameStereoStats banded_stats = stereo_dsm(cameras, source, pairs, banded, options);
+  EXPECT_GT(banded_stats.bands, 3 * pairs.size());
+  EXPECT_LE(most, 2);
+  EXPECT_EQ(live, 0);
+  EXPECT_EQ(reads, 4);  // 0 and 1; 2 (1 kept); 0 again (2 kept)
+
+  const DsmErrors w = dsm_errors(whole, truth), b = dsm_errors(banded, truth);
+  size_t both = 0, close = 0;
+  for (size_t i = 0; i < whole.z.size(); ++i)
+    if (!std::isnan(whole.z[i]) && !std::isnan(banded.z[i])) ++both, close += std::abs(whole.z[i] - banded.z[i]) <= 0.5;
+  std::printf(
+      "whole pairs (%zu bands) vs bands of 96 rows (%zu bands): completeness %.1f / %.1f %%, median |error| %.3f / "
+      "%.3f m, > 1 m %.1f / %.1f %%; %.1f %% of the cells valid in both within 0.5 m\n",
+      whole_stats.bands, banded_stats.bands, 100 * w.completeness, 100 * b.completeness, w.median, b.median,
+      100 * w.over1, 100 * b.over1, 100.0 * close / both);
+  EXPECT_GT(b.completeness, w.completeness - 0.02);
+  EXPECT_LT(b.median, w.median + 0.05);
+  EXPECT_LT(b.over1, w.over1 + 0.02);
+  EXPECT_GT(double(close) / double(both), 0.97);
+
+  // The same bands from images in memory: the same DSM, cell for cell.
+  Grid lent = whole;
+  stereo_dsm(cameras, images, pairs, lent, options);
+  for (size_t i = 0; i < lent.z.size(); ++i)
+    ASSERT_TRUE(std::isnan(lent.z[i]) ? std::isnan(banded.z[i]) : lent.z[i] == banded.z[i]) << i;
+}
+
 TEST(StereoPipeline, ReversedPairAndThreeViewsFusedByTheMedian) {
   RenderedScene& scene = rendered_scene();
   const std::vector<GreyImage> images = scene.views(3);

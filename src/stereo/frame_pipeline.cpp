@@ -4,9 +4,12 @@
 // Matching (sgm_match.cpp: Hirschmüller 2008, with its left-right consistency check),
 // triangulation (triangulate.cpp); then all pairs' points ortho-projected into the DSM grid
 // with the median per cell (fuse_median.cpp). Pairs are processed one after the other (each
-// match uses all threads); only the points of earlier pairs are kept between pairs.
+// match uses all threads), a pair in bands of rectified rows; only the pair's two images, one
+// band and the fusion's budget are held.
+#include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <memory>
 #include <string>
 
 #include "dsmplan/median_fusion.hpp"
@@ -19,78 +22,121 @@ double seconds_since(std::chrono::steady_clock::time_point start) {
 }
 }  // namespace
 
+namespace {
+std::string size_problem(const GreyImage& image, const FrameCamera& camera) {
+  if (image.width == camera.width && image.height == camera.height) return {};
+  return "image is " + std::to_string(image.width) + " x " + std::to_string(image.height) + ", the camera says " +
+         std::to_string(camera.width) + " x " + std::to_string(camera.height);
+}
+}  // namespace
+
 FrameStereoStats stereo_dsm(const std::vector<FrameCamera>& cameras, const std::vector<GreyImage>& images,
                             const std::vector<std::pair<int, int>>& pairs, Grid& grid,
                             const FrameStereoOptions& options, const Progress& progress) {
   if (cameras.size() != images.size()) throw ArgumentError("images", "one image per camera is needed");
-  for (std::size_t i = 0; i < cameras.size(); ++i) {
-    const std::string name = "camera " + std::to_string(i);
-    check_camera(cameras[i], name);
-    if (images[i].width != cameras[i].width || images[i].height != cameras[i].height)
-      throw InputError("", name,
-                       "image is " + std::to_string(images[i].width) + " x " + std::to_string(images[i].height) +
-                           ", the camera says " + std::to_string(cameras[i].width) + " x " +
-                           std::to_string(cameras[i].height));
-  }
+  for (std::size_t i = 0; i < cameras.size(); ++i)
+    if (const std::string problem = size_problem(images[i], cameras[i]); !problem.empty())
+      throw InputError("", "camera " + std::to_string(i), problem);
+  // The caller's images, lent (the deleter does nothing).
+  const ImageSource lent = [&](int i) { return std::shared_ptr<const GreyImage>(&images[i], [](const GreyImage*) {}); };
+  return stereo_dsm(cameras, lent, pairs, grid, options, progress);
+}
+
+FrameStereoStats stereo_dsm(const std::vector<FrameCamera>& cameras, const ImageSource& source,
+                            const std::vector<std::pair<int, int>>& pairs, Grid& grid,
+                            const FrameStereoOptions& options, const Progress& progress) {
+  for (std::size_t i = 0; i < cameras.size(); ++i) check_camera(cameras[i], "camera " + std::to_string(i));
   if (pairs.empty()) throw InputError("", "cameras", "no pair of cameras to match");
+  if (!(options.band_rows >= 16)) throw ArgumentError("band_rows", "must be at least 16");
+  if (!(options.band_margin >= 0)) throw ArgumentError("band_margin", "must be >= 0");
   FrameStereoStats stats;
   MedianFusion fusion(grid, options.fusion);
   SgmMatcher matcher;
+  std::vector<std::pair<int, std::shared_ptr<const GreyImage>>> held;
   for (std::size_t k = 0; k < pairs.size(); ++k) {
     const auto [a, b] = pairs[k];
     if (a < 0 || b < 0 || a >= static_cast<int>(cameras.size()) || b >= static_cast<int>(cameras.size()) || a == b)
       throw ArgumentError("pairs", "pair " + std::to_string(a) + "-" + std::to_string(b) + " is not two cameras");
+    // The pair's two images: kept from the previous pair when it shares them, read otherwise.
+    std::erase_if(held, [&](const auto& entry) { return entry.first != a && entry.first != b; });
+    const auto image = [&](int i) -> const GreyImage& {
+      for (const auto& [camera, held_image] : held)
+        if (camera == i) return *held_image;
+      std::shared_ptr<const GreyImage> loaded = source(i);
+      if (!loaded) throw ArgumentError("images", "no image for camera " + std::to_string(i));
+      if (const std::string problem = size_problem(*loaded, cameras[i]); !problem.empty())
+        throw InputError("", "camera " + std::to_string(i), problem);
+      held.emplace_back(i, std::move(loaded));
+      return *held.back().second;
+    };
+    const GreyImage &image_a = image(a), &image_b = image(b);
     auto start = std::chrono::steady_clock::now();
-    RectifiedPair pair;
+    RectifiedPair geometry;
     try {
-      pair = rectify_pair(cameras[a], images[a], cameras[b], images[b], options.rectify);
+      geometry = rectify_cameras(cameras[a], cameras[b], options.rectify);
     } catch (const InputError& error) {
-      std::string problem = error.what();  // "cameras: ..." from rectify_pair
+      std::string problem = error.what();  // "cameras: ..." from rectify_cameras
       if (problem.rfind("cameras: ", 0) == 0) problem = problem.substr(9);
       throw InputError("", "cameras " + std::to_string(a) + " and " + std::to_string(b), problem);
     }
     stats.seconds_rectify += seconds_since(start);
-
-    start = std::chrono::steady_clock::now();
-    const std::vector<std::uint16_t> left = to_uint16(pair.left_image), right = to_uint16(pair.right_image);
     SgmOptions sgm = options.sgm;
     sgm.min_disparity = 0;
-    sgm.num_disparities = pair.num_disparities;
-    const ImageView left_view(left.data(), pair.left.width, pair.left.height),
-        right_view(right.data(), pair.right.width, pair.right.height);
-    Disparity disparity;
-    if (options.matcher) {
-      disparity = options.matcher(left_view, right_view, sgm);
-      if (disparity.width != pair.left.width || disparity.height != pair.left.height ||
-          disparity.left.size() != static_cast<std::size_t>(pair.left.width) * pair.left.height)
-        throw ArgumentError("matcher", "returned a disparity image of another size than the rectified pair's");
-    } else {
-      if (!(matcher.options().num_disparities == sgm.num_disparities)) matcher = SgmMatcher(sgm);
-      disparity = matcher.match(left_view, right_view);
-    }
-    stats.seconds_match += seconds_since(start);
-    for (float d : disparity.left) stats.matched_pixels += !std::isnan(d);
+    sgm.num_disparities = geometry.num_disparities;
+    const double margin_m = 0.1 * (options.rectify.max_height - options.rectify.min_height);
 
-    // Triangulated and fused a band of rows at a time: a pair's points are never all held (24
-    // bytes a pixel against the disparity's 4).
-    constexpr int kBand = 256;
-    for (int row = 0; row < disparity.height; row += kBand) {
+    // Band by band: rows [row, row + band_rows) of the rectified pair, matched with band_margin
+    // rows more on each side (cut at the images' edges) and their disparities dropped.
+    const int H = geometry.left.height;
+    const int band = H <= options.band_rows ? H : options.band_rows;
+    const int margin = band == H ? 0 : options.band_margin;
+    for (int row = 0; row < H; row += band) {
+      const int top = std::max(0, row - margin), bottom = std::min(H, row + band + margin);
       start = std::chrono::steady_clock::now();
-      std::vector<Vec3> set = triangulate(pair, disparity, row, row + kBand);
-      // The scene lies within the height range: a point more than 10 % of the range outside it
-      // (the disparity search reaches about that far beyond, rectify_pair) is a mismatch. The
-      // margin keeps the noise of points on the lowest (or highest) surface.
-      const std::size_t before = set.size();
-      const double margin = 0.1 * (options.rectify.max_height - options.rectify.min_height);
-      std::erase_if(set, [&](const Vec3& p) {
-        return !(p[2] >= options.rectify.min_height - margin && p[2] <= options.rectify.max_height + margin);
-      });
-      stats.points_outside_range += before - set.size();
-      stats.points += set.size();
-      stats.seconds_triangulate += seconds_since(start);
+      const RectifiedPair pair = rectify_rows(geometry, cameras[a], image_a, cameras[b], image_b, top, bottom - top);
+      stats.seconds_rectify += seconds_since(start);
+
       start = std::chrono::steady_clock::now();
-      fusion.add(set);
-      stats.seconds_fuse += seconds_since(start);
+      const std::vector<std::uint16_t> left = to_uint16(pair.left_image), right = to_uint16(pair.right_image);
+      const ImageView left_view(left.data(), pair.left.width, pair.left.height),
+          right_view(right.data(), pair.right.width, pair.right.height);
+      Disparity disparity;
+      if (options.matcher) {
+        disparity = options.matcher(left_view, right_view, sgm);
+        if (disparity.width != pair.left.width || disparity.height != pair.left.height ||
+            disparity.left.size() != static_cast<std::size_t>(pair.left.width) * pair.left.height)
+          throw ArgumentError("matcher", "returned a disparity image of another size than the rectified pair's");
+      } else {
+        if (!(matcher.options().num_disparities == sgm.num_disparities)) matcher = SgmMatcher(sgm);
+        disparity = matcher.match(left_view, right_view);
+      }
+      stats.seconds_match += seconds_since(start);
+      const int core0 = row - top, core1 = std::min(row + band, H) - top;  // the band's own rows
+      for (std::size_t i = static_cast<std::size_t>(core0) * disparity.width;
+           i < static_cast<std::size_t>(core1) * disparity.width; ++i)
+        stats.matched_pixels += !std::isnan(disparity.left[i]);
+
+      // Triangulated and fused 256 rows at a time: a pair's points are never all held (24
+      // bytes a pixel against the disparity's 4).
+      constexpr int kRows = 256;
+      for (int r = core0; r < core1; r += kRows) {
+        start = std::chrono::steady_clock::now();
+        std::vector<Vec3> set = triangulate(pair, disparity, r, std::min(r + kRows, core1));
+        // The scene lies within the height range: a point more than 10 % of the range outside it
+        // (the disparity search reaches about that far beyond, rectify_pair) is a mismatch. The
+        // margin keeps the noise of points on the lowest (or highest) surface.
+        const std::size_t before = set.size();
+        std::erase_if(set, [&](const Vec3& p) {
+          return !(p[2] >= options.rectify.min_height - margin_m && p[2] <= options.rectify.max_height + margin_m);
+        });
+        stats.points_outside_range += before - set.size();
+        stats.points += set.size();
+        stats.seconds_triangulate += seconds_since(start);
+        start = std::chrono::steady_clock::now();
+        fusion.add(set);
+        stats.seconds_fuse += seconds_since(start);
+      }
+      ++stats.bands;
     }
     ++stats.pairs;
     report(progress, 0.95 * (k + 1) / pairs.size());

@@ -68,14 +68,9 @@ void resample(const FrameCamera& original, const GreyImage& image, const FrameCa
 
 }  // namespace
 
-RectifiedPair rectify_pair(const FrameCamera& left, const GreyImage& left_image, const FrameCamera& right,
-                           const GreyImage& right_image, const RectifyOptions& options) {
+RectifiedPair rectify_cameras(const FrameCamera& left, const FrameCamera& right, const RectifyOptions& options) {
   check_camera(left, "left camera");
   check_camera(right, "right camera");
-  if (left_image.width != left.width || left_image.height != left.height)
-    throw ArgumentError("left image", "size differs from the camera's");
-  if (right_image.width != right.width || right_image.height != right.height)
-    throw ArgumentError("right image", "size differs from the camera's");
   const bool unbounded = options.unbounded_depth_disparities > 0;
   if (!unbounded && !(std::isfinite(options.min_height) && std::isfinite(options.max_height) &&
                       options.min_height <= options.max_height))
@@ -184,9 +179,32 @@ RectifiedPair rectify_pair(const FrameCamera& left, const GreyImage& left_image,
                      "the height range needs " + std::to_string(pair.num_disparities) + " disparities, more than " +
                          std::to_string(std::min(options.max_disparities, rect.width - 1)) +
                          ": narrow the height range");
-  resample(left, left_image, pair.left, pair.left_image, pair.left_mask);
-  resample(right, right_image, pair.right, pair.right_image, pair.right_mask);
   return pair;
+}
+
+RectifiedPair rectify_rows(const RectifiedPair& cameras, const FrameCamera& left, const GreyImage& left_image,
+                           const FrameCamera& right, const GreyImage& right_image, int row0, int rows) {
+  if (left_image.width != left.width || left_image.height != left.height)
+    throw ArgumentError("left image", "size differs from the camera's");
+  if (right_image.width != right.width || right_image.height != right.height)
+    throw ArgumentError("right image", "size differs from the camera's");
+  if (!(row0 >= 0 && rows > 0 && row0 + rows <= cameras.left.height))
+    throw ArgumentError("rows", "must lie within the rectified images' " + std::to_string(cameras.left.height));
+  RectifiedPair band = cameras;
+  // The band is the rectified camera moved up by row0 rows: same rays, fewer of them.
+  for (FrameCamera* c : {&band.left, &band.right}) {
+    c->cy -= row0;
+    c->height = rows;
+  }
+  resample(left, left_image, band.left, band.left_image, band.left_mask);
+  resample(right, right_image, band.right, band.right_image, band.right_mask);
+  return band;
+}
+
+RectifiedPair rectify_pair(const FrameCamera& left, const GreyImage& left_image, const FrameCamera& right,
+                           const GreyImage& right_image, const RectifyOptions& options) {
+  const RectifiedPair cameras = rectify_cameras(left, right, options);
+  return rectify_rows(cameras, left, left_image, right, right_image, 0, cameras.left.height);
 }
 
 std::vector<std::uint16_t> to_uint16(const GreyImage& image) {

@@ -126,7 +126,9 @@ CameraFile read_cameras(const std::string& path) {
 }
 
 // One image as grey floats: band 1, or the luminance of bands 1-3.
-GreyImage read_image(const std::string& path, const FrameCamera& camera, const std::string& camera_name) {
+// The image's file opened and checked (a raster, 8 or 16 bit, the camera's size), its pixels not read.
+std::unique_ptr<GDALDataset> open_image(const std::string& path, const FrameCamera& camera,
+                                        const std::string& camera_name) {
   if (!std::filesystem::exists(path)) throw InputError(path, camera_name, "image does not exist");
   GDALAllRegister();
   CPLPushErrorHandler(CPLQuietErrorHandler);
@@ -143,6 +145,12 @@ GreyImage read_image(const std::string& path, const FrameCamera& camera, const s
     throw InputError(path, camera_name,
                      "image is " + std::to_string(w) + " x " + std::to_string(h) + ", the camera says " +
                          std::to_string(camera.width) + " x " + std::to_string(camera.height));
+  return dataset;
+}
+
+GreyImage read_image(const std::string& path, const FrameCamera& camera, const std::string& camera_name) {
+  const std::unique_ptr<GDALDataset> dataset = open_image(path, camera, camera_name);
+  const int w = dataset->GetRasterXSize(), h = dataset->GetRasterYSize();
   require_memory(path, camera_name, 8.0 * w * h);
   GreyImage image;
   image.width = w;
@@ -283,12 +291,20 @@ StereoReport stereo_job(const StereoJobOptions& options, const Progress& progres
   grid.crs = crs;
   require_memory(options.output, "", 12.0 * grid.cells() + geotiff_buffer_bytes());
 
-  for (const auto& [a, b] : out.pairs) need_image(a), need_image(b);
+  // Every image a pair needs is checked now (a bad one is refused before the long work); its
+  // pixels are read when its pair comes (stereo_dsm's ImageSource), so only two are held.
+  std::vector<bool> needed(file.cameras.size(), false);
+  for (const auto& [a, b] : out.pairs) needed[a] = needed[b] = true;
   for (int i = 0; i < n; ++i)
-    if (!loaded[i]) {  // not matched: an empty stand-in of the right size keeps stereo_dsm's checks simple
-      images[i].width = file.cameras[i].width;
-      images[i].height = file.cameras[i].height;
-    }
+    if (needed[i] && !loaded[i]) open_image(file.images[i], file.cameras[i], "camera " + std::to_string(i));
+  images.clear();  // the height range's images: read again when their pair comes
+  const ImageSource source = [&](int i) {
+    const auto read_start = std::chrono::steady_clock::now();
+    auto image =
+        std::make_shared<const GreyImage>(read_image(file.images[i], file.cameras[i], "camera " + std::to_string(i)));
+    out.seconds_read += seconds_since(read_start);
+    return image;
+  };
   out.seconds_read = seconds_since(start) - out.seconds_height_range;
   report(progress, 0.05);
 
@@ -298,7 +314,7 @@ StereoReport stereo_job(const StereoJobOptions& options, const Progress& progres
   stereo.fusion.memory_bytes = options.fusion_memory_bytes;
   const FrameStereoStats stats = [&] {
     try {
-      return stereo_dsm(file.cameras, images, out.pairs, grid, stereo, sub_progress(progress, 0.05, 0.9));
+      return stereo_dsm(file.cameras, source, out.pairs, grid, stereo, sub_progress(progress, 0.05, 0.9));
     } catch (const InputError& error) {
       throw InputError(options.cameras, "", error.what());
     }

@@ -42,6 +42,7 @@
 #include <cstddef>
 #include <functional>
 #include <limits>
+#include <memory>
 #include <string>
 #include <utility>
 #include <vector>
@@ -134,6 +135,15 @@ struct RectifiedPair {
 /// two cameras). Time and memory O(rectified pixels), 5 bytes each per image.
 RectifiedPair rectify_pair(const FrameCamera& left, const GreyImage& left_image, const FrameCamera& right,
                            const GreyImage& right_image, const RectifyOptions& options);
+/// rectify_pair() in two steps, for images too large to rectify whole: rectify_cameras() is the
+/// geometry alone (the same errors, no images: O(1)); rectify_rows() resamples rows
+/// [row0, row0 + rows) of its rectified images, as a pair whose cameras are moved up by row0
+/// (cy - row0), so triangulate() and sgm_match work on the band as on a whole pair. Rows agree
+/// between both images, so a band of the left image needs only the same band of the right.
+/// rectify_rows() throws ArgumentError for rows outside the images. Memory O(band pixels).
+RectifiedPair rectify_cameras(const FrameCamera& left, const FrameCamera& right, const RectifyOptions& options);
+RectifiedPair rectify_rows(const RectifiedPair& cameras, const FrameCamera& left, const GreyImage& left_image,
+                           const FrameCamera& right, const GreyImage& right_image, int row0, int rows);
 
 /// An image as an SGM input: 16-bit, values rounded and clamped to 0..65535 (8-bit images keep
 /// their 0..255, which sgm_match's automatic intensity_unit treats as 8-bit).
@@ -229,22 +239,42 @@ struct FrameStereoOptions {
   SgmOptions sgm;              ///< num_disparities and min_disparity are set per pair
   DenseMatcher matcher;        ///< empty: dsmplan's SGM (SgmMatcher, its buffer kept between pairs)
   MedianFusionOptions fusion;  ///< the points' memory budget (median_fusion.hpp)
+  /// Rectified rows matched at a time: a pair whose rectified images are taller is rectified,
+  /// matched, triangulated and fused in bands of this many rows, each with band_margin more
+  /// rows above and below for SGM's paths to enter the band (their disparities are dropped).
+  /// Memory is then O(band pixels) instead of O(rectified pixels); the disparities near a
+  /// band's border can differ from a whole-image match (paths cut at the margin).
+  int band_rows = 2048;
+  int band_margin = 64;
 };
 
 struct FrameStereoStats {
   std::size_t pairs = 0, matched_pixels = 0, points = 0, points_in_grid = 0, valid_cells = 0;
   std::size_t points_outside_range = 0;  ///< more than 10 % of the height range outside it: dropped
-  std::size_t fusion_runs_spilled = 0;   ///< runs the fusion wrote to disk (0: all points fitted in memory)
+  std::size_t bands = 0;  ///< rectified bands matched, all pairs (one a pair when none is taller than band_rows)
+  std::size_t fusion_runs_spilled = 0;  ///< runs the fusion wrote to disk (0: all points fitted in memory)
   double seconds_rectify = 0, seconds_match = 0, seconds_triangulate = 0, seconds_fuse = 0;
 };
 
 /// Every pair rectified, matched (sgm_match), triangulated, its points more than 10 % of the
 /// height range outside that range dropped (options.rectify: the scene is stated to lie within
-/// it), each pair's points handed to a MedianFusion as they are made (memory: one pair's images
-/// and points, and options.fusion's budget), then fused into `grid` (its geometry as given). images[i]
-/// belongs to cameras[i] and must have its size (InputError "camera i: image is W x H, the
-/// camera says ..."). Progress per pair.
+/// it), each pair's points handed to a MedianFusion as they are made, then fused into `grid`
+/// (its geometry as given). A pair whose rectified images are taller than options.band_rows is
+/// rectified and matched in bands of rows (FrameStereoOptions). images[i] belongs to cameras[i]
+/// and must have its size (InputError "camera i: image is W x H, the camera says ..."). Progress
+/// per pair. Memory: the images given, one band (rectified images, SGM, disparities) and the
+/// fusion's budget.
 FrameStereoStats stereo_dsm(const std::vector<FrameCamera>& cameras, const std::vector<GreyImage>& images,
+                            const std::vector<std::pair<int, int>>& pairs, Grid& grid,
+                            const FrameStereoOptions& options, const Progress& progress = {});
+
+/// The image of camera i, read when a pair first needs it (e.g. from a file); null is an
+/// ArgumentError.
+using ImageSource = std::function<std::shared_ptr<const GreyImage>(int camera)>;
+/// stereo_dsm() with the images read on demand: only the current pair's two are held (one kept
+/// for the next pair when it shares it), so memory is two images, one band and the fusion's
+/// budget, whatever the number of cameras. The size check happens when an image is read.
+FrameStereoStats stereo_dsm(const std::vector<FrameCamera>& cameras, const ImageSource& images,
                             const std::vector<std::pair<int, int>>& pairs, Grid& grid,
                             const FrameStereoOptions& options, const Progress& progress = {});
 
