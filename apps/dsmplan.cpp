@@ -182,6 +182,11 @@ int main(int argc, char** argv) {
       ->add_option("--fusion-memory", fusion_memory_mb,
                    "MB of memory for the points before the fusion spills sorted runs to $TMPDIR (or /tmp)")
       ->capture_default_str();
+  double band_memory_mb = 1024;
+  stereo_cmd
+      ->add_option("--band-memory", band_memory_mb,
+                   "MB for one band of a frame pair's rectified images and matching (taller pairs go in bands of rows)")
+      ->capture_default_str();
   stereo_cmd->add_flag("-q,--quiet", quiet, "No progress output");
 
   MeshJobOptions mesh;
@@ -458,6 +463,9 @@ int main(int argc, char** argv) {
                             "--cameras CAMERAS.json for frame cameras, not both");
       if (!(fusion_memory_mb >= 0.0625 && fusion_memory_mb < 1e9))
         throw ArgumentError("--fusion-memory", "must be at least 0.0625 (MB)");
+      if (!(band_memory_mb >= 1 && band_memory_mb < 1e9))
+        throw ArgumentError("--band-memory", "must be at least 1 (MB)");
+      stereo.band_memory_bytes = static_cast<std::size_t>(band_memory_mb * 1048576.0);
       stereo.fusion_memory_bytes = satellite.fusion_memory_bytes =
           static_cast<std::size_t>(fusion_memory_mb * 1048576.0);
       if (!stereo.cameras.empty()) {

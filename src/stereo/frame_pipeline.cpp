@@ -47,7 +47,9 @@ FrameStereoStats stereo_dsm(const std::vector<FrameCamera>& cameras, const Image
                             const FrameStereoOptions& options, const Progress& progress) {
   for (std::size_t i = 0; i < cameras.size(); ++i) check_camera(cameras[i], "camera " + std::to_string(i));
   if (pairs.empty()) throw InputError("", "cameras", "no pair of cameras to match");
-  if (!(options.band_rows >= 16)) throw ArgumentError("band_rows", "must be at least 16");
+  if (!(options.band_rows == 0 || options.band_rows >= 16))
+    throw ArgumentError("band_rows", "must be 0 or at least 16");
+  if (!(options.band_bytes >= (std::size_t{1} << 20))) throw ArgumentError("band_bytes", "must be at least 1 MiB");
   if (!(options.band_margin >= 0)) throw ArgumentError("band_margin", "must be >= 0");
   FrameStereoStats stats;
   MedianFusion fusion(grid, options.fusion);
@@ -88,7 +90,12 @@ FrameStereoStats stereo_dsm(const std::vector<FrameCamera>& cameras, const Image
     // Band by band: rows [row, row + band_rows) of the rectified pair, matched with band_margin
     // rows more on each side (cut at the images' edges) and their disparities dropped.
     const int H = geometry.left.height;
-    const int band = H <= options.band_rows ? H : options.band_rows;
+    const double row_bytes = double(geometry.left.width) * (2.0 * geometry.num_disparities + 24);
+    const double fits = double(options.band_bytes) / row_bytes;  // rows, margins included
+    const int wanted = options.band_rows > 0 ? options.band_rows
+                       : fits >= H           ? H
+                                             : std::max(64, static_cast<int>(fits) - 2 * options.band_margin);
+    const int band = std::min(H, wanted);
     const int margin = band == H ? 0 : options.band_margin;
     for (int row = 0; row < H; row += band) {
       const int top = std::max(0, row - margin), bottom = std::min(H, row + band + margin);

@@ -312,6 +312,7 @@ StereoReport stereo_job(const StereoJobOptions& options, const Progress& progres
   stereo.rectify.min_height = out.min_height;
   stereo.rectify.max_height = out.max_height;
   stereo.fusion.memory_bytes = options.fusion_memory_bytes;
+  stereo.band_bytes = options.band_memory_bytes;
   const FrameStereoStats stats = [&] {
     try {
       return stereo_dsm(file.cameras, source, out.pairs, grid, stereo, sub_progress(progress, 0.05, 0.9));
@@ -324,6 +325,7 @@ StereoReport stereo_job(const StereoJobOptions& options, const Progress& progres
   out.points_outside_range = stats.points_outside_range;
   out.points_in_grid = stats.points_in_grid;
   out.fusion_runs_spilled = stats.fusion_runs_spilled;
+  out.bands = stats.bands;
   out.seconds_rectify = stats.seconds_rectify;
   out.seconds_match = stats.seconds_match;
   out.seconds_triangulate = stats.seconds_triangulate;
@@ -359,6 +361,7 @@ Json to_json(const StereoReport& r) {
           {"points_outside_height_range", r.points_outside_range},
           {"points_in_grid", r.points_in_grid},
           {"fusion_runs_spilled", r.fusion_runs_spilled},
+          {"bands", r.bands},
           {"dsm", to_json(r.summary)},
           {"seconds",
            {{"read", r.seconds_read},

@@ -239,12 +239,14 @@ struct FrameStereoOptions {
   SgmOptions sgm;              ///< num_disparities and min_disparity are set per pair
   DenseMatcher matcher;        ///< empty: dsmplan's SGM (SgmMatcher, its buffer kept between pairs)
   MedianFusionOptions fusion;  ///< the points' memory budget (median_fusion.hpp)
-  /// Rectified rows matched at a time: a pair whose rectified images are taller is rectified,
-  /// matched, triangulated and fused in bands of this many rows, each with band_margin more
-  /// rows above and below for SGM's paths to enter the band (their disparities are dropped).
-  /// Memory is then O(band pixels) instead of O(rectified pixels); the disparities near a
+  /// Memory for one band of a pair, bytes: a pair whose rectified images need more (SGM's 2 bytes
+  /// a pixel and disparity, about 24 bytes a pixel for the images and disparities) is rectified,
+  /// matched, triangulated and fused in bands of rows that fit, each with band_margin more rows
+  /// above and below for SGM's paths to enter the band (their disparities are dropped). Memory
+  /// is then O(band_bytes) instead of O(rectified pixels x disparities); the disparities near a
   /// band's border can differ from a whole-image match (paths cut at the margin).
-  int band_rows = 2048;
+  std::size_t band_bytes = std::size_t{1} << 30;
+  int band_rows = 0;  ///< > 0: bands of this many rows, whatever band_bytes says (at least 16)
   int band_margin = 64;
 };
 

@@ -42,6 +42,8 @@ struct StereoJobOptions {
   /// The fusion's memory for points, bytes (8 a point; beyond it sorted runs go to a temporary
   /// file in $TMPDIR or /tmp: MedianFusion, median_fusion.hpp); at least 64 KiB.
   std::size_t fusion_memory_bytes = std::size_t{1} << 30;
+  /// Memory for one band of a pair's rectified images and matching, bytes (FrameStereoOptions::band_bytes).
+  std::size_t band_memory_bytes = std::size_t{1} << 30;
 };
 
 struct StereoReport {
@@ -55,6 +57,7 @@ struct StereoReport {
   size_t matched_pixels = 0, points = 0, points_in_grid = 0;
   size_t points_outside_range = 0;  ///< triangulated outside height_range, dropped as mismatches
   size_t fusion_runs_spilled = 0;   ///< 0: the points fitted in fusion_memory_bytes
+  size_t bands = 0;                 ///< bands of rectified rows matched (one a pair when it fits band_memory_bytes)
   GridSummary summary;
   double seconds_read = 0, seconds_height_range = 0, seconds_rectify = 0, seconds_match = 0, seconds_triangulate = 0,
          seconds_fuse = 0, seconds_write = 0;
@@ -66,9 +69,8 @@ struct StereoReport {
 /// nothing was matched (no output is written then).
 StereoReport stereo_job(const StereoJobOptions& options, const Progress& progress = {});
 /// Keys: cameras, output, camera_count, pairs [[i,j],...], height_range, height_range_estimated, bounds, width, height,
-/// matched_pixels, points, points_outside_height_range, points_in_grid, fusion_runs_spilled, dsm {cells, valid, nodata,
-/// holes, z_min, z_max},
-/// seconds {read, height_range, rectify, match, triangulate, fuse, write, total}.
+/// matched_pixels, points, points_outside_height_range, points_in_grid, fusion_runs_spilled, bands, dsm {cells, valid,
+/// nodata, holes, z_min, z_max}, seconds {read, height_range, rectify, match, triangulate, fuse, write, total}.
 Json to_json(const StereoReport& report);
 
 }  // namespace dsmplan
