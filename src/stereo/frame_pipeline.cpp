@@ -20,9 +20,7 @@ namespace {
 double seconds_since(std::chrono::steady_clock::time_point start) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 }
-}  // namespace
 
-namespace {
 std::string size_problem(const GreyImage& image, const FrameCamera& camera) {
   if (image.width == camera.width && image.height == camera.height) return {};
   return "image is " + std::to_string(image.width) + " x " + std::to_string(image.height) + ", the camera says " +

@@ -125,7 +125,6 @@ CameraFile read_cameras(const std::string& path) {
   return file;
 }
 
-// One image as grey floats: band 1, or the luminance of bands 1-3.
 // The image's file opened and checked (a raster, 8 or 16 bit, the camera's size), its pixels not read.
 std::unique_ptr<GDALDataset> open_image(const std::string& path, const FrameCamera& camera,
                                         const std::string& camera_name) {
@@ -148,6 +147,7 @@ std::unique_ptr<GDALDataset> open_image(const std::string& path, const FrameCame
   return dataset;
 }
 
+// One image as grey floats: band 1, or the luminance of bands 1-3.
 GreyImage read_image(const std::string& path, const FrameCamera& camera, const std::string& camera_name) {
   const std::unique_ptr<GDALDataset> dataset = open_image(path, camera, camera_name);
   const int w = dataset->GetRasterXSize(), h = dataset->GetRasterYSize();
