@@ -303,6 +303,68 @@ TEST(PlanLimits, GroundWalkIsTheHighestPointAboveEveryCellCrossed) {
     }
 }
 
+TEST(PlanLimits, QuickRefusalsRefuseOnlyWhatTheExactChecksRefuse) {
+  // rises_above() against the exact walk, on rough ground with holes: never true where the walk
+  // finds the segment under the ceiling, and true for most of the segments just above it.
+  {
+    Grid g(40, 30, 356000.5, 5699030.25, 0.5, 0.75);
+    std::mt19937_64 rng(21);
+    std::uniform_real_distribution<double> unit(0, 1);
+    for (float& z : g.z) z = unit(rng) < 0.1 ? Grid::nodata : static_cast<float>(40 * unit(rng));
+    const GroundGrid ground(g);
+    int refused = 0, above = 0;
+    for (int i = 0; i < 5000; ++i) {
+      auto point = [&] {
+        return Point3{g.x0 + unit(rng) * g.width * g.cell_x, g.y1() + unit(rng) * g.height * g.cell_y, 60 * unit(rng)};
+      };
+      const Point3 p = point(), q = point();
+      const double exact = ground.max_height_above(p, q), ceiling = exact - 1 + 2 * unit(rng);
+      const bool quick = ground.rises_above(p, q, ceiling);
+      if (quick) EXPECT_GT(exact, ceiling) << i;
+      above += exact > ceiling, refused += quick;
+    }
+    EXPECT_GT(refused, above / 4);  // a refusal that never answers would pass the line above
+  }
+  // dips_below() of the mesh's floor, and FlightSpace::surely_invalid(), against the exact
+  // clearance of the real tile's mesh, for segments between valid points: a true answer is
+  // always a segment segment_clear() refuses.
+  const Mesh mesh = triangulate_xy3(testkit::nrw_crop());
+  const ClearanceIndex index(mesh);
+  const GroundGrid dsm(testkit::nrw_crop());
+  const FlightSpace space(index, dsm, 2.0, 30.0);
+  const ClearanceIndex::Footprint& e = index.footprint();
+  std::mt19937_64 rng(22);
+  std::uniform_real_distribution<double> unit(0, 1);
+  auto valid_point = [&] {
+    for (;;) {
+      const double x = e.xmin + unit(rng) * (e.xmax - e.xmin), y = e.ymin + unit(rng) * (e.ymax - e.ymin);
+      const double g = index.ground(x, y);
+      const Point3 p{x, y, g + 0.5 + 30 * unit(rng)};
+      if (space.state_valid(p)) return p;
+    }
+  };
+  int refused = 0, blocked = 0;
+  for (int i = 0; i < 4000; ++i) {
+    const Point3 p = valid_point();
+    Point3 q = valid_point();
+    q = lerp(p, q, std::min(1.0, 60 / std::hypot(q[0] - p[0], q[1] - p[1])));  // at most 60 m apart
+    if (!space.state_valid(q)) continue;
+    const bool clear = index.segment_clear(p, q, 2.0), floor_says = index.floor().dips_below(p, q, 2.0);
+    if (floor_says) EXPECT_FALSE(clear) << i;
+    if (space.surely_invalid(p, q)) EXPECT_FALSE(space.motion_valid(p, q)) << i;
+    blocked += !clear, refused += floor_says;
+  }
+  EXPECT_GT(refused, blocked / 3) << blocked;  // and it answers for many of them
+  // Over a hole of a mesh (cells no triangle meets) the floor proves nothing.
+  Grid holed(20, 20, 0, 20, 1, 1);
+  std::fill(holed.z.begin(), holed.z.end(), 10.0f);
+  for (int r = 5; r < 15; ++r)
+    for (int c = 5; c < 15; ++c) holed.z[holed.index(c, r)] = Grid::nodata;
+  const ClearanceIndex holed_index(triangulate_xy3(holed));
+  EXPECT_FALSE(holed_index.floor().dips_below({7.5, 12.5, 3}, {12.5, 7.5, 3}, 2.0));   // inside the hole, below its rim
+  EXPECT_TRUE(holed_index.floor().dips_below({1.5, 18.5, 11}, {18.5, 1.5, 11}, 2.0));  // over the rim: 1 m above it
+}
+
 TEST(PlanLimits, ColumnsAboveTheMeshAreMeasuredExactly) {
   // A DSM of 1 m with buildings, the mesh through the cell centres: the most a column rises
   // above it, against a dense sampling (a lower bound that approaches it).

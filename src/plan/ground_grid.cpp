@@ -14,6 +14,10 @@
 namespace dsmplan {
 
 GroundGrid::GroundGrid(Grid ground) : grid_(std::move(ground)) {
+  if (std::any_of(grid_.z.begin(), grid_.z.end(), [](float z) { return std::isnan(z); })) {
+    hole_.resize(grid_.z.size());
+    for (size_t i = 0; i < hole_.size(); ++i) hole_[i] = std::isnan(grid_.z[i]);
+  }
   fill_holes_from_rim(grid_, RimHeight::lowest);
   if (std::none_of(grid_.z.begin(), grid_.z.end(), [](float z) { return !std::isnan(z); })) {
     grid_ = Grid();
@@ -95,6 +99,33 @@ double GroundGrid::height_above(const Point3& p) const {
   const double u = (p[0] - grid_.x0) / grid_.cell_x, v = (grid_.y0 - p[1]) / grid_.cell_y;
   if (!(u >= 0 && v >= 0 && u <= grid_.width && v <= grid_.height)) return INFINITY;
   return touching(u, v, p[2]);
+}
+
+template <class F>
+bool GroundGrid::any_sample(const Point3& p, const Point3& q, F&& fn) const {
+  if (empty()) return false;
+  const double pu = (p[0] - grid_.x0) / grid_.cell_x, pv = (grid_.y0 - p[1]) / grid_.cell_y;
+  const double du = (q[0] - p[0]) / grid_.cell_x, dv = (p[1] - q[1]) / grid_.cell_y, dz = q[2] - p[2];
+  const double cells = std::ceil(std::hypot(du, dv));
+  if (!(cells < 1e7)) return false;  // not finite, or absurdly long: nothing proven
+  const int n = std::max(1, static_cast<int>(cells));
+  for (int k = 0; k < n; ++k) {
+    const double t = (k + 0.5) / n, u = pu + t * du, v = pv + t * dv;
+    if (!(u >= 0 && v >= 0 && u < grid_.width && v < grid_.height)) continue;  // beyond the raster
+    const int col = static_cast<int>(u), row = static_cast<int>(v);
+    if (fn(p[2] + t * dz - cell_ground(col, row), col, row)) return true;
+  }
+  return false;
+}
+
+bool GroundGrid::dips_below(const Point3& p, const Point3& q, double height) const {
+  return any_sample(p, q, [&](double above, int col, int row) {
+    return above < height && (hole_.empty() || !hole_[grid_.index(col, row)]);
+  });
+}
+
+bool GroundGrid::rises_above(const Point3& p, const Point3& q, double height) const {
+  return any_sample(p, q, [&](double above, int, int) { return above > height; });
 }
 
 double GroundGrid::max_height_above(const Point3& p, const Point3& q) const {

@@ -68,7 +68,7 @@ public:
       if (nodes_[e.v].closed || e.g > nodes_[e.v].best) continue;  // settled, or a stale entry
       if (!valid(e.v)) continue;  // tested when first it comes first: most nodes made never do
       Node& v = nodes_[e.v];
-      if (e.u != kNone && !space_.motion_valid(nodes_[e.u].p, v.p)) {
+      if (e.u != kNone && !motion_valid(nodes_[e.u].p, v.p)) {
         blocked_.insert(edge_key(e.u, e.v));
         offer_again(e.v);
         continue;
@@ -141,11 +141,19 @@ private:
     Node& n = nodes_[v];
     if (n.state == kUntested) {
       const ClearanceIndex& index = space_.index();
-      const bool ok = space_.within_limits(n.p) && n.p[2] >= index.ground(n.p[0], n.p[1]) &&
-                      index.point_clear(n.p, space_.safety());
+      // The floor first: a node less than the safety distance above it is in a building or
+      // too near a roof, and reading the floor costs far less than the triangles.
+      const bool ok = space_.within_limits(n.p) && !(index.floor().height_above(n.p) < space_.safety()) &&
+                      n.p[2] >= index.ground(n.p[0], n.p[1]) && index.point_clear(n.p, space_.safety());
       n.state = ok ? kValid : kInvalid;
     }
     return n.state == kValid;
+  }
+
+  // space_.motion_valid(p, q), refused first from the ground rasters when they can (both ends
+  // are valid nodes, so the answer is the same; most pulls and many motions fail).
+  bool motion_valid(const Point3& p, const Point3& q) const {
+    return !space_.surely_invalid(p, q) && space_.motion_valid(p, q);
   }
 
   // v's best edge was blocked: offer it through the settled neighbour that now gives the least
@@ -176,7 +184,7 @@ private:
     std::vector<Point3> out{path.front()};
     for (size_t m = 0; m + 1 < path.size();) {
       size_t far = std::min(path.size() - 1, m + kPull);
-      while (far > m + 1 && !space_.motion_valid(path[m], path[far])) --far;
+      while (far > m + 1 && !motion_valid(path[m], path[far])) --far;
       out.push_back(path[far]);
       m = far;
     }

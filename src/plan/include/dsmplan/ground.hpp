@@ -20,6 +20,8 @@
 // below_ceiling() walks the 8 x 8 blocks the segment crosses instead, settles each by its lowest ground when it can,
 // and walks the cells of the others only (and the whole segment where it passes exactly through a block's corner):
 // O(blocks crossed) for most segments.
+// dips_below() and rises_above() are the quick refusals the planner tries before those exact
+// walks: one point per cell length along the segment, each a proof when it answers.
 #pragma once
 
 #include <cstdint>
@@ -55,6 +57,15 @@ public:
   /// blocks it meets: -infinity where the square leaves the raster. A segment inside the square
   /// is below the ceiling when its higher end is at most ceiling above this. O((r / block)^2).
   double lowest_near(double x, double y, double r) const;
+  /// True when a point of the segment [p, q] lies less than `height` above the ground of a cell
+  /// that holds it; the cells that were holes (filled from their rim) do not count. Sampled, one
+  /// point per cell length along the segment (its middle when it is shorter): true is proven by
+  /// the point found, false proves nothing. O(cells crossed), no walk.
+  bool dips_below(const Point3& p, const Point3& q, double height) const;
+  /// True when a point of the segment [p, q] lies more than `height` above the ground of a cell
+  /// that holds it (holes counted at their filled height, as max_height_above() counts them), so
+  /// max_height_above(p, q) > height. Sampled like dips_below().
+  bool rises_above(const Point3& p, const Point3& q, double height) const;
   /// A hash of the raster's georeference and heights (roadmap files record what they were built over).
   uint64_t fingerprint() const;
 
@@ -71,6 +82,10 @@ private:
   static constexpr int block = 8;
   int block_cols_ = 0, block_rows_ = 0;
   std::vector<float> block_low_;  ///< lowest ground of each block x block cells
+  std::vector<uint8_t> hole_;     ///< 1 where the cell was a hole; empty when none was
+  /// fn(z - ground, col, row) at the samples of dips_below(); true as soon as fn is.
+  template <class F>
+  bool any_sample(const Point3& p, const Point3& q, F&& fn) const;
 };
 
 }  // namespace dsmplan
