@@ -5,11 +5,10 @@
 // Bezier from the middle of one segment over the corner to the middle of the next, as in
 // Chaikin's corner cutting, Chaikin 1974), drawn as chords and every chord re-checked.
 // Also the waypoint checks every planner runs first.
-#include <tbb/parallel_for.h>
+#include <tbb/blocked_range.h>
 #include <tbb/parallel_reduce.h>
 
 #include <algorithm>
-#include <atomic>
 #include <cmath>
 #include <cstdio>
 #include <stdexcept>
@@ -73,31 +72,15 @@ bool shortcut_valid(const FlightSpace& space, const Point3& p, const Point3& q) 
 }
 
 // From each point, straight on to the farthest later point the segment to which is clear
-// (the next point always is: it is a checked edge). A point's candidates are checked on every
-// core, each part of them from its far end, and the farthest clear one wins: the path is the one
-// a check from the far end down, one by one, gives.
+// (the next point always is: it is a checked edge), tried from the far end down. Nearly every
+// candidate is refused by shortcut_valid's quick checks, so one core does it: with the
+// refusals that cheap, spreading a point's candidates over both cores measured no faster
+// (bench/README.md, issue 14).
 std::vector<Point3> shortcut(const std::vector<Point3>& leg, const FlightSpace& space) {
-  constexpr size_t kSerial = 8;  // fewer candidates: not worth the threads
   std::vector<Point3> out{leg.front()};
   for (size_t i = 0; i + 1 < leg.size();) {
     size_t j = leg.size() - 1;
-    if (j - i <= kSerial) {
-      while (j > i + 1 && !shortcut_valid(space, leg[i], leg[j])) --j;
-    } else {
-      std::atomic<size_t> farthest = i + 1;
-      tbb::parallel_for(
-          tbb::blocked_range<size_t>(i + 2, leg.size(), 4),
-          [&](const tbb::blocked_range<size_t>& range) {
-            for (size_t k = range.end(); k-- > range.begin() && k > farthest.load(std::memory_order_relaxed);)
-              if (shortcut_valid(space, leg[i], leg[k])) {
-                for (size_t seen = farthest.load(); seen < k && !farthest.compare_exchange_weak(seen, k);) {
-                }
-                return;
-              }
-          },
-          tbb::simple_partitioner());
-      j = farthest.load();
-    }
+    while (j > i + 1 && !shortcut_valid(space, leg[i], leg[j])) --j;
     out.push_back(leg[j]);
     i = j;
   }

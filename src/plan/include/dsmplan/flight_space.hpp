@@ -113,14 +113,14 @@ public:
   }
   /// A quick refusal from the two ground rasters alone (no triangle read, no walk), for the
   /// planners' candidate motions, most of which fail: true when a point of [p, q] sampled once a
-  /// cell is above the ceiling, or less than the safety distance above the mesh's floor
-  /// (GroundGrid::dips_below on ClearanceIndex::floor()). Then motion_valid(p, q) is false too
+  /// cell is less than the safety distance above the mesh's floor (GroundGrid::dips_below on
+  /// ClearanceIndex::floor()), or above the ceiling. Then motion_valid(p, q) is false too
   /// when p and q are valid states and the mesh covers the cells between them: such a point is
   /// within the safety distance of the surface below it, or under that surface, which a segment
   /// from above it must cross (the floor's holes, cells no triangle meets, are left out). False
   /// proves nothing. O(cells crossed).
   bool surely_invalid(const Point3& p, const Point3& q) const {
-    return ground_.rises_above(p, q, max_agl_) || index_.floor().dips_below(p, q, safety_);
+    return index_.floor().dips_below(p, q, safety_) || ground_.rises_above(p, q, max_agl_);
   }
 
 private:
