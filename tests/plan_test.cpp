@@ -1322,6 +1322,68 @@ TEST(LowAltitude, RefinementIsTheSameOnOneAndTwoThreads) {
   EXPECT_EQ(reused.path, two.path);
 }
 
+TEST(LowAltitude, ComponentLabelsOnlySpareSearchesThatWouldFail) {
+  // label_components() against a breadth-first search over the lists taken both ways, on the
+  // roadmaps of 20 m and 10 m ceilings (many components) and on lists made one-sided.
+  const Mesh& mesh = mesh_2m();
+  const ClearanceIndex index(mesh);
+  const auto waypoints = street_corners(mesh, index);
+  for (double agl : {20.0, 10.0}) {
+    PlanOptions options;
+    options.max_agl = agl;
+    Roadmap map = build_roadmap(index, options);
+    for (bool one_sided : {false, true}) {
+      if (one_sided) {  // keep each edge listed from its lower end only, as a damaged file might
+        Roadmap half = map;
+        half.neighbour.clear();
+        half.start.assign(1, 0);
+        for (uint32_t u = 0; u < map.nodes.size(); ++u) {
+          for (uint32_t k = map.start[u]; k < map.start[u + 1]; ++k)
+            if (map.neighbour[k] > u) half.neighbour.push_back(map.neighbour[k]);
+          half.start.push_back(static_cast<uint32_t>(half.neighbour.size()));
+        }
+        label_components(half);
+        EXPECT_EQ(half.component, map.component);
+        continue;
+      }
+      std::vector<std::vector<uint32_t>> both(map.nodes.size());
+      for (uint32_t u = 0; u < map.nodes.size(); ++u)
+        for (uint32_t k = map.start[u]; k < map.start[u + 1]; ++k) {
+          both[u].push_back(map.neighbour[k]);
+          both[map.neighbour[k]].push_back(u);
+        }
+      std::vector<uint32_t> label(map.nodes.size(), UINT32_MAX);
+      size_t components = 0;
+      for (uint32_t first = 0; first < map.nodes.size(); ++first) {
+        if (label[first] != UINT32_MAX) continue;
+        ++components;
+        std::vector<uint32_t> stack{first};
+        label[first] = first;
+        while (!stack.empty()) {
+          const uint32_t u = stack.back();
+          stack.pop_back();
+          for (uint32_t v : both[u])
+            if (label[v] == UINT32_MAX) label[v] = first, stack.push_back(v);
+        }
+      }
+      EXPECT_EQ(map.component, label) << agl;
+      EXPECT_GT(components, 1u) << agl;  // else the labels spare nothing here
+    }
+    // A query with the labels and one without (a roadmap made by hand) give the same path, with
+    // legs A* cannot fly over the roadmap among them (the refinement flew them).
+    Roadmap unlabelled_map = map;
+    unlabelled_map.component.clear();
+    const PlanResult labelled = query_roadmap(map, index, waypoints, options);
+    const PlanResult unlabelled = query_roadmap(unlabelled_map, index, waypoints, options);
+    ASSERT_EQ(labelled.status, PlanStatus::Solved) << labelled.reason;
+    EXPECT_GT(labelled.lattice_nodes + labelled.refined_samples, 0u) << agl;  // legs the labels spared A* for
+    EXPECT_EQ(labelled.raw_path, unlabelled.raw_path) << agl;
+    EXPECT_EQ(labelled.path, unlabelled.path) << agl;
+    EXPECT_EQ(labelled.refined_samples, unlabelled.refined_samples) << agl;
+    EXPECT_EQ(labelled.lattice_nodes, unlabelled.lattice_nodes) << agl;
+  }
+}
+
 TEST(LowAltitude, RefinementIsBoundedAndSaysWhy) {
   const Mesh& mesh = mesh_2m();
   const ClearanceIndex index(mesh);

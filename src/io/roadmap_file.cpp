@@ -201,6 +201,7 @@ Roadmap read_roadmap(const std::string& path, RoadmapHeader* header) {
       if (map.neighbour[k] >= nodes || map.neighbour[k] == i)
         throw InputError(path, "node " + std::to_string(i), "edge to a node that does not exist");
   }
+  label_components(map);
   return map;
 }
 

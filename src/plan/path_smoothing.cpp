@@ -6,6 +6,7 @@
 // Chaikin's corner cutting, Chaikin 1974), drawn as chords and every chord re-checked.
 // Also the waypoint checks every planner runs first.
 #include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
 #include <tbb/parallel_reduce.h>
 
 #include <algorithm>
@@ -91,48 +92,49 @@ Point3 lerp(const Point3& a, const Point3& b, double t) {
   return {a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1]), a[2] + t * (b[2] - a[2])};
 }
 
-// The polygon with each interior corner replaced by chords of the quadratic Bezier from a
-// point on the incoming segment over the corner to a point on the outgoing one (at half of
-// each segment: the clamped quadratic B-spline of the polygon). A corner whose chords are not
-// all clear at `safety` is tried again cutting a quarter, an eighth, ... of the segments, and
-// kept sharp after that. The curve lies in the triangle of its ends and the corner and is
-// convex, so it is no longer than the two straight pieces it replaces, and its chords are
-// shorter still: rounding never makes the path longer.
+// The chords of corner c's curve, from a point on the incoming segment (from a) to one on the
+// outgoing segment (to b): the quadratic Bezier over the corner from half of each segment (the
+// clamped quadratic B-spline of the polygon), or cutting a quarter, an eighth, a sixteenth when
+// a chord is not clear; empty when none is (the corner stays sharp). The curve lies in the
+// triangle of its ends and the corner and is convex, so it is no longer than the two straight
+// pieces it replaces, and its chords are shorter still: rounding never makes the path longer.
+std::vector<Point3> corner_curve(const Point3& a, const Point3& c, const Point3& b, const FlightSpace& space) {
+  constexpr double kChord = 2.0;  // CRS units: chords of about 2 m follow the curve within cm
+  constexpr int kTries = 4;       // cuts of 1/2, 1/4, 1/8, 1/16 of each segment
+  for (int attempt = 0; attempt < kTries; ++attempt) {
+    const double t = 0.5 / static_cast<double>(1 << attempt);
+    const Point3 p0 = lerp(c, a, t), p2 = lerp(c, b, t);
+    const double length = distance(p0, c) + distance(c, p2);
+    const int pieces = std::clamp(static_cast<int>(std::ceil(length / kChord)), 2, 64);
+    std::vector<Point3> points{p0};
+    bool clear = true;
+    for (int i = 1; i <= pieces && clear; ++i) {
+      const double s = static_cast<double>(i) / pieces;
+      points.push_back(lerp(lerp(p0, c, s), lerp(c, p2, s), s));
+      clear = !space.surely_invalid(points[i - 1], points[i]) && space.motion_valid(points[i - 1], points[i]);
+    }
+    if (clear) return points;
+  }
+  return {};
+}
+
+// The polygon with each interior corner replaced by its curve's chords. A curve cuts at most half
+// of each segment, so neighbouring curves never overlap and the straight pieces between them lie
+// on the polygon's checked segments: the corners are independent, and rounded on every core.
 std::vector<Point3> round_corners(const std::vector<Point3>& polygon, const FlightSpace& space) {
   if (polygon.size() < 3) return polygon;
-  constexpr double kChord = 2.0;  // CRS units: chords of about 2 m follow the curve within cm
-  constexpr int kTries = 4;       // cuts of 1/2, 1/4, 1/8, 1/16 of the shorter segment share
+  std::vector<std::vector<Point3>> curves(polygon.size());
+  tbb::parallel_for(size_t{1}, polygon.size() - 1,
+                    [&](size_t k) { curves[k] = corner_curve(polygon[k - 1], polygon[k], polygon[k + 1], space); });
   std::vector<Point3> out{polygon.front()};
-  // `entry` is where the previous corner's curve ended on the current segment.
-  Point3 entry = polygon.front();
   for (size_t k = 1; k + 1 < polygon.size(); ++k) {
-    const Point3 &a = polygon[k - 1], &c = polygon[k], &b = polygon[k + 1];
-    std::vector<Point3> curve;
-    for (int attempt = 0; attempt < kTries && curve.empty(); ++attempt) {
-      const double t = 0.5 / static_cast<double>(1 << attempt);
-      // On the incoming segment never cut back past where the previous curve ended.
-      const double back = std::min(t, 1 - std::min(1.0, distance(a, entry) / std::max(distance(a, c), 1e-300)));
-      const Point3 p0 = lerp(c, a, back), p2 = lerp(c, b, t);
-      const double length = distance(p0, c) + distance(c, p2);
-      const int pieces = std::clamp(static_cast<int>(std::ceil(length / kChord)), 2, 64);
-      std::vector<Point3> points{p0};
-      for (int i = 1; i <= pieces; ++i) {
-        const double s = static_cast<double>(i) / pieces;
-        points.push_back(lerp(lerp(p0, c, s), lerp(c, p2, s), s));
-      }
-      // The straight piece up to the curve lies on a checked segment; the chords are new.
-      bool clear = true;
-      for (size_t i = 1; i < points.size() && clear; ++i) clear = space.motion_valid(points[i - 1], points[i]);
-      if (clear && space.motion_valid(entry, p0)) curve = std::move(points);
-    }
+    const std::vector<Point3>& curve = curves[k];
     if (curve.empty()) {
-      out.push_back(c);
-      entry = c;
-    } else {
-      if (distance(curve.front(), out.back()) > 0) out.push_back(curve.front());
-      out.insert(out.end(), curve.begin() + 1, curve.end());
-      entry = curve.back();
+      out.push_back(polygon[k]);
+      continue;
     }
+    if (distance(curve.front(), out.back()) > 0) out.push_back(curve.front());
+    out.insert(out.end(), curve.begin() + 1, curve.end());
   }
   out.push_back(polygon.back());
   return out;

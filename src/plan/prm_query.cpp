@@ -19,6 +19,7 @@
 #include <cstdint>
 #include <functional>
 #include <memory>
+#include <optional>
 #include <queue>
 #include <string>
 #include <unordered_map>
@@ -87,6 +88,17 @@ std::vector<Point3> astar(const Roadmap& map, const Point3& a, const Point3& b,
   for (uint32_t v = G; v != UINT32_MAX; v = parent[v]) path.push_back(point(v));
   std::reverse(path.begin(), path.end());
   return path;
+}
+
+// True when the roadmap's components show that no node linked to one waypoint (`from`) is
+// joined to a node linked to the other (`to`): A* between them would search in vain.
+bool links_apart(const Roadmap& map, const std::vector<std::pair<double, uint32_t>>& from,
+                 const std::vector<std::pair<double, uint32_t>>& to) {
+  if (map.component.size() != map.nodes.size()) return false;
+  for (const auto& [d, u] : from)
+    for (const auto& [e, v] : to)
+      if (map.component[u] == map.component[v]) return false;
+  return true;
 }
 
 // ---- refinement ---------------------------------------------------------------------------
@@ -166,10 +178,17 @@ public:
   // The points of a path from waypoint a (number ia in the query) to b, or empty; every edge on
   // it is clear (checked here or a roadmap edge).
   std::vector<Point3> solve(const Point3& a, size_t ia, const Point3& b, size_t ib) {
-    Search s = search(a, ia, &b, ib, SIZE_MAX);
+    // The roadmap (and the samples earlier legs added) with every candidate edge of the
+    // waypoints: searched first, unless the roadmap's components show it cannot join them. Then
+    // the search is needed only for the rounds, and the same whenever it is made.
+    std::optional<Search> s;
+    if (!joined_apart(a, b)) {
+      s = search(a, ia, &b, ib, SIZE_MAX);
+      if (!s->path.empty()) return s->path;
+    }
     // Lattices from coarse to fine: a coarse one that fails has cost an eighth of the next.
     double previous = 0;
-    for (int level = 1; s.path.empty() && level <= kMaxLevel; ++level) {
+    for (int level = 1; level <= kMaxLevel; ++level) {
       // No step longer than max_edge, as in the roadmap (a diagonal step is sqrt(3) sides).
       const double side = std::min(o_.spacing / (1 << level), o_.max_edge / std::sqrt(3.0));
       if (side == previous) break;  // the same lattice again
@@ -179,12 +198,13 @@ public:
       if (lattice.out_of_work) lattice_at_bound_ = true;
       if (!lattice.path.empty()) return lattice.path;
     }
-    for (int round = 1; s.path.empty() && round <= o_.refine_rounds; ++round) {
+    if (!s) s = search(a, ia, &b, ib, SIZE_MAX);
+    for (int round = 1; s->path.empty() && round <= o_.refine_rounds; ++round) {
       if (levels_ == 0 || nodes_.size() >= max_samples_ || out_of_work()) break;
       // The smaller component: s.closed is all of a's; b's is explored up to that size.
-      Search t = search(b, ib, nullptr, 0, s.closed.size() + 1);
-      const bool from_b = t.closed.size() <= s.closed.size();
-      const std::vector<Point3> seeds = frontier(from_b ? b : a, from_b ? t.closed : s.closed);
+      Search t = search(b, ib, nullptr, 0, s->closed.size() + 1);
+      const bool from_b = t.closed.size() <= s->closed.size();
+      const std::vector<Point3> seeds = frontier(from_b ? b : a, from_b ? t.closed : s->closed);
       ++rounds_;
       const int level = std::min(round, levels_), widen = std::max(0, round - levels_);
       const size_t before = nodes_.size();
@@ -193,7 +213,7 @@ public:
       if (nodes_.size() == before && level == levels_ && widen >= kMaxWiden) break;
       s = search(a, ia, &b, ib, SIZE_MAX);
     }
-    return s.path;
+    return s->path;
   }
 
 private:
@@ -201,6 +221,20 @@ private:
     std::vector<Point3> path;      // with a goal: the path found, else empty
     std::vector<uint32_t> closed;  // the nodes settled (waypoints left out)
   };
+
+  // True when no roadmap node within max_edge of a (a waypoint's candidate edges) shares a
+  // component with one within max_edge of b, and no samples were added (they join components):
+  // then no search over them finds a path.
+  bool joined_apart(const Point3& a, const Point3& b) const {
+    if (!nodes_.empty() || map_.component.size() != nb_) return false;
+    std::vector<uint32_t> near_a, near_b;
+    near_waypoint(a, [&](uint32_t v, double) { near_a.push_back(map_.component[v]); });
+    near_waypoint(b, [&](uint32_t v, double) { near_b.push_back(map_.component[v]); });
+    std::sort(near_a.begin(), near_a.end());
+    for (uint32_t c : near_b)
+      if (std::binary_search(near_a.begin(), near_a.end(), c)) return false;
+    return true;
+  }
 
   const Point3& point(uint32_t v) const { return v < nb_ ? map_.nodes[v] : nodes_[v - nb_]; }
   int level_of(uint32_t v) const { return v < nb_ ? 0 : level_[v - nb_]; }
@@ -479,7 +513,7 @@ PlanResult query_roadmap(const Roadmap& map, const ClearanceIndex& index, const 
     std::vector<Point3> leg;
     if (distance(a, b) < options.max_edge && space.motion_valid(a, b)) {
       leg = {a, b};
-    } else {
+    } else if (!links_apart(map, links[i], links[i + 1])) {
       leg = astar(map, a, b, links[i], links[i + 1]);
     }
     if (leg.empty() && options.refine_rounds > 0) {

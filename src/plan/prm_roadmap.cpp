@@ -222,8 +222,29 @@ Roadmap build_roadmap(const ClearanceIndex& index, const PlanOptions& options, c
     for (size_t i = 0; i < m; ++i)
       for (auto [j, end] = up_of(i); j != end; ++j) map.neighbour[fill[i]++] = *j;
   });
+  label_components(map);
   report(progress, 1);
   return map;
+}
+
+void label_components(Roadmap& map) {
+  // Union-find over the listings taken as undirected (a roadmap file's lists need not be
+  // symmetric: a label must never part two nodes a directed path joins), each set's root its
+  // least node, then every node labelled by its root.
+  const size_t n = map.nodes.size();
+  std::vector<uint32_t>& parent = map.component;
+  parent.resize(n);
+  for (uint32_t i = 0; i < n; ++i) parent[i] = i;
+  auto root = [&](uint32_t v) {
+    while (parent[v] != v) v = parent[v] = parent[parent[v]];  // path halving
+    return v;
+  };
+  for (uint32_t u = 0; u < n; ++u)
+    for (uint32_t k = map.start[u]; k < map.start[u + 1]; ++k) {
+      const uint32_t a = root(u), b = root(map.neighbour[k]);
+      if (a != b) parent[std::max(a, b)] = std::min(a, b);
+    }
+  for (uint32_t i = 0; i < n; ++i) parent[i] = root(i);
 }
 
 }  // namespace dsmplan

@@ -161,8 +161,16 @@ struct Roadmap {
   std::vector<Point3> nodes;
   std::vector<uint32_t> start;      ///< node i's neighbours are neighbour[start[i], start[i+1])
   std::vector<uint32_t> neighbour;  ///< ascending per node; each edge listed from both ends
+  /// Node i's connected component: the least node number in it (label_components()); or empty,
+  /// as in a roadmap made by hand. build_roadmap() and read_roadmap() fill it; a query then gives
+  /// up on the roadmap at once for a leg whose ends reach no common component, where A* would
+  /// learn it by searching the whole component of one end.
+  std::vector<uint32_t> component;
   size_t edges() const { return neighbour.size() / 2; }
 };
+
+/// Fills map.component from its edges. O(nodes + edges).
+void label_components(Roadmap& map);
 
 /// Samples and connects the roadmap of the mesh `index` was built from.
 /// Throws ArgumentError ("--safety", "--spacing", "--max-edge", "--max-agl") for a value that
