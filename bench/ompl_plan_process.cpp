@@ -26,8 +26,8 @@
 // Choices, measured with bench/plan_process.sh's meshes (bench/README.md, "Planning as a whole
 // process"): the nearest-neighbour structure is the fastest of the four OMPL offers PRM (see
 // kFairestNN in ompl_baseline.hpp); Embree's build quality is RTC_BUILD_QUALITY_LOW (a Morton-code
-// build): its BVH answers the roadmap's queries 10-20 % slower than the default (medium), but is
-// built 2-3 times as fast (1 m: 0.35 s against 0.56-0.78 s; 0.64 m: 0.58-0.82 s against 1.7-2.0 s,
+// build): the roadmap over its BVH is slower than over the default's (medium), but it is built
+// 2-3 times as fast (1 m: 0.35 s against 0.56-0.78 s; 0.64 m: 0.58-0.82 s against 1.7-2.0 s,
 // on the loaded machine), so the whole process is faster (0.64 m: 1.4-1.7 s against 2.5-3.0 s
 // wall); --quality medium|high to compare. --checker index gives OMPL dsmplan's ClearanceIndex
 // instead (ground, clearance and floor from it), for comparison.
