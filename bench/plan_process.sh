@@ -5,15 +5,16 @@
 # the same samples, edges and waypoints (4, 3 legs; 30 m above the ground at --max-agl 120, 20 m
 # at 30, where 30 m would touch the ceiling). Each configuration: one untimed run of each, then
 # PAIRS rounds of dsmplan, OMPL + Embree, OMPL + ClearanceIndex (OMPL given dsmplan's index as
-# its checker, for comparison), each timed from outside by /usr/bin/time (wall, user + sys),
+# its checker, for comparison), in an order that rotates from round to round (dsmplan first, then
+# second, then third), each timed from outside by /usr/bin/time (wall, user + sys),
 # the load average before each round. Prints per configuration the medians with min-max of wall
 # and CPU seconds and of the ratios OMPL / dsmplan, both programs' samples and edges (fails when
 # they differ or a leg is unsolved) and where each spends its time (dsmplan's --stats, the
 # baseline's own phases; medians).
-#   bench/plan_process.sh [PAIRS=7]
+#   bench/plan_process.sh [PAIRS=5]
 set -euo pipefail
 cd "$(dirname "$0")/.."
-pairs=${1:-7}
+pairs=${1:-5}
 tile=data/nrw-dom1/dom1_32_356_5699_1_nw_2020.tif
 dir=out/bench/plan_process
 baseline=build/bench/bench_ompl_plan
@@ -51,9 +52,12 @@ for config in "${configs[@]}"; do
     esac
   }
   for name in dsmplan embree index; do run $name 0; done
+  order=(dsmplan embree index)
   for i in $(seq 1 "$pairs"); do
     cut -d' ' -f1-3 /proc/loadavg > "$dir/${config}_load_$i.txt"
-    for name in dsmplan embree index; do run $name "$i"; done
+    # The order rotates from round to round, so no program always follows the same one (the
+    # kernel's cost of fresh huge pages depends on what ran just before).
+    for k in 0 1 2; do run "${order[$(((i - 1 + k) % 3))]}" "$i"; done
   done
 done
 python3 - "$dir" "$pairs" "${configs[@]}" <<'PY'
@@ -72,7 +76,7 @@ def baseline(c, name):
         out.append(kv)
     return out
 failed = []
-print(f"\n{pairs} interleaved rounds per configuration (dsmplan, OMPL + Embree, OMPL + ClearanceIndex, ...); "
+print(f"\n{pairs} interleaved rounds per configuration (dsmplan, OMPL + Embree, OMPL + ClearanceIndex in rotating order); "
       "seconds: median (min-max); ratios per round, OMPL / dsmplan\n")
 print("| mesh | max-agl | samples / edges | dsmplan wall s | OMPL + Embree wall s | ratio wall | dsmplan CPU s | "
       "OMPL + Embree CPU s | ratio CPU | OMPL + ClearanceIndex wall s | its ratio wall | its ratio CPU | load |")
