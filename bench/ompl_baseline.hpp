@@ -407,7 +407,7 @@ inline NN nn_named(const std::string& name) {
   throw std::invalid_argument("unknown nearest-neighbour structure '" + name +
                               "' (GNAT, GNATNoThreadSafety, SqrtApprox, Linear)");
 }
-/// The fastest for this roadmap, measured (bench/README.md, "Planning as a whole process"):
+/// The fastest for this roadmap, measured (bench/README.md, "Planning as a whole process against OMPL"):
 /// GNAT, PRM's own default, and GNATNoThreadSafety tie (7 paired runs of bench_ompl_plan on the
 /// 1 m mesh: roadmap time GNAT / GNATNoThreadSafety median 0.99, 0.80-1.08); SqrtApprox and
 /// Linear scan every milestone per nearestR and take 2.5-3 times as long (1.29-1.45 s against

@@ -53,7 +53,7 @@
 // than OMPL's PRM with the faster exact checker (median of the paired ratios), at equal samples
 // and edges; dsmplan's 3-leg query <= 10 ms (median). Results also go to
 // out/bench/plan_ompl.log in OMPL's benchmark log format. Measurements: bench/README.md,
-// "Planning as a whole process (issue 19, point 2)". dsmplan's roadmap proves most candidate
+// "Planning as a whole process against OMPL". dsmplan's roadmap proves most candidate
 // pairs clear from its samples' clearance bounds without an exact check (plan.hpp, "Edges");
 // OMPL checks every pair. The printed phase times re-do dsmplan's phases without the
 // certificates, on one thread, for comparison with OMPL's profile.
