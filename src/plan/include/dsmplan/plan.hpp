@@ -71,6 +71,12 @@ namespace dsmplan {
 //     rounded path is never longer than the shortcut one.
 //     Legs are smoothed apart, so the path passes through every waypoint, in order, exactly
 //     (the waypoints' own coordinates, not copies rounded through the roadmap).
+//   - Work spared without changing an answer: most candidate motions of the shortcuts and of
+//     the lattice search below fail, and are refused first from the ground rasters alone
+//     (FlightSpace::surely_invalid: a point sampled once a cell within the safety distance of
+//     the mesh's floor or above the ceiling) before the exact checks; the roadmap labels its
+//     connected components (Roadmap::component), so a leg whose ends reach no common component
+//     skips A* and the refinement's first search, which would search that whole component in vain.
 //   - Refinement (very low altitude; PlanOptions::refine_rounds, default 8, 0 = off): where the
 //     roadmap fails a leg, the query grows a query-local extension of it (build_roadmap()'s
 //     result stays a function of mesh and options; later legs of the query reuse the extension).
