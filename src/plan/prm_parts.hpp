@@ -71,6 +71,26 @@ private:
   std::vector<std::pair<uint64_t, uint32_t>> sorted_;
 };
 
+/// Each node's connected component, the least node in it, of the graph on nodes 0..n-1 whose
+/// undirected edges each_edge(join) hands to join(u, v): union-find with path halving (Tarjan,
+/// "Efficiency of a Good But Not Linear Set Union Algorithm", JACM 22(2), 1975), each set's root
+/// its least node. O(n + edges) in practice.
+template <class EachEdge>
+std::vector<uint32_t> components(size_t n, EachEdge&& each_edge) {
+  std::vector<uint32_t> parent(n);
+  for (uint32_t i = 0; i < n; ++i) parent[i] = i;
+  auto root = [&](uint32_t v) {
+    while (parent[v] != v) v = parent[v] = parent[parent[v]];
+    return v;
+  };
+  each_edge([&](uint32_t u, uint32_t v) {
+    const uint32_t a = root(u), b = root(v);
+    if (a != b) parent[std::max(a, b)] = std::min(a, b);
+  });
+  for (uint32_t i = 0; i < n; ++i) parent[i] = root(i);
+  return parent;
+}
+
 /// Roadmap nodes within options.max_edge of `w`, nearest first, that a clear straight segment
 /// joins to it (ClearanceIndex::segment_clear(w, node, safety)); at most options.connections.
 /// Ties in distance break by node number. `grid` holds every node of `map` in cubes of side

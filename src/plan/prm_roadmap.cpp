@@ -221,30 +221,23 @@ Roadmap build_roadmap(const ClearanceIndex& index, const PlanOptions& options, c
       for (auto [j, end] = up_of(i); j != end; ++j) map.neighbour[fill[*j]++] = static_cast<uint32_t>(i);
     for (size_t i = 0; i < m; ++i)
       for (auto [j, end] = up_of(i); j != end; ++j) map.neighbour[fill[i]++] = *j;
+    // Each edge once, from its lower end: half of label_components()'s listings.
+    map.component = detail::components(m, [&](auto&& join) {
+      for (size_t i = 0; i < m; ++i)
+        for (auto [j, end] = up_of(i); j != end; ++j) join(static_cast<uint32_t>(i), *j);
+    });
   });
-  label_components(map);
   report(progress, 1);
   return map;
 }
 
 void label_components(Roadmap& map) {
-  // Union-find over the listings taken as undirected (a roadmap file's lists need not be
-  // symmetric: a label must never part two nodes a directed path joins), each set's root its
-  // least node, then every node labelled by its root.
-  const size_t n = map.nodes.size();
-  std::vector<uint32_t>& parent = map.component;
-  parent.resize(n);
-  for (uint32_t i = 0; i < n; ++i) parent[i] = i;
-  auto root = [&](uint32_t v) {
-    while (parent[v] != v) v = parent[v] = parent[parent[v]];  // path halving
-    return v;
-  };
-  for (uint32_t u = 0; u < n; ++u)
-    for (uint32_t k = map.start[u]; k < map.start[u + 1]; ++k) {
-      const uint32_t a = root(u), b = root(map.neighbour[k]);
-      if (a != b) parent[std::max(a, b)] = std::min(a, b);
-    }
-  for (uint32_t i = 0; i < n; ++i) parent[i] = root(i);
+  // Every listing taken as an undirected edge (a roadmap file's lists need not be symmetric: a
+  // label must never part two nodes a directed path joins).
+  map.component = detail::components(map.nodes.size(), [&](auto&& join) {
+    for (uint32_t u = 0; u < map.nodes.size(); ++u)
+      for (uint32_t k = map.start[u]; k < map.start[u + 1]; ++k) join(u, map.neighbour[k]);
+  });
 }
 
 }  // namespace dsmplan
