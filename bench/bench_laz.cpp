@@ -4,7 +4,8 @@
 //
 // Paired, interleaved rounds: every round runs every variant once, in the same order, so that a
 // change of the machine's load hits all of them alike; the table gives the median over the rounds
-// with its min-max, and each round's 1-minute load average is printed (/proc/loadavg).
+// with its min-max, and each round's 1-minute load average is printed (/proc/loadavg); the speed-up
+// of two cores over one is the median (min-max) of the per-round ratios. Never a best-of.
 //   build/bench/bench_laz [ROUNDS=7]
 #include <algorithm>
 #include <cstdio>
@@ -95,6 +96,11 @@ int main(int argc, char** argv) {
     std::printf("| %s | %.2f | %.2f-%.2f | %.2f |\n", v.name.c_str(), median(v.rates) / 1e6, *low / 1e6, *high / 1e6,
                 median(v.cpu_rates) / 1e6);
   }
-  std::printf("\nload average after: %s\n", bench::load_average().c_str());
+  bench::Samples one, two;
+  for (double r : variants[0].rates) one.add(r);
+  for (double r : variants[1].rates) two.add(r);
+  std::printf("\nLAZ records, 2 cores / 1 core, per round: %sx (median, min-max)\n",
+              bench::ratios(two, one).text("%.2f").c_str());
+  std::printf("load average after: %s\n", bench::load_average().c_str());
   return 0;
 }

@@ -16,9 +16,10 @@
 //
 // Timing: every round runs dsmplan, HH and 3WAY once each, in turn (A B C A B C ...), so that all
 // see the shared machine in the same state; the median over the rounds is printed with min-max
-// and the 1-minute load before and after. Each matcher object is made once and reused (OpenCV's
-// keeps its buffers between calls, so does dsmplan::SgmMatcher). argv[1] = rounds (default 5);
-// argv[2] = "dsmplan": dsmplan alone (no OpenCV tuning), for alternating runs of two builds.
+// and the 1-minute load before and after, and each comparison as the median (min-max) of the
+// per-round ratios of the two matchers' seconds (never a best-of). Each matcher object is made once and reused
+// (OpenCV's keeps its buffers between calls, so does dsmplan::SgmMatcher). argv[1] = rounds (default 5); argv[2] =
+// "dsmplan": dsmplan alone (no OpenCV tuning), for alternating runs of two builds.
 #include <tbb/global_control.h>
 
 #include <algorithm>
@@ -81,7 +82,7 @@ cv::Ptr<cv::StereoSGBM> make_sgbm(int mode, const SgbmSetting& s) {
 
 int main(int argc, char** argv) {
   std::setvbuf(stdout, nullptr, _IOLBF, 0);  // progress shows when piped to a file
-  const int rounds = argc > 1 ? std::max(1, std::atoi(argv[1])) : 5;
+  const int rounds = argc > 1 ? std::max(5, std::atoi(argv[1])) : 7;
   const bool ours_alone = argc > 2 && std::string(argv[2]) == "dsmplan";
   const aloe::Pair pair = aloe::read_pair(DSMPLAN_DATA_DIR "/middlebury-aloe");
   const int width = pair.left.width, height = pair.left.height;
@@ -155,6 +156,17 @@ int main(int argc, char** argv) {
     std::printf("| %s | %.0f (%.0f–%.0f) | %.3f | %.2f %% | %.2f %% | %.1f %% | %.2f %% |\n", c.name.c_str(),
                 work / m / 1e6, work / *slowest / 1e6, work / *fastest / 1e6, m, 100 * c.rates.bad1, 100 * c.rates.bad2,
                 100 * c.rates.completeness, 100 * c.rates.unmatched_or_bad1);
+  }
+  if (contenders.size() > 1) {
+    std::printf("\nper-round ratios (the other's seconds / dsmplan's in the same round), median (min-max):\n");
+    bench::Samples ours_seconds;
+    for (double s : contenders.front().seconds) ours_seconds.add(s);
+    for (std::size_t k = 1; k < contenders.size(); ++k) {
+      bench::Samples theirs;
+      for (double s : contenders[k].seconds) theirs.add(s);
+      std::printf("  dsmplan SGM vs %s: %sx\n", contenders[k].name.c_str(),
+                  bench::ratios(theirs, ours_seconds).text("%.2f").c_str());
+    }
   }
   std::printf("\nsettings:\n");
   for (const Contender& c : contenders) std::printf("  %s: %s\n", c.name.c_str(), c.settings.c_str());

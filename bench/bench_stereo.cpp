@@ -2,7 +2,7 @@
 // with dsmplan's SGM and with OpenCV's StereoSGBM in the same pipeline (issue 16 point 3(b)).
 // Each section is a function in its own file (bench_stereo.hpp, stereo_satellite.hpp). 2 threads.
 // Usage: bench_stereo [ROUNDS] [frames|satellite] (timed, interleaved rounds per set-up, default
-// 3; both sections unless one is named).
+// 5; both sections unless one is named).
 #include <tbb/global_control.h>
 
 #include <algorithm>
@@ -20,7 +20,7 @@
 
 int main(int argc, char** argv) {
   std::setvbuf(stdout, nullptr, _IOLBF, 0);  // progress shows when piped to a file
-  const int rounds = argc > 1 ? std::max(1, std::atoi(argv[1])) : 3;
+  const int rounds = argc > 1 ? std::max(1, std::atoi(argv[1])) : 5;
   const std::string only = argc > 2 ? argv[2] : "";
   constexpr int threads = 2;
   tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);

@@ -10,7 +10,9 @@
 //
 // Timing: the whole stereo_dsm() per set-up, the matchers in turn (A B C A B C ...) for `rounds`
 // rounds after one untimed run (whose DSM is the one scored: the runs are deterministic); the
-// median with min-max, the match stage's median, and the 1-minute load before and after.
+// median with min-max, the match stage's median, the 1-minute load before and after, and each
+// OpenCV mode against dsmplan as the median (min-max) of the per-round ratios of the match stage's
+// seconds (theirs / dsmplan's). Never a best-of.
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
@@ -142,12 +144,18 @@ void frame_camera_table(int rounds) {
               load_after.c_str());
   std::printf(
       "| set-up | pairs | matcher | filled | median abs. error | > 1 m | > 3 m | pipeline s, median (min–max) | "
-      "match s, median |\n|---|---:|---|---:|---:|---:|---:|---|---:|\n");
-  for (const Row& r : rows) {
+      "match s, median | match s / dsmplan's, per round |\n|---|---:|---|---:|---:|---:|---:|---|---:|---|\n");
+  for (std::size_t i = 0; i < rows.size(); ++i) {
+    const Row& r = rows[i];
+    const Row& ours = rows[i - i % matchers.size()];  // each set-up's rows start with dsmplan's
+    Samples mine, theirs;
+    for (double t : ours.match_seconds) mine.add(t);
+    for (double t : r.match_seconds) theirs.add(t);
     const auto [fastest, slowest] = std::minmax_element(r.seconds.begin(), r.seconds.end());
-    std::printf("| %s | %zu | %s | %.1f %% | %.2f m | %.1f %% | %.1f %% | %.2f (%.2f–%.2f) | %.2f |\n", r.setup.c_str(),
-                r.pairs, r.matcher.c_str(), 100 * r.errors.completeness, r.errors.median, 100 * r.errors.over1,
-                100 * r.errors.over3, median(r.seconds), *fastest, *slowest, median(r.match_seconds));
+    std::printf("| %s | %zu | %s | %.1f %% | %.2f m | %.1f %% | %.1f %% | %.2f (%.2f–%.2f) | %.2f | %s |\n",
+                r.setup.c_str(), r.pairs, r.matcher.c_str(), 100 * r.errors.completeness, r.errors.median,
+                100 * r.errors.over1, 100 * r.errors.over3, median(r.seconds), *fastest, *slowest,
+                median(r.match_seconds), &r == &ours ? "1" : ratios(theirs, mine).text("%.2f").c_str());
   }
   std::printf(
       "\nOpenCV settings (bench_sgm's, tuned on Aloe): HH blockSize %d P1 %d P2 %d; 3WAY blockSize %d P1 %d P2 %d; "

@@ -11,9 +11,13 @@
 //   4. The alternative: a textbook BVH over the same triangles with the same exact distance,
 //      by altitude band (it must agree with the index on every segment).
 //   5. The bucket size: build time, listings and single-thread speed for a few sizes around the
-//      automatic one. Items 2, 4 and 5 are the numbers quoted in plan.hpp.
-// A benchmark, not a test: best of a few runs, still noisy on a shared machine. Exit code 1 on
-// any disagreement with brute force.
+//      automatic one. Items 2, 4 and 5 are the numbers in bench/README.md.
+// Timing (bench/bench_kit.hpp): whatever is compared runs in interleaved pairs or rounds (one
+// thread / all threads, index / brute force, index / BVH, the bucket sizes one after another in
+// every round), at least 5; a rate is the median with its min-max, a ratio the median of the
+// per-pair ratios, and the 1-minute load average at the pairs' starts is printed. Never a best-of.
+//   build/bench/bench_plan_collision [PAIRS = 5]
+// Exit code 1 on any disagreement with brute force or the BVH.
 #include <tbb/global_control.h>
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_reduce.h>
@@ -22,6 +26,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <memory>
 #include <random>
 #include <string>
@@ -65,38 +70,25 @@ std::vector<Query> make_queries(const ClearanceIndex& index, const Grid& grid, s
   return out;
 }
 
-struct Rate {
-  double per_second = 0;
-  size_t clear = 0;
-};
-
-Rate single(const ClearanceIndex& index, const std::vector<Query>& queries, int runs = 3) {
-  Rate best;
-  for (int run = 0; run < runs; ++run) {
-    const auto start = std::chrono::steady_clock::now();
-    size_t clear = 0;
-    for (const Query& s : queries) clear += index.segment_clear(s.p, s.q, safety);
-    const double rate = queries.size() / seconds_since(start);
-    if (rate > best.per_second) best = {rate, clear};
-  }
-  return best;
+// segment_clear() per second over all queries, one thread, one run; `clear` counts the clear ones.
+double single(const ClearanceIndex& index, const std::vector<Query>& queries, size_t& clear) {
+  const auto start = std::chrono::steady_clock::now();
+  clear = 0;
+  for (const Query& s : queries) clear += index.segment_clear(s.p, s.q, safety);
+  return queries.size() / seconds_since(start);
 }
 
-Rate parallel(const ClearanceIndex& index, const std::vector<Query>& queries, int runs = 3) {
-  Rate best;
-  for (int run = 0; run < runs; ++run) {
-    const auto start = std::chrono::steady_clock::now();
-    const size_t clear = tbb::parallel_reduce(
-        tbb::blocked_range<size_t>(0, queries.size(), 256), size_t(0),
-        [&](const tbb::blocked_range<size_t>& r, size_t n) {
-          for (size_t i = r.begin(); i != r.end(); ++i) n += index.segment_clear(queries[i].p, queries[i].q, safety);
-          return n;
-        },
-        [](size_t a, size_t b) { return a + b; });
-    const double rate = queries.size() / seconds_since(start);
-    if (rate > best.per_second) best = {rate, clear};
-  }
-  return best;
+// The same on every core (TBB).
+double parallel(const ClearanceIndex& index, const std::vector<Query>& queries, size_t& clear) {
+  const auto start = std::chrono::steady_clock::now();
+  clear = tbb::parallel_reduce(
+      tbb::blocked_range<size_t>(0, queries.size(), 256), size_t(0),
+      [&](const tbb::blocked_range<size_t>& r, size_t n) {
+        for (size_t i = r.begin(); i != r.end(); ++i) n += index.segment_clear(queries[i].p, queries[i].q, safety);
+        return n;
+      },
+      [](size_t a, size_t b) { return a + b; });
+  return queries.size() / seconds_since(start);
 }
 
 // The alternative the header weighs: a textbook bounding volume hierarchy (Ericson, ch. 6;
@@ -198,26 +190,39 @@ private:
 
 }  // namespace
 
-int main() {
+int main(int argc, char** argv) {
+  const int pairs = argc > 1 ? std::max(5, std::atoi(argv[1])) : 5;
   const unsigned cores = std::max(1u, std::thread::hardware_concurrency());
   const Grid grid = read_raster(tile);
   const Mesh mesh = triangulate_xy3(grid);
-  std::printf("NRW DOM1 tile, XY-3 mesh at 1 m: %zu vertices, %zu triangles; d = %.1f m; %u cores\n\n",
-              mesh.vertices.size(), mesh.triangles.size(), safety, cores);
+  std::printf("NRW DOM1 tile, XY-3 mesh at 1 m: %zu vertices, %zu triangles; d = %.1f m; %u cores; %s\n",
+              mesh.vertices.size(), mesh.triangles.size(), safety, cores, cpu_model().c_str());
+  std::printf("%d pairs (or rounds) per comparison; rates and seconds: median (min-max); ratios: the median\n", pairs);
+  std::printf("(min-max) of the per-pair ratios; load average %s at the start\n\n", load_average().c_str());
 
-  double build = INFINITY;
+  // 1. and 4.: the index's build and the BVH's, in pairs.
+  Samples build, bvh_build;
+  LoadLog build_loads;
   std::unique_ptr<ClearanceIndex> index;
-  for (int run = 0; run < 3; ++run) {
+  std::unique_ptr<Bvh> bvh;
+  for (int pair = 0; pair < pairs; ++pair) {
+    build_loads.note();
+    index.reset();
     const auto start = std::chrono::steady_clock::now();
-    auto built = std::make_unique<ClearanceIndex>(mesh);
-    build = std::min(build, seconds_since(start));
-    index = std::move(built);
+    index = std::make_unique<ClearanceIndex>(mesh);
+    build.add(seconds_since(start));
+    bvh.reset();
+    const auto bvh_start = std::chrono::steady_clock::now();
+    bvh = std::make_unique<Bvh>(mesh, index->origin());
+    bvh_build.add(seconds_since(bvh_start));
   }
   const double megabytes = static_cast<double>(index->memory_bytes()) / 1e6;
-  std::printf("index: bucket %.2f m, %d x %d buckets, %zu listings (%.2f per triangle), %.0f MB, build %.3f s\n\n",
+  std::printf("index: bucket %.2f m, %d x %d buckets, %zu listings (%.2f per triangle), %.0f MB, build %s s\n",
               index->bucket_size(), index->bucket_columns(), index->bucket_rows(), index->bucket_listings(),
-              double(index->bucket_listings()) / mesh.triangles.size(), megabytes, build);
+              double(index->bucket_listings()) / mesh.triangles.size(), megabytes, build.text().c_str());
+  std::printf("(build paired with the BVH's: load average %s at the pairs' starts)\n\n", build_loads.text().c_str());
 
+  // 2. One thread against all, per band.
   const size_t n = 200000;
   const std::vector<Query> all = make_queries(*index, grid, n, 2, 120, 1);
   struct Band {
@@ -225,6 +230,7 @@ int main() {
     double lo, hi;
   };
   const Band bands[] = {{"2-120 m (all)", 2, 120}, {"2-10 m", 2, 10}, {"10-30 m", 10, 30}, {"30-120 m", 30, 120}};
+  LoadLog thread_loads;
   std::printf(
       "| segments 20-35 m, ends above ground | clear | segment_clear/s, 1 thread | %u threads (TBB) | speed-up |\n",
       cores);
@@ -232,12 +238,20 @@ int main() {
   for (const Band& band : bands) {
     const std::vector<Query> queries =
         band.lo == 2 && band.hi == 120 ? all : make_queries(*index, grid, n / 2, band.lo, band.hi, 2);
-    const Rate one = single(*index, queries), many = parallel(*index, queries);
-    std::printf("| %s | %.1f %% | %.0f | %.0f | %.2f |\n", band.name, 100.0 * one.clear / queries.size(),
-                one.per_second, many.per_second, many.per_second / one.per_second);
+    Samples one, many;
+    size_t clear = 0, clear_many = 0;
+    for (int pair = 0; pair < pairs; ++pair) {
+      thread_loads.note();
+      one.add(single(*index, queries, clear));
+      many.add(parallel(*index, queries, clear_many));
+    }
+    std::printf("| %s | %.1f %% | %s | %s | %s |\n", band.name, 100.0 * clear / queries.size(),
+                one.text("%.0f").c_str(), many.text("%.0f").c_str(), ratios(many, one).text("%.2f").c_str());
   }
+  std::printf("(load average %s at the pairs' starts)\n", thread_loads.text().c_str());
 
-  // Brute force: every triangle, the same exact distance, in the index's local coordinates.
+  // 3. Brute force: every triangle, the same exact distance, in the index's local coordinates;
+  // `sample` segments in all, a slice of them in each pair, beside the index on all segments.
   std::vector<std::array<Point3, 3>> local(mesh.triangles.size());
   const Point3 o = index->origin();
   for (size_t t = 0; t < mesh.triangles.size(); ++t)
@@ -245,72 +259,118 @@ int main() {
       const Vertex& v = mesh.vertices[mesh.triangles[t][k]];
       local[t][k] = {v.x - o[0], v.y - o[1], v.z - o[2]};
     }
-  const size_t sample = 40;
+  const size_t per_pair = 8, sample = per_pair * pairs;
   size_t disagree = 0, brute_clear = 0;
-  const auto start = std::chrono::steady_clock::now();
-  for (size_t i = 0; i < sample; ++i) {
-    const Query& s = all[i * (all.size() / sample)];
-    const Point3 p{s.p[0] - o[0], s.p[1] - o[1], s.p[2] - o[2]}, q{s.q[0] - o[0], s.q[1] - o[1], s.q[2] - o[2]};
-    bool clear = true;
-    for (const auto& t : local)
-      if (segment_triangle_distance(p, q, t[0], t[1], t[2]) < safety) {
-        clear = false;
-        break;
-      }
-    brute_clear += clear;
-    disagree += clear != index->segment_clear(s.p, s.q, safety);
+  Samples brute_rate, index_rate;
+  LoadLog brute_loads;
+  for (int pair = 0; pair < pairs; ++pair) {
+    brute_loads.note();
+    const auto start = std::chrono::steady_clock::now();
+    for (size_t i = pair * per_pair; i < (pair + 1) * per_pair; ++i) {
+      const Query& s = all[i * (all.size() / sample)];
+      const Point3 p{s.p[0] - o[0], s.p[1] - o[1], s.p[2] - o[2]}, q{s.q[0] - o[0], s.q[1] - o[1], s.q[2] - o[2]};
+      bool clear = true;
+      for (const auto& t : local)
+        if (segment_triangle_distance(p, q, t[0], t[1], t[2]) < safety) {
+          clear = false;
+          break;
+        }
+      brute_clear += clear;
+      disagree += clear != index->segment_clear(s.p, s.q, safety);
+    }
+    brute_rate.add(per_pair / seconds_since(start));
+    size_t ignored = 0;
+    index_rate.add(single(*index, all, ignored));
   }
-  const double brute_rate = sample / seconds_since(start);
-  const Rate one = single(*index, all, 1);
   std::printf("\n| method | segment_clear/s, 1 thread | vs brute force |\n|---|---|---|\n");
-  std::printf("| brute force (all %zu triangles, stops at the first hit; %zu segments) | %.1f | 1 |\n",
-              mesh.triangles.size(), sample, brute_rate);
-  std::printf("| ClearanceIndex | %.0f | %.0f x |\n", one.per_second, one.per_second / brute_rate);
+  std::printf("| brute force (all %zu triangles, stops at the first hit; %zu segments a pair) | %s | 1 |\n",
+              mesh.triangles.size(), per_pair, brute_rate.text("%.1f").c_str());
+  std::printf("| ClearanceIndex | %s | %s x |\n", index_rate.text("%.0f").c_str(),
+              ratios(index_rate, brute_rate).text("%.0f").c_str());
+  std::printf("(load average %s at the pairs' starts)\n", brute_loads.text().c_str());
   std::printf("disagreements with brute force: %zu of %zu (%zu clear)\n\n", disagree, sample, brute_clear);
 
-  const auto bvh_start = std::chrono::steady_clock::now();
-  const Bvh bvh(mesh, o);
-  const double bvh_build = seconds_since(bvh_start);
+  // 4. The BVH against the index, per band: agreement once, then pairs.
   std::printf(
       "| structure | build s | segment_clear/s 2-120 m | 2-10 m | 10-30 m | 30-120 m |\n|---|---|---|---|---|---|\n");
   size_t bvh_disagree = 0;
-  double bvh_rates[4], index_rates[4];
+  Samples bvh_rates[4], index_rates[4];
+  LoadLog bvh_loads;
+  const auto bvh_pass = [&](const std::vector<Query>& queries) {
+    const auto start = std::chrono::steady_clock::now();
+    size_t clear = 0;
+    for (const Query& s : queries) {
+      const Point3 p{s.p[0] - o[0], s.p[1] - o[1], s.p[2] - o[2]}, q{s.q[0] - o[0], s.q[1] - o[1], s.q[2] - o[2]};
+      clear += bvh->clear(p, q, safety);
+    }
+    const double rate = queries.size() / seconds_since(start);
+    return clear == size_t(-1) ? 0 : rate;  // keeps `clear` alive
+  };
   for (int b = 0; b < 4; ++b) {
     const std::vector<Query> queries = make_queries(*index, grid, 20000, bands[b].lo, bands[b].hi, 4 + b);
-    double best = 0;
-    for (int run = 0; run < 2; ++run) {
-      const auto t0 = std::chrono::steady_clock::now();
-      for (const Query& s : queries) {
-        const Point3 p{s.p[0] - o[0], s.p[1] - o[1], s.p[2] - o[2]}, q{s.q[0] - o[0], s.q[1] - o[1], s.q[2] - o[2]};
-        const bool clear = bvh.clear(p, q, safety);
-        if (run == 0) bvh_disagree += clear != index->segment_clear(s.p, s.q, safety);
-      }
-      if (run > 0) best = queries.size() / seconds_since(t0);
+    for (const Query& s : queries) {
+      const Point3 p{s.p[0] - o[0], s.p[1] - o[1], s.p[2] - o[2]}, q{s.q[0] - o[0], s.q[1] - o[1], s.q[2] - o[2]};
+      bvh_disagree += bvh->clear(p, q, safety) != index->segment_clear(s.p, s.q, safety);
     }
-    bvh_rates[b] = best;
-    index_rates[b] = single(*index, queries, 2).per_second;
+    for (int pair = 0; pair < pairs; ++pair) {
+      bvh_loads.note();
+      bvh_rates[b].add(bvh_pass(queries));
+      size_t ignored = 0;
+      index_rates[b].add(single(*index, queries, ignored));
+    }
   }
-  std::printf("| ClearanceIndex (bucket grid, height bounds) | %.3f | %.0f | %.0f | %.0f | %.0f |\n", build,
-              index_rates[0], index_rates[1], index_rates[2], index_rates[3]);
-  std::printf("| BVH (median split, 4 a leaf, %zu nodes) | %.3f | %.0f | %.0f | %.0f | %.0f |\n", bvh.nodes(),
-              bvh_build, bvh_rates[0], bvh_rates[1], bvh_rates[2], bvh_rates[3]);
+  std::printf("| ClearanceIndex (bucket grid, height bounds) | %s | %s | %s | %s | %s |\n", build.text().c_str(),
+              index_rates[0].text("%.0f").c_str(), index_rates[1].text("%.0f").c_str(),
+              index_rates[2].text("%.0f").c_str(), index_rates[3].text("%.0f").c_str());
+  std::printf("| BVH (median split, 4 a leaf, %zu nodes) | %s | %s | %s | %s | %s |\n", bvh->nodes(),
+              bvh_build.text().c_str(), bvh_rates[0].text("%.0f").c_str(), bvh_rates[1].text("%.0f").c_str(),
+              bvh_rates[2].text("%.0f").c_str(), bvh_rates[3].text("%.0f").c_str());
+  std::printf("| index / BVH, per pair | %s | %s | %s | %s | %s |\n", ratios(bvh_build, build).text("%.2f").c_str(),
+              ratios(index_rates[0], bvh_rates[0]).text("%.2f").c_str(),
+              ratios(index_rates[1], bvh_rates[1]).text("%.2f").c_str(),
+              ratios(index_rates[2], bvh_rates[2]).text("%.2f").c_str(),
+              ratios(index_rates[3], bvh_rates[3]).text("%.2f").c_str());
+  std::printf("(build: BVH seconds / index seconds; rates: index / BVH; load average %s at the pairs' starts)\n",
+              bvh_loads.text().c_str());
   std::printf("BVH disagreements with the index: %zu of %d\n\n", bvh_disagree, 4 * 20000);
   disagree += bvh_disagree;
+  bvh.reset();
 
-  std::printf("| bucket m | buckets | listings per triangle | build s | segment_clear/s 2-120 m | 2-10 m |\n");
-  std::printf("|---|---|---|---|---|---|\n");
+  // 5. Bucket sizes: every round builds and queries each size once, in turn.
   const std::vector<Query> some(all.begin(), all.begin() + 50000);
   const std::vector<Query> low = make_queries(*index, grid, 20000, 2, 10, 3);
-  for (double size : {0.0, 1.0, 2.0, 4.0, 5.66, 8.0, 11.3, 16.0}) {
-    ClearanceOptions options;
-    options.bucket_size = size;
-    const auto t0 = std::chrono::steady_clock::now();
-    const ClearanceIndex sized(mesh, options);
-    const double seconds = seconds_since(t0);
-    const Rate rate = single(sized, some, 2), low_rate = single(sized, low, 2);
-    std::printf("| %.2f%s | %d | %.2f | %.3f | %.0f | %.0f |\n", sized.bucket_size(), size == 0 ? " (auto)" : "",
-                sized.bucket_columns() * sized.bucket_rows(), double(sized.bucket_listings()) / mesh.triangles.size(),
-                seconds, rate.per_second, low_rate.per_second);
+  const double sizes[] = {0.0, 1.0, 2.0, 4.0, 5.66, 8.0, 11.3, 16.0};
+  constexpr int size_count = sizeof sizes / sizeof sizes[0];
+  Samples size_build[size_count], size_rate[size_count], size_low[size_count];
+  double size_bucket[size_count] = {};
+  int size_buckets[size_count] = {};
+  double size_listings[size_count] = {};
+  LoadLog size_loads;
+  index.reset();
+  for (int round = 0; round < pairs; ++round) {
+    size_loads.note();
+    for (int k = 0; k < size_count; ++k) {
+      ClearanceOptions options;
+      options.bucket_size = sizes[k];
+      const auto t0 = std::chrono::steady_clock::now();
+      const ClearanceIndex sized(mesh, options);
+      size_build[k].add(seconds_since(t0));
+      size_t ignored = 0;
+      size_rate[k].add(single(sized, some, ignored));
+      size_low[k].add(single(sized, low, ignored));
+      size_bucket[k] = sized.bucket_size();
+      size_buckets[k] = sized.bucket_columns() * sized.bucket_rows();
+      size_listings[k] = double(sized.bucket_listings()) / mesh.triangles.size();
+    }
   }
+  std::printf("| bucket m | buckets | listings per triangle | build s | segment_clear/s 2-120 m | 2-10 m |\n");
+  std::printf("|---|---|---|---|---|---|\n");
+  for (int k = 0; k < size_count; ++k) {
+    std::printf("| %.2f%s | %d | %.2f | %s | %s | %s |\n", size_bucket[k], sizes[k] == 0 ? " (auto)" : "",
+                size_buckets[k], size_listings[k], size_build[k].text().c_str(), size_rate[k].text("%.0f").c_str(),
+                size_low[k].text("%.0f").c_str());
+  }
+  std::printf("(%d rounds, every size once a round; load average %s at the rounds' starts, %s at the end)\n", pairs,
+              size_loads.text().c_str(), load_average().c_str());
   return disagree == 0 ? 0 : 1;
 }

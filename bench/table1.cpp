@@ -9,9 +9,13 @@
 //      than CGAL's incremental Delaunay_triangulation_2 (Projection_traits_xy_3, range insert,
 //      which spatially sorts first: CGAL's fastest path) on the same points.
 //   3. Memory bar: the CLI's peak RSS must stay <= 150 bytes per DSM cell.
-//   4. For information: triangulate_xy3 alone against CGAL, and the machine.
-// A benchmark, not a test: timings are best of several runs and still noisy on a shared
-// machine. Exit code 0 when both bars pass, 1 when one is missed (or anything fails).
+//   4. For information: the same pipeline in process, and triangulate_xy3 alone, against CGAL.
+// Timing (bench/bench_kit.hpp): the bars' variants run in interleaved rounds (CGAL, CLI, in
+// process, CGAL, CLI, ...; at least 5), and every ratio is the median of the per-round ratios with
+// its min-max; Table 1's seconds are medians over `runs` runs with the total's min-max; the
+// 1-minute load average is printed at every round. Never a best-of.
+//   build/bench/bench_table1 [ROUNDS = 7]
+// Exit code 0 when both bars pass (judged on the medians), 1 when one is missed (or anything fails).
 #include <CGAL/Delaunay_triangulation_2.h>
 #include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
 #include <CGAL/Projection_traits_xy_3.h>
@@ -44,18 +48,10 @@ using namespace bench;
 
 namespace {
 
-constexpr int runs = 3;               // per stage in process, and for CGAL
-constexpr int cli_runs = 5;           // a CLI run is cheap and its wall time the noisiest (process start, page cache)
-constexpr double speed_bar = 5.0;     // CGAL seconds / our end-to-end seconds, at least
+constexpr int runs = 5;               // Table 1: in-process runs per resolution
+constexpr int min_rounds = 5;         // the bars: interleaved rounds, at least
+constexpr double speed_bar = 5.0;     // CGAL seconds / our end-to-end seconds (median of the rounds), at least
 constexpr double memory_bar = 150.0;  // peak RSS bytes per DSM cell, at most
-
-// Wall seconds of fn().
-template <class F>
-double timed(F&& fn) {
-  const auto start = std::chrono::steady_clock::now();
-  fn();
-  return seconds_since(start);
-}
 
 // A scratch folder under /tmp, removed with everything in it when the benchmark ends.
 struct TempDir {
@@ -76,9 +72,16 @@ struct TempDir {
 struct Row {
   double res = 0;
   size_t vertices = 0, faces = 0, bytes = 0;
-  // Best of `runs` per stage; total is the best whole run, so it can exceed the stage sum.
-  double read = never, resample = never, triangulate = never, write = never, total = never;
+  // Each stage over `runs` runs; printed as medians, so the total can differ from the stages' sum.
+  Samples read, resample, triangulate, write, total;
 };
+
+// The seconds of one stage in a mesh report.
+double stage_seconds(const MeshReport& report, const char* name) {
+  for (const auto& [stage, seconds] : report.seconds)
+    if (stage == name) return seconds;
+  throw std::runtime_error(std::string("mesh report lacks stage ") + name);
+}
 
 // The same job as `dsmplan mesh TILE --res RES -o OUT.ply`, in process, through the library.
 Row mesh_in_process(double res, const fs::path& out) {
@@ -89,16 +92,11 @@ Row mesh_in_process(double res, const fs::path& out) {
   job.resolution = res;
   for (int run = 0; run < runs; ++run) {
     const MeshReport report = mesh_dsm(job);
-    auto stage = [&](const char* name) {
-      for (const auto& [stage, seconds] : report.seconds)
-        if (stage == name) return seconds;
-      throw std::runtime_error(std::string("mesh report lacks stage ") + name);
-    };
-    row.read = std::min(row.read, stage("read"));
-    row.resample = std::min(row.resample, report.resampling ? stage("resample") : 0.0);  // "-" when none
-    row.triangulate = std::min(row.triangulate, stage("triangulate"));
-    row.write = std::min(row.write, stage("write"));
-    row.total = std::min(row.total, stage("total"));
+    row.read.add(stage_seconds(report, "read"));
+    row.resample.add(report.resampling ? stage_seconds(report, "resample") : 0.0);  // "-" when none
+    row.triangulate.add(stage_seconds(report, "triangulate"));
+    row.write.add(stage_seconds(report, "write"));
+    row.total.add(stage_seconds(report, "total"));
     row.vertices = report.vertices;
     row.faces = report.faces;
     row.bytes = report.file_bytes;
@@ -122,17 +120,18 @@ constexpr PaperRow paper[] = {
 
 void print_table1(const std::vector<Row>& rows) {
   std::printf("Table 1: XY-3 Delaunay mesh without simplification, z step 0.1 m, binary PLY (MB = 10^6 bytes)\n");
-  std::printf("ours: NRW DOM1 tile 1 x 1 km, median resampling, seconds best of %d per stage\n\n", runs);
-  std::printf("%-4s %-16s %10s %10s %8s %5s | %6s %7s %7s %6s %6s\n", "res", "data", "vertices", "faces", "size MB",
-              "f/v", "read", "resamp", "triang", "write", "total");
+  std::printf("ours: NRW DOM1 tile 1 x 1 km, median resampling; seconds: the median of %d runs per stage, the\n", runs);
+  std::printf("total's min-max beside it; load average %s\n\n", load_average().c_str());
+  std::printf("%-4s %-16s %10s %10s %8s %5s | %6s %7s %7s %6s %21s\n", "res", "data", "vertices", "faces", "size MB",
+              "f/v", "read", "resamp", "triang", "write", "total (min-max)");
   for (const Row& row : rows) {
     char resample[16] = "-";
-    if (row.resample > 0) std::snprintf(resample, sizeof resample, "%.3f", row.resample);
-    std::printf("%-4s %-16s %10s %10s %8.1f %5.2f | %6.3f %7s %7.3f %6.3f %6.3f\n",
+    if (row.resample.median() > 0) std::snprintf(resample, sizeof resample, "%.3f", row.resample.median());
+    std::printf("%-4s %-16s %10s %10s %8.1f %5.2f | %6.3f %7s %7.3f %6.3f %21s\n",
                 (std::to_string(static_cast<int>(row.res)) + " m").c_str(), "ours NRW tile",
                 grouped(row.vertices).c_str(), grouped(row.faces).c_str(), row.bytes / 1e6,
-                static_cast<double>(row.faces) / row.vertices, row.read, resample, row.triangulate, row.write,
-                row.total);
+                static_cast<double>(row.faces) / row.vertices, row.read.median(), resample, row.triangulate.median(),
+                row.write.median(), row.total.text().c_str());
     for (const PaperRow& p : paper) {
       if (p.res != static_cast<int>(row.res)) continue;
       std::printf("%-4s %-16s %10s %10s %8zu %5.2f |\n", "", ("paper " + std::string(p.section)).c_str(),
@@ -198,80 +197,94 @@ double cli_once(const fs::path& out, long& peak_kib) {
 
 struct Bars {
   size_t cells = 0, cgal_faces = 0;
-  int cgal_runs = 0;
-  double cgal_seconds = never, cli_seconds = never;  // best of the runs
-  long cli_peak_kib = 0;                             // from the first CLI run, see measure_bars
-  long own_kib = 0;                                  // our peak RSS at that run: the floor of what it can show
+  Samples cgal, cli, in_process, triangulate;  // seconds, one per round, in the rounds' order
+  LoadLog loads;                               // at the start of every round
+  long cli_peak_kib = 0;                       // from the first CLI run, see measure_bars
+  long own_kib = 0;                            // our peak RSS at that run: the floor of what it can show
 };
 
 // Linux carries the spawning process's peak RSS over into the child's ru_maxrss (exec records
 // the high-water mark of the address space it replaces, which after posix_spawn's vfork is
-// ours). So the CLI's peak RSS is taken from a first run made while we are still small, before
-// any mesh or CGAL work. After that CGAL and the CLI alternate, so load from other processes on
-// the machine hits both sides of the ratio alike.
-Bars measure_bars(const fs::path& out) {
+// ours). So the CLI's peak RSS is taken from a first, untimed run made while we are still small,
+// before any mesh or CGAL work. After that every round runs CGAL, the CLI and the same job in
+// process once each, in turn, so load from other processes on the machine hits all of them alike.
+Bars measure_bars(const fs::path& out, int rounds) {
   Bars bars;
   bars.own_kib = own_peak_kib();
-  bars.cli_seconds = cli_once(out, bars.cli_peak_kib);
+  cli_once(out, bars.cli_peak_kib);
   const Grid dsm = read_raster(tile);
   bars.cells = dsm.cells();
   const std::vector<Kernel::Point_3> points = cell_centres(dsm);
-  for (int run = 1; run < cli_runs; ++run) {
+  MeshJobOptions job;
+  job.input = tile;
+  job.output = out.string();
+  for (int round = 0; round < rounds; ++round) {
+    bars.loads.note();
+    bars.cgal.add(cgal_once(points, bars.cgal_faces));
     long ignored = 0;
-    bars.cli_seconds = std::min(bars.cli_seconds, cli_once(out, ignored));
-    if (run > runs) continue;
-    // Two CGAL runs are enough when it is slow: a third would only add minutes.
-    if (run == runs && bars.cgal_seconds > 10) continue;
-    bars.cgal_seconds = std::min(bars.cgal_seconds, cgal_once(points, bars.cgal_faces));
-    ++bars.cgal_runs;
+    bars.cli.add(cli_once(out, ignored));
+    const MeshReport report = mesh_dsm(job);
+    bars.in_process.add(stage_seconds(report, "total"));
+    bars.triangulate.add(stage_seconds(report, "triangulate"));
+    fs::remove(out);
   }
   return bars;
 }
 
-int run() {
+int run(int rounds) {
   const TempDir temp;
-  std::printf("machine: %ld cores (nproc), %s\n", sysconf(_SC_NPROCESSORS_ONLN), cpu_model().c_str());
+  std::printf("machine: %ld cores (nproc), %s, load average %s at the start\n", sysconf(_SC_NPROCESSORS_ONLN),
+              cpu_model().c_str(), load_average().c_str());
   std::printf("tile:    %s\n\n", tile.c_str());
 
-  const Bars bars = measure_bars(temp.path / "out.ply");  // first, while we are small
+  const Bars bars = measure_bars(temp.path / "out.ply", rounds);  // first, while we are small
   std::vector<Row> rows;
   for (double res : {1.0, 2.0, 3.0, 4.0}) rows.push_back(mesh_in_process(res, temp.path / "table1.ply"));
   print_table1(rows);
 
-  const double speedup = bars.cgal_seconds / bars.cli_seconds;
+  const Samples speedups = ratios(bars.cgal, bars.cli);
+  const double speedup = speedups.median();
   const double bytes_per_cell = bars.cli_peak_kib * 1024.0 / bars.cells;
   const bool speed_ok = speedup >= speed_bar, memory_ok = bytes_per_cell <= memory_bar;
 
-  std::printf("\nBars: %s cells at 1 m; CGAL best of %d, CLI best of %d, alternating; CLI RSS from its first run\n",
-              grouped(bars.cells).c_str(), bars.cgal_runs, cli_runs);
-  std::printf("%-52s %9s %9s %8s\n", "", "seconds", "ratio", "bar");
-  std::printf("%-52s %9.3f\n", ("CGAL DT2<xy3>.insert(range), " + grouped(bars.cgal_faces) + " faces").c_str(),
-              bars.cgal_seconds);
-  std::printf("%-52s %9.3f %8.2fx   >= %gx  %s\n", "dsmplan mesh CLI, GeoTIFF -> binary PLY, wall", bars.cli_seconds,
-              speedup, speed_bar, speed_ok ? "PASS" : "FAIL");
-  std::printf("%-52s %9s %9.1f   <= %-4g %s\n",
+  std::printf("\nBars: %s cells at 1 m; %d interleaved rounds (CGAL, CLI, in process), load average %s at the\n",
+              grouped(bars.cells).c_str(), rounds, bars.loads.text().c_str());
+  std::printf("rounds' starts, %s after; seconds: median (min-max) over the rounds; ratio: CGAL / it, the median\n",
+              load_average().c_str());
+  std::printf(
+      "of the per-round ratios (min-max); the bar is judged on that median. CLI RSS from a first, untimed run\n");
+  std::printf("%-52s %21s %21s %8s\n", "", "seconds", "ratio", "bar");
+  std::printf("%-52s %21s\n", ("CGAL DT2<xy3>.insert(range), " + grouped(bars.cgal_faces) + " faces").c_str(),
+              bars.cgal.text().c_str());
+  std::printf("%-52s %21s %21s   >= %gx  %s\n", "dsmplan mesh CLI, GeoTIFF -> binary PLY, wall",
+              bars.cli.text().c_str(), speedups.text("%.2f").c_str(), speed_bar, speed_ok ? "PASS" : "FAIL");
+  std::printf("%-52s %21s %21.1f   <= %-4g %s\n",
               ("CLI peak RSS " + std::to_string(bars.cli_peak_kib / 1024) + " MiB, bytes per cell").c_str(), "",
               bytes_per_cell, memory_bar, memory_ok ? "PASS" : "FAIL");
   // A reading at our own floor would only say "at most this": the child's peak is hidden.
   if (bars.cli_peak_kib <= bars.own_kib) {
     std::printf("  (not above the benchmark's own %ld MiB: an upper bound only)\n", bars.own_kib / 1024);
   }
-  std::printf("%-52s %9.3f %8.2fx %7s  (info)\n", "same pipeline in process (no process start-up)", rows[0].total,
-              bars.cgal_seconds / rows[0].total, "");
-  std::printf("%-52s %9.3f %8.2fx %7s  (info)\n", "triangulate_xy3 alone, in process", rows[0].triangulate,
-              bars.cgal_seconds / rows[0].triangulate, "");
+  std::printf("%-52s %21s %21s %8s  (info)\n", "same pipeline in process (no process start-up)",
+              bars.in_process.text().c_str(), ratios(bars.cgal, bars.in_process).text("%.2f").c_str(), "");
+  std::printf("%-52s %21s %21s %8s  (info)\n", "triangulate_xy3 alone, in process", bars.triangulate.text().c_str(),
+              ratios(bars.cgal, bars.triangulate).text("%.2f").c_str(), "");
 
   if (!speed_ok || !memory_ok) std::printf("\n");
-  if (!speed_ok) std::printf("FAIL: end to end is only %.2fx faster than CGAL (bar: %gx)\n", speedup, speed_bar);
+  if (!speed_ok) {
+    std::printf("FAIL: end to end is only %.2fx faster than CGAL in the median of the rounds (bar: %gx)\n", speedup,
+                speed_bar);
+  }
   if (!memory_ok) std::printf("FAIL: peak RSS is %.1f bytes per cell (bar: %g)\n", bytes_per_cell, memory_bar);
   return speed_ok && memory_ok ? 0 : 1;
 }
 
 }  // namespace
 
-int main() {
+int main(int argc, char** argv) {
   try {
-    return run();
+    const int rounds = argc > 1 ? std::max(min_rounds, std::atoi(argv[1])) : 7;
+    return run(rounds);
   } catch (const std::exception& error) {
     std::fflush(stdout);
     std::fprintf(stderr, "bench_table1: %s\n", error.what());

@@ -17,15 +17,22 @@
 //      more than E).
 //   4. A figure like the paper's Figures 6/7: one block, variant one / variant two / bounded
 //      conservative side by side with their edges, to argv[1] (default bench_table2_fig.png).
-// A benchmark, not a test: timings are best of several runs and still noisy on a shared
-// machine. Exit code 0 when every bar passes, 1 when one is missed (or anything fails).
+// Timing (bench/bench_kit.hpp): the methods compared run in interleaved rounds (each round runs
+// every one of them once, in turn; at least 5 rounds); a figure is the median with its min-max, a
+// ratio the median of the per-round ratios, and the 1-minute load average at the rounds' starts is
+// printed. Never a best-of. The speed bar is judged on the median.
+//   build/bench/bench_table2 [FIGURE.png = bench_table2_fig.png] [ROUNDS = 5]
+// Exit code 0 when every bar passes, 1 when one is missed (or anything fails).
 #include <unistd.h>
 
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
+#include <cstdlib>
 #include <fstream>
+#include <functional>
 #include <limits>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -42,26 +49,26 @@ using namespace bench;
 
 namespace {
 
-constexpr int fast_runs = 3;         // best of this many for a run that is fast...
-constexpr double slow_run = 3.0;     // ...and a single run for one that takes longer (seconds)
-constexpr int bar_runs = 5;          // the speed bar: best of this many, always
+constexpr int min_rounds = 5;        // interleaved rounds, at least (argv[2], default 5)
 constexpr double bar_error = 0.4;    // E of the bars, metres
-constexpr double bar_seconds = 0.5;  // at most, wall, for simplify_bounded alone
+constexpr double bar_seconds = 0.5;  // at most, wall, for simplify_bounded alone (median of the rounds)
 // Greedy insertion by an external Garland-Heckbert tool on this tile, two-sided at E/2 = 0.2 m:
 // the size figure the bounded mode was specified against.
 constexpr size_t external_gh_vertices = 435856;
 
-// Result of fn() with its best wall time: up to `max_runs` runs, only one when it is slow.
-template <class F>
-auto best_of(F&& fn, int max_runs, double& seconds, int& runs, double slow = slow_run) {
-  seconds = never;
-  runs = 0;
-  for (;;) {
-    const auto start = std::chrono::steady_clock::now();
-    auto result = fn();
-    const double took = seconds_since(start);
-    seconds = std::min(seconds, took);
-    if (++runs >= max_runs || took > slow) return result;
+// One variant of a comparison: run(first) does the work once (and keeps its result when `first`);
+// seconds collects its wall time, one per round.
+struct Variant {
+  std::function<void(bool first)> run;
+  Samples seconds;
+};
+
+// Interleaved rounds: every round runs every variant once, in turn (A B C A B C ...), so that a
+// change of the machine's load hits all of them alike; the load is noted at every round's start.
+void interleave(const std::vector<Variant*>& variants, int rounds, LoadLog& loads) {
+  for (int round = 0; round < rounds; ++round) {
+    loads.note();
+    for (Variant* v : variants) v->seconds.add(timed([&] { v->run(round == 0); }));
   }
 }
 
@@ -73,36 +80,42 @@ struct PaperRun {
   int res = 0;
   PaperVariant variant = PaperVariant::Two;
   size_t in = 0, out = 0, coplanar = 0, colinear = 0, faces = 0;
-  double search = never, triangulate = never;  // best of the runs, per stage
-  int runs = 0;
+  Samples search, triangulate;  // per stage, one per round
+  Variant timing;
   VerticalError error;
   Mesh mesh;  // kept for the figure
 };
 
-PaperRun run_paper(const Grid& dsm, const Mesh& mesh, int res, PaperVariant variant, double dz) {
-  PaperRun run;
-  run.res = res;
-  run.variant = variant;
-  run.in = mesh.vertices.size();
-  PaperSimplifyOptions options;
-  options.variant = variant;
-  options.dz = dz;
-  double ignored = 0;
-  PaperSimplifyResult result = best_of(
-      [&] {
-        PaperSimplifyResult r = simplify_paper(mesh, options);
-        run.search = std::min(run.search, r.seconds_search);
-        run.triangulate = std::min(run.triangulate, r.seconds_triangulate);
-        return r;
-      },
-      fast_runs, ignored, run.runs);
-  run.out = result.mesh.vertices.size();
-  run.faces = result.mesh.triangles.size();
-  run.coplanar = result.removed_coplanar;
-  run.colinear = result.removed_colinear;
-  run.error = certify(result.mesh, dsm);
-  run.mesh = std::move(result.mesh);
-  return run;
+// Variants one and two at one resolution, interleaved.
+void run_paper(const Grid& dsm, const Mesh& mesh, int res, int rounds, LoadLog& loads, std::vector<PaperRun>& out) {
+  PaperRun runs[2];
+  const PaperVariant variants[2] = {PaperVariant::One, PaperVariant::Two};
+  for (int k = 0; k < 2; ++k) {
+    PaperRun& run = runs[k];
+    run.res = res;
+    run.variant = variants[k];
+    run.in = mesh.vertices.size();
+    run.timing.run = [&run, &mesh](bool first) {
+      PaperSimplifyOptions options;
+      options.variant = run.variant;
+      options.dz = 0.4;
+      PaperSimplifyResult r = simplify_paper(mesh, options);
+      run.search.add(r.seconds_search);
+      run.triangulate.add(r.seconds_triangulate);
+      if (!first) return;
+      run.out = r.mesh.vertices.size();
+      run.faces = r.mesh.triangles.size();
+      run.coplanar = r.removed_coplanar;
+      run.colinear = r.removed_colinear;
+      run.mesh = std::move(r.mesh);
+    };
+  }
+  interleave({&runs[0].timing, &runs[1].timing}, rounds, loads);
+  for (PaperRun& run : runs) {
+    run.error = certify(run.mesh, dsm);
+    run.timing.run = nullptr;  // it points at this slot, which is moved from
+    out.push_back(std::move(run));
+  }
 }
 
 // The paper's Table 2 (variant two only; Berlin, 7 cm DSM downsampled, z step 0.1 m), with the
@@ -124,21 +137,25 @@ constexpr PaperRow paper[] = {
     {"Reichstag", 3, 12600, 5855, -53, 6619, 126},      {"Reichstag", 4, 7144, 3692, -48, 3382, 70},
 };
 
-void print_table2(const std::vector<PaperRun>& runs) {
+void print_table2(const std::vector<PaperRun>& runs, int rounds, const LoadLog& loads) {
   std::printf("Table 2: one-pass simplification (Section 4), dz 0.4 m, dco 1e-5 m, on the XY-3 mesh (z step 0.1 m)\n");
-  std::printf("ours: NRW DOM1 tile 1 x 1 km, median resampling; seconds best of up to %d; error = certify() against\n",
-              fast_runs);
-  std::printf(
-      "the resampled DSM before quantization (m; above/below: mesh over/under the DSM). Paper: variant two only.\n\n");
-  std::printf("%-4s %-16s %10s %10s %7s %10s %9s %10s | %6s %6s | %6s %6s %6s\n", "res", "data", "in", "out", "red.",
-              "co-planar", "co-linear", "faces", "search", "triang", "above", "below", "rms");
+  std::printf("ours: NRW DOM1 tile 1 x 1 km, median resampling; variants one and two interleaved, %d rounds per\n",
+              rounds);
+  std::printf("resolution (load average %s at the rounds' starts); search and triang: medians, seconds: the whole\n",
+              loads.text().c_str());
+  std::printf("call, median (min-max); error = certify() against the resampled DSM before quantization (m; above/\n");
+  std::printf("below: mesh over/under the DSM). Paper: variant two only.\n\n");
+  std::printf("%-4s %-16s %10s %10s %7s %10s %9s %10s | %6s %6s %21s | %6s %6s %6s\n", "res", "data", "in", "out",
+              "red.", "co-planar", "co-linear", "faces", "search", "triang", "seconds (min-max)", "above", "below",
+              "rms");
   for (const PaperRun& run : runs) {
     const std::string data = std::string("ours variant ") + (run.variant == PaperVariant::One ? "1" : "2");
-    std::printf("%-4s %-16s %10s %10s %6.1f%% %10s %9s %10s | %6.3f %6.3f | %6.2f %6.2f %6.3f\n",
+    std::printf("%-4s %-16s %10s %10s %6.1f%% %10s %9s %10s | %6.3f %6.3f %21s | %6.2f %6.2f %6.3f\n",
                 (std::to_string(run.res) + " m").c_str(), data.c_str(), grouped(run.in).c_str(),
                 grouped(run.out).c_str(), -100.0 * (run.in - run.out) / run.in, grouped(run.coplanar).c_str(),
-                grouped(run.colinear).c_str(), grouped(run.faces).c_str(), run.search, run.triangulate,
-                run.error.max_above, run.error.max_below, run.error.rms);
+                grouped(run.colinear).c_str(), grouped(run.faces).c_str(), run.search.median(),
+                run.triangulate.median(), run.timing.seconds.text().c_str(), run.error.max_above, run.error.max_below,
+                run.error.rms);
     if (run.variant != PaperVariant::Two) continue;
     for (const PaperRow& p : paper) {
       if (p.res != run.res) continue;
@@ -155,9 +172,9 @@ struct BoundRow {
   std::string method;
   size_t vertices = 0, faces = 0;
   VerticalError error;
-  double seconds = never;
-  int runs = 0;
+  Variant timing;
   bool conservative = false;  // which guarantee "holds" checks
+  Mesh mesh;                  // the first run's output, certified after the rounds
 };
 
 // The rows' guarantee against the certificate. The baseline's arithmetic runs in lattice units,
@@ -169,63 +186,70 @@ const char* holds(const BoundRow& row, double bound) {
   return ok ? "yes" : "no";
 }
 
-BoundRow bounded_row(const std::string& method, const Grid& dsm, const BoundedSimplifyOptions& options) {
-  BoundRow row;
+void bounded_row(BoundRow& row, const std::string& method, const Grid& dsm, const BoundedSimplifyOptions& options) {
   row.method = method;
   row.conservative = options.conservative;
-  const Mesh mesh = best_of([&] { return simplify_bounded(dsm, options); }, fast_runs, row.seconds, row.runs);
-  row.vertices = mesh.vertices.size();
-  row.faces = mesh.triangles.size();
-  row.error = certify(mesh, dsm);
-  return row;
+  row.timing.run = [&row, &dsm, options](bool first) {
+    Mesh mesh = simplify_bounded(dsm, options);
+    if (first) row.mesh = std::move(mesh);
+  };
 }
 
-BoundRow paper_row(const Grid& dsm, const Mesh& xy3, double dz) {
-  BoundRow row;
+void paper_row(BoundRow& row, const Mesh& xy3, double dz) {
   row.method = "paper variant 2, dz = E";
-  PaperSimplifyOptions options;
-  options.dz = dz;
-  const PaperSimplifyResult result =
-      best_of([&] { return simplify_paper(xy3, options); }, fast_runs, row.seconds, row.runs);
-  row.vertices = result.mesh.vertices.size();
-  row.faces = result.mesh.triangles.size();
-  row.error = certify(result.mesh, dsm);
-  return row;
+  row.timing.run = [&row, &xy3, dz](bool first) {
+    PaperSimplifyOptions options;
+    options.dz = dz;
+    PaperSimplifyResult result = simplify_paper(xy3, options);
+    if (first) row.mesh = std::move(result.mesh);
+  };
 }
 
-BoundRow baseline_row(const Grid& dsm, double bound) {
-  BoundRow row;
+void baseline_row(BoundRow& row, const Grid& dsm, double bound) {
   row.method = "greedy baseline (GH), two-sided";
-  const bench::GreedyBaselineResult result =
-      best_of([&] { return bench::greedy_insertion_baseline(dsm, bound); }, fast_runs, row.seconds, row.runs);
-  row.vertices = result.mesh.vertices.size();
-  row.faces = result.mesh.triangles.size();
-  row.error = certify(result.mesh, dsm);
-  return row;
+  row.timing.run = [&row, &dsm, bound](bool first) {
+    bench::GreedyBaselineResult result = bench::greedy_insertion_baseline(dsm, bound);
+    if (first) row.mesh = std::move(result.mesh);
+  };
 }
 
+void certify_row(BoundRow& row, const Grid& dsm) {
+  row.vertices = row.mesh.vertices.size();
+  row.faces = row.mesh.triangles.size();
+  row.error = certify(row.mesh, dsm);
+}
+
+// One bound E: the six methods of the table (and at the bars' E the bars' two extra variants),
+// every method once per round, in turn. Rows are held by unique_ptr: the variants' closures point
+// at them.
 struct BoundTable {
   double bound = 0;
   size_t cells = 0;
-  std::vector<BoundRow> rows;
+  int rounds = 0;
+  LoadLog loads;
+  std::vector<std::unique_ptr<BoundRow>> rows;  // the table's six
+  size_t reference = 2;                         // the row the ratios are against: bounded conservative, tiled
 };
 
 void print_bound_tables(const std::vector<BoundTable>& tables) {
   std::printf(
-      "\nEqual bound E at 1 m: every output certified by certify() against the DSM (m); seconds wall, best of\n");
-  std::printf("up to %d (one run when over %.0f s). \"holds\": two-sided |error| <= E, conservative 0 <= error <= E.\n",
-              fast_runs, slow_run);
-  std::printf(
-      "The paper's variant simplifies the XY-3 mesh (z step 0.1 m) and guarantees no bound; the bounded mode\n");
-  std::printf("and the baseline (single-threaded, CGAL Delaunay, DSM heights) work on the DSM itself.\n");
+      "\nEqual bound E at 1 m: every output certified by certify() against the DSM (m); seconds wall, median\n");
+  std::printf("(min-max) of interleaved rounds (every method once per round, in turn); \"x conservative\": this\n");
+  std::printf("method's seconds / the bounded conservative tiled mode's in the same round, median (min-max).\n");
+  std::printf("\"holds\": two-sided |error| <= E, conservative 0 <= error <= E. The paper's variant simplifies the\n");
+  std::printf("XY-3 mesh (z step 0.1 m) and guarantees no bound; the bounded mode and the baseline (single-\n");
+  std::printf("threaded, CGAL Delaunay, DSM heights) work on the DSM itself.\n");
   for (const BoundTable& table : tables) {
-    std::printf("\nE = %.1f m, whole tile (%s cells)\n", table.bound, grouped(table.cells).c_str());
-    std::printf("  %-38s %10s %10s %8s %8s %8s %7s %5s | %8s %4s\n", "method", "vertices", "faces", "max|err|", "above",
-                "below", "rms", "holds", "seconds", "runs");
-    for (const BoundRow& row : table.rows) {
-      std::printf("  %-38s %10s %10s %8.3f %8.3f %8.3f %7.3f %5s | %8.3f %4d\n", row.method.c_str(),
-                  grouped(row.vertices).c_str(), grouped(row.faces).c_str(), max_abs(row.error), row.error.max_above,
-                  row.error.max_below, row.error.rms, holds(row, table.bound), row.seconds, row.runs);
+    std::printf("\nE = %.1f m, whole tile (%s cells), %d rounds, load average %s at the rounds' starts\n", table.bound,
+                grouped(table.cells).c_str(), table.rounds, table.loads.text().c_str());
+    std::printf("  %-38s %10s %10s %8s %8s %8s %7s %5s | %21s %21s\n", "method", "vertices", "faces", "max|err|",
+                "above", "below", "rms", "holds", "seconds (min-max)", "x conservative");
+    const Samples& reference = table.rows[table.reference]->timing.seconds;
+    for (const auto& row : table.rows) {
+      std::printf("  %-38s %10s %10s %8.3f %8.3f %8.3f %7.3f %5s | %21s %21s\n", row->method.c_str(),
+                  grouped(row->vertices).c_str(), grouped(row->faces).c_str(), max_abs(row->error),
+                  row->error.max_above, row->error.max_below, row->error.rms, holds(*row, table.bound),
+                  row->timing.seconds.text().c_str(), ratios(row->timing.seconds, reference).text("%.2f").c_str());
     }
   }
 }
@@ -233,63 +257,91 @@ void print_bound_tables(const std::vector<BoundTable>& tables) {
 // ---- 3. The bars ----------------------------------------------------------------------------
 
 struct Bars {
-  BoundRow tiled, single_thread, global;  // conservative at bar_error: default, threads=1, delaunay
-  BoundRow baseline_half;                 // the baseline two-sided at bar_error / 2
-  double certify_seconds = never;
-  Mesh mesh;  // the tiled output, for the figure
+  const BoundRow* tiled = nullptr;   // conservative at bar_error, default options: the table's row
+  const BoundRow* global = nullptr;  // the same with delaunay = true: the table's row
+  BoundRow single_thread;            // the same with threads = 1
+  BoundRow baseline_half;            // the baseline two-sided at bar_error / 2
+  Samples certify_seconds;
 };
 
-Bars measure_bars(const Grid& dsm) {
-  Bars bars;
+BoundTable bound_table(const Grid& dsm, const Mesh& xy3, double bound, int rounds, Bars* bars) {
+  BoundTable table;
+  table.bound = bound;
+  table.cells = dsm.cells();
+  table.rounds = rounds;
+  for (int k = 0; k < 6; ++k) table.rows.push_back(std::make_unique<BoundRow>());
   BoundedSimplifyOptions options;
-  options.max_error = bar_error;
+  options.max_error = bound;
+  paper_row(*table.rows[0], xy3, bound);
+  bounded_row(*table.rows[1], "bounded two-sided, tiled", dsm, options);
   options.conservative = true;
-  // The speed bar is best of bar_runs, however long a run takes: it is the figure the bar judges.
-  Mesh mesh =
-      best_of([&] { return simplify_bounded(dsm, options); }, bar_runs, bars.tiled.seconds, bars.tiled.runs, never);
-  bars.tiled.method = "bounded conservative, tiled (default)";
-  bars.tiled.conservative = true;
-  bars.tiled.vertices = mesh.vertices.size();
-  bars.tiled.faces = mesh.triangles.size();
-  int runs = 0;
-  bars.tiled.error = best_of([&] { return certify(mesh, dsm); }, fast_runs, bars.certify_seconds, runs);
-  bars.mesh = std::move(mesh);
-
-  BoundedSimplifyOptions one_thread = options;
-  one_thread.threads = 1;
-  bars.single_thread = bounded_row("bounded conservative, threads = 1", dsm, one_thread);
-  BoundedSimplifyOptions global = options;
-  global.delaunay = true;
-  bars.global = bounded_row("bounded conservative, delaunay = true", dsm, global);
-  bars.baseline_half = baseline_row(dsm, bar_error / 2);
-  return bars;
+  bounded_row(*table.rows[2], bars ? "bounded conservative, tiled (default)" : "bounded conservative, tiled", dsm,
+              options);
+  options.delaunay = true;
+  options.conservative = false;
+  bounded_row(*table.rows[3], "bounded two-sided, delaunay = true", dsm, options);
+  options.conservative = true;
+  bounded_row(*table.rows[4], "bounded conservative, delaunay = true", dsm, options);
+  baseline_row(*table.rows[5], dsm, bound);
+  std::vector<Variant*> variants;
+  for (const auto& row : table.rows) variants.push_back(&row->timing);
+  if (bars) {
+    BoundedSimplifyOptions one_thread;
+    one_thread.max_error = bound;
+    one_thread.conservative = true;
+    one_thread.threads = 1;
+    bounded_row(bars->single_thread, "bounded conservative, threads = 1", dsm, one_thread);
+    baseline_row(bars->baseline_half, dsm, bound / 2);
+    variants.push_back(&bars->single_thread.timing);
+    variants.push_back(&bars->baseline_half.timing);
+  }
+  interleave(variants, rounds, table.loads);
+  for (const auto& row : table.rows) certify_row(*row, dsm);
+  if (bars) {
+    certify_row(bars->single_thread, dsm);
+    certify_row(bars->baseline_half, dsm);
+    bars->tiled = table.rows[2].get();
+    bars->global = table.rows[4].get();
+    for (int k = 0; k < rounds; ++k) bars->certify_seconds.add(timed([&] { certify(bars->tiled->mesh, dsm); }));
+  }
+  return table;
 }
 
-bool print_bars(const Bars& bars) {
-  const BoundRow& tiled = bars.tiled;
-  const bool speed_ok = tiled.seconds <= bar_seconds;
+bool print_bars(const Bars& bars, const LoadLog& loads) {
+  const BoundRow& tiled = *bars.tiled;
+  const Samples& seconds = tiled.timing.seconds;
+  const bool speed_ok = seconds.median() <= bar_seconds;
   const bool size_ok = tiled.vertices <= bars.baseline_half.vertices;
   const bool certificate_ok = tiled.error.max_below == 0 && tiled.error.max_above <= bar_error;
-  std::printf("\nBars: simplify_bounded conservative, E = %.1f m, default options (tiled, all cores), 1 m tile\n",
+  std::printf("\nBars: simplify_bounded conservative, E = %.1f m, default options (tiled, all cores), 1 m tile;\n",
               bar_error);
-  std::printf("(i)   speed: %.3f s wall, best of %d, the simplify_bounded call alone (bar <= %.1f s)   %s\n",
-              tiled.seconds, tiled.runs, bar_seconds, speed_ok ? "PASS" : "MISS");
-  std::printf("      certify() of its output, for information: %.3f s (best of %d)\n", bars.certify_seconds, fast_runs);
+  std::printf("%zu interleaved rounds with the E = %.1f m table's methods, threads = 1 and the baseline at E/2 (load\n",
+              seconds.size(), bar_error);
+  std::printf("average %s at the rounds' starts); medians (min-max), ratios per round\n", loads.text().c_str());
+  std::printf("(i)   speed: %s s wall, the simplify_bounded call alone (bar: median <= %.1f s)   %s\n",
+              seconds.text().c_str(), bar_seconds, speed_ok ? "PASS" : "MISS");
+  std::printf("      certify() of its output, for information: %s s\n", bars.certify_seconds.text().c_str());
   std::printf("(ii)  size: %s vertices <= %s of the greedy baseline two-sided at E/2 = %.1f m   %s\n",
               grouped(tiled.vertices).c_str(), grouped(bars.baseline_half.vertices).c_str(), bar_error / 2,
               size_ok ? "PASS" : "MISS");
-  std::printf("      (baseline certified max|err| %.3f m in %.2f s; reference: an external GH tool on this tile at\n",
-              max_abs(bars.baseline_half.error), bars.baseline_half.seconds);
+  std::printf("      (baseline certified max|err| %.3f m in %s s; reference: an external GH tool on this tile at\n",
+              max_abs(bars.baseline_half.error), bars.baseline_half.timing.seconds.text().c_str());
   std::printf("      0.2 m, %s vertices: ours is %.1f%% of it)\n", grouped(external_gh_vertices).c_str(),
               100.0 * tiled.vertices / external_gh_vertices);
   std::printf("(iii) certificate: max_below %.3g m == 0 and max_above %.6f m <= %.1f m   %s\n", tiled.error.max_below,
               tiled.error.max_above, bar_error, certificate_ok ? "PASS" : "MISS");
   std::printf("      (%s cells measured, %s valid cells uncovered, rms %.3f m)\n", grouped(tiled.error.cells).c_str(),
               grouped(tiled.error.uncovered).c_str(), tiled.error.rms);
-  std::printf("speed-up of tiled (threads = 0, %ld cores): %.2fx vs threads = 1 (%.3f s, %s vertices), %.2fx vs\n",
-              sysconf(_SC_NPROCESSORS_ONLN), bars.single_thread.seconds / tiled.seconds, bars.single_thread.seconds,
-              grouped(bars.single_thread.vertices).c_str(), bars.global.seconds / tiled.seconds);
-  std::printf("delaunay = true (%.3f s, %s vertices)\n", bars.global.seconds, grouped(bars.global.vertices).c_str());
+  std::printf("speed-up of tiled (threads = 0, %ld cores), its seconds against the other's in the same round:\n",
+              sysconf(_SC_NPROCESSORS_ONLN));
+  std::printf("  %sx vs threads = 1 (%s s, %s vertices)\n",
+              ratios(bars.single_thread.timing.seconds, seconds).text("%.2f").c_str(),
+              bars.single_thread.timing.seconds.text().c_str(), grouped(bars.single_thread.vertices).c_str());
+  std::printf("  %sx vs delaunay = true (%s s, %s vertices)\n",
+              ratios(bars.global->timing.seconds, seconds).text("%.2f").c_str(),
+              bars.global->timing.seconds.text().c_str(), grouped(bars.global->vertices).c_str());
+  std::printf("  %sx vs the greedy baseline at E/2 (in process, one core)\n",
+              ratios(bars.baseline_half.timing.seconds, seconds).text("%.2f").c_str());
   return speed_ok && size_ok && certificate_ok;
 }
 
@@ -323,61 +375,42 @@ void write_figure(const Grid& dsm, const Mesh& one, const Mesh& two, const Mesh&
 
 int run(int argc, char** argv) {
   const std::string figure = argc > 1 ? argv[1] : "bench_table2_fig.png";
+  const int rounds = argc > 2 ? std::max(min_rounds, std::atoi(argv[2])) : min_rounds;
   const auto start = std::chrono::steady_clock::now();
   std::printf("machine: %ld cores (nproc), %s, load average %s at the start\n", sysconf(_SC_NPROCESSORS_ONLN),
               cpu_model().c_str(), load_average().c_str());
   std::printf("tile:    %s\n\n", tile.c_str());
   const Grid dsm = read_raster(tile);
+  const Mesh xy3_1m = triangulate_xy3(dsm);
 
-  // 3 first: its timings are the ones that matter most, so they run while the machine is fresh.
-  const Bars bars = measure_bars(dsm);
+  // The bars' bound first: its timings are the ones that matter most, so they run while the
+  // machine is fresh.
+  Bars bars;
+  std::vector<BoundTable> tables;
+  tables.push_back(bound_table(dsm, xy3_1m, bar_error, rounds, &bars));
 
   std::vector<PaperRun> paper_runs;
-  Mesh xy3_1m;
+  LoadLog paper_loads;
   for (int res : {1, 2, 3, 4}) {
-    const Grid grid = res == 1 ? dsm : resample(dsm, res, Resampling::Median);
-    Mesh mesh = triangulate_xy3(grid);
-    for (PaperVariant variant : {PaperVariant::One, PaperVariant::Two}) {
-      paper_runs.push_back(run_paper(grid, mesh, res, variant, 0.4));
+    if (res == 1) {
+      run_paper(dsm, xy3_1m, res, rounds, paper_loads, paper_runs);
+      continue;
     }
-    if (res == 1) xy3_1m = std::move(mesh);
+    const Grid grid = resample(dsm, res, Resampling::Median);
+    run_paper(grid, triangulate_xy3(grid), res, rounds, paper_loads, paper_runs);
   }
-  print_table2(paper_runs);
+  print_table2(paper_runs, rounds, paper_loads);
 
-  std::vector<BoundTable> tables;
-  for (double bound : {0.1, 0.4, 1.0}) {
-    BoundTable table;
-    table.bound = bound;
-    table.cells = dsm.cells();
-    const Grid& grid = dsm;
-    const Mesh& xy3 = xy3_1m;
-    BoundedSimplifyOptions options;
-    options.max_error = bound;
-    table.rows.push_back(paper_row(grid, xy3, bound));
-    table.rows.push_back(bounded_row("bounded two-sided, tiled", grid, options));
-    options.conservative = true;
-    if (bound == bar_error) {
-      table.rows.push_back(bars.tiled);
-    } else {
-      table.rows.push_back(bounded_row("bounded conservative, tiled", grid, options));
-    }
-    options.delaunay = true;
-    options.conservative = false;
-    table.rows.push_back(bounded_row("bounded two-sided, delaunay = true", grid, options));
-    options.conservative = true;
-    if (bound == bar_error) {
-      table.rows.push_back(bars.global);
-    } else {
-      table.rows.push_back(bounded_row("bounded conservative, delaunay = true", grid, options));
-    }
-    table.rows.push_back(baseline_row(grid, bound));
-    tables.push_back(std::move(table));
-  }
+  for (double bound : {0.1, 1.0}) tables.push_back(bound_table(dsm, xy3_1m, bound, rounds, nullptr));
+  std::sort(tables.begin(), tables.end(), [](const BoundTable& a, const BoundTable& b) { return a.bound < b.bound; });
   print_bound_tables(tables);
 
-  const bool ok = print_bars(bars);
-  write_figure(dsm, paper_runs[0].mesh, paper_runs[1].mesh, bars.mesh, figure);
-  std::printf("\nbenchmark wall time %.0f s\n", seconds_since(start));
+  const LoadLog& bar_loads =
+      std::find_if(tables.begin(), tables.end(), [](const BoundTable& t) { return t.bound == bar_error; })->loads;
+  const bool ok = print_bars(bars, bar_loads);
+  write_figure(dsm, paper_runs[0].mesh, paper_runs[1].mesh, bars.tiled->mesh, figure);
+  std::printf("\nbenchmark wall time %.0f s, load average %s at the end\n", seconds_since(start),
+              load_average().c_str());
   return ok ? 0 : 1;
 }
 

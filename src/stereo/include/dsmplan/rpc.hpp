@@ -24,7 +24,7 @@
 //
 // Accuracy. project() is the polynomial evaluated in double (exact to rounding: ~1e-9 px).
 // localize() inverts it at a given height by Newton's method on (lon, lat) with the analytic
-// Jacobian, started from the inverse of the linear part (a few steps: 1.4 M points/s on one core); it
+// Jacobian, started from the inverse of the linear part (a few steps; speed: bench/README.md); it
 // returns the first point whose projection is within 1e-6 px of the target (~0.5 µm on the
 // ground at 0.5 m pixels; the round trip ground -> image -> ground is tested below 1 cm on a grid
 // over the real Pléiades crops). It throws InputError when Newton does not converge in 30 steps
