@@ -22,6 +22,7 @@
 #include <spawn.h>
 #include <sys/resource.h>
 #include <sys/wait.h>
+#include <time.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -158,12 +159,22 @@ std::vector<Kernel::Point_3> cell_centres(const Grid& dsm) {
   return points;
 }
 
-// Seconds of one Xy3::insert(begin, end); the face count says it built the same triangulation.
-double cgal_once(const std::vector<Kernel::Point_3>& points, size_t& faces) {
+// CPU seconds of this thread so far.
+double thread_cpu_seconds() {
+  timespec t{};
+  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t);
+  return t.tv_sec + 1e-9 * t.tv_nsec;
+}
+
+// Wall seconds of one Xy3::insert(begin, end) (one thread), its CPU seconds in cpu; the face
+// count says it built the same triangulation.
+double cgal_once(const std::vector<Kernel::Point_3>& points, size_t& faces, double& cpu) {
   const auto start = std::chrono::steady_clock::now();
+  const double cpu_start = thread_cpu_seconds();
   Xy3 dt;
   dt.insert(points.begin(), points.end());
   const double seconds = seconds_since(start);
+  cpu = thread_cpu_seconds() - cpu_start;
   faces = dt.number_of_faces();
   return seconds;
 }
@@ -174,8 +185,9 @@ long own_peak_kib() {
   return self.ru_maxrss;  // Linux: KiB
 }
 
-// Spawns `dsmplan mesh TILE -o OUT -q`, waits with wait4(); returns wall seconds, sets peak_kib.
-double cli_once(const fs::path& out, long& peak_kib) {
+// Spawns `dsmplan mesh TILE -o OUT -q`, waits with wait4(); returns wall seconds, sets peak_kib
+// and cpu (user + system seconds of all its threads).
+double cli_once(const fs::path& out, long& peak_kib, double& cpu) {
   const std::string cli = DSMPLAN_CLI, output = out.string();
   std::vector<const char*> argv{cli.c_str(), "mesh", tile.c_str(), "-o", output.c_str(), "-q", nullptr};
   fs::remove(out);
@@ -192,12 +204,14 @@ double cli_once(const fs::path& out, long& peak_kib) {
   if (!fs::exists(out)) throw std::runtime_error(cli + " mesh wrote no " + output);
   fs::remove(out);
   peak_kib = usage.ru_maxrss;  // Linux: KiB
+  cpu = usage.ru_utime.tv_sec + 1e-6 * usage.ru_utime.tv_usec + usage.ru_stime.tv_sec + 1e-6 * usage.ru_stime.tv_usec;
   return seconds;
 }
 
 struct Bars {
   size_t cells = 0, cgal_faces = 0;
   Samples cgal, cli, in_process, triangulate;  // seconds, one per round, in the rounds' order
+  Samples cgal_cpu, cli_cpu;                   // CPU seconds (all threads) of the same runs
   LoadLog loads;                               // at the start of every round
   long cli_peak_kib = 0;                       // from the first CLI run, see measure_bars
   long own_kib = 0;                            // our peak RSS at that run: the floor of what it can show
@@ -211,7 +225,8 @@ struct Bars {
 Bars measure_bars(const fs::path& out, int rounds) {
   Bars bars;
   bars.own_kib = own_peak_kib();
-  cli_once(out, bars.cli_peak_kib);
+  double cpu = 0;
+  cli_once(out, bars.cli_peak_kib, cpu);
   const Grid dsm = read_raster(tile);
   bars.cells = dsm.cells();
   const std::vector<Kernel::Point_3> points = cell_centres(dsm);
@@ -220,9 +235,11 @@ Bars measure_bars(const fs::path& out, int rounds) {
   job.output = out.string();
   for (int round = 0; round < rounds; ++round) {
     bars.loads.note();
-    bars.cgal.add(cgal_once(points, bars.cgal_faces));
+    bars.cgal.add(cgal_once(points, bars.cgal_faces, cpu));
+    bars.cgal_cpu.add(cpu);
     long ignored = 0;
-    bars.cli.add(cli_once(out, ignored));
+    bars.cli.add(cli_once(out, ignored, cpu));
+    bars.cli_cpu.add(cpu);
     const MeshReport report = mesh_dsm(job);
     bars.in_process.add(stage_seconds(report, "total"));
     bars.triangulate.add(stage_seconds(report, "triangulate"));
@@ -256,8 +273,11 @@ int run(int rounds) {
   std::printf("%-52s %21s %21s %8s\n", "", "seconds", "ratio", "bar");
   std::printf("%-52s %21s\n", ("CGAL DT2<xy3>.insert(range), " + grouped(bars.cgal_faces) + " faces").c_str(),
               bars.cgal.text().c_str());
+  std::printf("%-52s %21s\n", "the same, CPU seconds (one thread)", bars.cgal_cpu.text().c_str());
   std::printf("%-52s %21s %21s   >= %gx  %s\n", "dsmplan mesh CLI, GeoTIFF -> binary PLY, wall",
               bars.cli.text().c_str(), speedups.text("%.2f").c_str(), speed_bar, speed_ok ? "PASS" : "FAIL");
+  std::printf("%-52s %21s %21s %8s  (info)\n", "the same, CPU seconds (user + sys, all threads)",
+              bars.cli_cpu.text().c_str(), ratios(bars.cgal_cpu, bars.cli_cpu).text("%.2f").c_str(), "");
   std::printf("%-52s %21s %21.1f   <= %-4g %s\n",
               ("CLI peak RSS " + std::to_string(bars.cli_peak_kib / 1024) + " MiB, bytes per cell").c_str(), "",
               bytes_per_cell, memory_bar, memory_ok ? "PASS" : "FAIL");
