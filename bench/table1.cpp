@@ -85,13 +85,14 @@ double stage_seconds(const MeshReport& report, const char* name) {
 }
 
 // The same job as `dsmplan mesh TILE --res RES -o OUT.ply`, in process, through the library.
-Row mesh_in_process(double res, const fs::path& out) {
+Row mesh_in_process(double res, const fs::path& out, LoadLog& loads) {
   Row row{res};
   MeshJobOptions job;
   job.input = tile;
   job.output = out.string();
   job.resolution = res;
   for (int run = 0; run < runs; ++run) {
+    loads.note();
     const MeshReport report = mesh_dsm(job);
     row.read.add(stage_seconds(report, "read"));
     row.resample.add(report.resampling ? stage_seconds(report, "resample") : 0.0);  // "-" when none
@@ -119,10 +120,10 @@ constexpr PaperRow paper[] = {
     {"Reichstag", 2, 28388, 56100, 8},   {"Reichstag", 3, 12600, 24750, 4},    {"Reichstag", 4, 7144, 13950, 2},
 };
 
-void print_table1(const std::vector<Row>& rows) {
+void print_table1(const std::vector<Row>& rows, const LoadLog& loads) {
   std::printf("Table 1: XY-3 Delaunay mesh without simplification, z step 0.1 m, binary PLY (MB = 10^6 bytes)\n");
   std::printf("ours: NRW DOM1 tile 1 x 1 km, median resampling; seconds: the median of %d runs per stage, the\n", runs);
-  std::printf("total's min-max beside it; load average %s\n\n", load_average().c_str());
+  std::printf("total's min-max beside it; load average %s at the runs' starts\n\n", loads.text().c_str());
   std::printf("%-4s %-16s %10s %10s %8s %5s | %6s %7s %7s %6s %21s\n", "res", "data", "vertices", "faces", "size MB",
               "f/v", "read", "resamp", "triang", "write", "total (min-max)");
   for (const Row& row : rows) {
@@ -256,8 +257,9 @@ int run(int rounds) {
 
   const Bars bars = measure_bars(temp.path / "out.ply", rounds);  // first, while we are small
   std::vector<Row> rows;
-  for (double res : {1.0, 2.0, 3.0, 4.0}) rows.push_back(mesh_in_process(res, temp.path / "table1.ply"));
-  print_table1(rows);
+  LoadLog table_loads;
+  for (double res : {1.0, 2.0, 3.0, 4.0}) rows.push_back(mesh_in_process(res, temp.path / "table1.ply", table_loads));
+  print_table1(rows, table_loads);
 
   const Samples speedups = ratios(bars.cgal, bars.cli);
   const double speedup = speedups.median();
