@@ -15,7 +15,7 @@ namespace dsmplan {
 
 GroundGrid::GroundGrid(Grid ground) : grid_(std::move(ground)) {
   if (std::any_of(grid_.z.begin(), grid_.z.end(), [](float z) { return std::isnan(z); })) {
-    hole_.resize(grid_.z.size());
+    hole_.resize(grid_.z.size());  // a bit a cell: a city's DSM can hold 1e8 cells
     for (size_t i = 0; i < hole_.size(); ++i) hole_[i] = std::isnan(grid_.z[i]);
   }
   fill_holes_from_rim(grid_, RimHeight::lowest);

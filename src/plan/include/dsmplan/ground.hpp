@@ -82,7 +82,7 @@ private:
   static constexpr int block = 8;
   int block_cols_ = 0, block_rows_ = 0;
   std::vector<float> block_low_;  ///< lowest ground of each block x block cells
-  std::vector<uint8_t> hole_;     ///< 1 where the cell was a hole; empty when none was
+  std::vector<bool> hole_;        ///< where the cells were holes (a bit each); empty when none was
   /// fn(z - ground, col, row) at the samples of dips_below(); true as soon as fn is.
   template <class F>
   bool any_sample(const Point3& p, const Point3& q, F&& fn) const;
