@@ -1384,6 +1384,41 @@ TEST(LowAltitude, ComponentLabelsOnlySpareSearchesThatWouldFail) {
   }
 }
 
+TEST(LowAltitude, ComponentLabelsNeverSpareASearchThatWouldSucceed) {
+  // A roadmap made by hand over flat ground: a chain of five nodes 10 m up, and a lone node
+  // nearer the first waypoint than the chain's end. With one link a waypoint, A* joins the first
+  // waypoint to the lone node only and fails; the refinement's first search, which joins it to
+  // every node within max_edge, finds the chain. The labels may spare A* (no common component of
+  // the links) but not that search (a node near each waypoint shares the chain's component), so
+  // the path is the chain, with or without labels, and no lattice is searched.
+  Grid flat(50, 50, 0, 200, 4, 4);
+  std::fill(flat.z.begin(), flat.z.end(), 0.0f);
+  const ClearanceIndex index(triangulate_xy3(flat));
+  Roadmap map;
+  map.nodes = {{20, 110, 10}, {40, 100, 10}, {70, 100, 10}, {100, 100, 10}, {130, 100, 10}, {160, 100, 10}};
+  const std::vector<std::vector<uint32_t>> lists = {{}, {2}, {1, 3}, {2, 4}, {3, 5}, {4}};
+  map.start = {0};
+  for (const auto& list : lists) {
+    map.neighbour.insert(map.neighbour.end(), list.begin(), list.end());
+    map.start.push_back(static_cast<uint32_t>(map.neighbour.size()));
+  }
+  label_components(map);
+  ASSERT_EQ(map.component, (std::vector<uint32_t>{0, 1, 1, 1, 1, 1}));
+  PlanOptions options;
+  options.connections = 1;
+  const Point3 a{20, 100, 10}, b{180, 100, 10};
+  Roadmap unlabelled = map;
+  unlabelled.component.clear();
+  const PlanResult labelled = query_roadmap(map, index, {a, b}, options);
+  const PlanResult without = query_roadmap(unlabelled, index, {a, b}, options);
+  ASSERT_EQ(labelled.status, PlanStatus::Solved) << labelled.reason;
+  const std::vector<Point3> chain{a, map.nodes[1], map.nodes[2], map.nodes[3], map.nodes[4], map.nodes[5], b};
+  EXPECT_EQ(labelled.raw_path, chain);
+  EXPECT_EQ(without.raw_path, chain);
+  EXPECT_EQ(labelled.lattice_nodes, 0u);
+  EXPECT_EQ(labelled.refined_samples, 0u);
+}
+
 TEST(LowAltitude, RefinementIsBoundedAndSaysWhy) {
   const Mesh& mesh = mesh_2m();
   const ClearanceIndex index(mesh);
