@@ -68,7 +68,7 @@ public:
       if (nodes_[e.v].closed || e.g > nodes_[e.v].best) continue;  // settled, or a stale entry
       if (!valid(e.v)) continue;  // tested when first it comes first: most nodes made never do
       Node& v = nodes_[e.v];
-      if (e.u != kNone && !motion_valid(nodes_[e.u].p, v.p)) {
+      if (e.u != kNone && !space_.candidate_valid(nodes_[e.u].p, v.p)) {  // both ends valid nodes
         blocked_.insert(edge_key(e.u, e.v));
         offer_again(e.v);
         continue;
@@ -150,12 +150,6 @@ private:
     return n.state == kValid;
   }
 
-  // space_.motion_valid(p, q), refused first from the ground rasters when they can (both ends
-  // are valid nodes, so the answer is the same; most pulls and many motions fail).
-  bool motion_valid(const Point3& p, const Point3& q) const {
-    return !space_.surely_invalid(p, q) && space_.motion_valid(p, q);
-  }
-
   // v's best edge was blocked: offer it through the settled neighbour that now gives the least
   // cost over an edge not known to be blocked.
   void offer_again(uint32_t v) {
@@ -184,7 +178,7 @@ private:
     std::vector<Point3> out{path.front()};
     for (size_t m = 0; m + 1 < path.size();) {
       size_t far = std::min(path.size() - 1, m + kPull);
-      while (far > m + 1 && !motion_valid(path[m], path[far])) --far;
+      while (far > m + 1 && !space_.candidate_valid(path[m], path[far])) --far;  // most pulls fail
       out.push_back(path[far]);
       m = far;
     }

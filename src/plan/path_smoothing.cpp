@@ -111,7 +111,7 @@ std::vector<Point3> corner_curve(const Point3& a, const Point3& c, const Point3&
     for (int i = 1; i <= pieces && clear; ++i) {
       const double s = static_cast<double>(i) / pieces;
       points.push_back(lerp(lerp(p0, c, s), lerp(c, p2, s), s));
-      clear = !space.surely_invalid(points[i - 1], points[i]) && space.motion_valid(points[i - 1], points[i]);
+      clear = space.candidate_valid(points[i - 1], points[i]);
     }
     if (clear) return points;
   }

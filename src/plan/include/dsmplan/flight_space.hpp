@@ -122,6 +122,9 @@ public:
   bool surely_invalid(const Point3& p, const Point3& q) const {
     return index_.floor().dips_below(p, q, safety_) || ground_.rises_above(p, q, max_agl_);
   }
+  /// motion_valid(p, q) with surely_invalid(p, q) asked first: the same answer between valid
+  /// states, for candidate motions many of which fail.
+  bool candidate_valid(const Point3& p, const Point3& q) const { return !surely_invalid(p, q) && motion_valid(p, q); }
 
 private:
   const ClearanceIndex& index_;
