@@ -368,6 +368,9 @@ int main(int argc, char** argv) {
   plan_cmd->add_flag("--json", plan_json, "Print the statistics as JSON instead of the summary line");
   plan_cmd->add_option("--roadmap", plan.roadmap,
                        "Roadmap file: reused when it exists (same mesh and options), else built and saved");
+  plan_cmd->add_option("--index", plan.index,
+                       "Index file of the mesh: opened when it exists (built from the same mesh and DSM), else built "
+                       "and saved; later runs skip building it");
   plan_cmd->add_option("--dsm", plan.dsm,
                        "Raw DSM: the path keeps --safety from its cells as solid columns (holes as high as their rim)");
   plan_cmd->add_option("--dtm", plan.dtm,

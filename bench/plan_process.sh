@@ -4,13 +4,14 @@
 # 0.64 m (the tile resampled bilinear, as bench_plan_ompl does), at --max-agl 120 and 30, with
 # the same samples, edges and waypoints (4, 3 legs; 30 m above the ground at --max-agl 120, 20 m
 # at 30, where 30 m would touch the ceiling). Each configuration: one untimed run of each, then
-# PAIRS rounds of dsmplan, OMPL + Embree, OMPL + ClearanceIndex (OMPL given dsmplan's index as
-# its checker, for comparison), in an order that rotates from round to round (dsmplan first, then
-# second, then third), each timed from outside by /usr/bin/time (wall, user + sys),
+# PAIRS rounds of dsmplan, dsmplan with its index kept in a file (--index: the untimed run built
+# and wrote it, the timed runs open it), OMPL + Embree, OMPL + ClearanceIndex (OMPL given
+# dsmplan's index as its checker, for comparison), in an order that rotates from round to round,
+# each timed from outside by /usr/bin/time (wall, user + sys),
 # the load average before each round. Prints per configuration the medians with min-max of wall
 # and CPU seconds and of the ratios OMPL / dsmplan, both programs' samples and edges (fails when
-# they differ or a leg is unsolved) and where each spends its time (dsmplan's --stats, the
-# baseline's own phases; medians).
+# they differ, a leg is unsolved, a kept index was not reused or gave another path) and where
+# each spends its time (dsmplan's --stats, the baseline's own phases; medians).
 #   bench/plan_process.sh [PAIRS=5]
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -45,19 +46,25 @@ for config in "${configs[@]}"; do
         /usr/bin/time -f "%e %U %S" -o "$time" build/dsmplan plan "$dir/nrw_$mesh.ply" --waypoints \
           "$dir/wp_$config.csv" --max-agl "$agl" -o "$dir/${config}_dsmplan.csv" -q --stats "$dir/${config}_dsmplan_$i.json"
         ;;
+      kept)
+        /usr/bin/time -f "%e %U %S" -o "$time" build/dsmplan plan "$dir/nrw_$mesh.ply" --waypoints \
+          "$dir/wp_$config.csv" --max-agl "$agl" -o "$dir/${config}_kept.csv" -q --stats "$dir/${config}_kept_$i.json" \
+          --index "$dir/nrw_$mesh.index"
+        ;;
       embree | index)
         /usr/bin/time -f "%e %U %S" -o "$time" "$baseline" "$dir/nrw_$mesh.ply" --waypoints "$dir/wp_$config.csv" \
           --max-agl "$agl" -o "$dir/${config}_$name.csv" --checker "$name" > "$dir/${config}_${name}_$i.txt"
         ;;
     esac
   }
-  for name in dsmplan embree index; do run $name 0; done
-  order=(dsmplan embree index)
+  rm -f "$dir/nrw_$mesh.index"  # built by the untimed run, from this build
+  for name in dsmplan kept embree index; do run $name 0; done
+  order=(dsmplan kept embree index)
   for i in $(seq 1 "$pairs"); do
     cut -d' ' -f1-3 /proc/loadavg > "$dir/${config}_load_$i.txt"
     # The order rotates from round to round, so no program always follows the same one (the
     # kernel's cost of fresh huge pages depends on what ran just before).
-    for k in 0 1 2; do run "${order[$(((i - 1 + k) % 3))]}" "$i"; done
+    for k in 0 1 2 3; do run "${order[$(((i - 1 + k) % 4))]}" "$i"; done
   done
 done
 python3 - "$dir" "$pairs" "${configs[@]}" <<'PY'
@@ -76,17 +83,25 @@ def baseline(c, name):
         out.append(kv)
     return out
 failed = []
-print(f"\n{pairs} interleaved rounds per configuration (dsmplan, OMPL + Embree, OMPL + ClearanceIndex in rotating order); "
-      "seconds: median (min-max); ratios per round, OMPL / dsmplan\n")
+print(f"\n{pairs} interleaved rounds per configuration (dsmplan, dsmplan --index kept, OMPL + Embree, "
+      "OMPL + ClearanceIndex in rotating order); seconds: median (min-max); ratios per round, OMPL / dsmplan\n")
 print("| mesh | max-agl | samples / edges | dsmplan wall s | OMPL + Embree wall s | ratio wall | dsmplan CPU s | "
       "OMPL + Embree CPU s | ratio CPU | OMPL + ClearanceIndex wall s | its ratio wall | its ratio CPU | load |")
 print("|---|---|---|---|---|---|---|---|---|---|---|---|---|")
+kept_rows = []
 phases = []
 for c in configs:
     mesh, agl = c.split("_")
-    dw, dc = times(c, "dsmplan"); ew, ec = times(c, "embree"); iw, ic = times(c, "index")
+    dw, dc = times(c, "dsmplan"); ew, ec = times(c, "embree"); iw, ic = times(c, "index"); kw, kc = times(c, "kept")
     stats = [json.load(open(f"{d}/{c}_dsmplan_{i}.json")) for i in rounds]
+    kept = [json.load(open(f"{d}/{c}_kept_{i}.json")) for i in rounds]
     ours = {(s["roadmap_nodes"], s["roadmap_edges"]) for s in stats}
+    if {(s["roadmap_nodes"], s["roadmap_edges"]) for s in kept} != ours:
+        failed.append(f"{c}: dsmplan with a kept index built another roadmap")
+    if not all(s["index_reused"] for s in kept):
+        failed.append(f"{c}: dsmplan --index did not reuse its index")
+    if open(f"{d}/{c}_kept.csv").read() != open(f"{d}/{c}_dsmplan.csv").read():
+        failed.append(f"{c}: dsmplan with a kept index wrote another path")
     for name in ("embree", "index"):
         for kv in baseline(c, name):
             theirs = (int(kv["samples"]), int(kv["edges"]))
@@ -103,6 +118,11 @@ for c in configs:
           f"{spread([b / a for a, b in zip(dc, ec)], '%.2fx')} | {spread(iw)} | "
           f"{spread([b / a for a, b in zip(dw, iw)], '%.2fx')} | {spread([b / a for a, b in zip(dc, ic)], '%.2fx')} | "
           f"{min(loads)}-{max(loads)} |")
+    kept_rows.append(
+        f"| {mesh.replace('064m', '0.64 m').replace('1m', '1 m')} | {agl} | {spread(kw)} | {spread(ew)} | "
+        f"{spread([b / a for a, b in zip(kw, ew)], '%.2fx')} | {spread(kc)} | "
+        f"{spread([b / a for a, b in zip(kc, ec)], '%.2fx')} | "
+        f"{statistics.median(s['seconds_read'] for s in kept):.3f} | {statistics.median(s['seconds_index'] for s in kept):.3f} |")
     med = lambda key, rows: statistics.median(float(r[key]) for r in rows)
     e_rows = baseline(c, "embree")
     phases.append(
@@ -111,6 +131,11 @@ for c in configs:
         f"{med('read_s', e_rows):.3f} | {med('bvh_s', e_rows):.3f} | "
         f"{med('index_s', e_rows) - med('bvh_s', e_rows):.3f} | {med('roadmap_s', e_rows):.3f} | "
         f"{med('query_s', e_rows) + med('simplify_s', e_rows):.4f} |")
+print("\nThe same runs, dsmplan with its index kept in a file (`--index`, opened, not built; the same path):\n")
+print("| mesh | max-agl | dsmplan --index wall s | OMPL + Embree wall s | ratio wall | dsmplan --index CPU s | ratio CPU | "
+      "read s (hash, header, index file) | index s |")
+print("|---|---|---|---|---|---|---|---|---|")
+print("\n".join(kept_rows))
 print("\nWhere the time goes (medians, seconds; dsmplan's --stats, the baseline's own clock):\n")
 print("| config | dsmplan read | index | roadmap | query + smooth | OMPL read | Embree BVH | floor | roadmap | "
       "query + simplify |")

@@ -4,7 +4,7 @@
 # benchmark dependencies), so there is one installer.
 set -euo pipefail
 packages=(cmake make g++ libcgal-dev libeigen3-dev libgmp-dev libmpfr-dev libgdal-dev libproj-dev
-          libcli11-dev nlohmann-json3-dev libgtest-dev libgmock-dev libtbb-dev libpng-dev libtinygltf-dev
+          libcli11-dev nlohmann-json3-dev libgtest-dev libgmock-dev libtbb-dev libpng-dev libtinygltf-dev libxxhash-dev
           libopenmpi-dev openmpi-bin libcpp-httplib-dev pkgconf
           pybind11-dev python3-dev)
 # The tests run the Khronos glTF validator (scripts/test.sh installs it with npm) and the 3D

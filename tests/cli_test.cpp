@@ -1112,7 +1112,7 @@ TEST(CliPlan, ThreeWaypointsGiveAPathCsvAndStats) {
   std::vector<std::string> expected{"path_length_m", "min_clearance_m", "roadmap_nodes",   "roadmap_edges",
                                     "seconds_load",  "seconds_roadmap", "seconds_query",   "seconds_smooth",
                                     "planner",       "roadmap_reused",  "refined_samples", "max_agl_m",
-                                    "ground",        "seconds_read",    "seconds_index"};
+                                    "ground",        "seconds_read",    "seconds_index",   "index_reused"};
   std::sort(expected.begin(), expected.end());
   EXPECT_EQ(keys, expected);
   EXPECT_EQ(s["ground"], "mesh floor");
@@ -1234,6 +1234,98 @@ TEST(CliPlan, RoadmapFileIsReusedAndRefusedForAnotherMeshOrOptions) {
   bytes[bytes.size() / 3] ^= 1;
   testkit::write_file(roadmap, bytes);
   expect_clean_failure(plan(f.mesh, none.path("c.csv")), none, roadmap, {"damaged"});
+}
+
+// --index: the kept index is opened only when it was built from this very mesh file (and DSM);
+// a changed mesh, even by one vertex, is indexed anew, and the path is always the one planned
+// without the file. A file that is no index, or is damaged, is refused and left as it was.
+TEST(CliPlan, IndexFileIsReusedOnlyForItsOwnMeshAndNeverOverwrittenWhenItIsNoIndex) {
+  PlanFixture f;
+  f.write_waypoints(f.corners());
+  TempDir out;
+  const std::string index = f.in.path("mesh.index");
+  auto plan = [&](const std::string& mesh, const std::string& name, std::vector<std::string> extra = {}) {
+    std::vector<std::string> args{"plan",      mesh,      "--waypoints",
+                                  f.waypoints, "-o",      out.path(name + ".csv"),
+                                  "-q",        "--stats", out.path(name + ".json")};
+    args.insert(args.end(), extra.begin(), extra.end());
+    const auto run = run_cli(args);
+    EXPECT_EQ(run.exit_code, 0) << name << ": " << run.err;
+    return json::parse(testkit::read_file(out.path(name + ".json")));
+  };
+  auto path = [&](const std::string& name) { return testkit::read_file(out.path(name + ".csv")); };
+  const json fresh = plan(f.mesh, "fresh");
+  EXPECT_FALSE(fresh["index_reused"].get<bool>());
+  EXPECT_FALSE(plan(f.mesh, "built", {"--index", index})["index_reused"].get<bool>());
+  ASSERT_TRUE(std::filesystem::exists(index));
+  const json reused = plan(f.mesh, "reused", {"--index", index});
+  EXPECT_TRUE(reused["index_reused"].get<bool>());
+  EXPECT_EQ(reused["roadmap_nodes"], fresh["roadmap_nodes"]);
+  EXPECT_EQ(reused["roadmap_edges"], fresh["roadmap_edges"]);
+  EXPECT_EQ(path("built"), path("fresh"));
+  EXPECT_EQ(path("reused"), path("fresh"));
+
+  // With the DSM its holes' columns join the mesh (a conservative mesh of it, as
+  // DsmClearanceIsReportedWithTheDsm plans on): its own index, then that one reused.
+  const std::string dsm = testkit::data_path(kSample), safe = f.in.path("safe.ply");
+  ASSERT_EQ(run_cli({"simplify", dsm, "--max-error", "0.4", "--conservative", "-o", safe, "-q"}).exit_code, 0);
+  plan(safe, "dsm_fresh", {"--dsm", dsm});
+  EXPECT_FALSE(plan(safe, "dsm_built", {"--dsm", dsm, "--index", index})["index_reused"].get<bool>());
+  EXPECT_TRUE(plan(safe, "dsm_reused", {"--dsm", dsm, "--index", index})["index_reused"].get<bool>());
+  EXPECT_FALSE(plan(safe, "no_dsm", {"--index", index})["index_reused"].get<bool>()) << "the DSM's columns are in it";
+  EXPECT_EQ(path("dsm_reused"), path("dsm_fresh"));
+
+  // The same mesh file with one vertex raised to the path where it passes over it (its z, a
+  // double in the binary PLY, rewritten in place): a new index, and another path.
+  const dsmplan::Mesh mesh = dsmplan::read_mesh(f.mesh);
+  const auto fresh_path = read_path_csv(out.path("fresh.csv"));
+  size_t longest = 1;  // the middle of the path's longest segment, far from any waypoint
+  for (size_t k = 1; k < fresh_path.size(); ++k)
+    if (std::hypot(fresh_path[k][0] - fresh_path[k - 1][0], fresh_path[k][1] - fresh_path[k - 1][1]) >
+        std::hypot(fresh_path[longest][0] - fresh_path[longest - 1][0],
+                   fresh_path[longest][1] - fresh_path[longest - 1][1]))
+      longest = k;
+  std::array<double, 3> over;
+  for (int i = 0; i < 3; ++i) over[i] = (fresh_path[longest][i] + fresh_path[longest - 1][i]) / 2;
+  size_t nearest = 0;
+  for (size_t i = 0; i < mesh.vertices.size(); ++i)
+    if (std::hypot(mesh.vertices[i].x - over[0], mesh.vertices[i].y - over[1]) <
+        std::hypot(mesh.vertices[nearest].x - over[0], mesh.vertices[nearest].y - over[1]))
+      nearest = i;
+  std::string bytes = testkit::read_file(f.mesh);
+  ASSERT_NE(bytes.find("property double z"), std::string::npos);
+  const size_t body = bytes.find("end_header\n") + 11;
+  const double raised = over[2];
+  std::memcpy(&bytes[body + 24 * nearest + 16], &raised, 8);
+  const std::string nudged = f.in.path("nudged.ply");
+  testkit::write_file(nudged, bytes);
+  plan(f.mesh, "again", {"--index", index});  // the index of the original mesh again
+  const json other = plan(nudged, "nudged", {"--index", index});
+  EXPECT_FALSE(other["index_reused"].get<bool>());
+  plan(nudged, "nudged_fresh");
+  EXPECT_EQ(path("nudged"), path("nudged_fresh"));
+  EXPECT_NE(path("nudged"), path("fresh")) << "the nudged vertex was to change the plan";
+
+  // Not an index, or damaged: refused, the file left alone.
+  TempDir none;
+  auto refused = [&](const std::string& file, const std::vector<std::string>& why) {
+    const std::string before = testkit::read_file(file);
+    expect_clean_failure(
+        run_cli({"plan", f.mesh, "--waypoints", f.waypoints, "-o", none.path("p.csv"), "--index", file, "-q"}), none,
+        file, why);
+    EXPECT_TRUE(testkit::read_file(file) == before) << file << " was overwritten";
+  };
+  refused(f.waypoints, {"not a dsmplan index"});
+  refused(f.mesh, {"not a dsmplan index"});
+  // Damage is found once the file claims to fit (a stale one is replaced without reading further).
+  EXPECT_TRUE(plan(f.mesh, "last", {"--index", index})["index_reused"].get<bool>() == false);
+  std::string damaged = testkit::read_file(index);
+  damaged[damaged.size() / 2] ^= 0x10;
+  testkit::write_file(index, damaged);
+  refused(index, {"damaged"});
+  const auto corridor =
+      run_cli({"plan", dsm, "--waypoints", f.waypoints, "-o", none.path("p.csv"), "--index", index, "-q"});
+  expect_clean_failure(corridor, none, "--index", {"corridor"});
 }
 
 TEST(CliPlan, GeoJsonWaypointsAndPathAgreeWithTheCsvRun) {

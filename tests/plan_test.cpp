@@ -6,6 +6,7 @@
 
 #include <gtest/gtest.h>
 #include <tbb/parallel_for.h>
+#include <xxhash.h>
 
 #include <algorithm>
 #include <atomic>
@@ -13,6 +14,8 @@
 #include <cmath>
 #include <cstring>
 #include <map>
+#include <memory>
+#include <optional>
 #include <queue>
 #include <random>
 #include <set>
@@ -803,6 +806,170 @@ TEST(RoadmapFile, AnotherMeshOtherOptionsOrDamageAreRefused) {
   reseal(past_end);
   expect_refused(with(past_end), fingerprint, options, "runs past");
   expect_refused(dir.path("none.bin"), fingerprint, options, "cannot open");
+}
+
+// ---- the clearance index kept in a file -------------------------------------------------------
+
+namespace {
+
+// The checksum as clearance_index_file.cpp defines it, computed here with xxHash itself: XXH3
+// of the XXH3s of the header (up to the first section) and of the five sections (each under
+// 16 MB in these tests, so hashed whole). Offsets from the header's counts.
+void reseal_index(std::string& bytes) {
+  uint64_t counts[4];  // verts, buckets, items, block tops: after 16 + 8 + 16 + 40 + 24 + 56 + 8 + 48 + 16 bytes
+  const size_t at_counts = 16 + 8 + 16 + 40 + 24 + 32 + 8 + 48 + 16;
+  std::memcpy(counts, &bytes[at_counts], sizeof counts);
+  uint64_t floor_cells = 0;
+  std::memcpy(&floor_cells, &bytes[at_counts + 32 + 8 + 32], 8);
+  auto align = [](size_t v) { return (v + 63) & ~size_t(63); };
+  const size_t head = align(at_counts + 32 + 8 + 32 + 8);
+  const size_t sizes[5] = {counts[0] * 24, counts[1] * 8, counts[2] * 32, counts[3] * 4, floor_cells * 4};
+  uint64_t hashes[6] = {XXH3_64bits(bytes.data(), head)};
+  size_t at = head;
+  for (int k = 0; k < 5; ++k) {
+    hashes[k + 1] = XXH3_64bits(bytes.data() + at, sizes[k]);
+    at = k < 4 ? align(at + sizes[k]) : at + sizes[k];
+  }
+  const uint64_t sum = XXH3_64bits(hashes, sizeof hashes);
+  std::memcpy(&bytes[bytes.size() - 8], &sum, 8);
+}
+
+void expect_index_refused(const std::string& path, uint64_t hash, const std::string& why) {
+  try {
+    ClearanceIndex::open(path, hash);
+    ADD_FAILURE() << "accepted; expected: " << why;
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find(path), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find(why), std::string::npos) << e.what();
+  }
+}
+
+}  // namespace
+
+// An index mapped from its file answers every query as the index that was saved, to the bit: on
+// the real mesh and on the simplified one (whose floor has holes), after the built index and
+// its vectors are gone, and a plan over it is the same plan.
+TEST(ClearanceIndexFile, OpenedIndexAnswersAsTheSavedOne) {
+  testkit::TempDir dir;
+  // The real mesh with a hole: its floor then has cells no triangle meets.
+  Mesh holed = mesh_2m();
+  const MeshBox box(holed);
+  const double hx = box.x0 + 0.7 * (box.x1 - box.x0), hy = box.y0 + 0.3 * (box.y1 - box.y0);
+  std::erase_if(holed.triangles, [&](const Triangle& t) {
+    const Vertex& v = holed.vertices[t[0]];
+    return std::hypot(v.x - hx, v.y - hy) < 25;
+  });
+  for (const Mesh* mesh : {&mesh_2m(), &mesh_bounded(), static_cast<const Mesh*>(&holed)}) {
+    const std::string path = dir.path("mesh.index");
+    std::optional<ClearanceIndex> opened;
+    auto built = std::make_unique<ClearanceIndex>(*mesh);
+    built->save(path, {42, 7});
+    ClearanceIndex::Source source;
+    opened = ClearanceIndex::open(path, 42, {}, &source);
+    ASSERT_TRUE(opened.has_value());
+    EXPECT_EQ(source.input_hash, 42u);
+    EXPECT_EQ(source.mesh_fingerprint, 7u);
+    const ClearanceIndex& a = *built;
+    const ClearanceIndex& b = *opened;
+    EXPECT_EQ(a.triangles(), b.triangles());
+    EXPECT_EQ(a.bucket_listings(), b.bucket_listings());
+    EXPECT_EQ(a.memory_bytes(), b.memory_bytes());
+    EXPECT_EQ(a.bucket_size(), b.bucket_size());
+    EXPECT_EQ(a.origin(), b.origin());
+    EXPECT_EQ(a.footprint().xmin, b.footprint().xmin);
+    EXPECT_EQ(a.footprint().ymax, b.footprint().ymax);
+    // The floor, hole by hole: holes count differently in the planner's quick refusals.
+    const Grid &fa = a.floor().grid(), &fb = b.floor().grid();
+    ASSERT_EQ(fa.cells(), fb.cells());
+    EXPECT_EQ(std::memcmp(fa.z.data(), fb.z.data(), fa.cells() * sizeof(float)), 0);
+    size_t holes = 0, hole_differs = 0;
+    for (size_t i = 0; i < fa.cells(); ++i) {
+      holes += a.floor().was_hole(i);
+      hole_differs += a.floor().was_hole(i) != b.floor().was_hole(i);
+    }
+    EXPECT_EQ(hole_differs, 0u);
+    if (mesh == &holed) EXPECT_GT(holes, 0u) << "the holed mesh's floor was to have holes";
+    const std::vector<Query> queries = random_queries(a, *mesh, 3000, 21);
+    size_t differ = 0, blocked = 0;
+    for (const Query& s : queries) {
+      const bool clear = a.segment_clear(s.p, s.q, s.d);
+      blocked += !clear;
+      differ += clear != b.segment_clear(s.p, s.q, s.d);
+      differ += a.clearance(s.p, s.q, 6) != b.clearance(s.p, s.q, 6);
+      differ += a.clearance_bound(s.q, 20) != b.clearance_bound(s.q, 20);
+      const double ga = a.ground(s.p[0], s.p[1]), gb = b.ground(s.p[0], s.p[1]);
+      differ += !(ga == gb || (std::isnan(ga) && std::isnan(gb)));
+      differ += a.floor().max_height_above(s.p, s.q) != b.floor().max_height_above(s.p, s.q);
+    }
+    EXPECT_EQ(differ, 0u);
+    EXPECT_GT(blocked, queries.size() / 10);
+    // The plan over each; the built index (and its vectors) gone first, so the opened one can
+    // only be answering from its mapping.
+    PlanOptions options;
+    options.max_agl = 45;
+    options.spacing = 15;
+    const std::vector<Point3> raised = three_waypoints(*mesh, a);
+    const PlanResult first = plan_path(a, raised, options);
+    built.reset();
+    const PlanResult second = plan_path(b, raised, options);
+    ASSERT_EQ(first.status, PlanStatus::Solved) << first.reason;
+    EXPECT_EQ(first.path, second.path);
+  }
+}
+
+TEST(ClearanceIndexFile, StaleFilesAreNotUsedAndBadFilesAreRefused) {
+  testkit::TempDir dir;
+  const std::string path = dir.path("mesh.index");
+  const ClearanceIndex built(mesh_2m());
+  built.save(path, {42, 7});
+  const std::string good = read_bytes(path);
+  // Built from another input or with other options: not used, nothing refused.
+  ClearanceIndex::Source source;
+  EXPECT_FALSE(ClearanceIndex::open(path, 43, {}, &source).has_value());
+  EXPECT_EQ(source.input_hash, 42u) << "what the file was built from is told all the same";
+  ClearanceOptions other;
+  other.bucket_size = 5;
+  EXPECT_FALSE(ClearanceIndex::open(path, 42, other).has_value());
+  other = {};
+  other.flight_area = {356100, 5699050, 356500, 5699450};
+  EXPECT_FALSE(ClearanceIndex::open(path, 42, other).has_value());
+  auto with = [&](const std::string& bytes) {
+    testkit::write_file(path, bytes);
+    return path;
+  };
+  std::string flipped = good;
+  flipped[good.size() / 2] ^= 0x10;
+  expect_index_refused(with(flipped), 42, "checksum");
+  expect_index_refused(with(good.substr(0, good.size() - 100)), 42, "truncated");
+  expect_index_refused(with(good.substr(0, 40)), 42, "not a dsmplan index");
+  expect_index_refused(with("ply\nformat binary_little_endian 1.0\n"), 42, "not a dsmplan index");
+  std::string version = good;
+  version[16] = 9;
+  expect_index_refused(with(version), 42, "format 9");
+  // The oracle of the checksum is right: resealing the good file changes nothing.
+  std::string resealed = good;
+  reseal_index(resealed);
+  ASSERT_EQ(resealed, good);
+  ASSERT_TRUE(ClearanceIndex::open(with(good), 42).has_value());
+  // Arrays that do not fit each other behind a valid checksum: a listing naming a vertex that
+  // is not there, a bucket list running backwards.
+  std::string dangling = good;
+  uint64_t counts[4];
+  const size_t at_counts = 16 + 8 + 16 + 40 + 24 + 32 + 8 + 48 + 16;
+  std::memcpy(counts, &good[at_counts], sizeof counts);
+  auto align = [](size_t v) { return (v + 63) & ~size_t(63); };
+  const size_t verts_at = align(at_counts + 32 + 8 + 32 + 8);
+  const size_t buckets_at = align(verts_at + counts[0] * 24), items_at = align(buckets_at + counts[1] * 8);
+  const uint32_t missing = static_cast<uint32_t>(counts[0]) + 3;
+  std::memcpy(&dangling[items_at + 32 * (counts[2] / 2)], &missing, 4);
+  reseal_index(dangling);
+  expect_index_refused(with(dangling), 42, "names a vertex");
+  std::string backwards = good;
+  const uint32_t high = static_cast<uint32_t>(counts[2]);
+  std::memcpy(&backwards[buckets_at + 8 * (counts[1] / 2)], &high, 4);
+  reseal_index(backwards);
+  expect_index_refused(with(backwards), 42, "lists");
+  expect_index_refused(dir.path("none.index"), 42, "cannot be opened");
 }
 
 namespace {

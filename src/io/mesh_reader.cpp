@@ -13,6 +13,7 @@
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
+#include <fstream>
 #include <limits>
 #include <map>
 #include <optional>
@@ -290,6 +291,12 @@ class PlyReader {
 public:
   PlyReader(const std::string& path, const std::string& bytes, const Progress& progress)
       : path_(path), bytes_(bytes), crs_(path), progress_(progress, bytes.size()) {}
+
+  /// The header alone (`bytes` may end right after it): its CRS.
+  Crs header_crs() {
+    header();
+    return crs_.crs();
+  }
 
   Mesh read() {
     header();
@@ -966,6 +973,26 @@ Mesh read_mesh(const std::string& path, const Progress& progress) {
   }
   report(progress, 1);
   return mesh;
+}
+
+Crs read_mesh_crs(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  char magic[4] = {};
+  if (!in || !in.read(magic, 3) || std::string_view(magic, 3) != "ply") return read_mesh(path).crs;
+  // The header, read until its end line (headers are a few kB; read_mesh() says what is wrong
+  // with one that never ends).
+  std::string head(magic, 3);
+  char chunk[4096];
+  while (head.find("end_header") == std::string::npos && head.size() < (size_t(16) << 20)) {
+    in.read(chunk, sizeof chunk);
+    if (in.gcount() == 0) break;
+    head.append(chunk, static_cast<size_t>(in.gcount()));
+  }
+  const size_t end = head.find("end_header");
+  if (end == std::string::npos) return read_mesh(path).crs;
+  const size_t line_end = head.find('\n', end);
+  head.resize(line_end == std::string::npos ? head.size() : line_end + 1);
+  return PlyReader(path, head, {}).header_crs();
 }
 
 }  // namespace dsmplan

@@ -14,56 +14,11 @@
 #include <limits>
 #include <string>
 
+#include "clearance_layout.hpp"
 #include "core/huge_pages.hpp"
 #include "dsmplan/plan.hpp"
 
 namespace dsmplan {
-
-// The index's layout, private to this file: local vertices, the bucket grid with its listings
-// (highest first) and the blocks of buckets, the floor.
-struct ClearanceIndex::Layout {
-  Layout(const Mesh& mesh, const ClearanceOptions& options);
-  bool segment_clear(const Point3& p, const Point3& q, double d) const;
-  double clearance(const Point3& p, const Point3& q, double max_d) const;
-  double clearance_bound(const Point3& p, double max_d) const;
-  double ground(double x, double y) const;
-  void ground(const double* x, const double* y, double* z, size_t n) const;
-
-  struct LocalVertex {
-    double x, y, z;
-  };
-  size_t bucket_at(double X, double Y) const;  ///< of a local point; SIZE_MAX outside the grid
-  double ground_in(size_t bucket, double X, double Y) const;
-  template <bool Measure>
-  double visit(const Point3& p, const Point3& q, double d) const;
-
-  Point3 origin_{0, 0, 0};
-  Footprint footprint_;
-  std::vector<LocalVertex> verts_;
-  size_t triangles_ = 0;
-  double cell_ = 1, gx0_ = 0, gy0_ = 0;  ///< bucket (0,0) starts at local (gx0_, gy0_)
-  int cols_ = 0, rows_ = 0;
-  struct Listing {
-    std::array<uint32_t, 3> corners;  ///< the triangle's vertices: no second read to find them
-    float top;                        ///< highest point of the triangle inside the bucket, rounded up
-    float x0, x1, y0, y1;             ///< the triangle's x,y bounding box, rounded outwards
-  };
-  struct Bucket {
-    uint32_t start;  ///< bucket b lists items_[start of b, start of b + 1), highest first
-    float top;       ///< highest mesh point in the bucket, rounded up (-inf when empty)
-  };
-  std::vector<Bucket> buckets_;  ///< one more than there are buckets, for the last one's end
-  std::vector<Listing> items_;
-  bool box_holds(const Listing& item, double X, double Y) const;  ///< local point in its x,y box
-  static constexpr int block = 4;  ///< buckets a side of a block, the pyramid's coarse level
-  int block_cols_ = 0, block_rows_ = 0;
-  std::vector<float> block_top_;  ///< highest point of each block of block x block buckets
-  /// The highest point in buckets [r0, r1] x [c0, c1], whole blocks read from block_top_.
-  double highest(int r0, int r1, int c0, int c1) const;
-  double zmin_ = 0, zmax_ = 0;  ///< lowest and highest vertex
-  GroundGrid floor_;
-  double margin_ = 0;  ///< conservative slack of the quick rejects
-};
 
 namespace {
 
@@ -151,7 +106,7 @@ inline int clamp_index(double v, int n) {
 
 }  // namespace
 
-ClearanceIndex::Layout::Layout(const Mesh& mesh, const ClearanceOptions& options) {
+ClearanceIndex::Layout::Layout(const Mesh& mesh, const ClearanceOptions& options) : options_(options) {
   if (!(options.bucket_size >= 0) || !std::isfinite(options.bucket_size))
     throw ArgumentError("bucket_size", "must be a finite number >= 0, not " + std::to_string(options.bucket_size));
   const size_t nv = mesh.vertices.size();
@@ -184,11 +139,11 @@ ClearanceIndex::Layout::Layout(const Mesh& mesh, const ClearanceOptions& options
   if (tris.empty()) return;
   // Whole units: v - origin is then exact for any coordinate on the CRS's grid.
   for (int k = 0; k < 3; ++k) origin_[k] = std::round(0.5 * (lo[k] + hi[k]));
-  detail::reserve_on_huge_pages(verts_, nv);
-  verts_.resize(nv);
+  detail::reserve_on_huge_pages(vert_store_, nv);
+  vert_store_.resize(nv);
   for (size_t i = 0; i < nv; ++i) {
     const Vertex& v = mesh.vertices[i];
-    verts_[i] = {v.x - origin_[0], v.y - origin_[1], v.z - origin_[2]};
+    vert_store_[i] = {v.x - origin_[0], v.y - origin_[1], v.z - origin_[2]};
   }
   zmax_ = hi[2] - origin_[2];
   zmin_ = lo[2] - origin_[2];
@@ -232,7 +187,7 @@ ClearanceIndex::Layout::Layout(const Mesh& mesh, const ClearanceOptions& options
   auto box_of = [&](size_t t) {
     double bx0 = INFINITY, bx1 = -INFINITY, by0 = INFINITY, by1 = -INFINITY;
     for (uint32_t i : tris[t]) {
-      const LocalVertex& v = verts_[i];
+      const LocalVertex& v = vert_store_[i];
       bx0 = std::min(bx0, v.x), bx1 = std::max(bx1, v.x), by0 = std::min(by0, v.y), by1 = std::max(by1, v.y);
     }
     return Box{clamp_index((bx0 - eps - gx0_) / cell_, cols_), clamp_index((bx1 + eps - gx0_) / cell_, cols_),
@@ -261,7 +216,7 @@ ClearanceIndex::Layout::Layout(const Mesh& mesh, const ClearanceOptions& options
       ClipPoint tri[3];
       double top = lowest;
       for (int i = 0; i < 3; ++i) {
-        const LocalVertex& v = verts_[tris[t][i]];
+        const LocalVertex& v = vert_store_[tris[t][i]];
         tri[i] = {v.x, v.y, v.z};
         top = std::max(top, v.z);
       }
@@ -277,29 +232,29 @@ ClearanceIndex::Layout::Layout(const Mesh& mesh, const ClearanceOptions& options
         }
     }
   });
-  detail::reserve_on_huge_pages(buckets_, buckets + 1);
-  buckets_.assign(buckets + 1, {0, -INFINITY});
+  detail::reserve_on_huge_pages(bucket_store_, buckets + 1);
+  bucket_store_.assign(buckets + 1, {0, -INFINITY});
   for (uint32_t b : pair_bucket)
-    if (b != kUnlisted) ++buckets_[b + 1].start;
-  for (size_t b = 0; b < buckets; ++b) buckets_[b + 1].start += buckets_[b].start;
-  detail::reserve_on_huge_pages(items_, buckets_[buckets].start);
-  items_.resize(buckets_[buckets].start);
+    if (b != kUnlisted) ++bucket_store_[b + 1].start;
+  for (size_t b = 0; b < buckets; ++b) bucket_store_[b + 1].start += bucket_store_[b].start;
+  detail::reserve_on_huge_pages(item_store_, bucket_store_[buckets].start);
+  item_store_.resize(bucket_store_[buckets].start);
   std::vector<uint32_t> fill;
   detail::reserve_on_huge_pages(fill, buckets);
   fill.resize(buckets);
-  for (size_t b = 0; b < buckets; ++b) fill[b] = buckets_[b].start;
+  for (size_t b = 0; b < buckets; ++b) fill[b] = bucket_store_[b].start;
   tbb::parallel_for(tbb::blocked_range<size_t>(0, nt), [&](const tbb::blocked_range<size_t>& range) {
     for (size_t t = range.begin(); t != range.end(); ++t) {
-      const LocalVertex& A = verts_[tris[t][0]];
-      const LocalVertex& B = verts_[tris[t][1]];
-      const LocalVertex& C = verts_[tris[t][2]];
+      const LocalVertex& A = vert_store_[tris[t][0]];
+      const LocalVertex& B = vert_store_[tris[t][1]];
+      const LocalVertex& C = vert_store_[tris[t][2]];
       const float x0 = round_down(std::min({A.x, B.x, C.x})), x1 = round_up(std::max({A.x, B.x, C.x}));
       const float y0 = round_down(std::min({A.y, B.y, C.y})), y1 = round_up(std::max({A.y, B.y, C.y}));
       for (size_t k = per_tri[t]; k < per_tri[t + 1]; ++k) {
         const uint32_t b = pair_bucket[k];
         if (b == kUnlisted) continue;
         const uint32_t at = std::atomic_ref<uint32_t>(fill[b]).fetch_add(1, std::memory_order_relaxed);
-        items_[at] = {tris[t], round_up(pair_top[k]), x0, x1, y0, y1};
+        item_store_[at] = {tris[t], round_up(pair_top[k]), x0, x1, y0, y1};
       }
     }
   });
@@ -308,20 +263,25 @@ ClearanceIndex::Layout::Layout(const Mesh& mesh, const ClearanceOptions& options
   tbb::parallel_for(tbb::blocked_range<size_t>(0, buckets), [&](const tbb::blocked_range<size_t>& range) {
     for (size_t b = range.begin(); b != range.end(); ++b) {
       std::sort(
-          items_.begin() + buckets_[b].start, items_.begin() + buckets_[b + 1].start,
+          item_store_.begin() + bucket_store_[b].start, item_store_.begin() + bucket_store_[b + 1].start,
           [](const Listing& x, const Listing& y) { return x.top != y.top ? x.top > y.top : x.corners < y.corners; });
-      if (buckets_[b + 1].start > buckets_[b].start) buckets_[b].top = items_[buckets_[b].start].top;
+      if (bucket_store_[b + 1].start > bucket_store_[b].start)
+        bucket_store_[b].top = item_store_[bucket_store_[b].start].top;
     }
   });
   // The coarse level of the height pyramid: one small array that stays in cache.
   block_cols_ = (cols_ + block - 1) / block;
   block_rows_ = (rows_ + block - 1) / block;
-  block_top_.assign(static_cast<size_t>(block_cols_) * block_rows_, -INFINITY);
+  block_top_store_.assign(static_cast<size_t>(block_cols_) * block_rows_, -INFINITY);
   for (int r = 0; r < rows_; ++r)
     for (int c = 0; c < cols_; ++c) {
-      float& top = block_top_[static_cast<size_t>(r / block) * block_cols_ + c / block];
-      top = std::max(top, buckets_[static_cast<size_t>(r) * cols_ + c].top);
+      float& top = block_top_store_[static_cast<size_t>(r / block) * block_cols_ + c / block];
+      top = std::max(top, bucket_store_[static_cast<size_t>(r) * cols_ + c].top);
     }
+  verts_ = detail::ArrayView<LocalVertex>(vert_store_);
+  buckets_ = detail::ArrayView<Bucket>(bucket_store_);
+  items_ = detail::ArrayView<Listing>(item_store_);
+  block_top_ = detail::ArrayView<float>(block_top_store_);
 }
 
 double ClearanceIndex::Layout::highest(int r0, int r1, int c0, int c1) const {
@@ -659,8 +619,8 @@ const GroundGrid& ClearanceIndex::floor() const { return layout_->floor_; }
 size_t ClearanceIndex::bucket_listings() const { return layout_->items_.size(); }
 size_t ClearanceIndex::memory_bytes() const {
   const Layout& l = *layout_;
-  return l.verts_.capacity() * sizeof(Layout::LocalVertex) + l.items_.capacity() * sizeof(Layout::Listing) +
-         l.buckets_.capacity() * sizeof(Layout::Bucket) + l.block_top_.capacity() * sizeof(float) +
+  return l.verts_.size() * sizeof(Layout::LocalVertex) + l.items_.size() * sizeof(Layout::Listing) +
+         l.buckets_.size() * sizeof(Layout::Bucket) + l.block_top_.size() * sizeof(float) +
          l.floor_.grid().z.capacity() * sizeof(float);
 }
 

@@ -5,10 +5,12 @@
 #include <cctype>
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 #include <fstream>
 #include <optional>
 #include <string>
 
+#include "core/mapped_file.hpp"
 #include "core/text.hpp"
 #include "dsmplan/columns.hpp"
 #include "dsmplan/corridor.hpp"
@@ -49,6 +51,16 @@ void take_planner_figures(const PlanResult& result, PlanReport& report) {
 bool is_geojson(const std::string& path) {
   const std::string ext = lower_extension(path);
   return ext == "geojson" || ext == "json";
+}
+
+// The index kept in `path` when it exists and was built from `input_hash`; std::nullopt when the
+// file is missing or stale (then built and written anew); InputError when it is no index file or
+// is damaged, so a file the user named by mistake is never overwritten.
+std::optional<ClearanceIndex> open_kept_index(const std::string& path, uint64_t input_hash,
+                                              ClearanceIndex::Source* source) {
+  std::error_code ec;
+  if (!std::filesystem::exists(path, ec)) return std::nullopt;
+  return ClearanceIndex::open(path, input_hash, {}, source);
 }
 
 // A raster that must share the mesh's CRS and lie under the flight: InputError naming it otherwise.
@@ -191,6 +203,19 @@ PlanReport plan_job(const PlanJobOptions& options, const Progress& progress) {
   const bool corridor = !is_mesh_file(options.mesh);
   std::unique_ptr<GridSource> city;
   Mesh mesh;
+  // A kept index (--index) that fits the mesh file: without --dsm nothing joins the mesh, so the
+  // file's hash names the index and only the mesh's header (its CRS) is read; the vertices and
+  // triangles are in the index already.
+  std::optional<ClearanceIndex> kept;
+  ClearanceIndex::Source kept_source;
+  if (corridor && !options.index.empty())
+    throw ArgumentError("--index", "a DSM input is planned window by window along a corridor; no index is kept");
+  if (!corridor && !options.index.empty() && options.dsm.empty()) {
+    reading.lap();
+    kept = open_kept_index(options.index, file_content_hash(options.mesh), &kept_source);
+    if (kept) mesh.crs = read_mesh_crs(options.mesh);
+    seconds_reading += reading.lap();
+  }
   if (corridor) {
     if (!options.roadmap.empty())
       throw ArgumentError("--roadmap", "a DSM input is planned window by window along a corridor; no roadmap is kept");
@@ -198,13 +223,16 @@ PlanReport plan_job(const PlanJobOptions& options, const Progress& progress) {
       throw ArgumentError("--dsm", "the input " + options.mesh + " is the DSM already; its columns are checked");
     city = open_raster(options.mesh);
     mesh.crs = city->frame().crs;
-  } else {
+  } else if (!kept) {
     reading.lap();
     mesh = read_mesh(options.mesh, sub_progress(progress, 0, 0.2));
     seconds_reading += reading.lap();
     if (mesh.triangles.empty()) throw InputError(options.mesh, "", "the mesh has no triangles");
   }
-  require_projected(mesh.crs, options.mesh, corridor ? centre_of(city->frame()) : centre_of(mesh));
+  require_projected(mesh.crs, options.mesh,
+                    corridor ? centre_of(city->frame())
+                    : kept   ? centre_of(kept->footprint())
+                             : centre_of(mesh));
   std::optional<Wgs84Transform> wgs84;
   if (geo_in || geojson_out) {
     wgs84.emplace(mesh.crs, HeightReference::Ellipsoid, options.vertical);
@@ -282,6 +310,11 @@ PlanReport plan_job(const PlanJobOptions& options, const Progress& progress) {
     double xmin = INFINITY, ymin = INFINITY, xmax = -INFINITY, ymax = -INFINITY;
     for (const Vertex& v : mesh.vertices)
       xmin = std::min(xmin, v.x), ymin = std::min(ymin, v.y), xmax = std::max(xmax, v.x), ymax = std::max(ymax, v.y);
+    if (kept) {  // the mesh was not read: the extent of its triangles
+      const ClearanceIndex::Footprint& f = kept->footprint();
+      xmin = f.xmin, ymin = f.ymin, xmax = f.xmax, ymax = f.ymax;
+    }
+    uint64_t dsm_fingerprint = 0;  // what else the index is built over: the DSM's holes' columns
     if (!options.dsm.empty()) {
       reading.lap();
       Grid dsm = read_companion(options.dsm, "DSM", mesh.crs, xmin, ymin, xmax, ymax);
@@ -290,6 +323,7 @@ PlanReport plan_job(const PlanJobOptions& options, const Progress& progress) {
       fill_holes_from_rim(columns, RimHeight::highest);
       // A waypoint above the ceiling is refused now, before the work on the mesh.
       plan.ground = std::make_shared<GroundGrid>(dsm);
+      dsm_fingerprint = plan.ground->fingerprint();
       if (options.dtm.empty()) refuse_above_ceiling(waypoints, *plan.ground, options);
       refuse_near_columns(waypoints, columns, options);
       // The valid cells' columns against the mesh; the holes' are added to it whole below.
@@ -313,7 +347,19 @@ PlanReport plan_job(const PlanJobOptions& options, const Progress& progress) {
       plan.ground = std::make_shared<GroundGrid>(std::move(dtm));
       refuse_above_ceiling(waypoints, *plan.ground, options);
     }
-    const ClearanceIndex index(mesh);
+    // With --dsm the index is named by the mesh file and the DSM together (their holes' columns
+    // joined the mesh); else it was opened above already, if it fits.
+    uint64_t index_hash = 0;
+    if (!options.index.empty() && !kept) {
+      reading.lap();
+      index_hash = file_content_hash(options.mesh) ^ (dsm_fingerprint * 0x9E3779B97F4A7C15ull);
+      if (!options.dsm.empty()) kept = open_kept_index(options.index, index_hash, &kept_source);
+      seconds_reading += reading.lap();
+    }
+    report.index_reused = kept.has_value();
+    const ClearanceIndex index = kept ? *kept : ClearanceIndex(mesh);
+    const uint64_t fingerprint_of_mesh = kept ? kept_source.mesh_fingerprint : mesh_fingerprint(mesh);
+    if (!options.index.empty() && !kept) index.save(options.index, {index_hash, fingerprint_of_mesh});
     report.ground = !options.dtm.empty() ? "dtm" : !options.dsm.empty() ? "dsm" : "mesh floor";
     // What a mission's straight items and vertical legs are held to: the DSM's columns when known,
     // else the mesh; the ceiling over the ground in use.
@@ -338,7 +384,7 @@ PlanReport plan_job(const PlanJobOptions& options, const Progress& progress) {
 
     // A roadmap file is reused when it exists (and fits this mesh, ground and options), else made.
     if (!options.roadmap.empty()) {
-      const uint64_t fingerprint = mesh_fingerprint(mesh) ^ (plan.ground ? plan.ground->fingerprint() : 0);
+      const uint64_t fingerprint = fingerprint_of_mesh ^ (plan.ground ? plan.ground->fingerprint() : 0);
       Roadmap map;
       if (std::ifstream(options.roadmap).good()) {
         map = read_roadmap(options.roadmap, fingerprint, plan);
@@ -450,6 +496,7 @@ Json to_json(const PlanReport& r) {
   j["max_agl_m"] = r.max_agl_m;
   j["ground"] = r.ground;
   j["roadmap_reused"] = r.roadmap_reused;
+  j["index_reused"] = r.index_reused;
   j["refined_samples"] = r.refined_samples;
   j["planner"] = r.planner;
   if (!r.transformation.empty()) j["transformation"] = r.transformation;

@@ -136,4 +136,9 @@ void check_writable(const std::string& path);
 /// holds (checked before anything is reserved). Memory O(file size + mesh), time O(file size).
 Mesh read_mesh(const std::string& path, const Progress& progress = {});
 
+/// The CRS read_mesh() would give, without the vertices and triangles: for a PLY file only its
+/// header is read and checked (O(header)); other formats are read whole. Same errors as
+/// read_mesh() for what it reads.
+Crs read_mesh_crs(const std::string& path);
+
 }  // namespace dsmplan

@@ -64,6 +64,7 @@
 #include <cstdint>
 #include <functional>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -145,12 +146,37 @@ public:
   /// ceiling counts from when a plan has no DSM or DTM.
   const GroundGrid& floor() const;
   size_t bucket_listings() const;  ///< sum of triangles over buckets
-  /// Bytes the index holds: its vertices, listings, buckets and blocks.
+  /// Bytes the index holds: its vertices, listings, buckets and blocks (mapped from a file or not).
   size_t memory_bytes() const;
+
+  // ---- kept in a file (src/plan/clearance_index_file.cpp) ----------------------------------
+  /// What an index file was built from, in its writer's words: hashes the caller computed
+  /// (dsmplan plan: the mesh file's bytes, mixed with the DSM's when its holes' columns joined
+  /// the mesh; and mesh_fingerprint(), which its roadmap files are keyed by), so that a later run
+  /// can tell whether the file still fits without reading the mesh.
+  struct Source {
+    uint64_t input_hash = 0;
+    uint64_t mesh_fingerprint = 0;
+  };
+  /// Writes the index, `source` and the options it was built with to `path`, atomically (the
+  /// whole file or nothing); about the size of memory_bytes(). dsmplan's own format, in this
+  /// machine's byte order, with a checksum. OutputError when it cannot be written. O(size).
+  void save(const std::string& path, const Source& source) const;
+  /// Opens an index file written by save(), mapped, not read: its arrays are used where the page
+  /// cache holds them, so a second run over the same mesh skips the build (bench/README.md).
+  /// The answers are those of the index that was saved, to the bit. std::nullopt when the file
+  /// was built from another input (input_hash differs) or with other options: build it anew.
+  /// InputError(path, place, why) when it is not an index file, is of another format version or
+  /// byte order, is truncated or damaged (checksum), or its arrays do not fit each other.
+  /// `source` (may be null) receives what the file says it was built from, whatever the outcome
+  /// short of an error. O(file size): the checksum and the arrays' structure are checked.
+  static std::optional<ClearanceIndex> open(const std::string& path, uint64_t input_hash,
+                                            const ClearanceOptions& options = {}, Source* source = nullptr);
 
 private:
   struct Layout;                          ///< the vertices, buckets, listings and blocks: src/plan/clearance_index.cpp
   std::shared_ptr<const Layout> layout_;  ///< immutable once built, so copies share it
+  explicit ClearanceIndex(std::shared_ptr<const Layout> layout);
 };
 
 }  // namespace dsmplan

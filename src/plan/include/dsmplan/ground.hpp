@@ -68,6 +68,8 @@ public:
   bool rises_above(const Point3& p, const Point3& q, double height) const;
   /// A hash of the raster's georeference and heights (roadmap files record what they were built over).
   uint64_t fingerprint() const;
+  /// True where the cell (grid().index(col, row)) was a hole, its height filled from its rim.
+  bool was_hole(size_t cell) const { return !hole_.empty() && hole_[cell]; }
 
 private:
   double cell_ground(int col, int row) const { return grid_.z[grid_.index(col, row)]; }

@@ -54,6 +54,12 @@ struct PlanJobOptions {
   /// Roadmap file (PRM): read when it exists (read_roadmap(): refused when made for another mesh
   /// or other options), else built and written there for the next query.
   std::string roadmap;
+  /// Index file (--index): the mesh's clearance index, opened where it lies when it exists and
+  /// was built from this mesh file (and this DSM, with `dsm`), else built and written there.
+  /// Opening it takes milliseconds where building takes most of loading (bench/README.md,
+  /// "Planning as a whole process"); the plan is the same to the bit. Not for a DSM input
+  /// (corridor). A file that is no index file, or is damaged, is refused, never overwritten.
+  std::string index;
   /// Raw DSM: when given, every point of the path keeps `safety` from its columns (each valid
   /// cell a box over its square; holes as high as their rim), planned with the safety widened
   /// by how far the mesh lies inside them (certify_columns()) and measured on the written path.
@@ -89,6 +95,7 @@ struct PlanReport {
   std::string ground;
   size_t roadmap_nodes = 0, roadmap_edges = 0;
   bool roadmap_reused = false;  ///< the roadmap came from the --roadmap file
+  bool index_reused = false;    ///< the clearance index came from the --index file
   size_t refined_samples = 0;   ///< samples the query added where the roadmap failed a leg (plan.hpp, "Refinement")
   std::string planner = "prm";
   size_t corridor_windows = 0;               ///< a DSM input: windows planned in (0: a mesh input)
@@ -121,7 +128,7 @@ PlanReport plan_job(const PlanJobOptions& options, const Progress& progress = {}
 /// Keys: path_length_m, min_clearance_m, roadmap_nodes, roadmap_edges, seconds_load (=
 /// seconds_read + seconds_index), seconds_roadmap, seconds_query, seconds_smooth; min_clearance_dsm_m, dsm_tolerance_m,
 /// mesh_max_below_dsm_m with a DSM;
-/// roadmap_reused, refined_samples, planner; transformation when WGS 84 was involved.
+/// roadmap_reused, index_reused, refined_samples, planner; transformation when WGS 84 was involved.
 Json to_json(const PlanReport& report);
 /// One summary line for people.
 std::string to_text(const PlanReport& report);

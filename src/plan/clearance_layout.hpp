@@ -1,0 +1,87 @@
+// The clearance index's layout, private to the plan module: clearance_index.cpp builds and
+// queries it, clearance_index_file.cpp keeps it in a file and maps it back. Its arrays are
+// views: of vectors it owns when it was built, of a file's mapping when it was opened, so an
+// index opened from a file is used where it lies, without a copy (see clearance.hpp).
+#pragma once
+
+#include <array>
+#include <cstddef>
+#include <cstdint>
+#include <memory>
+#include <vector>
+
+#include "dsmplan/clearance.hpp"
+
+namespace dsmplan {
+
+namespace detail {
+/// A read-only array somebody else holds: a vector of the layout's, or a mapped file's section.
+template <class T>
+struct ArrayView {
+  const T* data_ = nullptr;
+  size_t size_ = 0;
+  ArrayView() = default;
+  explicit ArrayView(const std::vector<T>& v) : data_(v.data()), size_(v.size()) {}
+  ArrayView(const T* data, size_t size) : data_(data), size_(size) {}
+  const T& operator[](size_t i) const { return data_[i]; }
+  const T* data() const { return data_; }
+  size_t size() const { return size_; }
+};
+}  // namespace detail
+
+struct ClearanceIndex::Layout {
+  Layout(const Mesh& mesh, const ClearanceOptions& options);
+  Layout() = default;              ///< for clearance_index_file.cpp, which fills it from a file
+  Layout(const Layout&) = delete;  ///< the views would still show the other's vectors
+  Layout& operator=(const Layout&) = delete;
+  bool segment_clear(const Point3& p, const Point3& q, double d) const;
+  double clearance(const Point3& p, const Point3& q, double max_d) const;
+  double clearance_bound(const Point3& p, double max_d) const;
+  double ground(double x, double y) const;
+  void ground(const double* x, const double* y, double* z, size_t n) const;
+
+  struct LocalVertex {
+    double x, y, z;
+  };
+  size_t bucket_at(double X, double Y) const;  ///< of a local point; SIZE_MAX outside the grid
+  double ground_in(size_t bucket, double X, double Y) const;
+  template <bool Measure>
+  double visit(const Point3& p, const Point3& q, double d) const;
+
+  ClearanceOptions options_;  ///< what it was built with (a file records them)
+  Point3 origin_{0, 0, 0};
+  Footprint footprint_;
+  detail::ArrayView<LocalVertex> verts_;
+  size_t triangles_ = 0;
+  double cell_ = 1, gx0_ = 0, gy0_ = 0;  ///< bucket (0,0) starts at local (gx0_, gy0_)
+  int cols_ = 0, rows_ = 0;
+  struct Listing {
+    std::array<uint32_t, 3> corners;  ///< the triangle's vertices: no second read to find them
+    float top;                        ///< highest point of the triangle inside the bucket, rounded up
+    float x0, x1, y0, y1;             ///< the triangle's x,y bounding box, rounded outwards
+  };
+  struct Bucket {
+    uint32_t start;  ///< bucket b lists items_[start of b, start of b + 1), highest first
+    float top;       ///< highest mesh point in the bucket, rounded up (-inf when empty)
+  };
+  detail::ArrayView<Bucket> buckets_;  ///< one more than there are buckets, for the last one's end
+  detail::ArrayView<Listing> items_;
+  bool box_holds(const Listing& item, double X, double Y) const;  ///< local point in its x,y box
+  static constexpr int block = 4;  ///< buckets a side of a block, the pyramid's coarse level
+  int block_cols_ = 0, block_rows_ = 0;
+  detail::ArrayView<float> block_top_;  ///< highest point of each block of block x block buckets
+  /// The highest point in buckets [r0, r1] x [c0, c1], whole blocks read from block_top_.
+  double highest(int r0, int r1, int c0, int c1) const;
+  double zmin_ = 0, zmax_ = 0;  ///< lowest and highest vertex
+  GroundGrid floor_;
+  double margin_ = 0;  ///< conservative slack of the quick rejects
+
+  // What the views show: the vectors of a built index, or a mapped file (then the vectors are empty).
+  std::vector<LocalVertex> vert_store_;
+  std::vector<Bucket> bucket_store_;
+  std::vector<Listing> item_store_;
+  std::vector<float> block_top_store_;
+  std::shared_ptr<const void> mapping_;
+};
+
+}  // namespace dsmplan
