@@ -30,7 +30,9 @@
 // 2-3 times as fast (1 m: 0.35 s against 0.56-0.78 s; 0.64 m: 0.58-0.82 s against 1.7-2.0 s,
 // on the loaded machine), so the whole process is faster (0.64 m: 1.4-1.7 s against 2.5-3.0 s
 // wall); --quality medium|high to compare. --checker index gives OMPL dsmplan's ClearanceIndex
-// instead (ground, clearance and floor from it), for comparison.
+// instead (ground, clearance and floor from it), for comparison; with --index-file F it opens the
+// index dsmplan plan --index keeps (and keeps it, when F is missing), so OMPL too skips reading
+// the mesh and building its checker: the fair comparison for dsmplan with a kept index.
 #include <ompl/geometric/PathSimplifier.h>
 #include <ompl/util/Console.h>
 #include <ompl/util/RandomNumbers.h>
@@ -40,13 +42,17 @@
 #include <cstdio>
 #include <cstdlib>
 #include <exception>
+#include <filesystem>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
+#include "core/mapped_file.hpp"
 #include "dsmplan/export.hpp"
 #include "dsmplan/mission.hpp"
 #include "dsmplan/plan.hpp"
+#include "dsmplan/roadmap_file.hpp"
 #include "dsmplan/waypoints.hpp"
 #include "ompl_baseline.hpp"
 
@@ -64,6 +70,7 @@ double seconds(Clock::time_point& t) {
 int usage() {
   std::fprintf(stderr,
                "usage: bench_ompl_plan MESH.ply --waypoints WP.csv -o PATH.csv [--max-agl H] [--checker embree|index] "
+               "[--index-file F] "
                "[--nn GNAT|GNATNoThreadSafety|SqrtApprox|Linear] [--quality low|medium|high]\n"
                "       bench_ompl_plan --make-waypoints MESH.ply HEIGHT WP.csv\n"
                "       bench_ompl_plan --resample DSM CELL OUT.tif\n");
@@ -82,6 +89,7 @@ int run(int argc, char** argv) {
     return 0;
   }
   std::string mesh_path, waypoints_path, output, checker_name = "embree", nn = nn_name(kFairestNN), quality = "low";
+  std::string index_file;
   PlanOptions options;  // dsmplan plan's defaults
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
@@ -101,13 +109,15 @@ int run(int argc, char** argv) {
       nn = value();
     else if (a == "--quality")
       quality = value();
+    else if (a == "--index-file")
+      index_file = value();
     else if (mesh_path.empty() && a[0] != '-')
       mesh_path = a;
     else
       return usage();
   }
   if (mesh_path.empty() || waypoints_path.empty() || output.empty() ||
-      (checker_name != "embree" && checker_name != "index"))
+      (checker_name != "embree" && checker_name != "index") || (!index_file.empty() && checker_name != "index"))
     return usage();
   const NN structure = nn_named(nn);
   ompl::msg::setLogLevel(ompl::msg::LOG_WARN);
@@ -115,18 +125,27 @@ int run(int argc, char** argv) {
 
   auto clock = Clock::now();
   const std::vector<Point3> waypoints = dsmplan::read_waypoints_csv(waypoints_path);
-  const Mesh mesh = dsmplan::read_mesh(mesh_path);
+  // --index-file: dsmplan plan --index's file, opened as dsmplan opens it (named by the mesh file's
+  // hash), so that OMPL too skips reading the mesh and building the index; built and saved when
+  // it is missing or stale.
+  std::optional<ClearanceIndex> kept;
+  if (!index_file.empty() && std::filesystem::exists(index_file))
+    kept = ClearanceIndex::open(index_file, dsmplan::file_content_hash(mesh_path));
+  const Mesh mesh = kept ? Mesh{} : dsmplan::read_mesh(mesh_path);
   const double read_s = seconds(clock);
-  const ClearanceIndex::Footprint footprint = footprint_of(mesh);
+  const ClearanceIndex::Footprint footprint = kept ? kept->footprint() : footprint_of(mesh);
   double zmin = INFINITY, zmax = -INFINITY;
   for (const dsmplan::Vertex& v : mesh.vertices) zmin = std::min(zmin, v.z), zmax = std::max(zmax, v.z);
+  if (kept) zmin = kept->lowest_vertex(), zmax = kept->highest_vertex();
   double bvh_s = 0;  // of index_s: Embree's BVH (the rest: the floor)
   std::unique_ptr<ClearanceIndex> index;
   std::unique_ptr<Checker> checker;
   GroundGrid own_floor;
   const GroundGrid* floor = &own_floor;
   if (checker_name == "index") {
-    index = std::make_unique<ClearanceIndex>(mesh);
+    index = std::make_unique<ClearanceIndex>(kept ? *kept : ClearanceIndex(mesh));
+    if (!index_file.empty() && !kept)
+      index->save(index_file, {dsmplan::file_content_hash(mesh_path), dsmplan::mesh_fingerprint(mesh)});
     checker = std::make_unique<IndexChecker>(*index, options.safety);
     floor = &index->floor();
   } else {

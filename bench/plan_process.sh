@@ -6,8 +6,9 @@
 # at 30, where 30 m would touch the ceiling). Each configuration: one untimed run of each, then
 # PAIRS rounds of dsmplan, dsmplan with its index kept in a file (--index: the untimed run built
 # and wrote it, the timed runs open it), OMPL + Embree, OMPL + ClearanceIndex (OMPL given
-# dsmplan's index as its checker, for comparison), in an order that rotates from round to round,
-# each timed from outside by /usr/bin/time (wall, user + sys),
+# dsmplan's index as its checker, for comparison) and the same opening dsmplan's kept index file
+# (bench_ompl_plan --index-file), in an order that rotates from round to round,
+# each timed from outside by bench/timed.py (wall, user + sys, to the microsecond),
 # the load average before each round. Prints per configuration the medians with min-max of wall
 # and CPU seconds and of the ratios OMPL / dsmplan, both programs' samples and edges (fails when
 # they differ, a leg is unsolved, a kept index was not reused or gave another path) and where
@@ -43,35 +44,40 @@ for config in "${configs[@]}"; do
     local name=$1 i=$2 time="$dir/${config}_$1_$2.time"
     case $name in
       dsmplan)
-        /usr/bin/time -f "%e %U %S" -o "$time" build/dsmplan plan "$dir/nrw_$mesh.ply" --waypoints \
+        bench/timed.py "$time" build/dsmplan plan "$dir/nrw_$mesh.ply" --waypoints \
           "$dir/wp_$config.csv" --max-agl "$agl" -o "$dir/${config}_dsmplan.csv" -q --stats "$dir/${config}_dsmplan_$i.json"
         ;;
       kept)
-        /usr/bin/time -f "%e %U %S" -o "$time" build/dsmplan plan "$dir/nrw_$mesh.ply" --waypoints \
+        bench/timed.py "$time" build/dsmplan plan "$dir/nrw_$mesh.ply" --waypoints \
           "$dir/wp_$config.csv" --max-agl "$agl" -o "$dir/${config}_kept.csv" -q --stats "$dir/${config}_kept_$i.json" \
           --index "$dir/nrw_$mesh.index"
         ;;
+      keptompl)
+        bench/timed.py "$time" "$baseline" "$dir/nrw_$mesh.ply" --waypoints "$dir/wp_$config.csv" \
+          --max-agl "$agl" -o "$dir/${config}_$name.csv" --checker index --index-file "$dir/nrw_$mesh.index" \
+          > "$dir/${config}_${name}_$i.txt"
+        ;;
       embree | index)
-        /usr/bin/time -f "%e %U %S" -o "$time" "$baseline" "$dir/nrw_$mesh.ply" --waypoints "$dir/wp_$config.csv" \
+        bench/timed.py "$time" "$baseline" "$dir/nrw_$mesh.ply" --waypoints "$dir/wp_$config.csv" \
           --max-agl "$agl" -o "$dir/${config}_$name.csv" --checker "$name" > "$dir/${config}_${name}_$i.txt"
         ;;
     esac
   }
   rm -f "$dir/nrw_$mesh.index"  # built by the untimed run, from this build
-  for name in dsmplan kept embree index; do run $name 0; done
-  order=(dsmplan kept embree index)
+  for name in dsmplan kept embree index keptompl; do run $name 0; done
+  order=(dsmplan kept embree index keptompl)
   for i in $(seq 1 "$pairs"); do
     cut -d' ' -f1-3 /proc/loadavg > "$dir/${config}_load_$i.txt"
     # The order rotates from round to round, so no program always follows the same one (the
     # kernel's cost of fresh huge pages depends on what ran just before).
-    for k in 0 1 2 3; do run "${order[$(((i - 1 + k) % 4))]}" "$i"; done
+    for k in 0 1 2 3 4; do run "${order[$(((i - 1 + k) % 5))]}" "$i"; done
   done
 done
 python3 - "$dir" "$pairs" "${configs[@]}" <<'PY'
 import json, statistics, sys
 d, pairs, configs = sys.argv[1], int(sys.argv[2]), sys.argv[3:]
 rounds = range(1, pairs + 1)
-def spread(v, f="%.2f"):
+def spread(v, f="%.3f"):
     return f"{f % statistics.median(v)} ({f % min(v)}-{f % max(v)})"
 def times(c, name):
     rows = [list(map(float, open(f"{d}/{c}_{name}_{i}.time").read().split()[-3:])) for i in rounds]
@@ -93,6 +99,7 @@ phases = []
 for c in configs:
     mesh, agl = c.split("_")
     dw, dc = times(c, "dsmplan"); ew, ec = times(c, "embree"); iw, ic = times(c, "index"); kw, kc = times(c, "kept")
+    ow, oc = times(c, "keptompl")
     stats = [json.load(open(f"{d}/{c}_dsmplan_{i}.json")) for i in rounds]
     kept = [json.load(open(f"{d}/{c}_kept_{i}.json")) for i in rounds]
     ours = {(s["roadmap_nodes"], s["roadmap_edges"]) for s in stats}
@@ -102,7 +109,7 @@ for c in configs:
         failed.append(f"{c}: dsmplan --index did not reuse its index")
     if open(f"{d}/{c}_kept.csv").read() != open(f"{d}/{c}_dsmplan.csv").read():
         failed.append(f"{c}: dsmplan with a kept index wrote another path")
-    for name in ("embree", "index"):
+    for name in ("embree", "index", "keptompl"):
         for kv in baseline(c, name):
             theirs = (int(kv["samples"]), int(kv["edges"]))
             if {theirs} != ours:
@@ -122,7 +129,8 @@ for c in configs:
         f"| {mesh.replace('064m', '0.64 m').replace('1m', '1 m')} | {agl} | {spread(kw)} | {spread(ew)} | "
         f"{spread([b / a for a, b in zip(kw, ew)], '%.2fx')} | {spread(kc)} | "
         f"{spread([b / a for a, b in zip(kc, ec)], '%.2fx')} | "
-        f"{statistics.median(s['seconds_read'] for s in kept):.3f} | {statistics.median(s['seconds_index'] for s in kept):.3f} |")
+        f"{statistics.median(s['seconds_read'] for s in kept):.3f} | {statistics.median(s['seconds_index'] for s in kept):.3f} | "
+        f"{spread(ow)} | {spread([b / a for a, b in zip(kw, ow)], '%.2fx')} | {spread([b / a for a, b in zip(kc, oc)], '%.2fx')} |")
     med = lambda key, rows: statistics.median(float(r[key]) for r in rows)
     e_rows = baseline(c, "embree")
     phases.append(
@@ -133,8 +141,8 @@ for c in configs:
         f"{med('query_s', e_rows) + med('simplify_s', e_rows):.4f} |")
 print("\nThe same runs, dsmplan with its index kept in a file (`--index`, opened, not built; the same path):\n")
 print("| mesh | max-agl | dsmplan --index wall s | OMPL + Embree wall s | ratio wall | dsmplan --index CPU s | ratio CPU | "
-      "read s (hash, header, index file) | index s |")
-print("|---|---|---|---|---|---|---|---|---|")
+      "read s (hash, header, index file) | index s | OMPL + the kept index wall s | its ratio wall | its ratio CPU |")
+print("|---|---|---|---|---|---|---|---|---|---|---|---|")
 print("\n".join(kept_rows))
 print("\nWhere the time goes (medians, seconds; dsmplan's --stats, the baseline's own clock):\n")
 print("| config | dsmplan read | index | roadmap | query + smooth | OMPL read | Embree BVH | floor | roadmap | "

@@ -8,7 +8,9 @@ found: MERGE=1 scripts/fuzz.sh SECONDS.
 LAS seeds are a few dozen real points of data/delft-ahn3 under four valid headers (LAS 1.2
 format 1 as delivered, 1.2 with a VLR, 1.3, 1.4 format 6); XYZ seeds are those points as text;
 meshes are small PLY (ascii/binary), OBJ and OFF files; waypoints come from
-data/nrw-dom1/sample_waypoints.csv; plus every tests/hostile/ fixture of the same kind.
+data/nrw-dom1/sample_waypoints.csv; plus every tests/hostile/ fixture of the same kind. Index seeds
+are `dsmplan plan --index` files of the NRW sample meshed at 50 m and 25 m (the dsmplan binary of
+build/ writes them; skipped when there is none).
 fuzz_pipeline reads its bytes through FuzzedDataProvider (grid size, georeference and options
 from the end, cell heights from the front), so its seeds are byte strings of a few sizes from a
 fixed random sequence: each decodes to some grid and options, and the fuzzer takes it from there.
@@ -157,6 +159,24 @@ def roadmap_seeds():
     hostile("roadmap", "*.roadmap")
 
 
+def index_seeds():
+    import subprocess, tempfile
+    cli = os.path.join(REPO, "build", "dsmplan")
+    if not os.path.exists(cli):
+        print("no build/dsmplan: index seeds skipped")
+        return
+    sample = os.path.join(REPO, "data", "nrw-dom1", "nrw_dom1_crop500m_1m.tif")
+    waypoints = os.path.join(REPO, "data", "nrw-dom1", "sample_waypoints.csv")
+    os.makedirs(os.path.join(CORPUS, "index"), exist_ok=True)
+    with tempfile.TemporaryDirectory() as tmp:
+        for res in ("50", "25"):
+            mesh = os.path.join(tmp, f"nrw_{res}m.ply")
+            subprocess.run([cli, "mesh", sample, "--res", res, "-o", mesh, "-q"], check=True)
+            # The index is written once it is built, whether the plan then succeeds or not.
+            subprocess.run([cli, "plan", mesh, "--waypoints", waypoints, "-o", os.path.join(tmp, "p.csv"), "-q",
+                            "--index", os.path.join(CORPUS, "index", f"nrw_{res}m.index")])
+
+
 def pipeline_seeds():
     r = random.Random(21)
     for i, size in enumerate([64, 128, 256, 512, 1024, 2048, 4096, 4096]):
@@ -171,3 +191,4 @@ if __name__ == "__main__":
     waypoint_seeds()
     roadmap_seeds()
     pipeline_seeds()
+    index_seeds()

@@ -611,6 +611,8 @@ void ClearanceIndex::ground(const double* x, const double* y, double* z, size_t 
 }
 const ClearanceIndex::Footprint& ClearanceIndex::footprint() const { return layout_->footprint_; }
 const Point3& ClearanceIndex::origin() const { return layout_->origin_; }
+double ClearanceIndex::lowest_vertex() const { return layout_->zmin_ + layout_->origin_[2]; }
+double ClearanceIndex::highest_vertex() const { return layout_->zmax_ + layout_->origin_[2]; }
 double ClearanceIndex::bucket_size() const { return layout_->cell_; }
 int ClearanceIndex::bucket_columns() const { return layout_->cols_; }
 int ClearanceIndex::bucket_rows() const { return layout_->rows_; }

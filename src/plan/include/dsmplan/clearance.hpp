@@ -138,6 +138,9 @@ public:
   };
   const Footprint& footprint() const;
   const Point3& origin() const;  ///< CRS point subtracted from all coordinates
+  /// The lowest and the highest z of the mesh's vertices (lone ones too), CRS units; 0 without triangles.
+  double lowest_vertex() const;
+  double highest_vertex() const;
   double bucket_size() const;
   int bucket_columns() const;
   int bucket_rows() const;
