@@ -5,6 +5,7 @@
 #include <sys/mman.h>
 #include <sys/stat.h>
 #include <unistd.h>
+#include <xxh_x86dispatch.h>  // XXH3_64bits_dispatch: the same hash, on AVX2 or AVX-512 where the CPU has them
 #include <xxhash.h>
 
 #include <cerrno>
@@ -45,7 +46,7 @@ MappedFile::~MappedFile() {
 
 uint64_t content_hash(const void* data, size_t bytes) {
   constexpr size_t piece = size_t(16) << 20;
-  if (bytes <= piece) return XXH3_64bits(data, bytes);
+  if (bytes <= piece) return XXH3_64bits_dispatch(data, bytes);
   // Pieces on every core: a mapped file's pages are faulted in by whichever thread reads them,
   // so the mapping's cost is spread as well.
   const size_t pieces = (bytes + piece - 1) / piece;
@@ -53,13 +54,14 @@ uint64_t content_hash(const void* data, size_t bytes) {
   const unsigned threads = std::max(1u, std::min<unsigned>(std::thread::hardware_concurrency(), pieces));
   auto work = [&](unsigned first) {
     for (size_t k = first; k < pieces; k += threads)
-      hashes[k] = XXH3_64bits(static_cast<const unsigned char*>(data) + k * piece, std::min(piece, bytes - k * piece));
+      hashes[k] =
+          XXH3_64bits_dispatch(static_cast<const unsigned char*>(data) + k * piece, std::min(piece, bytes - k * piece));
   };
   std::vector<std::thread> pool;
   for (unsigned t = 1; t < threads; ++t) pool.emplace_back(work, t);
   work(0);
   for (std::thread& t : pool) t.join();
-  return XXH3_64bits(hashes.data(), hashes.size() * sizeof(uint64_t));
+  return XXH3_64bits_dispatch(hashes.data(), hashes.size() * sizeof(uint64_t));
 }
 
 uint64_t file_content_hash(const std::string& path) {

@@ -12,6 +12,7 @@
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_reduce.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <type_traits>
@@ -208,22 +209,24 @@ std::optional<ClearanceIndex> ClearanceIndex::open(const std::string& path, uint
 
   if (h.triangles > 0) {
     if (l.buckets_[0].start != 0 || l.buckets_[h.buckets - 1].start != h.items) throw bad("the buckets' lists");
-    const bool ordered = tbb::parallel_reduce(
-        tbb::blocked_range<size_t>(1, h.buckets), true,
-        [&](const tbb::blocked_range<size_t>& r, bool ok) {
-          for (size_t b = r.begin(); ok && b != r.end(); ++b) ok = l.buckets_[b - 1].start <= l.buckets_[b].start;
-          return ok;
+    // Branch-free passes (they vectorise): a pass over the listings costs what reading them does.
+    const bool backwards = tbb::parallel_reduce(
+        tbb::blocked_range<size_t>(1, h.buckets), false,
+        [&](const tbb::blocked_range<size_t>& r, bool any) {
+          for (size_t b = r.begin(); b != r.end(); ++b) any |= l.buckets_[b - 1].start > l.buckets_[b].start;
+          return any;
         },
-        [](bool a, bool b) { return a && b; });
-    if (!ordered) throw bad("the buckets' lists");
-    const bool named = tbb::parallel_reduce(
-        tbb::blocked_range<size_t>(0, h.items), true,
-        [&](const tbb::blocked_range<size_t>& r, bool ok) {
-          for (size_t k = r.begin(); ok && k != r.end(); ++k)
-            for (uint32_t v : l.items_[k].corners) ok = ok && v < h.verts;
-          return ok;
+        [](bool a, bool b) { return a || b; });
+    if (backwards) throw bad("the buckets' lists");
+    const uint32_t highest_corner = tbb::parallel_reduce(
+        tbb::blocked_range<size_t>(0, h.items), uint32_t(0),
+        [&](const tbb::blocked_range<size_t>& r, uint32_t top) {
+          for (size_t k = r.begin(); k != r.end(); ++k)
+            top = std::max({top, l.items_[k].corners[0], l.items_[k].corners[1], l.items_[k].corners[2]});
+          return top;
         },
-        [](bool a, bool b) { return a && b; });
+        [](uint32_t a, uint32_t b) { return std::max(a, b); });
+    const bool named = h.items == 0 || highest_corner < h.verts;
     if (!named) throw bad("a listing names a vertex that is not there");
   }
   if (h.floor_cells > 0) {

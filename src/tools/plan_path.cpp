@@ -208,11 +208,13 @@ PlanReport plan_job(const PlanJobOptions& options, const Progress& progress) {
   // triangles are in the index already.
   std::optional<ClearanceIndex> kept;
   ClearanceIndex::Source kept_source;
+  uint64_t mesh_file_hash = 0;
   if (corridor && !options.index.empty())
     throw ArgumentError("--index", "a DSM input is planned window by window along a corridor; no index is kept");
-  if (!corridor && !options.index.empty() && options.dsm.empty()) {
+  if (!corridor && !options.index.empty()) {
     reading.lap();
-    kept = open_kept_index(options.index, file_content_hash(options.mesh), &kept_source);
+    mesh_file_hash = file_content_hash(options.mesh);
+    if (options.dsm.empty()) kept = open_kept_index(options.index, mesh_file_hash, &kept_source);
     if (kept) mesh.crs = read_mesh_crs(options.mesh);
     seconds_reading += reading.lap();
   }
@@ -348,18 +350,18 @@ PlanReport plan_job(const PlanJobOptions& options, const Progress& progress) {
       refuse_above_ceiling(waypoints, *plan.ground, options);
     }
     // With --dsm the index is named by the mesh file and the DSM together (their holes' columns
-    // joined the mesh); else it was opened above already, if it fits.
-    uint64_t index_hash = 0;
-    if (!options.index.empty() && !kept) {
+    // joined the mesh); without, it was opened above already, if it fits.
+    const uint64_t index_hash = mesh_file_hash ^ (dsm_fingerprint * 0x9E3779B97F4A7C15ull);
+    if (!options.index.empty() && !options.dsm.empty()) {
       reading.lap();
-      index_hash = file_content_hash(options.mesh) ^ (dsm_fingerprint * 0x9E3779B97F4A7C15ull);
-      if (!options.dsm.empty()) kept = open_kept_index(options.index, index_hash, &kept_source);
+      kept = open_kept_index(options.index, index_hash, &kept_source);
       seconds_reading += reading.lap();
     }
     report.index_reused = kept.has_value();
+    // Roadmap files are keyed by the mesh's own fingerprint; a kept index holds it.
+    const auto fingerprint_of_mesh = [&] { return kept ? kept_source.mesh_fingerprint : mesh_fingerprint(mesh); };
     const ClearanceIndex index = kept ? *kept : ClearanceIndex(mesh);
-    const uint64_t fingerprint_of_mesh = kept ? kept_source.mesh_fingerprint : mesh_fingerprint(mesh);
-    if (!options.index.empty() && !kept) index.save(options.index, {index_hash, fingerprint_of_mesh});
+    if (!options.index.empty() && !kept) index.save(options.index, {index_hash, fingerprint_of_mesh()});
     report.ground = !options.dtm.empty() ? "dtm" : !options.dsm.empty() ? "dsm" : "mesh floor";
     // What a mission's straight items and vertical legs are held to: the DSM's columns when known,
     // else the mesh; the ceiling over the ground in use.
@@ -384,7 +386,7 @@ PlanReport plan_job(const PlanJobOptions& options, const Progress& progress) {
 
     // A roadmap file is reused when it exists (and fits this mesh, ground and options), else made.
     if (!options.roadmap.empty()) {
-      const uint64_t fingerprint = fingerprint_of_mesh ^ (plan.ground ? plan.ground->fingerprint() : 0);
+      const uint64_t fingerprint = fingerprint_of_mesh() ^ (plan.ground ? plan.ground->fingerprint() : 0);
       Roadmap map;
       if (std::ifstream(options.roadmap).good()) {
         map = read_roadmap(options.roadmap, fingerprint, plan);

@@ -53,6 +53,9 @@
 //   - Memory (memory_bytes()): 24 bytes a vertex, 32 a listing (it carries its triangle's
 //     corners, so a query reads the vertices without a second miss), 8 a bucket; the mesh's
 //     own triangle list is not kept: 123 MB for the NRW tile at 1 m.
+//   - Kept in a file (save(), open()): building is most of what loading a mesh for planning
+//     costs (0.2 s of 0.33 s at 1 m), so the index can be saved and mapped back by later runs
+//     over the same mesh: opened in about 0.02 s, answering every query as the saved index did.
 //
 // Errors: ArgumentError for a negative or NaN distance, a non-finite query point, or a mesh
 // with a triangle index out of range or a non-finite vertex. See core.hpp.

@@ -122,8 +122,10 @@ struct PlanReport {
 /// read. A bad waypoint is an InputError(waypoints file, "waypoint N", why: outside the extent, under the surface,
 /// closer than the safety distance); a leg without a path InputError(waypoints file, "waypoints N to M", why); fewer
 /// than two waypoints InputError(waypoints file); a roadmap file of another mesh or other options InputError(roadmap
-/// file); with a DSM, a path closer to its columns than safety - dsm_tolerance_m InputError(DSM file). Nothing is
-/// written then. seconds_load includes reading a reused roadmap.
+/// file); an index file that is no index file or is damaged InputError(index file), never overwritten; with a DSM,
+/// a path closer to its columns than safety - dsm_tolerance_m InputError(DSM file). Nothing is written then (an
+/// index file built before a leg fails is kept: it depends on the mesh only). seconds_load includes reading a
+/// reused roadmap and opening a kept index (in seconds_read).
 PlanReport plan_job(const PlanJobOptions& options, const Progress& progress = {});
 /// Keys: path_length_m, min_clearance_m, roadmap_nodes, roadmap_edges, seconds_load (=
 /// seconds_read + seconds_index), seconds_roadmap, seconds_query, seconds_smooth; min_clearance_dsm_m, dsm_tolerance_m,
