@@ -812,9 +812,18 @@ TEST(RoadmapFile, AnotherMeshOtherOptionsOrDamageAreRefused) {
 
 namespace {
 
-// The checksum as clearance_index_file.cpp defines it, computed here with xxHash itself: XXH3
-// of the XXH3s of the header (up to the first section) and of the five sections (each under
-// 16 MB in these tests, so hashed whole). Offsets from the header's counts.
+// content_hash() as core/mapped_file.hpp defines it, with xxHash's plain XXH3 (the library uses
+// its x86 dispatch): XXH3 of up to 1 MB, else XXH3 of the XXH3s of its 1 MB pieces.
+uint64_t pieces_hash(const char* data, size_t n) {
+  constexpr size_t piece = size_t(1) << 20;
+  if (n <= piece) return XXH3_64bits(data, n);
+  std::vector<uint64_t> hashes;
+  for (size_t at = 0; at < n; at += piece) hashes.push_back(XXH3_64bits(data + at, std::min(piece, n - at)));
+  return XXH3_64bits(hashes.data(), hashes.size() * sizeof(uint64_t));
+}
+
+// The checksum as clearance_index_file.cpp defines it: pieces_hash() of the header (up to the
+// first section) and of the five sections, then XXH3 of those six. Offsets from the header's counts.
 void reseal_index(std::string& bytes) {
   uint64_t counts[4];  // verts, buckets, items, block tops: after 16 + 8 + 16 + 40 + 24 + 56 + 8 + 48 + 16 bytes
   const size_t at_counts = 16 + 8 + 16 + 40 + 24 + 32 + 8 + 48 + 16;
@@ -824,10 +833,10 @@ void reseal_index(std::string& bytes) {
   auto align = [](size_t v) { return (v + 63) & ~size_t(63); };
   const size_t head = align(at_counts + 32 + 8 + 32 + 8);
   const size_t sizes[5] = {counts[0] * 24, counts[1] * 8, counts[2] * 32, counts[3] * 4, floor_cells * 4};
-  uint64_t hashes[6] = {XXH3_64bits(bytes.data(), head)};
+  uint64_t hashes[6] = {pieces_hash(bytes.data(), head)};
   size_t at = head;
   for (int k = 0; k < 5; ++k) {
-    hashes[k + 1] = XXH3_64bits(bytes.data() + at, sizes[k]);
+    hashes[k + 1] = pieces_hash(bytes.data() + at, sizes[k]);
     at = k < 4 ? align(at + sizes[k]) : at + sizes[k];
   }
   const uint64_t sum = XXH3_64bits(hashes, sizeof hashes);

@@ -44,18 +44,26 @@ MappedFile::~MappedFile() {
   if (data_) ::munmap(const_cast<unsigned char*>(data_), size_);
 }
 
-uint64_t content_hash(const void* data, size_t bytes) {
-  constexpr size_t piece = size_t(16) << 20;
-  if (bytes <= piece) return XXH3_64bits_dispatch(data, bytes);
+uint64_t content_hash(const void* data, size_t bytes) { return content_hash(data, bytes, {}); }
+
+uint64_t content_hash(const void* data, size_t bytes, const std::function<void(const unsigned char*, size_t)>& visit) {
+  const auto* at = static_cast<const unsigned char*>(data);
+  if (bytes <= hash_piece_bytes) {
+    const uint64_t hash = XXH3_64bits_dispatch(at, bytes);
+    if (visit && bytes > 0) visit(at, bytes);
+    return hash;
+  }
   // Pieces on every core: a mapped file's pages are faulted in by whichever thread reads them,
   // so the mapping's cost is spread as well.
-  const size_t pieces = (bytes + piece - 1) / piece;
+  const size_t pieces = (bytes + hash_piece_bytes - 1) / hash_piece_bytes;
   std::vector<uint64_t> hashes(pieces);
   const unsigned threads = std::max(1u, std::min<unsigned>(std::thread::hardware_concurrency(), pieces));
   auto work = [&](unsigned first) {
-    for (size_t k = first; k < pieces; k += threads)
-      hashes[k] =
-          XXH3_64bits_dispatch(static_cast<const unsigned char*>(data) + k * piece, std::min(piece, bytes - k * piece));
+    for (size_t k = first; k < pieces; k += threads) {
+      const size_t n = std::min(hash_piece_bytes, bytes - k * hash_piece_bytes);
+      hashes[k] = XXH3_64bits_dispatch(at + k * hash_piece_bytes, n);
+      if (visit) visit(at + k * hash_piece_bytes, n);
+    }
   };
   std::vector<std::thread> pool;
   for (unsigned t = 1; t < threads; ++t) pool.emplace_back(work, t);

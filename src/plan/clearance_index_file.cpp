@@ -8,13 +8,17 @@
 //   vertices (3 f64), the buckets (u32 start, f32 top; one more than there are buckets), the
 //   listings (3 u32 corners, 5 f32), the blocks' tops (f32), the floor's heights (f32, NaN where
 //   the cell was a hole, filled again from its rim when opened); then, on an 8-byte boundary, a
-//   checksum: XXH3-64 of the XXH3-64s of the header and of each section.
+//   checksum: content_hash() (core/mapped_file.hpp: XXH3-64 in 1 MB pieces) of the content_hash()
+//   of the header and of each section.
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_reduce.h>
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
+#include <cstddef>
 #include <cstring>
+#include <functional>
 #include <type_traits>
 
 #include "clearance_layout.hpp"
@@ -70,9 +74,12 @@ bool sections_of(const FileHeader& h, Sections& s) {
 
 // The header and the five sections hashed each where it lies (the zero padding between them is
 // not), then their hashes: no copy of the arrays is needed to write or to check a file.
-uint64_t checksum_of(const std::pair<const void*, size_t> (&parts)[6]) {
+// `visit_listings` sees the listings' section piece by piece as it is hashed (content_hash()).
+uint64_t checksum_of(const std::pair<const void*, size_t> (&parts)[6],
+                     const std::function<void(const unsigned char*, size_t)>& visit_listings = {}) {
   uint64_t hashes[6];
-  for (int k = 0; k < 6; ++k) hashes[k] = content_hash(parts[k].first, parts[k].second);
+  for (int k = 0; k < 6; ++k)
+    hashes[k] = content_hash(parts[k].first, parts[k].second, k == 3 ? visit_listings : nullptr);
   return content_hash(hashes, sizeof hashes);
 }
 
@@ -88,8 +95,8 @@ bool same_options(const ClearanceOptions& a, const FileHeader& h) {
 ClearanceIndex::ClearanceIndex(std::shared_ptr<const Layout> layout) : layout_(std::move(layout)) {}
 
 void ClearanceIndex::save(const std::string& path, const Source& source) const {
-  static_assert(sizeof(Layout::LocalVertex) == kVertexBytes && sizeof(Layout::Bucket) == kBucketBytes &&
-                sizeof(Layout::Listing) == kListingBytes);
+  static_assert(offsetof(Layout::Listing, corners) == 0 && sizeof(Layout::LocalVertex) == kVertexBytes &&
+                sizeof(Layout::Bucket) == kBucketBytes && sizeof(Layout::Listing) == kListingBytes);
   const Layout& l = *layout_;
   FileHeader h{};
   std::memcpy(h.magic, kMagic, sizeof kMagic);
@@ -169,7 +176,23 @@ std::optional<ClearanceIndex> ClearanceIndex::open(const std::string& path, uint
                                                   {bytes + s.items, h.items * sizeof(Layout::Listing)},
                                                   {bytes + s.block_tops, h.block_tops * sizeof(float)},
                                                   {bytes + s.floor, h.floor_cells * sizeof(float)}};
-  if (checksum_of(parts) != stored) throw InputError(path, "", "is damaged (checksum differs); delete it to rebuild");
+  // The highest vertex the listings name, found while they are hashed: a second pass over them
+  // would cost a second trip to memory (they are most of the file).
+  std::atomic<uint32_t> highest_corner{0};
+  const auto scan_listings = [&](const unsigned char* piece, size_t piece_bytes) {
+    static_assert(hash_piece_bytes % kListingBytes == 0);  // pieces hold whole listings
+    uint32_t top = 0;
+    for (size_t at = 0; at + kListingBytes <= piece_bytes; at += kListingBytes) {
+      uint32_t corners[3];
+      std::memcpy(corners, piece + at, sizeof corners);
+      top = std::max({top, corners[0], corners[1], corners[2]});
+    }
+    uint32_t seen = highest_corner.load(std::memory_order_relaxed);
+    while (top > seen && !highest_corner.compare_exchange_weak(seen, top, std::memory_order_relaxed)) {
+    }
+  };
+  if (checksum_of(parts, scan_listings) != stored)
+    throw InputError(path, "", "is damaged (checksum differs); delete it to rebuild");
 
   // A checksum finds damage, not a file written to mislead: the arrays are checked against each
   // other too, so that no query can read outside them.
@@ -209,7 +232,7 @@ std::optional<ClearanceIndex> ClearanceIndex::open(const std::string& path, uint
 
   if (h.triangles > 0) {
     if (l.buckets_[0].start != 0 || l.buckets_[h.buckets - 1].start != h.items) throw bad("the buckets' lists");
-    // Branch-free passes (they vectorise): a pass over the listings costs what reading them does.
+    // Branch-free (it vectorises).
     const bool backwards = tbb::parallel_reduce(
         tbb::blocked_range<size_t>(1, h.buckets), false,
         [&](const tbb::blocked_range<size_t>& r, bool any) {
@@ -218,15 +241,7 @@ std::optional<ClearanceIndex> ClearanceIndex::open(const std::string& path, uint
         },
         [](bool a, bool b) { return a || b; });
     if (backwards) throw bad("the buckets' lists");
-    const uint32_t highest_corner = tbb::parallel_reduce(
-        tbb::blocked_range<size_t>(0, h.items), uint32_t(0),
-        [&](const tbb::blocked_range<size_t>& r, uint32_t top) {
-          for (size_t k = r.begin(); k != r.end(); ++k)
-            top = std::max({top, l.items_[k].corners[0], l.items_[k].corners[1], l.items_[k].corners[2]});
-          return top;
-        },
-        [](uint32_t a, uint32_t b) { return std::max(a, b); });
-    const bool named = h.items == 0 || highest_corner < h.verts;
+    const bool named = h.items == 0 || highest_corner.load() < h.verts;
     if (!named) throw bad("a listing names a vertex that is not there");
   }
   if (h.floor_cells > 0) {
