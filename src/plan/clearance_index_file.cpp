@@ -3,7 +3,7 @@
 // mapped in a few milliseconds, its arrays used where they lie (the way LAStools' .lax spatial
 // index sits beside a LAS file, and GDAL's .ovr overviews beside a raster).
 //
-// Layout, native byte order (a file from the other order is refused by its byte-order mark):
+// Layout, native byte order (a file of the other order, or of another version, is stale: rebuilt):
 //   FileHeader (below), then five sections each starting on a 64-byte boundary: the local
 //   vertices (3 f64), the buckets (u32 start, f32 top; one more than there are buckets), the
 //   listings (3 u32 corners, 5 f32), the blocks' tops (f32), the floor's heights (f32, NaN where
@@ -30,6 +30,9 @@ namespace dsmplan {
 namespace {
 
 constexpr char kMagic[16] = "dsmplan index\n";
+// Raise it with every change to the layout or to what the index holds (how it is built, the
+// floor, the DSM's hole columns dsmplan plan adds to the mesh): a file of another version is
+// rebuilt, so no run uses an index an older build made differently.
 constexpr uint32_t kVersion = 1;
 constexpr uint32_t kByteOrder = 0x01020304;
 
@@ -155,12 +158,12 @@ std::optional<ClearanceIndex> ClearanceIndex::open(const std::string& path, uint
   if (file->size() < sizeof h || std::memcmp(bytes, kMagic, sizeof kMagic) != 0)
     throw InputError(path, "", "is not a dsmplan index file (dsmplan plan --index writes them)");
   std::memcpy(&h, bytes, sizeof h);
-  if (h.byte_order != kByteOrder)
-    throw InputError(path, "header", "was written on a machine of the other byte order; delete it to rebuild");
-  if (h.version != kVersion)
-    throw InputError(path, "header",
-                     "is index format " + std::to_string(h.version) + ", this dsmplan reads " +
-                         std::to_string(kVersion) + "; delete it to rebuild");
+  // An index of another format version or byte order is dsmplan's own all the same: stale, as
+  // one of another mesh is (a newer dsmplan rebuilds its files without being asked).
+  if (h.byte_order != kByteOrder || h.version != kVersion) {
+    if (source) *source = {};
+    return std::nullopt;
+  }
   if (source) *source = {h.input_hash, h.mesh_fingerprint};
   if (h.input_hash != input_hash || !same_options(options, h)) return std::nullopt;
   Sections s{};

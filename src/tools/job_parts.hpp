@@ -12,7 +12,6 @@
 
 #include "core/stopwatch.hpp"
 #include "core/text.hpp"
-#include "dsmplan/clearance.hpp"
 #include "dsmplan/core.hpp"
 #include "dsmplan/export.hpp"
 #include "dsmplan/tools.hpp"
@@ -68,7 +67,6 @@ struct XY {
 inline XY centre_of(const Grid& grid) {
   return {grid.x0 + grid.width * grid.cell_x / 2, grid.y0 - grid.height * grid.cell_y / 2};
 }
-inline XY centre_of(const ClearanceIndex::Footprint& f) { return {(f.xmin + f.xmax) / 2, (f.ymin + f.ymax) / 2}; }
 inline XY centre_of(const Mesh& mesh) {
   if (mesh.vertices.empty()) return {};
   double x0 = INFINITY, y0 = INFINITY, x1 = -INFINITY, y1 = -INFINITY;

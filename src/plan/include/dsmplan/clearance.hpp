@@ -171,11 +171,12 @@ public:
   /// Opens an index file written by save(), mapped, not read: its arrays are used where the page
   /// cache holds them, so a second run over the same mesh skips the build (bench/README.md).
   /// The answers are those of the index that was saved, to the bit. std::nullopt when the file
-  /// was built from another input (input_hash differs) or with other options: build it anew.
-  /// InputError(path, place, why) when it is not an index file, is of another format version or
-  /// byte order, is truncated or damaged (checksum), or its arrays do not fit each other.
-  /// `source` (may be null) receives what the file says it was built from, whatever the outcome
-  /// short of an error. O(file size): the checksum and the arrays' structure are checked.
+  /// was built from another input (input_hash differs), with other options, or is of another
+  /// format version or byte order: build it anew. InputError(path, place, why) when it is not an
+  /// index file, is truncated or damaged (checksum), or its arrays do not fit each other.
+  /// `source` (may be null) receives what the file says it was built from (zeros for another
+  /// format), whatever the outcome short of an error. O(file size): the checksum and the arrays'
+  /// structure are checked, in one pass.
   static std::optional<ClearanceIndex> open(const std::string& path, uint64_t input_hash,
                                             const ClearanceOptions& options = {}, Source* source = nullptr);
 
