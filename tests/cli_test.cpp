@@ -1264,6 +1264,12 @@ TEST(CliPlan, IndexFileIsReusedOnlyForItsOwnMeshAndNeverOverwrittenWhenItIsNoInd
   EXPECT_EQ(reused["roadmap_edges"], fresh["roadmap_edges"]);
   EXPECT_EQ(path("built"), path("fresh"));
   EXPECT_EQ(path("reused"), path("fresh"));
+  // With a terrain model (the DSM stands in for one) the mesh is not read: the kept index's
+  // extent is what the terrain must cover.
+  const std::string terrain = testkit::data_path(kSample);
+  plan(f.mesh, "dtm_fresh", {"--dtm", terrain});
+  EXPECT_TRUE(plan(f.mesh, "dtm_reused", {"--dtm", terrain, "--index", index})["index_reused"].get<bool>());
+  EXPECT_EQ(path("dtm_reused"), path("dtm_fresh"));
 
   // With the DSM its holes' columns join the mesh (a conservative mesh of it, as
   // DsmClearanceIsReportedWithTheDsm plans on): its own index, then that one reused.
