@@ -362,6 +362,33 @@ TEST(MeshReader, RoundTripsEveryShapeOfTheVerticalLine) {
   EXPECT_EQ(read.crs.name, "");
 }
 
+// read_mesh_crs() reads a PLY's header alone (dsmplan plan with a kept index): the CRS it gives is
+// read_mesh()'s, for the real tile's long WKT and for a header whose comment says "end_header"
+// before its end, with either line ending.
+TEST(MeshReader, CrsFromTheHeaderAloneIsTheCrsOfTheWholeRead) {
+  testkit::TempDir dir;
+  Mesh mesh = real_mesh();
+  mesh.triangles.resize(20);
+  const std::string written = dir.path("m.ply");
+  write_mesh(mesh, written, MeshFormat::Ply);
+  const Crs whole = read_mesh(written).crs, head = read_mesh_crs(written);
+  EXPECT_EQ(head.wkt, whole.wkt);
+  EXPECT_EQ(head.epsg, whole.epsg);
+  EXPECT_EQ(head.name, whole.name);
+  EXPECT_EQ(head.vertical_name, whole.vertical_name);
+  ASSERT_FALSE(whole.wkt.empty());
+  for (const std::string eol : {"\n", "\r\n"}) {
+    const std::string path = dir.path("c.ply");
+    testkit::write_file(path, "ply" + eol + "format ascii 1.0" + eol + "comment the end_header line ends it" + eol +
+                                  "comment crs_epsg 25832" + eol + "element vertex 3" + eol + "property float x" + eol +
+                                  "property float y" + eol + "property float z" + eol + "element face 1" + eol +
+                                  "property list uchar int vertex_indices" + eol + "end_header" + eol + "0 0 0" + eol +
+                                  "1 0 0" + eol + "0 1 0" + eol + "3 0 1 2" + eol);
+    EXPECT_EQ(read_mesh(path).crs.epsg, 25832);
+    EXPECT_EQ(read_mesh_crs(path).epsg, 25832) << (eol.size() == 1 ? "LF" : "CRLF");
+  }
+}
+
 TEST(MeshReader, ReadsAsciiPlyWithFloatsAndExtraProperties) {
   testkit::TempDir dir;
   const std::string path = dir.path("ascii.ply");

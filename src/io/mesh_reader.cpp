@@ -980,18 +980,25 @@ Crs read_mesh_crs(const std::string& path) {
   char magic[4] = {};
   if (!in || !in.read(magic, 3) || std::string_view(magic, 3) != "ply") return read_mesh(path).crs;
   // The header, read until its end line (headers are a few kB; read_mesh() says what is wrong
-  // with one that never ends).
+  // with one that never ends). The line itself, not the word: a comment may say "end_header".
   std::string head(magic, 3);
+  auto end_line = [&] {
+    for (size_t at = head.find("\nend_header"); at != std::string::npos; at = head.find("\nend_header", at + 1)) {
+      const size_t after = at + 11;
+      if (after < head.size() && head[after] == '\n') return after + 1;
+      if (after + 1 < head.size() && head[after] == '\r' && head[after + 1] == '\n') return after + 2;
+    }
+    return std::string::npos;
+  };
   char chunk[4096];
-  while (head.find("end_header") == std::string::npos && head.size() < (size_t(16) << 20)) {
+  size_t end = std::string::npos;
+  while ((end = end_line()) == std::string::npos && head.size() < (size_t(16) << 20)) {
     in.read(chunk, sizeof chunk);
     if (in.gcount() == 0) break;
     head.append(chunk, static_cast<size_t>(in.gcount()));
   }
-  const size_t end = head.find("end_header");
   if (end == std::string::npos) return read_mesh(path).crs;
-  const size_t line_end = head.find('\n', end);
-  head.resize(line_end == std::string::npos ? head.size() : line_end + 1);
+  head.resize(end);
   return PlyReader(path, head, {}).header_crs();
 }
 
