@@ -10,7 +10,7 @@
 //   the cell was a hole, filled again from its rim when opened); then, on an 8-byte boundary, a
 //   checksum: content_hash() (core/mapped_file.hpp: XXH3-64 in 1 MB pieces) of the content_hash()
 //   of the header and of each section.
-#include <tbb/parallel_for.h>
+#include <tbb/blocked_range.h>
 #include <tbb/parallel_reduce.h>
 
 #include <algorithm>

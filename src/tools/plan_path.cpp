@@ -310,11 +310,12 @@ PlanReport plan_job(const PlanJobOptions& options, const Progress& progress) {
     // (columns.hpp, "holding a mesh plan to the DSM's columns").
     Grid columns;
     double xmin = INFINITY, ymin = INFINITY, xmax = -INFINITY, ymax = -INFINITY;
-    for (const Vertex& v : mesh.vertices)
-      xmin = std::min(xmin, v.x), ymin = std::min(ymin, v.y), xmax = std::max(xmax, v.x), ymax = std::max(ymax, v.y);
     if (kept) {  // the mesh was not read: the extent of its triangles
       const ClearanceIndex::Footprint& f = kept->footprint();
       xmin = f.xmin, ymin = f.ymin, xmax = f.xmax, ymax = f.ymax;
+    } else {
+      for (const Vertex& v : mesh.vertices)
+        xmin = std::min(xmin, v.x), ymin = std::min(ymin, v.y), xmax = std::max(xmax, v.x), ymax = std::max(ymax, v.y);
     }
     uint64_t dsm_fingerprint = 0;  // what else the index is built over: the DSM's holes' columns
     if (!options.dsm.empty()) {
