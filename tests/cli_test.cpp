@@ -1264,9 +1264,21 @@ TEST(CliPlan, IndexFileIsReusedOnlyForItsOwnMeshAndNeverOverwrittenWhenItIsNoInd
   EXPECT_EQ(reused["roadmap_edges"], fresh["roadmap_edges"]);
   EXPECT_EQ(path("built"), path("fresh"));
   EXPECT_EQ(path("reused"), path("fresh"));
-  // With a terrain model (the DSM stands in for one) the mesh is not read: the kept index's
-  // extent is what the terrain must cover.
-  const std::string terrain = testkit::data_path(kSample);
+  // With a terrain model (flat, at the DSM's lowest height: under everything) the mesh is not
+  // read: the kept index's extent is what the terrain must cover.
+  const std::string terrain = f.in.path("terrain.tif");
+  {
+    const double lowest = *std::min_element(f.dsm.z.begin(), f.dsm.z.end());
+    std::string points;
+    for (int i = 0; i < 20; ++i)
+      for (int j = 0; j < 20; ++j)
+        points += std::to_string(356300 + 25 * i + 12) + " " + std::to_string(5699250 + 25 * j + 12) + " " +
+                  std::to_string(lowest) + "\n";
+    testkit::write_file(f.in.path("terrain.xyz"), points);
+    ASSERT_EQ(run_cli({"grid", f.in.path("terrain.xyz"), "--crs", "EPSG:25832", "--res", "25", "-o", terrain, "-q"})
+                  .exit_code,
+              0);
+  }
   plan(f.mesh, "dtm_fresh", {"--dtm", terrain});
   EXPECT_TRUE(plan(f.mesh, "dtm_reused", {"--dtm", terrain, "--index", index})["index_reused"].get<bool>());
   EXPECT_EQ(path("dtm_reused"), path("dtm_fresh"));

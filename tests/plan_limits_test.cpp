@@ -224,6 +224,104 @@ TEST(PlanLimits, RandomLowMissionsOverDelftKeepSafetyAboveTheDsmAndCeilingAboveT
   expect_flown(limits, 30, "Delft DSM/DTM");
 }
 
+// ---- a terrain that disagrees with its surface (ground.hpp) --------------------------------
+
+// The Delft DTM (ground points, class 2, 1 m) from the LiDAR of testkit::delft_grid() (0.5 m).
+Grid delft_dtm() {
+  std::vector<PointCloud> clouds{read_las(testkit::data_path("delft-ahn3/ahn3_cropped_1.las")),
+                                 read_las(testkit::data_path("delft-ahn3/ahn3_cropped_2.las"))};
+  GridPointsOptions ground_points;
+  ground_points.resolution = 1.0;
+  ground_points.keep_classes = {2};
+  return grid_points(clouds, ground_points);
+}
+
+// The share of the terrain's measured cells standing more than the tolerance above the DSM, by
+// brute force over every cell, the DSM's height taken at each cell's centre (the check's
+// 512 x 512 lattice takes every cell of the Delft DTM's 265 x 230).
+double share_above(const Grid& dtm, const Grid& dsm) {
+  size_t compared = 0, above = 0;
+  for (int row = 0; row < dtm.height; ++row)
+    for (int col = 0; col < dtm.width; ++col) {
+      const double d = double(dtm.at(col, row)) - dsm.height_at(dtm.center_x(col), dtm.center_y(row));
+      if (std::isnan(d)) continue;
+      ++compared;
+      above += d > kTerrainAboveSurfaceM;
+    }
+  return double(above) / compared;
+}
+
+TEST(PlanLimits, ATerrainAboveItsSurfaceIsRefusedAtAPlaceOrOverTheCells) {
+  const Grid dsm = testkit::delft_grid();
+  const Grid dtm = delft_dtm();
+  const auto surface_z = [&](double x, double y) { return double(dsm.height_at(x, y)); };
+  const std::vector<NamedPlace> street{{"waypoint 1", 84842.5, 447611.5}, {"waypoint 2", 85033.5, 447455.5}};
+  // The real pair agrees: the terrain under the surface but on a few cells (measured: 0.002 %).
+  const double real_share = share_above(dtm, dsm);
+  EXPECT_LT(real_share, kTerrainAboveShare / 10);
+  EXPECT_FALSE(terrain_above_surface(GroundGrid(dtm), surface_z, street, "the DSM"));
+
+  // A datum mismatch of 10 m (or 1.5 m): refused at the first place, by the offset.
+  for (const double offset : {10.0, 1.5}) {
+    Grid raised = dtm;
+    for (float& z : raised.z) z += static_cast<float>(offset);
+    const auto problem = terrain_above_surface(GroundGrid(raised), surface_z, street, "the DSM d.tif");
+    ASSERT_TRUE(problem) << offset;
+    EXPECT_EQ(problem->place, "waypoint 1");
+    const double above = double(raised.height_at(84842.5, 447611.5)) - dsm.height_at(84842.5, 447611.5);
+    char stands[64];
+    std::snprintf(stands, sizeof stands, "stands %.2f m above the DSM d.tif", above);
+    EXPECT_NE(problem->problem.find(stands), std::string::npos) << problem->problem;
+    // No place given: the cells tell it, in the share brute force counts.
+    const auto cells = terrain_above_surface(GroundGrid(raised), surface_z, {}, "the DSM");
+    ASSERT_TRUE(cells) << offset;
+    EXPECT_EQ(cells->place, "");
+    char share[32];
+    std::snprintf(share, sizeof share, "%.1f %%", 100 * share_above(raised, dsm));
+    EXPECT_NE(cells->problem.find(share), std::string::npos) << cells->problem << " (brute force " << share << ")";
+  }
+
+  // Raised by 3 m over a band of columns away from the places: refused over the cells when the
+  // band holds more than the share, not when it holds less.
+  for (const double band : {0.10, 0.03}) {
+    Grid raised = dtm;
+    const int first = static_cast<int>(dtm.width * (0.5 - band / 2));
+    const int last = static_cast<int>(dtm.width * (0.5 + band / 2));
+    for (int row = 0; row < dtm.height; ++row)
+      for (int col = first; col < last; ++col) raised.z[raised.index(col, row)] += 3;
+    const double brute = share_above(raised, dsm);
+    const auto problem = terrain_above_surface(GroundGrid(raised), surface_z, street, "the DSM");
+    EXPECT_EQ(problem.has_value(), brute > kTerrainAboveShare) << "band " << band << ", brute force share " << brute;
+    if (problem) EXPECT_EQ(problem->place, "");
+  }
+}
+
+TEST(PlanLimits, TheGroundsSpreadIsHalfTheRangeOfTheNineCellsAround) {
+  Grid g(7, 6, 1000, 2000, 2, 2);
+  std::mt19937_64 rng(33);
+  std::uniform_real_distribution<float> height(10, 30);
+  for (float& z : g.z) z = height(rng);
+  g.z[g.index(3, 3)] = NAN;  // a hole: filled from its rim, not measured
+  const GroundGrid ground(g);
+  const Grid& filled = ground.grid();
+  for (int row = 0; row < g.height; ++row)
+    for (int col = 0; col < g.width; ++col) {
+      const double x = g.center_x(col), y = g.center_y(row);
+      double low = INFINITY, high = -INFINITY;
+      for (int r = row - 1; r <= row + 1; ++r)
+        for (int c = col - 1; c <= col + 1; ++c)
+          if (c >= 0 && r >= 0 && c < g.width && r < g.height)
+            low = std::min(low, double(filled.at(c, r))), high = std::max(high, double(filled.at(c, r)));
+      EXPECT_DOUBLE_EQ(ground.spread_at(x, y), (high - low) / 2) << col << ", " << row;
+      if (col == 3 && row == 3)
+        EXPECT_TRUE(std::isnan(ground.measured_at(x, y)));
+      else
+        EXPECT_EQ(ground.measured_at(x, y), g.at(col, row));
+    }
+  EXPECT_TRUE(std::isnan(ground.spread_at(990, 2000)));
+  EXPECT_TRUE(std::isnan(ground.measured_at(990, 2000)));
+}
+
 // ---- the parts, each against brute force --------------------------------------------------
 
 TEST(PlanLimits, HolesTakeTheHighestOrLowestOfTheirRim) {

@@ -33,6 +33,22 @@ GroundGrid::GroundGrid(Grid ground) : grid_(std::move(ground)) {
     }
 }
 
+double GroundGrid::measured_at(double x, double y) const {
+  int col = 0, row = 0;
+  if (empty() || !grid_.cell_at(x, y, col, row) || was_hole(grid_.index(col, row))) return NAN;
+  return grid_.at(col, row);
+}
+
+double GroundGrid::spread_at(double x, double y) const {
+  int col = 0, row = 0;
+  if (empty() || !grid_.cell_at(x, y, col, row)) return NAN;
+  double low = INFINITY, high = -INFINITY;
+  for (int r = std::max(0, row - 1); r <= std::min(grid_.height - 1, row + 1); ++r)
+    for (int c = std::max(0, col - 1); c <= std::min(grid_.width - 1, col + 1); ++c)
+      low = std::min(low, cell_ground(c, r)), high = std::max(high, cell_ground(c, r));
+  return (high - low) / 2;
+}
+
 GroundGrid GroundGrid::floor_of(const Mesh& mesh, double cell) {
   if (!(cell > 0) || !std::isfinite(cell)) throw ArgumentError("cell", "must be a positive number");
   if (mesh.triangles.empty()) return {};

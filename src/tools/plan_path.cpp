@@ -7,6 +7,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <optional>
 #include <string>
 
@@ -150,6 +151,20 @@ void verify_limits(const std::vector<Point3>& path, const Grid* columns, const G
                          ": a bug, please report it; nothing written");
 }
 
+// InputError naming `terrain_path` (and the surface) when the terrain stands above the surface it
+// should lie under (terrain_above_surface()): at a waypoint, home, the landing, or over the cells.
+void refuse_terrain_above(const GroundGrid& terrain, const std::function<double(double, double)>& surface_z,
+                          const std::vector<Point3>& waypoints, const detail::MissionSite* site,
+                          const std::string& terrain_path, const std::string& surface_name) {
+  std::vector<NamedPlace> places;
+  if (site) places.push_back({"home", site->home[0], site->home[1]});
+  for (size_t i = 0; i < waypoints.size(); ++i)
+    places.push_back({"waypoint " + std::to_string(i + 1), waypoints[i][0], waypoints[i][1]});
+  if (site && site->end == MissionEnd::land) places.push_back({"the landing", site->land[0], site->land[1]});
+  if (const auto problem = terrain_above_surface(terrain, surface_z, places, surface_name))
+    throw InputError(terrain_path, problem->place, problem->problem);
+}
+
 }  // namespace
 
 PlanReport plan_job(const PlanJobOptions& options, const Progress& progress) {
@@ -275,6 +290,34 @@ PlanReport plan_job(const PlanJobOptions& options, const Progress& progress) {
         return double(read_window(*city, col, row, 1, 1).z[0]);
       };
       site = detail::mission_site(options.mission, waypoints, ground_z, from_lonlat);
+      report.home_ground = report.ground;
+      if (along.terrain) {
+        report.home_ground_uncertainty_m = along.terrain->spread_at(site.home[0], site.home[1]);
+      } else {  // the DSM's 3 x 3 cells around home (mission_site() found home on it)
+        const Grid& frame = city->frame();
+        int col = 0, row = 0;
+        frame.cell_at(site.home[0], site.home[1], col, row);
+        const int c0 = std::max(0, col - 1), r0 = std::max(0, row - 1);
+        const GroundGrid around(
+            read_window(*city, c0, r0, std::min(frame.width, col + 2) - c0, std::min(frame.height, row + 2) - r0));
+        report.home_ground_uncertainty_m = around.spread_at(site.home[0], site.home[1]);
+      }
+    }
+    if (along.terrain) {
+      // The DSM a row at a time: the comparison walks its lattice row by row.
+      const Grid& frame = city->frame();
+      std::vector<float> heights(frame.width);
+      int row_read = -1;
+      const auto surface_z = [&](double x, double y) {
+        int col = 0, row = 0;
+        if (!frame.cell_at(x, y, col, row)) return double(NAN);
+        if (row != row_read) city->read(0, row, frame.width, 1, heights.data()), row_read = row;
+        return double(heights[col]);
+      };
+      refuse_terrain_above(*along.terrain, surface_z, waypoints, mission_out ? &site : nullptr, options.dtm,
+                           "the DSM " + options.mesh);
+    }
+    if (mission_out) {
       detail::check_vertical_legs_in(*city, site, waypoints, options.plan.safety);
       route = detail::route_waypoints(waypoints, site);
     }
@@ -376,6 +419,17 @@ PlanReport plan_job(const PlanJobOptions& options, const Progress& progress) {
     if (mission_out) {
       const auto ground_z = [&](double x, double y) { return -ground.height_above({x, y, 0}); };
       site = detail::mission_site(options.mission, waypoints, ground_z, from_lonlat);
+      report.home_ground = report.ground;
+      report.home_ground_uncertainty_m = ground.spread_at(site.home[0], site.home[1]);
+    }
+    if (!options.dtm.empty()) {
+      const auto surface_z = [&](double x, double y) {
+        return options.dsm.empty() ? index.ground(x, y) : double(columns.height_at(x, y));
+      };
+      refuse_terrain_above(*plan.ground, surface_z, waypoints, mission_out ? &site : nullptr, options.dtm,
+                           (options.dsm.empty() ? "the mesh " + options.mesh : "the DSM " + options.dsm));
+    }
+    if (mission_out) {
       const auto dsm_z = [&](double x, double y) {
         return options.dsm.empty() ? NAN : double(columns.height_at(x, y));
       };
@@ -506,6 +560,8 @@ Json to_json(const PlanReport& r) {
   if (r.mission_items) {
     j["mission_items"] = r.mission_items;
     j["home"] = {r.home[0], r.home[1], r.home[2]};
+    j["home_ground"] = r.home_ground;
+    j["home_ground_uncertainty_m"] = r.home_ground_uncertainty_m;
     j["takeoff_height_m"] = r.takeoff_height_m;
     j["mission_end"] = r.mission_end;
   }
@@ -539,12 +595,16 @@ std::string to_text(const PlanReport& r) {
     text += ceiling;
   }
   if (r.mission_items) {
-    char mission[256];
-    std::snprintf(mission, sizeof mission,
-                  "mission: %zu items: takeoff at home (x %.2f, y %.2f, ground %.2f m) to %.2f m above it, %zu more "
-                  "points, then %s\n",
-                  r.mission_items, r.home[0], r.home[1], r.home[2], r.takeoff_height_m, r.path_points - 1,
-                  r.mission_end.c_str());
+    char mission[320];
+    std::snprintf(
+        mission, sizeof mission,
+        "mission: %zu items: takeoff at home (x %.2f, y %.2f, ground %.2f m from the %s, uncertain by %.2f m) "
+        "to %.2f m above it, %zu more points, then %s\n",
+        r.mission_items, r.home[0], r.home[1], r.home[2],
+        r.home_ground == "mesh floor" ? "mesh floor"
+        : r.home_ground == "dtm"      ? "DTM"
+                                      : "DSM",
+        r.home_ground_uncertainty_m, r.takeoff_height_m, r.path_points - 1, r.mission_end.c_str());
     text += mission;
   }
   if (!r.transformation.empty()) text += "heights and coordinates to WGS 84 by: " + r.transformation + "\n";

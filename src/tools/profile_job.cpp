@@ -6,6 +6,7 @@
 #include <filesystem>
 
 #include "core/text.hpp"
+#include "dsmplan/ground.hpp"
 #include "dsmplan/picture.hpp"
 #include "dsmplan/picture_job.hpp"
 #include "dsmplan/plan_job.hpp"
@@ -102,6 +103,13 @@ ProfileReport profile_job(const ProfileJobOptions& options, const Progress& prog
   if (dtm_source) {
     require_memory(options.dtm, "", 4.0 * (d1 - d0) * (e1 - e0));
     dtm = read_window(*dtm_source, d0, e0, d1 - d0, e1 - e0);
+    // The ceiling drawn over a terrain in another datum than the DSM would be drawn where it is not.
+    std::vector<NamedPlace> places;
+    for (size_t i = 0; i < path.size(); ++i)
+      places.push_back({"point " + std::to_string(i + 1), path[i][0], path[i][1]});
+    const auto surface_z = [&](double x, double y) { return double(dsm.height_at(x, y)); };
+    if (const auto problem = terrain_above_surface(GroundGrid(dtm), surface_z, places, "the DSM " + options.dsm))
+      throw InputError(options.dtm, problem->place, problem->problem);
   }
   report(progress, 0.8);
 

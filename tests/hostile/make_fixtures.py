@@ -139,7 +139,7 @@ def raw(values):
     return struct.pack("<%df" % len(values), *values)
 
 
-def vrt(name, width, height, gt, srs="EPSG:25832", source=None, nodata=None, unit=None):
+def vrt(name, width, height, gt, srs="EPSG:25832", source=None, nodata=None, unit=None, offset=None):
     band_open = '  <VRTRasterBand dataType="Float32" band="1"%s>\n' % (
         ' subClass="VRTRawRasterBand"' if source else "")
     text = '<VRTDataset rasterXSize="%d" rasterYSize="%d">\n' % (width, height)
@@ -151,6 +151,8 @@ def vrt(name, width, height, gt, srs="EPSG:25832", source=None, nodata=None, uni
         text += "    <NoDataValue>%s</NoDataValue>\n" % nodata
     if unit is not None:
         text += "    <UnitType>%s</UnitType>\n" % unit
+    if offset is not None:
+        text += "    <Offset>%s</Offset>\n" % offset
     if source:
         text += ('    <SourceFilename relativetoVRT="1">%s</SourceFilename>\n'
                  "    <ImageOffset>0</ImageOffset><PixelOffset>4</PixelOffset>"
@@ -339,6 +341,28 @@ def waypoint_fixtures():
     out("plain.txt", b"an ordinary file: outputs under it cannot be created\n")
 
 
+# ---- data that disagree --------------------------------------------------------------------
+
+def disagreement_fixtures():
+    """Data that would be flown wrong: a terrain 10 m above its DSM (a vertical datum mismatch), a
+    DSM in Web Mercator (lengths 1.59 times the ground's at 51 N), cameras in degrees, in an
+    Earth-centred frame and in Web Mercator."""
+    north_up = (X0, 1, 0, Y0, 0, -1)
+    vrt("dtm_plus10.vrt", W, H, north_up, source="block.bin", offset=10)
+    # 770 km east, 6621 km north in EPSG:3857: 6.92 E, 51.0 N (UTM zone 32).
+    vrt("raster_web_mercator.vrt", W, H, (770000.0, 1, 0, 6621000.0, 0, -1), srs="EPSG:3857", source="block.bin")
+
+    def cameras(name, crs, centres):
+        nadir = [[1, 0, 0], [0, -1, 0], [0, 0, -1]]
+        out(name, json.dumps({"crs": crs, "cameras": [
+            {"image": "view%d.tif" % i, "width": 640, "height": 480, "fx": 800, "fy": 800, "cx": 320, "cy": 240,
+             "rotation": nadir, "center": c} for i, c in enumerate(centres)]}, indent=1).encode())
+
+    cameras("cameras_geographic.json", "EPSG:4326", [[6.9, 51.4, 300], [6.9005, 51.4, 300]])
+    cameras("cameras_geocentric.json", "EPSG:4978", [[3980000, 482000, 4960000], [3980030, 482000, 4960000]])
+    cameras("cameras_web_mercator.json", "EPSG:3857", [[770000, 6621000, 300], [770050, 6621000, 300]])
+
+
 # ---- LAZ ------------------------------------------------------------------------------------
 
 def laz_fixtures():
@@ -371,6 +395,7 @@ def main():
     laz_fixtures()
     xyz_fixtures()
     raster_fixtures()
+    disagreement_fixtures()
     waypoint_fixtures()
     plan_fixtures(os.path.abspath(sys.argv[1]))
     unit_fixtures(os.path.abspath(sys.argv[1]))

@@ -25,6 +25,10 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
+#include <optional>
+#include <string>
+#include <vector>
 
 #include "dsmplan/core.hpp"
 #include "dsmplan/mesh.hpp"
@@ -46,6 +50,13 @@ public:
 
   bool empty() const { return grid_.cells() == 0; }
   const Grid& grid() const { return grid_; }
+  /// The height of the cell under (x, y) as measured: NaN where it was a hole, beyond the raster,
+  /// or over no ground.
+  double measured_at(double x, double y) const;
+  /// Half the range of the ground over the 3 x 3 cells around the one under (x, y): how far its
+  /// height moves when the place is off by a cell (a position fix's error, a cell's size). NaN
+  /// beyond the raster or over no ground.
+  double spread_at(double x, double y) const;
   /// p's z less the ground of the cell below (on a side or corner of cells, the lowest of the
   /// cells it touches); +infinity beyond the raster or over no ground.
   double height_above(const Point3& p) const;
@@ -89,5 +100,44 @@ private:
   template <class F>
   bool any_sample(const Point3& p, const Point3& q, F&& fn) const;
 };
+
+// ---- A terrain that disagrees with its surface ------------------------------------------------
+//
+// A DTM is the ground under the DSM: nowhere above it but by the noise of two surveys. A DTM in
+// another vertical datum than the DSM (or one whose offset was lost) stands above it everywhere
+// by the datums' difference, and every height counted from it (the ceiling, a mission's relative
+// altitudes) puts the drone that much lower than the path that was checked. So such a pair is
+// refused, not flown: at any place the user named (home, a waypoint, the landing) the terrain may
+// stand at most kTerrainAboveSurfaceM above the surface, and over their common extent it may do
+// so on at most kTerrainAboveShare of the cells (water, which a DTM bridges and a DSM does not,
+// and the cells of a coarse DTM on a slope).
+
+/// The most the terrain may stand above the surface at one place, metres.
+constexpr double kTerrainAboveSurfaceM = 1.0;
+/// The largest share of the compared cells where it may stand higher than that.
+constexpr double kTerrainAboveShare = 0.05;
+
+/// A place the user named, where the terrain is compared with the surface.
+struct NamedPlace {
+  std::string name;  ///< e.g. "waypoint 2", "home"
+  double x = 0, y = 0;
+};
+
+/// Where and why a terrain cannot be the ground under a surface.
+struct TerrainProblem {
+  std::string place;    ///< a NamedPlace's name, or empty for the share of the cells
+  std::string problem;  ///< one line, naming `surface_name`
+};
+
+/// Compares `terrain` (its cells that were holes left out) with the surface `surface_z(x, y)`
+/// (metres; NaN where unknown, which is not compared) at `places`, then at the centres of at
+/// most 512 x 512 of the terrain's cells (a lattice, row by row from the north: `surface_z` may
+/// keep the row it read last). `surface_name` names the surface in the problem ("the DSM
+/// dsm.tif"). std::nullopt when the terrain lies below the surface within the limits above.
+/// O(places + 512^2) calls of surface_z.
+std::optional<TerrainProblem> terrain_above_surface(const GroundGrid& terrain,
+                                                    const std::function<double(double, double)>& surface_z,
+                                                    const std::vector<NamedPlace>& places,
+                                                    const std::string& surface_name);
 
 }  // namespace dsmplan

@@ -111,6 +111,11 @@ struct PlanReport {
   /// ground) and the height of the takeoff above it.
   size_t mission_items = 0;
   Point3 home{NAN, NAN, NAN};
+  /// The surface home's ground (home[2]) was taken from, the best given: "dtm", "dsm" or "mesh
+  /// floor" (a lower bound of the mesh); and its uncertainty, GroundGrid::spread_at(): half the
+  /// range of that ground over the 3 x 3 cells around home. The relative altitudes count from it.
+  std::string home_ground;
+  double home_ground_uncertainty_m = NAN;
   double takeoff_height_m = NAN;
   std::string mission_end;  ///< rtl, land or none
 };
