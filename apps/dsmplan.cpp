@@ -170,6 +170,9 @@ int main(int argc, char** argv) {
   stereo_cmd->add_option("--crs", satellite.crs,
                          "With satellite images: output CRS (default: WGS 84 / UTM of the scene; heights above the "
                          "WGS 84 ellipsoid)");
+  stereo_cmd->add_flag("--allow-approximate-vertical", satellite.allow_approximate_vertical,
+                       "With satellite images and a compound --crs whose geoid grid PROJ lacks: heights through "
+                       "EGM96 (about 1 m off; --stats' transformation says so) instead of refusing");
   stereo_cmd->add_option("-o,--output", stereo.output, "Output GeoTIFF (Float32, nodata where nothing matched)")
       ->required();
   stereo_cmd->add_option("--res", stereo.resolution, "Cell size (CRS units: m)")->required();
@@ -474,6 +477,8 @@ int main(int argc, char** argv) {
       if (!stereo.cameras.empty()) {
         if (!satellite.crs.empty())
           throw ArgumentError("--crs", "belongs to satellite images; CAMERAS.json states its CRS");
+        if (satellite.allow_approximate_vertical)
+          throw ArgumentError("--allow-approximate-vertical", "belongs to satellite images with a compound --crs");
         refuse_overwrites({{"--cameras", stereo.cameras}}, {{"-o", stereo.output}, {"--stats", stereo_stats}});
         if (!stereo_stats.empty()) check_writable(stereo_stats);
         const StereoReport report = stereo_job(stereo, terminal_progress(quiet));

@@ -8,6 +8,7 @@
 #include <gdal_utils.h>
 #include <gtest/gtest.h>
 #include <ogr_spatialref.h>
+#include <proj.h>
 
 #include <algorithm>
 #include <cmath>
@@ -438,6 +439,61 @@ std::string unit_raster(const testkit::TempDir& dir, const std::string& name, co
   EXPECT_EQ(GDALRasterIO(band, GF_Write, 0, 0, 20, 20, heights.data(), 20, 20, GDT_Float32, 0, 0), CE_None);
   GDALClose(dataset);
   return path;
+}
+
+// PROJ's own scale factors of the projected CRS `code` at longitude, latitude (degrees): the
+// larger departure of the meridional and parallel scales from 1 (proj_factors, analytical).
+double proj_scale_departure(const char* code, double lon, double lat) {
+  PJ_CONTEXT* ctx = proj_context_create();
+  PJ* crs = proj_create(ctx, code);
+  const PJ_FACTORS f = proj_factors(crs, proj_coord(proj_torad(lon), proj_torad(lat), 0, 0));
+  EXPECT_EQ(proj_errno(crs), 0) << code;
+  proj_destroy(crs);
+  proj_context_destroy(ctx);
+  return std::max(std::abs(f.meridional_scale - 1), std::abs(f.parallel_scale - 1));
+}
+
+// A projected CRS whose metres are not the ground's is refused with the UTM suggestion (a
+// safety distance in its units must be one on the ground); PROJ's proj_factors is the oracle
+// of the scale, at the data's centre. UTM inside its zone (0.9996 to 1.001) passes; so do the
+// national grids; Web Mercator at 51 N (1.59) and UTM 15 degrees outside its zone do not.
+TEST(Units, AProjectedCrsThatStretchesLengthsIsRefused) {
+  testkit::TempDir dir;
+  struct Case {
+    const char* crs;
+    double lon, lat;
+    const char* utm;  // the suggestion
+  };
+  const Case cases[] = {
+      {"EPSG:25832", 7.0, 51.4, "EPSG:32632"},   // NRW, UTM 32N: 0.9996 + a little
+      {"EPSG:32632", 9.0, 51.4, "EPSG:32632"},   // on the central meridian: 0.9996
+      {"EPSG:32632", 11.9, 48.0, "EPSG:32632"},  // at the zone's edge: about 1.0004
+      {"EPSG:28992", 4.37, 52.0, "EPSG:32631"},  // RD New (Delft): 0.99991
+      {"EPSG:2154", 2.3, 48.9, "EPSG:32631"},    // Lambert 93 (Paris): about 0.9994
+      {"EPSG:3857", 7.0, 51.0, "EPSG:32632"},    // Web Mercator at 51 N: 1.59
+      {"EPSG:3857", 7.0, 4.0, "EPSG:32632"},     // ... near the equator: 1.0024, passes
+      {"EPSG:32632", 24.0, 60.0, "EPSG:32635"},  // UTM 32N 15 degrees east of its meridian: 1.017
+      {"EPSG:32631", 9.0, 30.0, "EPSG:32632"},   // UTM 31N 6 degrees east: about 1.0051
+  };
+  for (const Case& c : cases) {
+    SCOPED_TRACE(std::string(c.crs) + " at " + std::to_string(c.lon) + ", " + std::to_string(c.lat));
+    const double truth = proj_scale_departure(c.crs, c.lon, c.lat);
+    const auto [x, y] = from_lonlat(c.crs, c.lon, c.lat);
+    Crs crs;
+    crs.definition = c.crs;
+    resolve_crs(crs);
+    const std::string problem = metric_problem(crs, "dsm.tif", x, y);
+    EXPECT_EQ(!problem.empty(), truth > kMaxScaleDeparture) << "PROJ: " << truth << "; " << problem;
+    if (!problem.empty()) {
+      char factor[32];
+      std::snprintf(factor, sizeof factor, "scale factor of %.4g", 1 + truth);
+      for (const std::string& phrase :
+           {std::string(factor), std::string("UTM zone"), "gdalwarp -t_srs " + std::string(c.utm)})
+        EXPECT_NE(problem.find(phrase), std::string::npos) << phrase << " not in: " << problem;
+    }
+    // Units only (as every raster is read): not refused for its scale.
+    EXPECT_EQ(metric_problem(crs, "dsm.tif", x, y, /*units_only=*/true), "");
+  }
 }
 
 // The one-line InputError of `run`, or "" when it did not throw one.

@@ -10,6 +10,7 @@
 // declared height range is moved off the scene with the same projections).
 #include <gdal_priv.h>
 #include <gtest/gtest.h>
+#include <ogr_spatialref.h>
 
 #include <Eigen/Dense>
 #include <algorithm>
@@ -507,4 +508,68 @@ TEST(SatelliteStereo, VerticalCrs4979MeansTheDatumsEllipsoidalHeights) {
               std::string::npos)
         << error.what();
   }
+}
+
+// dsmplan reads what it writes: the ellipsoidal heights its metadata states are known as such
+// (no --vertical-crs needed), and a compound --crs whose geoid grid PROJ lacks is refused, naming
+// the grid, or with --allow-approximate-vertical goes through EGM96: the heights then differ
+// from the ellipsoidal DSM's by EGM96's geoid height there, as GDAL computes it.
+TEST(SatelliteStereo, HeightsAreEllipsoidalAsWrittenOrThroughAGeoidGridPROJHas) {
+  const Made& pre = made(true);
+  EXPECT_EQ(pre.dsm.crs.epsg, 32637);
+  EXPECT_EQ(pre.dsm.crs.vertical_name, "WGS 84 ellipsoidal height");
+  const dsmplan::Wgs84Transform to_ellipsoid(pre.dsm.crs, dsmplan::HeightReference::Ellipsoid);
+  EXPECT_FALSE(to_ellipsoid.approximate_heights());
+  const double x = pre.dsm.x0 + pre.dsm.width * pre.dsm.cell_x / 2,
+               y = pre.dsm.y0 - pre.dsm.height * pre.dsm.cell_y / 2;
+  const dsmplan::Point3 g = to_ellipsoid.to_wgs84({x, y, 700});
+  EXPECT_NEAR(g[2], 700, 1e-6);
+  // EGM96's geoid height there, by GDAL: WGS 84 3D to WGS 84 + EGM96 height.
+  OGRSpatialReference ellipsoid, egm96;
+  ellipsoid.importFromEPSG(4979);
+  egm96.SetFromUserInput("EPSG:4326+5773");
+  ellipsoid.SetAxisMappingStrategy(OAMS_TRADITIONAL_GIS_ORDER);
+  egm96.SetAxisMappingStrategy(OAMS_TRADITIONAL_GIS_ORDER);
+  std::unique_ptr<OGRCoordinateTransformation> geoid(OGRCreateCoordinateTransformation(&ellipsoid, &egm96));
+  ASSERT_TRUE(geoid);
+  double lon = g[0], lat = g[1], h = 700;
+  ASSERT_TRUE(geoid->Transform(1, &lon, &lat, &h));
+  const double n = 700 - h;
+  EXPECT_GT(n, 25);  // Kahramanmaraş: about 33 m
+  const dsmplan::Wgs84Transform to_msl(pre.dsm.crs, dsmplan::HeightReference::MeanSeaLevel);
+  EXPECT_NEAR(to_msl.to_wgs84({x, y, 700})[2], 700 - n, 1e-3);
+
+  testkit::TempDir dir;
+  const std::string a = data("pre_event_img1.tif"), b = data("pre_event_img2.tif");
+  const std::vector<std::string> egm2008{
+      "stereo", a, b, "--res", "1", "--bounds", bounds_text(kTestBounds), "--crs", "EPSG:32637+3855", "-q"};
+  auto with = [&](std::vector<std::string> extra) {
+    std::vector<std::string> args = egm2008;
+    args.insert(args.end(), extra.begin(), extra.end());
+    return testkit::run_cli(args);
+  };
+  const auto refused = with({"-o", dir.path("refused.tif")});
+  EXPECT_NE(refused.exit_code, 0);
+  EXPECT_NE(refused.err.find("us_nga_egm08_25.tif"), std::string::npos) << refused.err;
+  EXPECT_NE(refused.err.find("--allow-approximate-vertical"), std::string::npos) << refused.err;
+  EXPECT_EQ(std::count(refused.err.begin(), refused.err.end(), '\n'), 1) << refused.err;
+  EXPECT_FALSE(fs::exists(dir.path("refused.tif")));
+
+  const auto made_egm =
+      with({"-o", dir.path("egm.tif"), "--allow-approximate-vertical", "--stats", dir.path("egm.json")});
+  ASSERT_EQ(made_egm.exit_code, 0) << made_egm.err;
+  const std::string transformation =
+      nlohmann::json::parse(testkit::read_file(dir.path("egm.json")))["transformation"].get<std::string>();
+  EXPECT_NE(transformation.find("EGM96"), std::string::npos) << transformation;
+  EXPECT_NE(transformation.find("us_nga_egm08_25.tif"), std::string::npos) << transformation;
+  const Grid egm = dsmplan::read_raster(dir.path("egm.tif"));
+  ASSERT_EQ(egm.width, pre.dsm.width);
+  ASSERT_EQ(egm.height, pre.dsm.height);
+  std::vector<double> drop;
+  for (size_t i = 0; i < egm.z.size(); ++i)
+    if (!std::isnan(egm.z[i]) && !std::isnan(pre.dsm.z[i])) drop.push_back(double(pre.dsm.z[i]) - egm.z[i]);
+  ASSERT_GT(drop.size(), egm.z.size() / 2);
+  std::nth_element(drop.begin(), drop.begin() + drop.size() / 2, drop.end());
+  // The geoid varies by centimetres over 200 m; float32 heights of 600-750 m keep 0.1 mm.
+  EXPECT_NEAR(drop[drop.size() / 2], n, 0.05);
 }

@@ -17,6 +17,7 @@
 #include <mutex>
 #include <sstream>
 #include <string>
+#include <vector>
 
 #include "core/atomic_file.hpp"
 #include "core/text.hpp"
@@ -224,7 +225,7 @@ std::string metric_name(const std::string& path, const std::string& extension) {
   return stem + "_m" + extension;
 }
 
-enum class DataKind { Raster, Points, Mesh };
+enum class DataKind { Raster, Points, Mesh, Cameras };
 
 DataKind kind_of(const std::string& path) {
   std::string extension = std::filesystem::path(path).extension().string();
@@ -232,6 +233,7 @@ DataKind kind_of(const std::string& path) {
   if (extension == ".las" || extension == ".laz" || extension == ".xyz" || extension == ".txt" || extension == ".csv")
     return DataKind::Points;
   if (extension == ".ply" || extension == ".obj" || extension == ".off" || extension == ".glb") return DataKind::Mesh;
+  if (extension == ".json") return DataKind::Cameras;  // CAMERAS.json of `dsmplan stereo --cameras`
   return DataKind::Raster;
 }
 
@@ -257,6 +259,52 @@ int metre_vertical_crs(const std::string& vertical_name) {
   proj_get_crs_list_parameters_destroy(params);
   proj_context_destroy(ctx);
   return code;
+}
+
+// How far lengths in the projected CRS `text` depart from lengths on the ground at (x, y): the
+// larger of |h - 1| and |k - 1|, the meridional and parallel scale factors, as finite
+// differences of the CRS's own conversion (its projection, geographic degrees to x, y) over
+// 1e-5 degrees, against the arcs of its ellipsoid (meridian M dphi, parallel N cos(phi) dlambda).
+// PROJ's proj_factors() computes the same but would build an operation from the CRS each time
+// (10-20 ms); the conversion alone costs well under a millisecond. 0 where there is no
+// projection to measure (a local engineering CRS) or PROJ cannot invert it there.
+double scale_departure(const std::string& text, double x, double y) {
+  PJ_CONTEXT* ctx = proj_context_create();
+  proj_log_level(ctx, PJ_LOG_NONE);
+  std::vector<PJ*> made;  // destroyed at the end, in reverse
+  const auto keep = [&](PJ* p) { return p ? made.push_back(p), p : nullptr; };
+  double departure = 0;
+  PJ* crs = keep(proj_create(ctx, text.c_str()));
+  if (crs && proj_get_type(crs) == PJ_TYPE_COMPOUND_CRS) crs = keep(proj_crs_get_sub_crs(ctx, crs, 0));
+  PJ* conversion =
+      crs && proj_get_type(crs) == PJ_TYPE_PROJECTED_CRS ? keep(proj_crs_get_coordoperation(ctx, crs)) : nullptr;
+  PJ* lonlat_first = conversion ? keep(proj_normalize_for_visualization(ctx, conversion)) : nullptr;
+  PJ* ellipsoid = crs ? keep(proj_get_ellipsoid(ctx, crs)) : nullptr;
+  double a = 0, inverse_flattening = 0;
+  if (lonlat_first && ellipsoid &&
+      proj_ellipsoid_get_parameters(ctx, ellipsoid, &a, nullptr, nullptr, &inverse_flattening) && a > 0) {
+    const PJ_COORD at = proj_trans(lonlat_first, PJ_INV, proj_coord(x, y, 0, 0));
+    const double lon = at.xy.x, lat = at.xy.y, step = 1e-5;
+    const PJ_COORD p = proj_trans(lonlat_first, PJ_FWD, proj_coord(lon, lat, 0, 0));
+    const PJ_COORD north = proj_trans(lonlat_first, PJ_FWD, proj_coord(lon, lat + step, 0, 0));
+    const PJ_COORD east = proj_trans(lonlat_first, PJ_FWD, proj_coord(lon + step, lat, 0, 0));
+    const double f = inverse_flattening > 0 ? 1 / inverse_flattening : 0, e2 = f * (2 - f);
+    const double phi = proj_torad(lat), w = 1 - e2 * std::sin(phi) * std::sin(phi);
+    const double m = a * (1 - e2) / (w * std::sqrt(w)), n = a / std::sqrt(w);
+    const double h = std::hypot(north.xy.x - p.xy.x, north.xy.y - p.xy.y) / (m * proj_torad(step));
+    const double k = std::hypot(east.xy.x - p.xy.x, east.xy.y - p.xy.y) / (n * std::cos(phi) * proj_torad(step));
+    if (std::isfinite(h) && std::isfinite(k) && std::abs(lat) < 89.9)
+      departure = std::max(std::abs(h - 1), std::abs(k - 1));
+  }
+  for (auto it = made.rbegin(); it != made.rend(); ++it) proj_destroy(*it);
+  proj_context_destroy(ctx);
+  return departure;
+}
+
+bool is_geocentric(const Crs& crs) {
+  OGRSpatialReference srs;
+  const std::string& text = crs.wkt.empty() ? crs.definition : crs.wkt;
+  return !text.empty() && srs.SetFromUserInput(text.c_str()) == OGRERR_NONE && srs.IsGeocentric();
 }
 
 }  // namespace
@@ -305,9 +353,14 @@ std::string metric_problem(const Crs& given, const std::string& path, double cen
                            bool units_only) {
   Crs crs = given;
   resolve_units(crs);
+  const bool geocentric = !units_only && is_geocentric(crs);
   const bool horizontal_wrong = crs.geographic ? !units_only : crs.linear_unit_m > 0 && !is_metre(crs.linear_unit_m);
   const bool vertical_wrong = !crs.vertical_unit.empty() && !is_metre(crs.vertical_unit_m);
-  if (!horizontal_wrong && !vertical_wrong) return "";
+  // A projected CRS in metres whose metres are not the ground's (Web Mercator: 1.6 at 51 N).
+  const double stretch = !units_only && !horizontal_wrong && !geocentric && !crs.geographic
+                             ? scale_departure(crs.wkt.empty() ? crs.definition : crs.wkt, centre_x, centre_y)
+                             : 0;
+  if (!geocentric && !horizontal_wrong && !vertical_wrong && !(stretch > kMaxScaleDeparture)) return "";
 
   const std::string name = crs.name.empty() ? std::string("unnamed") : crs.name;
   std::string utm = utm_epsg_at(crs, centre_x, centre_y);
@@ -322,12 +375,28 @@ std::string metric_problem(const Crs& given, const std::string& path, double cen
                " -f filters.reprojection --filters.reprojection.out_srs=" + target;
       case DataKind::Mesh:
         return "make the mesh again from its DSM reprojected with gdalwarp -t_srs " + target;
+      case DataKind::Cameras:
+        return "state the cameras in " + target + " (their centres and rotations transformed, e.g. by cs2cs)";
       case DataKind::Raster:
         break;
     }
     return "gdalwarp -t_srs " + target + " " + path + " " + metric_name(path, ".tif");
   };
 
+  if (geocentric)
+    return "CRS '" + name +
+           "' is geocentric (x, y, z from the Earth's centre): reproject to a projected CRS in "
+           "metres first, e.g. " +
+           reproject(utm);
+  if (stretch > kMaxScaleDeparture) {
+    char factor[96];
+    std::snprintf(factor, sizeof factor, "%.4g at the data's centre: 2 m in it are %.2f m on the ground", 1 + stretch,
+                  2 / (1 + stretch));
+    return "CRS '" + name + "' stretches lengths by a scale factor of " + factor + " (at most " +
+           format_number(100 * kMaxScaleDeparture) +
+           " % from 1 keeps --safety a ground distance); reproject to the UTM zone of the data first, e.g. " +
+           reproject(utm);
+  }
   if (horizontal_wrong && crs.geographic)
     return "CRS '" + name + "' is geographic (degrees); reproject to a projected CRS in metres first, e.g. " +
            reproject(utm);
@@ -414,7 +483,18 @@ public:
       frame_.crs.definition = options.assign_crs;
       resolve_crs(frame_.crs);
     } else if (srs && !srs->IsEmpty()) {
-      describe(*srs, frame_.crs);
+      OGRSpatialReference stated(*srs);
+      const char* heights = dataset_->GetMetadataItem(kEllipsoidalHeightsKey);
+      const std::string said = heights ? heights : "";
+      const bool ellipsoidal = (said.rfind("EPSG:4979", 0) == 0 || said.find(" ellipsoid") != std::string::npos) &&
+                               stated.IsProjected() && !stated.IsCompound() && stated.GetAxesCount() == 2;
+      if (ellipsoidal) stated.PromoteTo3D(nullptr);
+      describe(stated, frame_.crs);
+      if (ellipsoidal) {  // the promoted CRS has no EPSG code of its own: the horizontal one's
+        Crs flat;
+        describe(*srs, flat);
+        frame_.crs.epsg = flat.epsg;
+      }
     } else if (!options.allow_no_crs) {
       throw InputError(path, "", "raster has no CRS; assign one with --crs (e.g. --crs EPSG:25832)");
     }

@@ -103,8 +103,10 @@ Wgs84Transform::Wgs84Transform(const Crs& crs, HeightReference target, const Ver
     if (!options.allow_approximate_vertical)
       throw ArgumentError("vertical_crs",
                           "the data's vertical reference is unknown, so its heights cannot be converted; name it "
-                          "(e.g. --vertical-crs EPSG:7837 for DHHN2016) or pass --allow-approximate-vertical to take "
-                          "them as EGM96 heights (mean sea level, about a metre off)");
+                          "(e.g. --vertical-crs EPSG:7837 for DHHN2016, EPSG:4979 for heights above the WGS 84 "
+                          "ellipsoid as GNSS and satellite heights are) or, for heights above mean sea level only, "
+                          "pass --allow-approximate-vertical to take them as EGM96 heights (about a metre off; "
+                          "ellipsoidal heights would be off by the geoid's height, tens of metres)");
     why_egm96 = "the data's vertical reference is unknown";
   }
   Pj destination(proj_create(ctx, target_code(target)));
@@ -125,20 +127,50 @@ Wgs84Transform::Wgs84Transform(const Crs& crs, HeightReference target, const Ver
     if (!best) throw ArgumentError("crs", "PROJ has no transformation from the data's CRS to WGS 84" + last_error(ctx));
     return best;
   };
+  // The grids the best operation would use were every grid installed, those PROJ lacks: what
+  // to install instead of a ballpark (e.g. "nl_nsgi_nlgeo2018.tif" for NAP, us_nga_egm08_25.tif
+  // for EGM2008).
+  const auto missing_grids = [&](PJ* from) {
+    PJ_OPERATION_FACTORY_CONTEXT* factory = proj_create_operation_factory_context(ctx, nullptr);
+    proj_operation_factory_context_set_grid_availability_use(ctx, factory, PROJ_GRID_AVAILABILITY_IGNORED);
+    proj_operation_factory_context_set_spatial_criterion(ctx, factory, PROJ_SPATIAL_CRITERION_PARTIAL_INTERSECTION);
+    if (std::isfinite(area[0]))
+      proj_operation_factory_context_set_area_of_interest(ctx, factory, area[0], area[1], area[2], area[3]);
+    PJ_OBJ_LIST* list = proj_create_operations(ctx, from, destination.get(), factory);
+    proj_operation_factory_context_destroy(factory);
+    std::string names;
+    Pj ideal(list && proj_list_get_count(list) > 0 ? proj_list_get(ctx, list, 0) : nullptr);
+    if (list) proj_list_destroy(list);
+    const int grids = ideal ? proj_coordoperation_get_grid_used_count(ctx, ideal.get()) : 0;
+    for (int i = 0; i < grids; ++i) {
+      const char *short_name = nullptr, *url = nullptr;
+      int available = 0;
+      if (proj_coordoperation_get_grid_used(ctx, ideal.get(), i, &short_name, nullptr, nullptr, &url, nullptr, nullptr,
+                                            &available) &&
+          !available && short_name)
+        names +=
+            (names.empty() ? "" : ", ") + std::string(short_name) + (url && *url ? " (" + std::string(url) + ")" : "");
+    }
+    return names;
+  };
   Pj best;
   if (why_egm96.empty()) {
     best = best_operation(source.get());
     if (proj_coordoperation_has_ballpark_transformation(ctx, best.get())) {
       const std::string name = proj_get_name(best.get()) ? proj_get_name(best.get()) : "unnamed";
+      const std::string grids = missing_grids(source.get());
       if (!options.allow_approximate_vertical)
         throw ArgumentError("vertical_crs",
                             "PROJ has only an approximate (ballpark) height transformation here ('" + name +
-                                "': heights copied across datums, off by the geoid's height, tens of metres); install "
-                                "the datum's geoid grid or pass --allow-approximate-vertical to take the heights as "
-                                "EGM96 heights (mean sea level, about a metre off)");
+                                "': heights copied across datums, off by the geoid's height, tens of metres); " +
+                                (grids.empty() ? "install the datum's geoid grid"
+                                               : "install PROJ's grid " + grids + " into its data folder") +
+                                " or pass --allow-approximate-vertical to take the heights as EGM96 heights (mean "
+                                "sea level, about a metre off)");
       Pj vertical(proj_crs_get_sub_crs(ctx, source.get(), 1));
       const char* datum = vertical ? proj_get_name(vertical.get()) : nullptr;
-      why_egm96 = std::string("PROJ has no grid from ") + (datum ? datum : "the data's height datum") + " here";
+      why_egm96 = std::string("PROJ has no grid from ") + (datum ? datum : "the data's height datum") + " here" +
+                  (grids.empty() ? "" : " (not installed: " + grids + ")");
     }
   }
   if (!why_egm96.empty()) {
@@ -188,6 +220,15 @@ Point3 Wgs84Transform::apply(const Point3& p, bool forward) const {
       throw ArgumentError("crs", "PROJ cannot transform the point (" + std::to_string(p[0]) + ", " +
                                      std::to_string(p[1]) + ", " + std::to_string(p[2]) + ")");
   return r;
+}
+
+void Wgs84Transform::from_wgs84(std::vector<Point3>& points) const {
+  if (points.empty()) return;
+  constexpr size_t stride = sizeof(Point3);
+  proj_trans_generic(state_->operation.get(), PJ_INV, &points[0][0], stride, points.size(), &points[0][1], stride,
+                     points.size(), &points[0][2], stride, points.size(), nullptr, 0, 0);
+  for (Point3& p : points)
+    if (!std::isfinite(p[0]) || !std::isfinite(p[1]) || !std::isfinite(p[2])) p = {NAN, NAN, NAN};
 }
 
 }  // namespace dsmplan

@@ -23,14 +23,15 @@
 
 #include "core/atomic_file.hpp"
 #include "dsmplan/median_fusion.hpp"
+#include "dsmplan/raster_io.hpp"
 #include "dsmplan/rpc.hpp"
 #include "dsmplan/rpc_io.hpp"
 #include "dsmplan/rpc_stereo.hpp"
 #include "dsmplan/stereo_frames.hpp"
+#include "dsmplan/wgs84.hpp"
 
 namespace dsmplan {
 
-const char* const kHeightsKey = "VERTICAL_CRS";
 const char* const kHeightsValue = "EPSG:4979 (heights above the WGS 84 ellipsoid)";
 
 namespace {
@@ -134,40 +135,6 @@ Box right_window(const SatImage& left, const Box& lw, const SatImage& right, dou
   return clamp_box(c0 - pad, r0 - pad, c1 + pad, r1 + pad, right.width, right.height);
 }
 
-// Ground (longitude, latitude, ellipsoidal height on WGS 84) to the output CRS, through PROJ.
-class GroundTransform {
-public:
-  explicit GroundTransform(const OGRSpatialReference& target) {
-    source_.importFromEPSG(4979);
-    source_.SetAxisMappingStrategy(OAMS_TRADITIONAL_GIS_ORDER);
-    target_ = target;
-    target_.SetAxisMappingStrategy(OAMS_TRADITIONAL_GIS_ORDER);
-    CPLPushErrorHandler(CPLQuietErrorHandler);
-    transform_.reset(OGRCreateCoordinateTransformation(&source_, &target_));
-    CPLPopErrorHandler();
-    if (!transform_) throw ArgumentError("--crs", "PROJ has no transformation from WGS 84 to it");
-  }
-  // In place: x = longitude, y = latitude, z = height on entry; false entries failed.
-  std::vector<int> apply(std::vector<double>& x, std::vector<double>& y, std::vector<double>& z) const {
-    std::vector<int> ok(x.size(), 0);
-    if (!x.empty()) {
-      CPLPushErrorHandler(CPLQuietErrorHandler);
-      transform_->Transform(x.size(), x.data(), y.data(), z.data(), ok.data());
-      CPLPopErrorHandler();
-    }
-    return ok;
-  }
-  Vec3 point(const GeoPoint& g) const {
-    std::vector<double> x{g.lon}, y{g.lat}, z{g.height};
-    const auto ok = apply(x, y, z);
-    return ok[0] ? Vec3{x[0], y[0], z[0]} : Vec3{NAN, NAN, NAN};
-  }
-
-private:
-  OGRSpatialReference source_, target_;
-  std::unique_ptr<OGRCoordinateTransformation> transform_;
-};
-
 // The output CRS: --crs or WGS 84 / UTM of the point, made 3D when it is 2D.
 OGRSpatialReference output_srs(const std::string& text, const GeoPoint& centre, std::string& definition) {
   definition = text;
@@ -225,11 +192,36 @@ SatelliteStereoReport satellite_stereo_job(const SatelliteStereoOptions& options
   const OGRSpatialReference srs = output_srs(options.crs, centre, definition);
   // The file states the CRS as given (GDAL's GeoTIFF writer keeps no 3D projected CRS in the
   // GeoKeys: it would go to a side-car .aux.xml); the ellipsoidal heights are stated in the
-  // file's metadata (kHeightsKey) for a 2D CRS.
+  // file's metadata (kEllipsoidalHeightsKey) for a 2D CRS.
   out.crs.definition = definition;
   resolve_crs(out.crs);
   const bool ellipsoidal = !srs.IsCompound();
-  const GroundTransform to_output(srs);
+  // The points (longitude, latitude, height on the WGS 84 ellipsoid) go to the CRS as made 3D
+  // (ellipsoidal heights of its datum), or to the compound CRS's heights through its geoid grid:
+  // where PROJ lacks that grid, refused unless --allow-approximate-vertical (then through EGM96,
+  // and the report says so), never ellipsoidal heights labelled as the datum's.
+  Crs heights_crs;
+  {
+    char* wkt = nullptr;
+    const char* wkt_options[] = {"FORMAT=WKT2_2019", "MULTILINE=NO", nullptr};
+    if (srs.exportToWkt(&wkt, wkt_options) == OGRERR_NONE && wkt) heights_crs.definition = wkt;
+    CPLFree(wkt);
+  }
+  const std::array<double, 4> area{centre.lon - 0.5, centre.lat - 0.5, centre.lon + 0.5, centre.lat + 0.5};
+  const Wgs84Transform to_output = [&] {
+    try {
+      return Wgs84Transform(heights_crs, HeightReference::Ellipsoid, {"", options.allow_approximate_vertical}, area);
+    } catch (const ArgumentError& error) {
+      throw ArgumentError("--crs", "'" + definition + "': " + error.problem());
+    }
+  }();
+  out.transformation = to_output.description();
+  // One point to the output CRS; NaN where PROJ cannot take it.
+  const auto to_ground = [&](const GeoPoint& g) {
+    std::vector<Point3> one{{g.lon, g.lat, g.height}};
+    to_output.from_wgs84(one);
+    return Vec3{one[0][0], one[0][1], one[0][2]};
+  };
 
   // Pairs whose footprints overlap, and the scene's heights in each (steps 2 and 3).
   std::vector<PairWork> pairs;
@@ -343,7 +335,7 @@ SatelliteStereoReport satellite_stereo_job(const SatelliteStereoOptions& options
     for (const PixelPoint& p : w.lattice)
       for (double h : {w.report.height_min, w.report.height_max}) {
         try {
-          const Vec3 X = to_output.point(L.camera.localize(p, h));
+          const Vec3 X = to_ground(L.camera.localize(p, h));
           if (!std::isfinite(X[0])) continue;
           footprint = {std::min(footprint[0], X[0]), std::min(footprint[1], X[1]), std::max(footprint[2], X[0]),
                        std::max(footprint[3], X[1])};
@@ -389,7 +381,7 @@ SatelliteStereoReport satellite_stereo_job(const SatelliteStereoOptions& options
           const PixelPoint q = R.camera.project(L.camera.localize(p, mid));
           if (q.col < 0 || q.row < 0 || q.col > R.width || q.row > R.height) continue;
           for (double h : {w.report.height_min, w.report.height_max}) {
-            const Vec3 X = to_output.point(L.camera.localize(p, h));
+            const Vec3 X = to_ground(L.camera.localize(p, h));
             inside = inside || (X[0] > grid.x0 - reach_m && X[0] < grid.x1() + reach_m && X[1] > grid.y1() - reach_m &&
                                 X[1] < grid.y0 + reach_m);
           }
@@ -453,14 +445,12 @@ SatelliteStereoReport satellite_stereo_job(const SatelliteStereoOptions& options
     pr.seconds_match += result.seconds_match;
     pr.seconds_triangulate += result.seconds_triangulate;
     t0 = std::chrono::steady_clock::now();
-    std::vector<double> x, y, z;
-    x.reserve(result.points.size()), y.reserve(result.points.size()), z.reserve(result.points.size());
-    for (const RpcStereoPoint& p : result.points)
-      x.push_back(p.ground.lon), y.push_back(p.ground.lat), z.push_back(p.ground.height);
-    const std::vector<int> ok = to_output.apply(x, y, z);
     points.clear();
-    for (std::size_t i = 0; i < x.size(); ++i)
-      if (ok[i]) points.push_back({x[i], y[i], z[i]});
+    points.reserve(result.points.size());
+    for (const RpcStereoPoint& p : result.points) points.push_back({p.ground.lon, p.ground.lat, p.ground.height});
+    to_output.from_wgs84(points);
+    points.erase(std::remove_if(points.begin(), points.end(), [](const Vec3& q) { return std::isnan(q[0]); }),
+                 points.end());
     out.points += points.size();
     out.seconds_transform += seconds_since(t0);
     t0 = std::chrono::steady_clock::now();
@@ -501,8 +491,9 @@ SatelliteStereoReport satellite_stereo_job(const SatelliteStereoOptions& options
       OGRSpatialReference geographic;
       geographic.CopyGeogCSFrom(&srs);
       const std::string datum = geographic.GetName() ? geographic.GetName() : "";
-      written->SetMetadataItem(
-          kHeightsKey, datum == "WGS 84" ? kHeightsValue : ("heights above the " + datum + " ellipsoid").c_str());
+      written->SetMetadataItem(kEllipsoidalHeightsKey, datum == "WGS 84"
+                                                           ? kHeightsValue
+                                                           : ("heights above the " + datum + " ellipsoid").c_str());
       written.reset();
       if (CPLGetLastErrorType() >= CE_Failure)
         throw OutputError(options.output, std::string("cannot state the heights: ") + CPLGetLastErrorMsg());
@@ -540,6 +531,7 @@ Json to_json(const SatelliteStereoReport& r) {
   return {{"images", r.images},
           {"output", r.output},
           {"crs", crs},
+          {"transformation", r.transformation},
           {"pairs", pairs},
           {"bounds", {r.bounds[0], r.bounds[1], r.bounds[2], r.bounds[3]}},
           {"width", r.width},

@@ -210,10 +210,11 @@ StereoReport stereo_job(const StereoJobOptions& options, const Progress& progres
   try {
     resolve_crs(crs);
   } catch (const ArgumentError& error) {
-    throw InputError(options.cameras, "crs", error.what());
+    throw InputError(options.cameras, "crs", error.problem());
   }
+  // The DSM is made on a grid in this CRS: degrees, a geocentric frame or stretched metres refused as for rasters.
   const std::string problem =
-      metric_problem(crs, options.cameras, file.cameras[0].center[0], file.cameras[0].center[1], /*units_only=*/true);
+      metric_problem(crs, options.cameras, file.cameras[0].center[0], file.cameras[0].center[1]);
   if (!problem.empty()) throw InputError(options.cameras, "crs", problem);
 
   std::vector<NamedFile> images_in;

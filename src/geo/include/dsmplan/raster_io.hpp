@@ -37,6 +37,13 @@ struct ReadRasterOptions {
 /// the band's unit type (GDALGetRasterUnitType) when the CRS has none or it is not metres. O(cells).
 Grid read_raster(const std::string& path, const ReadRasterOptions& options = {}, const Progress& progress = {});
 
+/// The metadata item by which a GeoTIFF with a 2D projected CRS says its heights are above its
+/// datum's ellipsoid: GDAL 3.6 keeps no 3D projected CRS in GeoTIFF keys, so dsmplan's
+/// satellite DSMs state "EPSG:4979 (heights above the WGS 84 ellipsoid)" or "heights above the
+/// <datum> ellipsoid" here, and open_raster() and read_raster() read such a raster's CRS as
+/// made three-dimensional (easting, northing, ellipsoidal height), as dsmplan wrote it.
+constexpr const char* kEllipsoidalHeightsKey = "VERTICAL_CRS";
+
 /// Opens one band of any GDAL raster for reading by windows (GridSource), with the checks of
 /// read_raster() that need no cells (file, band, geotransform, CRS) done here and the per-cell
 /// ones (NaN, infinity) done on each window read. Memory: GDAL's block cache only, whatever the
@@ -63,8 +70,15 @@ void resolve_units(Crs& crs);
 /// of `crs`, zone = floor((longitude + 180) / 6) + 1. Empty when it cannot be transformed.
 std::string utm_epsg_at(const Crs& crs, double x, double y);
 
+/// The most a projected CRS's scale factor may depart from 1 at the data (0.5 %): UTM inside its
+/// zone (0.9996 to 1.001) passes, Web Mercator (1.6 at 51 N) does not.
+constexpr double kMaxScaleDeparture = 0.005;
+
 /// Why dsmplan cannot measure in `crs`: x, y must be metres of a projected CRS, heights metres
-/// (or of unknown unit). Empty when they are; otherwise one line for InputError(path, "", ...)
+/// (or of unknown unit), and unless `units_only`, the CRS neither geocentric nor one whose
+/// scale factor at (centre_x, centre_y) departs from 1 by more than kMaxScaleDeparture (PROJ's
+/// meridional and parallel scales: a safety distance in its metres must be one on the ground).
+/// Empty when they are; otherwise one line for InputError(path, "", ...)
 /// naming the unit and a way out, e.g. "CRS 'NAD83 / Virginia North (ftUS)' has horizontal unit
 /// US survey foot (0.3048006 m): dsmplan measures in metres; reproject first, e.g. gdalwarp
 /// -t_srs EPSG:32618 dsm_ft.tif dsm_m.tif". The example's UTM zone is that of (centre_x,

@@ -54,6 +54,9 @@ public:
   Point3 to_wgs84(const Point3& p) const { return apply(p, true); }
   /// The inverse: longitude, latitude, height to x, y, z in the CRS.
   Point3 from_wgs84(const Point3& p) const { return apply(p, false); }
+  /// from_wgs84() in place for many points at once (proj_trans_generic); a point PROJ cannot
+  /// transform becomes NaN, NaN, NaN instead of throwing.
+  void from_wgs84(std::vector<Point3>& points) const;
   /// PROJ's name of the operation, e.g. "UTM zone 32N to ETRS89 + ...", then "; heights from
   /// <the data's vertical CRS> to <EGM96 height (mean sea level) | WGS 84 ellipsoidal height>"
   /// (PROJ's name omits a vertical step that is the identity); says when heights are approximate

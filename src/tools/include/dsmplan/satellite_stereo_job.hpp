@@ -31,7 +31,9 @@
 // (and `simplify --3dtiles --vertical-crs EPSG:4979`) then converts them (wgs84.hpp).
 // --crs: any projected CRS in metres; a 2D one gets heights above its datum's ellipsoid (the
 // metadata names that datum), a compound one (e.g. EPSG:32637+3855, EGM2008 heights) gets its
-// heights converted by PROJ (the geoid grid must be installed) and states them in its GeoKeys.
+// heights converted by PROJ and states them in its GeoKeys: where PROJ lacks the geoid grid,
+// refused (naming the grid) unless allow_approximate_vertical, never ellipsoidal heights labelled
+// as the datum's.
 //
 // Memory, bounded whatever the scene's size: per tile two windows, the rectified images, SGM's
 // buffer (stereo.hpp) and the tile's points; the fusion's fusion_memory_bytes (beyond it, 8 bytes
@@ -68,6 +70,9 @@ struct SatelliteStereoOptions {
   /// The fusion's memory for points, bytes (8 a point; beyond it sorted runs go to a temporary
   /// file in $TMPDIR or /tmp: MedianFusion, median_fusion.hpp); at least 64 KiB.
   std::size_t fusion_memory_bytes = std::size_t{1} << 30;
+  /// A compound --crs whose geoid grid PROJ lacks: heights through EGM96 instead (about a metre
+  /// off; the report's transformation says so) rather than refused.
+  bool allow_approximate_vertical = false;
 };
 
 struct SatellitePairReport {
@@ -85,7 +90,8 @@ struct SatellitePairReport {
 struct SatelliteStereoReport {
   std::vector<std::string> images;
   std::string output;
-  Crs crs;  ///< the output's, resolved
+  Crs crs;                     ///< the output's, resolved
+  std::string transformation;  ///< PROJ's operation from the RPCs' ground to it (Wgs84Transform::description())
   std::vector<SatellitePairReport> pairs;
   std::array<double, 4> bounds{};
   int width = 0, height = 0;
@@ -99,7 +105,7 @@ struct SatelliteStereoReport {
 
 /// The chain above. Progress: the surveys, then per tile, then the fusion and the writing.
 SatelliteStereoReport satellite_stereo_job(const SatelliteStereoOptions& options, const Progress& progress = {});
-/// Keys: images, output, crs {name, epsg, wkt}, pairs [{images [i, j], overlap, rpc_height_range,
+/// Keys: images, output, crs {name, epsg, wkt}, transformation, pairs [{images [i, j], overlap, rpc_height_range,
 /// height_range, survey_tie_points, tiles, tiles_pointing_corrected, tie_points, tile_pixels,
 /// matched_pixels, points, seconds {read, survey, rectify, pointing, match, triangulate}}], bounds,
 /// width, height, points, points_in_grid, fusion_runs_spilled, completeness, dsm {cells, valid, nodata, holes, z_min,
