@@ -224,7 +224,7 @@ int main(int argc, char** argv) {
 
   SimplifyJobOptions simplify;
   double simplify_resolution = 0;
-  std::string method = "variant2", simplify_resampling = "median", simplify_stats;
+  std::string method = "bounded", simplify_resampling = "median", simplify_stats;
   bool simplify_json = false;
   CLI::App* simplify_cmd = app.add_subcommand(
       "simplify", "Simplify a DSM's mesh: the paper's variant one or two, or the bounded mode (--max-error)");
@@ -233,14 +233,22 @@ int main(int argc, char** argv) {
   std::string simplify_of;
   simplify_cmd->add_option("--of", simplify_of, "Output format, overriding the extension: ply, obj, off or glb");
   CLI::Option* method_option =
-      simplify_cmd->add_option("--method", method, "variant1, variant2 (the paper's) or bounded")
+      simplify_cmd
+          ->add_option("--method", method,
+                       "bounded (certified; by default conservative at --max-error 0.4), or the paper's variant1, "
+                       "variant2 (no error bound)")
           ->capture_default_str();
-  simplify_cmd->add_option("--dz", simplify.paper.dz, "Co-planar tolerance (m, vertical)")->capture_default_str();
-  simplify_cmd->add_option("--dco", simplify.paper.dco, "Co-linear tolerance (m)")->capture_default_str();
+  CLI::Option* dz =
+      simplify_cmd->add_option("--dz", simplify.paper.dz, "Paper's variants: co-planar tolerance (m, vertical)")
+          ->capture_default_str();
+  CLI::Option* dco = simplify_cmd->add_option("--dco", simplify.paper.dco, "Paper's variants: co-linear tolerance (m)")
+                         ->capture_default_str();
   CLI::Option* max_error = simplify_cmd->add_option("--max-error", simplify.bounded.max_error,
                                                     "Bounded mode: certified |mesh - DSM| <= E (m) at every cell");
-  simplify_cmd->add_flag("--conservative", simplify.bounded.conservative,
-                         "Bounded mode: the mesh never below the DSM (0 <= mesh - DSM <= E)");
+  CLI::Option* conservative =
+      simplify_cmd->add_flag("--conservative", simplify.bounded.conservative,
+                             "Bounded mode: the mesh never below the DSM (0 <= mesh - DSM <= E); the default unless "
+                             "--max-error is given alone");
   simplify_cmd->add_flag("--delaunay", simplify.bounded.delaunay,
                          "Bounded mode: one global Delaunay triangulation (single-threaded) instead of tiles");
   simplify_cmd->add_option("--threads", simplify.bounded.threads, "Bounded mode: threads (0: every core)")
@@ -518,14 +526,22 @@ int main(int argc, char** argv) {
       simplify.resampling = parse_resampling(simplify_resampling);
       if (!simplify_of.empty()) simplify.format = parse_mesh_format(simplify_of, "--of");
       simplify.method = parse_simplify_method(method);
+      // Without --method nor --max-error: the bounded mode, conservative, at E = 0.4 m
+      // (SimplifyJobOptions). --max-error E alone keeps its meaning: |mesh - DSM| <= E.
       if (max_error->count()) {
         if (method_option->count() && simplify.method != SimplifyMethod::Bounded) {
           throw ArgumentError("--max-error", "belongs to the bounded mode, not --method " + method);
         }
         simplify.method = SimplifyMethod::Bounded;
-      } else if (simplify.method == SimplifyMethod::Bounded) {
-        throw ArgumentError("--method bounded", "needs --max-error E");
+        simplify.bounded.conservative = conservative->count() > 0;
       }
+      if (simplify.method != SimplifyMethod::Bounded && conservative->count())
+        throw ArgumentError("--conservative", "belongs to the bounded mode, not --method " + method);
+      for (const CLI::Option* paper : {dz, dco})
+        if (simplify.method == SimplifyMethod::Bounded && paper->count())
+          throw ArgumentError(paper->get_name(),
+                              "belongs to the paper's variants (--method variant1|variant2); the "
+                              "bounded mode (the default) is bounded by --max-error");
       const std::string simplify_tileset = simplify.tileset ? tileset_path_for(simplify.output) : "";
       refuse_overwrites({{"INPUT", simplify.input}, {"--dsm", simplify.dsm}},
                         {{"-o", simplify.output}, {"--stats", simplify_stats}, {"--3dtiles", simplify_tileset}});

@@ -760,17 +760,21 @@ TEST(CliBadInput, SimplifyNegativeDzOrNonPositiveMaxError) {
   TempDir out;
   const std::string dsm = testkit::data_path(kSample);
   for (const char* v : {"-0.1", "inf", "nan", "1e300"}) {
-    expect_clean_failure(run_cli({"simplify", dsm, "-o", out.path("o.ply"), "--dz", v}), out, "--dz",
-                         {"from 0 to 1000"});
-    expect_clean_failure(run_cli({"simplify", dsm, "-o", out.path("o.ply"), "--dco", v}), out, "--dco",
-                         {"from 0 to 1000"});
+    expect_clean_failure(run_cli({"simplify", dsm, "-o", out.path("o.ply"), "--method", "variant2", "--dz", v}), out,
+                         "--dz", {"from 0 to 1000"});
+    expect_clean_failure(run_cli({"simplify", dsm, "-o", out.path("o.ply"), "--method", "variant1", "--dco", v}), out,
+                         "--dco", {"from 0 to 1000"});
   }
+  // The paper's tolerances do not tune the bounded mode, the default: said, not ignored.
+  for (const char* flag : {"--dz", "--dco"})
+    expect_clean_failure(run_cli({"simplify", dsm, "-o", out.path("o.ply"), flag, "0.4"}), out, flag,
+                         {"paper's variants", "--max-error"});
   for (const char* e : {"0", "-1", "inf", "nan", "1e-7", "1e5"}) {
     expect_clean_failure(run_cli({"simplify", dsm, "-o", out.path("o.ply"), "--max-error", e}), out, "--max-error",
                          {"from 0.001 to 10000"});
   }
-  expect_clean_failure(run_cli({"simplify", dsm, "-o", out.path("o.ply"), "--conservative"}), out, "--conservative",
-                       {"bounded"});
+  expect_clean_failure(run_cli({"simplify", dsm, "-o", out.path("o.ply"), "--method", "variant2", "--conservative"}),
+                       out, "--conservative", {"bounded"});
 }
 
 TEST(CliBadInput, SimplifyMeshWithoutItsDsm) {
@@ -798,12 +802,13 @@ TEST(CliBadInput, SimplifyMeshThatIsNot25D) {
   for (const Case& c : cases) {
     const std::string path = in.path(c.name);
     testkit::write_file(path, square + c.faces);
-    expect_clean_failure(run_cli({"simplify", path, "--dsm", dsm, "-o", out.path("o.ply")}), out, path,
-                         {c.what, "2.5D"});
+    expect_clean_failure(run_cli({"simplify", path, "--dsm", dsm, "-o", out.path("o.ply"), "--method", "variant2"}),
+                         out, path, {c.what, "2.5D"});
   }
   const std::string twin = in.path("twin.obj");
   testkit::write_file(twin, square + "v 356300.5 5699749.5 130\nf 1 3 2\nf 5 4 3\n");
-  expect_clean_failure(run_cli({"simplify", twin, "--dsm", dsm, "-o", out.path("o.ply")}), out, twin, {"share x,y"});
+  expect_clean_failure(run_cli({"simplify", twin, "--dsm", dsm, "-o", out.path("o.ply"), "--method", "variant2"}), out,
+                       twin, {"share x,y"});
 }
 
 // ==== dsmplan render ========================================================================

@@ -128,7 +128,6 @@ SimplifyReport simplify_job(const SimplifyJobOptions& options, const Progress& p
     check_bounded_options(options.bounded);
   } else {
     check_paper_options(options.paper);
-    if (options.bounded.conservative) throw ArgumentError("--conservative", "needs the bounded mode (--max-error E)");
   }
   check_tileset_request(options.tileset, format, options.output);
   const bool mesh_input = is_mesh_file(options.input);
@@ -138,8 +137,9 @@ SimplifyReport simplify_job(const SimplifyJobOptions& options, const Progress& p
                                      "pass --dsm DSM (with the same --res)");
   }
   if (mesh_input && bounded) {
-    throw ArgumentError("--max-error", "the bounded mode works on the DSM grid: give the DSM (" + options.dsm +
-                                           ") as the input instead of the mesh " + options.input);
+    throw ArgumentError("--method", "the bounded mode (the default) works on the DSM grid: give the DSM (" +
+                                        options.dsm + ") as the input instead of the mesh " + options.input +
+                                        ", or --method variant1|variant2 for the paper's simplification of the mesh");
   }
 
   if (bounded && !mesh_input && !options.resolution) return simplify_streamed(options, format, progress);
