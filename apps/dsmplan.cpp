@@ -487,7 +487,7 @@ int main(int argc, char** argv) {
           throw ArgumentError("--crs", "belongs to satellite images; CAMERAS.json states its CRS");
         if (satellite.allow_approximate_vertical)
           throw ArgumentError("--allow-approximate-vertical", "belongs to satellite images with a compound --crs");
-        refuse_overwrites({{"--cameras", stereo.cameras}}, {{"-o", stereo.output}, {"--stats", stereo_stats}});
+        refuse_overwrites(stereo_job_inputs(stereo), {{"-o", stereo.output}, {"--stats", stereo_stats}});
         if (!stereo_stats.empty()) check_writable(stereo_stats);
         const StereoReport report = stereo_job(stereo, terminal_progress(quiet));
         write_stats(stereo_stats, to_json(report), {stereo.output});
@@ -594,10 +594,11 @@ int main(int argc, char** argv) {
           "--firmware", firmware,
           {{"px4", Firmware::px4}, {"ardupilot", Firmware::ardupilot}, {"generic", Firmware::generic}});
       plan.mission.format.hover_speed = std::isnan(hover_speed) ? plan.mission.format.speed : hover_speed;
-      // The roadmap file is read when it exists and written when not: it may be neither of the others.
+      // The roadmap and index files are read when they exist and written when not: each may be
+      // none of the others.
       refuse_overwrites(
           {{"MESH", plan.mesh}, {"--waypoints", plan.waypoints}, {"--dsm", plan.dsm}, {"--dtm", plan.dtm}},
-          {{"-o", plan.output}, {"--stats", plan_stats}, {"--roadmap", plan.roadmap}});
+          {{"-o", plan.output}, {"--stats", plan_stats}, {"--roadmap", plan.roadmap}, {"--index", plan.index}});
       if (!plan_stats.empty()) check_writable(plan_stats);
       const PlanReport report = plan_job(plan, terminal_progress(quiet));
       write_stats(plan_stats, to_json(report), {plan.output});

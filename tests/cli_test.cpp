@@ -458,6 +458,27 @@ TEST(CliMesh, ThreeDTilesWritesTheTilesetBesideTheGlbOrNothing) {
                               "--allow-approximate-vertical", "--stats", out.path("tileset.json"), "-q"});
   EXPECT_EQ(clash.exit_code, 2) << clash.err;
   EXPECT_NE(clash.err.find("--3dtiles"), std::string::npos) << clash.err;
+  // One tileset.json a folder: a second GLB there does not replace the first one's tileset,
+  // and nothing of it is written; the same GLB made again replaces its own.
+  const std::string first = testkit::read_file(out.path("tileset.json"));
+  const auto second = run_cli(
+      {"mesh", input, "--res", "10", "-o", out.path("t.glb"), "--3dtiles", "--allow-approximate-vertical", "-q"});
+  EXPECT_NE(second.exit_code, 0);
+  EXPECT_EQ(std::count(second.err.begin(), second.err.end(), '\n'), 1) << second.err;
+  EXPECT_NE(second.err.find("places s.glb on the globe, not t.glb"), std::string::npos) << second.err;
+  EXPECT_FALSE(std::filesystem::exists(out.path("t.glb")));
+  EXPECT_EQ(testkit::read_file(out.path("tileset.json")), first);
+  const auto again = run_cli({"simplify", input, "--res", "10", "--max-error", "0.5", "-o", out.path("s.glb"),
+                              "--3dtiles", "--allow-approximate-vertical", "-q"});
+  EXPECT_EQ(again.exit_code, 0) << again.err;
+  EXPECT_EQ(testkit::read_file(out.path("tileset.json")), first);
+  // A tileset.json that is none of dsmplan's is not replaced either.
+  testkit::write_file(out.path("tileset.json"), "{\"asset\": {\"version\": \"1.0\"}}");
+  const auto foreign = run_cli({"simplify", input, "--res", "10", "--max-error", "0.5", "-o", out.path("s.glb"),
+                                "--3dtiles", "--allow-approximate-vertical", "-q"});
+  EXPECT_NE(foreign.exit_code, 0);
+  EXPECT_NE(foreign.err.find("is not a tileset of dsmplan's"), std::string::npos) << foreign.err;
+  EXPECT_EQ(testkit::read_file(out.path("tileset.json")), "{\"asset\": {\"version\": \"1.0\"}}");
 }
 
 // ==== grid ==================================================================================
@@ -1364,8 +1385,12 @@ TEST(CliPlan, IndexFileIsReusedOnlyForItsOwnMeshAndNeverOverwrittenWhenItIsNoInd
         file, why);
     EXPECT_TRUE(testkit::read_file(file) == before) << file << " was overwritten";
   };
-  refused(f.waypoints, {"not a dsmplan index"});
-  refused(f.mesh, {"not a dsmplan index"});
+  // An input named as the index is refused before anything is read (refuse_overwrites).
+  refused(f.waypoints, {"is the same file as --waypoints"});
+  refused(f.mesh, {"is the same file as MESH"});
+  const std::string notes = f.in.path("notes.txt");
+  testkit::write_file(notes, "not an index, and no input of the run either\n");
+  refused(notes, {"not a dsmplan index"});
   // Damage is found once the file claims to fit (a stale one is replaced without reading further).
   EXPECT_TRUE(plan(f.mesh, "last", {"--index", index})["index_reused"].get<bool>() == false);
   std::string damaged = testkit::read_file(index);

@@ -190,6 +190,14 @@ bool overlap_box(const FrameCamera& left, const FrameCamera& right, double groun
 
 }  // namespace
 
+std::vector<NamedFile> stereo_job_inputs(const StereoJobOptions& options) {
+  std::vector<NamedFile> files{{"--cameras", options.cameras}};
+  const CameraFile file = read_cameras(options.cameras);
+  for (size_t i = 0; i < file.images.size(); ++i)
+    files.push_back({"camera " + std::to_string(i) + "'s image", file.images[i]});
+  return files;
+}
+
 StereoReport stereo_job(const StereoJobOptions& options, const Progress& progress) {
   const std::string extension = std::filesystem::path(options.output).extension().string();
   if (extension != ".tif" && extension != ".tiff")

@@ -3,10 +3,13 @@
 // output: the tileset is computed before the GLB is written, and a tileset that cannot be
 // written takes the GLB with it.
 #include <filesystem>
+#include <fstream>
+#include <stdexcept>
 #include <system_error>
 
 #include "dsmplan/tools.hpp"
 #include "tools/job_parts.hpp"
+#include "tools/report_json.hpp"
 
 namespace dsmplan {
 
@@ -19,7 +22,30 @@ void check_tileset_request(bool tileset, MeshFormat format, const std::string& o
   if (format != MeshFormat::Glb)
     throw ArgumentError("--3dtiles", "places a GLB on the globe: write one (-o " +
                                          std::filesystem::path(output).stem().string() + ".glb, or --of glb)");
-  check_writable(tileset_path_for(output));
+  // One tileset.json a folder: one that places another GLB (an earlier run's) is not replaced.
+  const std::string path = tileset_path_for(output);
+  const std::string glb = std::filesystem::path(output).filename().string();
+  std::error_code ec;
+  if (std::filesystem::exists(path, ec)) {
+    std::string placed;
+    try {
+      // A tileset of one tile is a few kB: read at most 1 MB, and only of a regular file.
+      if (!std::filesystem::is_regular_file(path, ec)) throw std::runtime_error("not a file");
+      std::ifstream in(path, std::ios::binary);
+      std::string text(1 << 20, '\0');
+      in.read(text.data(), static_cast<std::streamsize>(text.size()));
+      text.resize(static_cast<size_t>(in.gcount()));
+      const Json tileset = Json::parse(text);
+      placed = tileset.at("root").at("content").at("uri").get<std::string>();
+    } catch (const std::exception&) {
+      throw OutputError(path, "is not a tileset of dsmplan's; --3dtiles writes one here beside " + glb +
+                                  ": move it, or write the GLB into another folder");
+    }
+    if (placed != glb)
+      throw OutputError(path, "places " + placed + " on the globe, not " + glb +
+                                  ": write this GLB into a folder of its own (one tileset.json a folder)");
+  }
+  check_writable(path);
 }
 
 std::optional<Wgs84Transform> tileset_heights(bool tileset, const Crs& crs, const VerticalOptions& vertical) {

@@ -361,6 +361,12 @@ def disagreement_fixtures():
     cameras("cameras_geographic.json", "EPSG:4326", [[6.9, 51.4, 300], [6.9005, 51.4, 300]])
     cameras("cameras_geocentric.json", "EPSG:4978", [[3980000, 482000, 4960000], [3980030, 482000, 4960000]])
     cameras("cameras_web_mercator.json", "EPSG:3857", [[770000, 6621000, 300], [770050, 6621000, 300]])
+    # Cameras whose images are plain.txt (beside it): `--stats` on it would replace an input.
+    text = json.loads(open(os.path.join(HERE, "cameras_geographic.json")).read())
+    text["crs"] = "EPSG:25832"
+    for i, camera in enumerate(text["cameras"]):
+        camera["image"], camera["center"] = "plain.txt", [356300 + 50 * i, 5699770, 300]
+    out("cameras_plain_images.json", json.dumps(text, indent=1).encode())
 
 
 # ---- LAZ ------------------------------------------------------------------------------------

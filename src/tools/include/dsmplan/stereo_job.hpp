@@ -63,6 +63,12 @@ struct StereoReport {
          seconds_fuse = 0, seconds_write = 0;
 };
 
+/// The files a run of `options` reads: CAMERAS.json ("--cameras") and every image it names
+/// ("camera i's image", relative to its folder), for refuse_overwrites() before the work: a
+/// --stats or -o that is one of them would replace it. InputError as stereo_job() for a
+/// CAMERAS.json it cannot read.
+std::vector<NamedFile> stereo_job_inputs(const StereoJobOptions& options);
+
 /// Reads CAMERAS.json and the images, checks everything (one InputError naming the file and the
 /// camera/key), selects the pairs, runs stereo_dsm() and writes the Float32 GeoTIFF atomically.
 /// InputError when no pair overlaps, when --bounds lies outside every pair's footprint, or when
