@@ -9,6 +9,7 @@
 #include <gtest/gtest.h>
 #include <signal.h>
 #include <sys/resource.h>
+#include <sys/stat.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -37,8 +38,10 @@ std::vector<json> load_catalogue() {
 }
 
 std::string substitute(std::string text, const std::string& out, const std::string& work) {
-  for (const auto& [key, value] :
-       {std::pair<std::string, std::string>{"{in}", kFixtures}, {"{out}", out}, {"{work}", work}}) {
+  for (const auto& [key, value] : {std::pair<std::string, std::string>{"{in}", kFixtures},
+                                   {"{out}", out},
+                                   {"{work}", work},
+                                   {"{data}", DSMPLAN_DATA_DIR}}) {
     for (size_t at; (at = text.find(key)) != std::string::npos;) text.replace(at, key.size(), value);
   }
   return text;
@@ -141,6 +144,12 @@ TEST_P(Hostile, FailsCleanly) {
     testkit::write_file(to, testkit::read_file(kFixtures + "/" + s.at("from").get<std::string>()));
     fs::resize_file(to, s.at("size").get<uintmax_t>());
   }
+  // Inputs that are no files: FIFOs with no writer (an open() for reading waits for one), and
+  // symbolic links to any path (/dev/zero, a real image) under a name a reader expects.
+  const json fifos = c.value("fifos", json::array()), links = c.value("links", json::object());
+  for (const auto& name : fifos) ASSERT_EQ(::mkfifo(work.path(name.get<std::string>()).c_str(), 0600), 0) << name;
+  for (const auto& link : links.items())
+    fs::create_symlink(substitute(link.value().get<std::string>(), out_dir, work_dir), work.path(link.key()));
   std::vector<std::string> args;
   for (const auto& arg : c.at("args")) args.push_back(substitute(arg.get<std::string>(), out_dir, work_dir));
   const std::vector<std::string> fixtures_before = listing(kFixtures);

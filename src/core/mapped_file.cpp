@@ -18,6 +18,7 @@
 namespace dsmplan {
 
 std::shared_ptr<const MappedFile> MappedFile::open(const std::string& path) {
+  require_input_file(path);
   const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
   if (fd < 0) throw InputError(path, "", std::string("cannot be opened: ") + std::strerror(errno));
   struct stat st {};

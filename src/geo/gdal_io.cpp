@@ -450,6 +450,7 @@ class GdalGridSource : public GridSource {
 public:
   GdalGridSource(const std::string& path, const ReadRasterOptions& options) : path_(path), band_index_(options.band) {
     init_gdal();
+    require_input_file(path);  // a FIFO would hold GDALOpen forever
     VSIStatBufL stat;
     if (VSIStatL(path.c_str(), &stat) != 0) throw InputError(path, "", "no such file");
     if (VSI_ISDIR(stat.st_mode)) throw InputError(path, "", "is a directory, not a raster");

@@ -14,6 +14,7 @@
 #include <cctype>
 #include <cerrno>
 #include <cmath>
+#include <cstdint>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -30,6 +31,8 @@
 namespace dsmplan {
 
 namespace {
+
+constexpr std::uint64_t kMaxGeomBytes = 1 << 20;
 
 void init_gdal_quietly() {
   static std::once_flag once;
@@ -94,6 +97,7 @@ void check_scales(const RpcModel& m, const std::string& file, const char* const 
 }  // namespace
 
 RpcModel read_ossim_geom(const std::string& path) {
+  require_input_file(path, kMaxGeomBytes, "an OSSIM .geom");  // about 10 kB: 1 MB is no .geom
   std::ifstream in(path);
   if (!in) throw InputError(path, "", std::filesystem::exists(path) ? "cannot be read" : "no such file");
   Keys keys{path, {}};
@@ -133,6 +137,7 @@ struct DatasetCloser {
 };
 
 std::unique_ptr<GDALDataset, DatasetCloser> open_raster(const std::string& path) {
+  require_input_file(path);
   init_gdal_quietly();
   VSIStatBufL stat;  // GDAL's stat: /vsizip/, /vsicurl/ ... paths are files too
   if (VSIStatL(path.c_str(), &stat) != 0) throw InputError(path, "", "no such file");

@@ -80,6 +80,7 @@ struct Header {
 class LasReader {
 public:
   explicit LasReader(std::string path) : path_(std::move(path)) {
+    require_input_file(path_);
     fd_ = ::open(path_.c_str(), O_RDONLY | O_CLOEXEC);
     if (fd_ < 0) fail("", std::string("cannot open: ") + std::strerror(errno));
     struct stat info {};

@@ -82,6 +82,7 @@ bool parse_number(std::string_view text, T& value) {
 // Whole file in memory: every format here needs random access for its checks, and the mesh
 // built from it is as large as the file anyway.
 std::string read_whole_file(const std::string& path) {
+  require_input_file(path);
   std::error_code ec;
   const auto status = std::filesystem::status(path, ec);
   if (ec || !std::filesystem::exists(status)) {
@@ -976,6 +977,7 @@ Mesh read_mesh(const std::string& path, const Progress& progress) {
 }
 
 Crs read_mesh_crs(const std::string& path) {
+  require_input_file(path);
   std::ifstream in(path, std::ios::binary);
   char magic[4] = {};
   if (!in || !in.read(magic, 3) || std::string_view(magic, 3) != "ply") return read_mesh(path).crs;

@@ -129,6 +129,7 @@ Roadmap read_roadmap(const std::string& path, uint64_t fingerprint, const PlanOp
 }
 
 Roadmap read_roadmap(const std::string& path, RoadmapHeader* header) {
+  require_input_file(path);
   // Read whole: a device or pipe (/dev/zero) would never end, and is no roadmap this wrote.
   std::error_code error;
   if (std::filesystem::exists(path, error) && !std::filesystem::is_regular_file(path, error))

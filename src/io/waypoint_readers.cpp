@@ -71,6 +71,7 @@ constexpr size_t kMaxWaypointBytes = 64u << 20;
 constexpr size_t kMaxWaypoints = 100000;
 
 std::string read_waypoint_bytes(const std::string& path) {
+  require_input_file(path);
   std::ifstream in(path, std::ios::binary);
   if (!in) throw InputError(path, "", "cannot open the waypoint file");
   std::string bytes;

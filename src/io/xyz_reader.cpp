@@ -105,6 +105,7 @@ void XyzParser::line(std::string_view text) {
 }  // namespace
 
 PointCloud read_xyz(const std::string& path, const Progress& progress) {
+  require_input_file(path);
   std::error_code ec;
   if (std::filesystem::is_directory(path, ec)) throw InputError(path, "", "is a directory, not a point file");
   std::unique_ptr<std::FILE, int (*)(std::FILE*)> file(std::fopen(path.c_str(), "rb"), &std::fclose);

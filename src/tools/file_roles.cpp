@@ -35,6 +35,7 @@ std::vector<NamedFile> with_vrt_sources(const std::vector<NamedFile>& inputs) {
     std::transform(extension.begin(), extension.end(), extension.begin(),
                    [](unsigned char c) { return std::tolower(c); });
     if (extension != ".vrt") continue;
+    require_input_file(in.path);  // GDAL would wait forever on a FIFO
     GDALAllRegister();
     CPLPushErrorHandler(CPLQuietErrorHandler);  // a broken VRT is the reader's to report, once
     std::unique_ptr<GDALDataset> vrt(GDALDataset::Open(in.path.c_str(), GDAL_OF_RASTER | GDAL_OF_READONLY));

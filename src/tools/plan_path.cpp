@@ -443,6 +443,7 @@ PlanReport plan_job(const PlanJobOptions& options, const Progress& progress) {
     if (!options.roadmap.empty()) {
       const uint64_t fingerprint = fingerprint_of_mesh() ^ (plan.ground ? plan.ground->fingerprint() : 0);
       Roadmap map;
+      require_input_file(options.roadmap);  // before asking whether it can be opened: a FIFO would wait
       if (std::ifstream(options.roadmap).good()) {
         map = read_roadmap(options.roadmap, fingerprint, plan);
         report.roadmap_reused = true;

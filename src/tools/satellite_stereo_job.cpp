@@ -62,6 +62,7 @@ struct SatImage {
 };
 
 SatImage open_image(const std::string& path) {
+  require_input_file(path);
   SatImage image(path, read_rpc_camera(path));  // InputError: no RPC, a bad .geom, not a raster
   GDALAllRegister();
   CPLPushErrorHandler(CPLQuietErrorHandler);

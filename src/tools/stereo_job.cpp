@@ -60,6 +60,8 @@ struct CameraFile {
 };
 
 CameraFile read_cameras(const std::string& path) {
+  // 64 MB: some 100,000 cameras; an endless stream is no CAMERAS.json.
+  require_input_file(path, std::uint64_t{64} << 20, "a CAMERAS.json");
   std::ifstream in(path);
   if (!in) throw InputError(path, "", "cannot be opened");
   nlohmann::json root;
@@ -129,6 +131,7 @@ CameraFile read_cameras(const std::string& path) {
 std::unique_ptr<GDALDataset> open_image(const std::string& path, const FrameCamera& camera,
                                         const std::string& camera_name) {
   if (!std::filesystem::exists(path)) throw InputError(path, camera_name, "image does not exist");
+  require_input_file(path);
   GDALAllRegister();
   CPLPushErrorHandler(CPLQuietErrorHandler);
   std::unique_ptr<GDALDataset> dataset(GDALDataset::Open(path.c_str(), GDAL_OF_RASTER | GDAL_OF_READONLY));

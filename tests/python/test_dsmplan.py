@@ -190,3 +190,13 @@ def test_errors_are_dsmplan_errors_with_the_one_line_text(crop, tmp_path):
         dsmplan.plan(mesh, np.zeros((2, 2)))
     with pytest.raises(dsmplan.Error, match="unknown mesh format"):
         mesh.write(str(tmp_path / "mesh.xyz"))
+
+
+def test_read_dsm_refuses_what_is_no_file_instead_of_waiting(tmp_path):
+    # A FIFO with no writer would hold GDAL's open() forever; /dev/zero never ends.
+    fifo = tmp_path / "pipe.tif"
+    os.mkfifo(fifo)
+    with pytest.raises(dsmplan.Error, match="pipe.tif: is a FIFO"):
+        dsmplan.read_dsm(str(fifo))
+    with pytest.raises(dsmplan.Error, match="is a directory"):
+        dsmplan.read_dsm(str(tmp_path))

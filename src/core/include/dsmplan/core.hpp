@@ -15,6 +15,7 @@
 #pragma once
 
 #include <array>
+#include <cstdint>
 #include <functional>
 #include <stdexcept>
 #include <string>
@@ -34,6 +35,14 @@ public:
   InputError(const std::string& file, const std::string& place, const std::string& problem)
       : Error(located_message(file, place, problem)) {}
 };
+
+/// What an input path must be before a reader opens it: InputError naming `path` when it exists
+/// but is not a regular file (a FIFO, whose open() waits forever for a writer; a character
+/// device such as /dev/zero, which never ends; a directory; a block device; a socket), or when
+/// `max_bytes` > 0 and the file is larger (the size cap of a text format read whole, `what`
+/// naming it: "a CAMERAS.json"). A missing path passes: the reader says so. Opens nothing
+/// (stat()). Every reader of dsmplan calls it first.
+void require_input_file(const std::string& path, uint64_t max_bytes = 0, const char* what = nullptr);
 
 /// `field` names what is wrong as the function's caller knows it: an options struct's field
 /// ("max_agl", "pixels_per_cell"), a parameter ("path", "mesh"); the tools' jobs, which take the
