@@ -2146,7 +2146,7 @@ TEST(CliGlb, OfOverridesTheExtensionForMeshAndSimplify) {
   EXPECT_EQ(json::parse(simplify.out)["dropped_triangles"], 0);
 
   // A GLB is not read back: one line naming the file.
-  expect_clean_failure(run_cli({"render", dsm, "--mesh", out.path("y.glb"), "-o", out.path("r/r.png")}), TempDir(),
+  expect_clean_failure(run_cli({"render", dsm, "--mesh", out.path("y.glb"), "-o", out.path("r.png")}), TempDir(),
                        out.path("y.glb"), {"not read"});
 }
 

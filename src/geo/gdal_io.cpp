@@ -632,6 +632,9 @@ double geotiff_buffer_bytes() {
 
 void write_geotiff(const Grid& grid, const std::string& path, const Progress& progress) {
   init_gdal();
+  // Nothing is written that dsmplan's own reader refuses (the callers check earlier, before their work).
+  if (const std::string problem = frame_problem(grid); !problem.empty())
+    throw OutputError(path, "not written: " + problem);
   constexpr double nodata = -9999.0;
   AtomicFile file(path);
   file.close_stream();  // GDAL writes the temporary file by name

@@ -143,6 +143,11 @@ Grid grid_points(const std::vector<PointCloud>& clouds, const GridPointsOptions&
                                           number(rows) + " cells for " + std::to_string(kept) + " points, which " +
                                           memory);
   Grid grid(static_cast<int>(columns), static_cast<int>(rows), lattice.x0, lattice.y0, res, res);
+  // What dsmplan's readers would refuse is not made (points at 1e12, cells too fine for them).
+  if (const std::string problem = frame_problem(grid); !problem.empty())
+    throw ArgumentError("points", "the points' extent (x " + number(min_x) + " to " + number(max_x) + ", y " +
+                                      number(min_y) + " to " + number(max_y) + ") at a resolution of " + number(res) +
+                                      ": " + problem);
   grid.crs = crs ? *crs : Crs{};
   auto cell_of = [&](double x, double y) { return grid.index(int(lattice.column(x)), int(lattice.row(y))); };
 

@@ -17,7 +17,9 @@ void check_camera(const FrameCamera& c, const std::string& name) {
   for (double k : c.distortion)
     if (!std::isfinite(k)) throw ArgumentError(name, "distortion coefficients must be finite");
   for (double x : c.center)
-    if (!std::isfinite(x)) throw ArgumentError(name, "center must be finite");
+    if (!(std::abs(x) <= kMaxCoordinate))
+      throw ArgumentError(name,
+                          "center must be finite and within 1e9 CRS units of the origin (a projected CRS's reach)");
   const Mat3& R = c.rotation;
   for (int i = 0; i < 3; ++i)
     for (int j = 0; j < 3; ++j) {

@@ -21,6 +21,7 @@
 #include <functional>
 #include <queue>
 
+#include "core/text.hpp"
 #include "dsmplan/median_fusion.hpp"
 #include "dsmplan/stereo_frames.hpp"
 
@@ -181,11 +182,30 @@ std::size_t MedianFusion::finish(Grid& grid) {
 }
 
 Grid dsm_grid(const std::array<double, 4>& b, double resolution) {
-  if (!(resolution > 0 && std::isfinite(resolution))) throw ArgumentError("resolution", "must be a positive number");
+  if (!(resolution > 0 && resolution <= kMaxDsmResolution))
+    throw ArgumentError("resolution", "must lie in (0, " + short_number(kMaxDsmResolution) + "] CRS units, got " +
+                                          short_number(resolution));
   if (!(b[2] > b[0] && b[3] > b[1])) throw ArgumentError("bounds", "must be x0,y0,x1,y1 with x0 < x1 and y0 < y1");
   const double w = std::ceil((b[2] - b[0]) / resolution - 1e-9), h = std::ceil((b[3] - b[1]) / resolution - 1e-9);
-  if (w * h > 4e9) throw ArgumentError("resolution", "makes a grid of more than 4e9 cells");
-  return Grid(static_cast<int>(w), static_cast<int>(h), b[0], b[3], resolution, resolution);
+  const std::string extent = "x " + short_number(b[0]) + " to " + short_number(b[2]) + ", y " + short_number(b[1]) +
+                             " to " + short_number(b[3]);
+  if (w * h > 4e9)
+    throw ArgumentError("bounds", extent + " at a resolution of " + short_number(resolution) + " makes " +
+                                      short_number(w * h) + " cells, more than 4e9");
+  Grid grid(static_cast<int>(w), static_cast<int>(h), b[0], b[3], resolution, resolution);
+  // What dsmplan's readers would refuse is not written (the reader's own rule).
+  if (const std::string problem = frame_problem(grid); !problem.empty())
+    throw ArgumentError("bounds", extent + " at a resolution of " + short_number(resolution) + ": " + problem);
+  return grid;
+}
+
+Grid footprint_grid(const std::array<double, 4>& bounds, double resolution, const std::string& cameras) {
+  try {
+    return dsm_grid(bounds, resolution);
+  } catch (const ArgumentError& error) {
+    if (error.field() == "resolution") throw;
+    throw InputError(cameras, "", "the pairs' common footprint on the ground, " + error.problem());
+  }
 }
 
 std::size_t fuse_median(Grid& grid, const std::vector<std::vector<Vec3>>& point_sets) {

@@ -14,6 +14,7 @@ GridSummary grid_to_geotiff(const GridOptions& options, const Progress& progress
   if (!(options.grid.resolution > 0)) throw ArgumentError("--res", "must be a positive number of CRS units");
   if (!(options.fill_distance >= 0)) throw ArgumentError("--fill-holes", "must be >= 0");
   if (options.inputs.empty()) throw ArgumentError("POINTS", "no point cloud given");
+  check_writable(options.output);  // a missing folder is known now, not after the gridding
 
   std::vector<PointCloud> clouds;
   const double files = static_cast<double>(options.inputs.size());
@@ -35,7 +36,16 @@ GridSummary grid_to_geotiff(const GridOptions& options, const Progress& progress
   }
   GridPointsOptions grid_options = options.grid;
   grid_options.other_bytes += geotiff_buffer_bytes();  // the GeoTIFF writer's, while the grid lives
-  Grid grid = grid_points(clouds, grid_options, sub_progress(progress, 0.6, 0.8));
+  Grid grid;
+  try {
+    grid = grid_points(clouds, grid_options, sub_progress(progress, 0.6, 0.8));
+  } catch (const ArgumentError& error) {
+    if (error.field() != "points") throw;
+    // What is wrong lies in the files: name them, not a flag.
+    std::string files;
+    for (const std::string& input : options.inputs) files += (files.empty() ? "" : ", ") + input;
+    throw InputError(files, "", error.problem());
+  }
   resolve_crs(grid.crs);
   if (options.fill_distance > 0) fill_holes(grid, options.fill_distance / options.grid.resolution);
   write_geotiff(grid, options.output, sub_progress(progress, 0.8, 1.0));

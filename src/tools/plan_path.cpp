@@ -196,6 +196,7 @@ PlanReport plan_job(const PlanJobOptions& options, const Progress& progress) {
       if (!(speed > 0 && speed <= 100))
         throw ArgumentError(flag, "must lie in (0, 100] m/s, got " + two_decimals(speed));
   check_plan_options(options.plan);
+  check_writable(options.output);  // a missing folder is known now, not after the planning
   if (!options.roadmap.empty() && options.plan.planner != PlannerKind::prm)
     throw ArgumentError("--roadmap", "only the prm planner keeps a roadmap; rrtconnect grows its trees per query");
   PlanReport report;

@@ -43,6 +43,7 @@ bool cells_around(const Grid& frame, double xmin, double ymin, double xmax, doub
 ProfileReport profile_job(const ProfileJobOptions& options, const Progress& progress) {
   const std::string extension = lower_case(std::filesystem::path(options.output).extension().string());
   if (extension != ".png") throw ArgumentError(options.output, "the picture is written as PNG: name it .png");
+  check_writable(options.output);  // a missing folder is known now, not after the reading
   // The picture's options before any file is read (render_profile() checks them again).
   const ProfileOptions& picture = options.profile;
   if (picture.width < 240 || picture.height < 160 || picture.width > 30000 || picture.height > 30000)

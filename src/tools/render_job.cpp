@@ -43,6 +43,7 @@ RenderReport render_job(const RenderJobOptions& options, const Progress& progres
   // Everything that can be checked is checked before the long work starts.
   const std::string extension = lower_case(std::filesystem::path(options.output).extension().string());
   if (extension != ".png") throw ArgumentError(options.output, "the picture is written as PNG: name it .png");
+  check_writable(options.output);  // a missing folder is known now, not after the drawing
   if (options.resolution && !(*options.resolution > 0 && std::isfinite(*options.resolution))) {
     throw ArgumentError("--res", "must be a positive number of CRS units");
   }

@@ -22,6 +22,8 @@
 #include <mutex>
 
 #include "core/atomic_file.hpp"
+#include "core/text.hpp"
+#include "dsmplan/export.hpp"
 #include "dsmplan/median_fusion.hpp"
 #include "dsmplan/raster_io.hpp"
 #include "dsmplan/rpc.hpp"
@@ -168,10 +170,12 @@ SatelliteStereoReport satellite_stereo_job(const SatelliteStereoOptions& options
   const std::string extension = std::filesystem::path(options.output).extension().string();
   if (extension != ".tif" && extension != ".tiff") throw ArgumentError("-o", "output must be a GeoTIFF (.tif)");
   if (options.images.size() < 2) throw ArgumentError("IMAGES", "give two or more satellite images with RPCs");
-  if (!(options.resolution > 0 && std::isfinite(options.resolution)))
-    throw ArgumentError("--res", "must be a positive number of metres");
+  if (!(options.resolution > 0 && options.resolution <= kMaxDsmResolution))
+    throw ArgumentError("--res", "must lie in (0, " + short_number(kMaxDsmResolution) + "] metres, got " +
+                                     short_number(options.resolution));
   if (options.tile_size < 64 || options.tile_size > 4096) throw ArgumentError("tile_size", "must be 64..4096 pixels");
   if (options.bounds) dsm_grid(*options.bounds, options.resolution);  // checks the bounds
+  check_writable(options.output);  // a missing folder is known now, not after the matching
 
   SatelliteStereoReport out;
   out.images = options.images;
@@ -356,7 +360,7 @@ SatelliteStereoReport satellite_stereo_job(const SatelliteStereoOptions& options
     out.bounds = {std::floor(footprint[0] / res) * res, std::floor(footprint[1] / res) * res,
                   std::ceil(footprint[2] / res) * res, std::ceil(footprint[3] / res) * res};
   }
-  Grid grid = dsm_grid(out.bounds, res);
+  Grid grid = options.bounds ? dsm_grid(out.bounds, res) : footprint_grid(out.bounds, res, images[0].path);
   grid.crs = out.crs;
   out.width = grid.width, out.height = grid.height;
   require_memory(options.output, "", 12.0 * grid.cells() + geotiff_buffer_bytes());

@@ -12,6 +12,8 @@
 #include <limits>
 #include <sstream>
 
+#include "core/text.hpp"
+#include "dsmplan/export.hpp"
 #include "dsmplan/stereo_frames.hpp"
 #include "dsmplan/tools.hpp"
 
@@ -205,9 +207,11 @@ StereoReport stereo_job(const StereoJobOptions& options, const Progress& progres
   const std::string extension = std::filesystem::path(options.output).extension().string();
   if (extension != ".tif" && extension != ".tiff")
     throw ArgumentError(options.output, "output must be a GeoTIFF (.tif)");
-  if (!(options.resolution > 0 && std::isfinite(options.resolution)))
-    throw ArgumentError("--res", "must be a positive number of CRS units");
+  if (!(options.resolution > 0 && options.resolution <= kMaxDsmResolution))
+    throw ArgumentError("--res", "must lie in (0, " + short_number(kMaxDsmResolution) + "] CRS units, got " +
+                                     short_number(options.resolution));
   if (options.bounds) dsm_grid(*options.bounds, options.resolution);  // checks the bounds
+  check_writable(options.output);  // a missing folder is known now, not after the matching
 
   StereoReport out;
   out.cameras = options.cameras;
@@ -299,7 +303,8 @@ StereoReport stereo_job(const StereoJobOptions& options, const Progress& progres
     out.bounds = {std::floor(footprint[0] / r) * r, std::floor(footprint[1] / r) * r, std::ceil(footprint[2] / r) * r,
                   std::ceil(footprint[3] / r) * r};
   }
-  Grid grid = dsm_grid(out.bounds, options.resolution);
+  Grid grid = options.bounds ? dsm_grid(out.bounds, options.resolution)
+                             : footprint_grid(out.bounds, options.resolution, options.cameras);
   grid.crs = crs;
   require_memory(options.output, "", 12.0 * grid.cells() + geotiff_buffer_bytes());
 

@@ -367,6 +367,11 @@ def disagreement_fixtures():
     for i, camera in enumerate(text["cameras"]):
         camera["image"], camera["center"] = "plain.txt", [356300 + 50 * i, 5699770, 300]
     out("cameras_plain_images.json", json.dumps(text, indent=1).encode())
+    # Cameras 1e12 m from the origin, and points there: rasters no reader of dsmplan would open.
+    for i, camera in enumerate(text["cameras"]):
+        camera["center"] = [1e12 + 50 * i, 1e12, 300]
+    out("cameras_far.json", json.dumps(text, indent=1).encode())
+    out("xyz_far.xyz", b"1e12 1e12 5.0\n1000000000010 1e12 6.0\n1e12 1000000000010 7.0\n")
 
 
 # ---- LAZ ------------------------------------------------------------------------------------

@@ -157,9 +157,20 @@ bool triangulate(const RectifiedPair& pair, double u, double v, double d, Vec3& 
 std::vector<Vec3> triangulate(const RectifiedPair& pair, const Disparity& disparity, int row_begin = 0,
                               int row_end = std::numeric_limits<int>::max());
 
+/// The coarsest DSM cell stereo makes, CRS units (metres): 10 km.
+constexpr double kMaxDsmResolution = 1e4;
+
 /// The DSM grid of `bounds` (xmin, ymin, xmax, ymax, world units) at cell size `resolution`:
 /// cell (0, 0) touches (xmin, ymax); width = ceil((xmax - xmin)/res), height likewise.
+/// ArgumentError("resolution") outside (0, kMaxDsmResolution]; ArgumentError("bounds") for
+/// bounds not increasing, more than 4e9 cells, or a grid dsmplan's readers would refuse
+/// (frame_problem(): beyond 1e9 CRS units, cells too fine for their coordinates), so that
+/// nothing is matched into a raster that cannot be read back.
 Grid dsm_grid(const std::array<double, 4>& bounds, double resolution);
+/// dsm_grid() over bounds a job found itself, the pairs' common footprint (not bounds the user
+/// gave): its refusals are InputError(cameras) naming the footprint, since the cameras in the
+/// file `cameras` (a CAMERAS.json, a satellite image) put it there, not a flag.
+Grid footprint_grid(const std::array<double, 4>& bounds, double resolution, const std::string& cameras);
 /// Ortho-projection and fusion (the paper's Section 2): each point falls into the cell holding
 /// its (x, y); each cell gets the median of its heights (the mean of the two middle ones for an
 /// even count), nodata where none fell. `grid` gives the geometry; its heights are replaced.
