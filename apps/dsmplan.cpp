@@ -99,6 +99,28 @@ std::array<double, 2> parse_home(const std::string& text) {
   }
 }
 
+// A list of ASPRS classes as one word, "2,9" (an empty word: none): as one word, the list cannot
+// take the point files after it for classes ("--classes 2 a.laz b.laz" kept both files).
+std::vector<int> parse_classes(const char* flag, const std::string& text) {
+  std::vector<int> classes;
+  size_t start = 0;
+  while (!text.empty() && start <= text.size()) {
+    const size_t comma = std::min(text.find(',', start), text.size());
+    const std::string item = text.substr(start, comma - start);
+    size_t used = 0;
+    int value = -1;
+    try {
+      value = std::stoi(item, &used);
+    } catch (const std::exception&) {
+    }
+    if (item.empty() || used != item.size() || value < 0 || value > 255)
+      throw ArgumentError(flag, "takes ASPRS classes 0-255 separated by commas (e.g. 2,9), got '" + text + "'");
+    classes.push_back(value);
+    start = comma + 1;
+  }
+  return classes;
+}
+
 }  // namespace
 
 // Rank 0 of an MPI run releases the workers however its job ends.
@@ -132,7 +154,7 @@ int main(int argc, char** argv) {
 
   GridOptions grid;
   std::string fusion = "median";
-  std::vector<int> drop_classes;
+  std::string drop_classes_text, keep_classes_text;
   bool keep_all_classes = false;
   CLI::App* grid_cmd =
       app.add_subcommand("grid", "Grid point clouds (LAS, XYZ) into a GeoTIFF DSM, median height per cell");
@@ -141,10 +163,13 @@ int main(int argc, char** argv) {
   grid_cmd->add_option("--res", grid.grid.resolution, "Cell size (CRS units: m for a projected CRS in metres)")
       ->required();
   grid_cmd->add_option("--fusion", fusion, "Height per cell: median or max")->capture_default_str();
-  grid_cmd->add_option("--drop-classes", drop_classes, "ASPRS classes to drop (default 7 18: noise)")->delimiter(',');
+  // Lists are one comma-separated value ("--classes 2,6"): a list of separate words would take
+  // the point files after it as classes ("--classes 2 a.laz b.laz").
+  grid_cmd->add_option("--drop-classes", drop_classes_text,
+                       "ASPRS classes to drop, comma-separated (default 7,18: noise)");
   grid_cmd->add_flag("--keep-all-classes", keep_all_classes, "Keep every class, noise included");
-  grid_cmd->add_option("--classes", grid.grid.keep_classes, "Keep only these ASPRS classes (e.g. 2: ground, a DTM)")
-      ->delimiter(',');
+  grid_cmd->add_option("--classes", keep_classes_text,
+                       "Keep only these ASPRS classes, comma-separated (e.g. 2: ground, a DTM; 2,9: ground and water)");
   grid_cmd->add_option("--crs", grid.crs, kCrsHelp);
   grid_cmd->add_option(
       "--fill-holes", grid.fill_distance,
@@ -447,6 +472,8 @@ int main(int argc, char** argv) {
     }
     if (*grid_cmd) {
       grid.grid.fusion = parse_fusion(fusion);
+      const std::vector<int> drop_classes = parse_classes("--drop-classes", drop_classes_text);
+      grid.grid.keep_classes = parse_classes("--classes", keep_classes_text);
       if (keep_all_classes && !grid.grid.keep_classes.empty())
         throw ArgumentError("--classes", "keeps only the classes listed, --keep-all-classes every class: give one");
       if (keep_all_classes || (!grid.grid.keep_classes.empty() && drop_classes.empty())) {

@@ -33,7 +33,7 @@ void require_input_file(const std::string& path, uint64_t max_bytes, const char*
                      : S_ISCHR(info.st_mode)  ? "a character device"
                      : S_ISBLK(info.st_mode)  ? "a block device"
                      : S_ISSOCK(info.st_mode) ? "a socket"
-                     : nullptr;
+                                              : nullptr;
   if (kind)
     throw InputError(path, "",
                      std::string("is ") + kind + ", not a file: dsmplan reads files of a known size (save a stream " +

@@ -152,7 +152,7 @@ PointCloud read_points(const std::string& path, const Progress& progress) {
   if (extension == ".xyz" || extension == ".txt" || extension == ".csv") return read_xyz(path, progress);
   throw InputError(path, "",
                    (extension.empty() ? std::string("no file extension") : "unknown extension '" + extension + "'") +
-                       ": point clouds are read from .las, .xyz, .txt or .csv files");
+                       ": point clouds are read from .las, .laz, .xyz, .txt or .csv files");
 }
 
 }  // namespace dsmplan
