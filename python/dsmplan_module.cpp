@@ -73,7 +73,7 @@ py::array_t<double> plan(const PyMesh& mesh, py::array_t<double, py::array::c_st
     check_plan_options(options);
     const ClearanceIndex index(mesh.mesh);
     PlanResult result = plan_path(index, points, options);
-    if (result.status != PlanStatus::Solved) throw InputError("waypoints", result.place(), result.reason);
+    if (result.status != PlanStatus::Solved) throw InputError("waypoints", result.place(), result.problems());
     *path = std::move(result.path);
   }
   // The path's own memory, owned by the array from here on: no copy.

@@ -2011,7 +2011,18 @@ TEST(CliBadInput, MissionHomeEndAndFirmwareRefusedInOneLine) {
   ASSERT_FALSE(std::isnan(wall[0])) << "no wall east of the first waypoint";
   char at[64];
   std::snprintf(at, sizeof at, "%.2f,%.2f", wall[0], wall[1]);
-  expect_clean_failure(f.plan(out.path("m.plan"), {"--home", at}), out, "--home", {"climb", "obstacle"});
+  const auto against_wall = f.plan(out.path("m.plan"), {"--home", at});
+  expect_clean_failure(against_wall, out, "--home", {"climb", "obstacle", "the nearest clear spot: --home "});
+  // The spot it names is one a run accepts, a few metres away.
+  const std::string said = "the nearest clear spot: --home ";
+  const size_t from = against_wall.err.find(said) + said.size();
+  const std::string clear = against_wall.err.substr(from, against_wall.err.find(' ', from) - from);
+  double cx = NAN, cy = NAN;
+  ASSERT_EQ(std::sscanf(clear.c_str(), "%lf,%lf", &cx, &cy), 2) << against_wall.err;
+  EXPECT_LE(std::hypot(cx - wall[0], cy - wall[1]), 10) << against_wall.err;
+  const auto moved = f.plan(out.path("moved.plan"), {"--home", clear});
+  EXPECT_EQ(moved.exit_code, 0) << moved.err;
+  std::filesystem::remove(out.path("moved.plan"));
   // With a terrain model, a home and a landing under roofs are told apart from the ground.
   // A terrain model made as a crude ground filter would: the lowest DSM cell within 12 m.
   std::string points;

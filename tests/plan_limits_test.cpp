@@ -463,6 +463,34 @@ TEST(PlanLimits, QuickRefusalsRefuseOnlyWhatTheExactChecksRefuse) {
   EXPECT_TRUE(holed_index.floor().dips_below({1.5, 18.5, 11}, {18.5, 1.5, 11}, 2.0));  // over the rim: 1 m above it
 }
 
+// nearest_column() names the column column_clearance() measures: the same distance, and the
+// named cell's box is that far from the point (brute force over every cell as the oracle).
+TEST(PlanLimits, NearestColumnIsTheOneAtTheClearance) {
+  const Grid& dsm = testkit::nrw_crop();
+  std::mt19937_64 rng(77);
+  std::uniform_real_distribution<double> u(0, 1);
+  int found = 0;
+  for (int k = 0; k < 300; ++k) {
+    const double x = dsm.x0 + 5 + u(rng) * (dsm.width - 10), y = dsm.y0 - 5 - u(rng) * (dsm.height - 10);
+    const Point3 p{x, y, dsm.height_at(x, y) + 6 * u(rng) - 1};
+    const NearestColumn c = nearest_column(dsm, p, 3);
+    const double measured = column_clearance(dsm, p, p, 3);
+    EXPECT_EQ(c.found, measured < 3) << k;
+    if (!c.found) continue;
+    ++found;
+    EXPECT_NEAR(c.distance, measured, 1e-9) << k;
+    double brute = INFINITY;
+    for (int row = 0; row < dsm.height; ++row)
+      for (int col = 0; col < dsm.width; ++col)
+        if (std::abs(dsm.center_x(col) - x) < 5 && std::abs(dsm.center_y(row) - y) < 5)
+          brute = std::min(brute, point_box(p, dsm.center_x(col) - 0.5, dsm.center_x(col) + 0.5,
+                                            dsm.center_y(row) - 0.5, dsm.center_y(row) + 0.5, dsm.at(col, row)));
+    EXPECT_NEAR(c.distance, brute, 1e-9) << k;
+    EXPECT_NEAR(point_box(p, c.x - 0.5, c.x + 0.5, c.y - 0.5, c.y + 0.5, c.top), c.distance, 1e-9) << k;
+  }
+  EXPECT_GT(found, 100);
+}
+
 TEST(PlanLimits, ColumnsAboveTheMeshAreMeasuredExactly) {
   // A DSM of 1 m with buildings, the mesh through the cell centres: the most a column rises
   // above it, against a dense sampling (a lower bound that approaches it).

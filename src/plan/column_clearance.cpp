@@ -98,4 +98,30 @@ double column_clearance(const Grid& dsm, const Point3& p_, const Point3& q_, dou
   return std::min(max_d, std::sqrt(best2));
 }
 
+NearestColumn nearest_column(const Grid& dsm, const Point3& p, double max_d) {
+  NearestColumn nearest;
+  if (dsm.cells() == 0 || !(max_d >= 0)) return nearest;
+  double best = max_d;
+  const auto cell = [](double v, int count) {
+    return static_cast<int>(std::clamp(std::floor(v), -1.0, double(count)));
+  };
+  const int c0 = std::max(0, cell((p[0] - max_d - dsm.x0) / dsm.cell_x, dsm.width));
+  const int c1 = std::min(dsm.width - 1, cell((p[0] + max_d - dsm.x0) / dsm.cell_x, dsm.width));
+  const int r0 = std::max(0, cell((dsm.y0 - (p[1] + max_d)) / dsm.cell_y, dsm.height));
+  const int r1 = std::min(dsm.height - 1, cell((dsm.y0 - (p[1] - max_d)) / dsm.cell_y, dsm.height));
+  for (int row = r0; row <= r1; ++row)
+    for (int col = c0; col <= c1; ++col) {
+      const float h = dsm.at(col, row);
+      if (std::isnan(h)) continue;
+      const double x0 = dsm.x0 + col * dsm.cell_x, y1 = dsm.y0 - row * dsm.cell_y;
+      const double dx = std::max({x0 - p[0], 0.0, p[0] - (x0 + dsm.cell_x)});
+      const double dy = std::max({(y1 - dsm.cell_y) - p[1], 0.0, p[1] - y1});
+      const double dz = std::max(0.0, p[2] - h);
+      const double d = std::sqrt(dx * dx + dy * dy + dz * dz);
+      if (d < best || (!nearest.found && d <= best))
+        best = d, nearest = {true, d, x0 + dsm.cell_x / 2, y1 - dsm.cell_y / 2, h};
+    }
+  return nearest;
+}
+
 }  // namespace dsmplan

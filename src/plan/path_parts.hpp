@@ -27,9 +27,9 @@ std::string format_number(double v);
 /// ArgumentError("waypoints") for fewer than two or a non-finite one.
 void check_waypoint_list(const std::vector<Point3>& waypoints);
 
-/// Marks `result` InvalidWaypoint for the first waypoint that cannot be flown to (outside the
-/// extent, under the surface, closer than the safety distance); false if none.
-bool first_invalid_waypoint(const std::vector<Point3>& waypoints, const FlightSpace& space, PlanResult& result);
+/// Marks `result` InvalidWaypoint when a waypoint cannot be flown to (outside the extent, under
+/// the surface, closer than the safety distance), `invalid` listing every such one; false if none.
+bool invalid_waypoints(const std::vector<Point3>& waypoints, const FlightSpace& space, PlanResult& result);
 
 /// Joins the legs (each from one waypoint to the next, every segment clear) into
 /// result.raw_path and, smoothed leg by leg when options.smooth (path_smoothing.cpp),

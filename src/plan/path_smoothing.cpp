@@ -142,16 +142,17 @@ std::vector<Point3> round_corners(const std::vector<Point3>& polygon, const Flig
 
 }  // namespace
 
-bool first_invalid_waypoint(const std::vector<Point3>& waypoints, const FlightSpace& space, PlanResult& result) {
+bool invalid_waypoints(const std::vector<Point3>& waypoints, const FlightSpace& space, PlanResult& result) {
+  result.invalid.clear();
   for (size_t i = 0; i < waypoints.size(); ++i) {
     std::string problem = waypoint_problem(waypoints[i], space);
-    if (problem.empty()) continue;
-    result.status = PlanStatus::InvalidWaypoint;
-    result.waypoint = i;
-    result.reason = std::move(problem);
-    return true;
+    if (!problem.empty()) result.invalid.push_back({i, std::move(problem)});
   }
-  return false;
+  if (result.invalid.empty()) return false;
+  result.status = PlanStatus::InvalidWaypoint;
+  result.waypoint = result.invalid.front().waypoint;
+  result.reason = result.invalid.front().reason;
+  return true;
 }
 
 void finish_path(const std::vector<std::vector<Point3>>& legs, const FlightSpace& space, const PlanOptions& options,
@@ -191,6 +192,16 @@ std::string PlanResult::place() const {
       return "waypoints " + std::to_string(waypoint + 1) + " to " + std::to_string(waypoint + 2);
   }
   return {};
+}
+
+std::string PlanResult::problems(const std::function<std::string(size_t)>& name) const {
+  constexpr size_t kListed = 10;
+  std::string text = reason;
+  for (size_t k = 1; k < invalid.size() && k <= kListed; ++k)
+    text += "; also " + (name ? name(invalid[k].waypoint) : "waypoint " + std::to_string(invalid[k].waypoint + 1)) +
+            ": " + invalid[k].reason;
+  if (invalid.size() > kListed + 1) text += "; and " + std::to_string(invalid.size() - kListed - 1) + " more";
+  return text;
 }
 
 double path_length(const std::vector<Point3>& path) {

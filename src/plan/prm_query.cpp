@@ -501,7 +501,7 @@ PlanResult query_roadmap(const Roadmap& map, const ClearanceIndex& index, const 
   result.roadmap_edges = map.edges();
   Stopwatch clock;
   const FlightSpace space = detail::flight_space(index, options);
-  if (detail::first_invalid_waypoint(waypoints, space, result)) return result;
+  if (detail::invalid_waypoints(waypoints, space, result)) return result;
   const PointGrid grid(map.nodes, all_nodes(map.nodes.size()), options.max_edge);
   std::vector<std::vector<std::pair<double, uint32_t>>> links(waypoints.size());
   std::vector<std::vector<Point3>> legs;
@@ -562,7 +562,7 @@ PlanResult plan_path(const ClearanceIndex& index, const std::vector<Point3>& way
   if (options.planner == PlannerKind::rrt_connect) return plan_rrt_connect(index, waypoints, options, progress);
   check_plan_options(options);
   detail::check_waypoint_list(waypoints);
-  if (PlanResult invalid; detail::first_invalid_waypoint(waypoints, detail::flight_space(index, options), invalid))
+  if (PlanResult invalid; detail::invalid_waypoints(waypoints, detail::flight_space(index, options), invalid))
     return invalid;
   Stopwatch clock;
   const Roadmap map = build_roadmap(index, options, sub_progress(progress, 0, 0.95));

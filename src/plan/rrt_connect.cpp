@@ -228,7 +228,7 @@ PlanResult plan_rrt_connect(const ClearanceIndex& index, const std::vector<Point
   detail::check_waypoint_list(waypoints);
   PlanResult result;
   const FlightSpace flight = detail::flight_space(index, options);
-  if (detail::first_invalid_waypoint(waypoints, flight, result)) return result;
+  if (detail::invalid_waypoints(waypoints, flight, result)) return result;
 
   const ClearanceIndex::Footprint& e = index.footprint();
   // Cells of the step length, but at most about 64 across the footprint: a small --max-edge

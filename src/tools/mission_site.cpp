@@ -2,6 +2,9 @@
 // from home planned like any other, the vertical climb and descent checked against the data, and
 // the fewest mission items whose straight lines keep the limits. The item order and what the
 // autopilots check of it: src/io/mission_writers.cpp.
+#include <array>
+#include <cmath>
+
 #include "core/text.hpp"
 #include "tools/mission_parts.hpp"
 
@@ -118,9 +121,47 @@ void check_vertical(const Point3& top, double ground, const FlightLimits& limits
 
 }  // namespace
 
+// The nearest place to `top` (within 50 m, on the ground's cells) whose climb, as high above
+// the ground as `top`'s, keeps the limits; NaN, NaN when there is none.
+std::array<double, 2> nearest_clear_climb(const Point3& top, double ground, const FlightLimits& limits,
+                                          const std::function<double(double, double)>& dsm_z) {
+  if (!limits.ground || limits.ground->empty()) return {NAN, NAN};
+  const double step = std::max(limits.ground->grid().cell_x, 0.5), above = top[2] - ground;
+  const int rings = static_cast<int>(std::ceil(50 / step));
+  double best = INFINITY;
+  std::array<double, 2> found{NAN, NAN};
+  // Square rings of Chebyshev radius k; a ring's points lie at least k steps away, so the
+  // search stops past the best distance found.
+  for (int k = 1; k <= rings && k * step < best; ++k)
+    for (int i = -k; i <= k; ++i)
+      for (int j = -k; j <= k; ++j) {
+        if (std::max(std::abs(i), std::abs(j)) != k) continue;
+        const double x = top[0] + i * step, y = top[1] + j * step, d = std::hypot(i, j) * step;
+        if (d >= best) continue;
+        const double g = -limits.ground->height_above({x, y, 0});
+        if (!std::isfinite(g)) continue;
+        try {
+          check_vertical({x, y, g + above}, g, limits, dsm_z, "--home", "climb from home");
+        } catch (const ArgumentError&) {
+          continue;
+        }
+        best = d, found = {x, y};
+      }
+  return found;
+}
+
 void check_vertical_legs(const MissionSite& site, const std::vector<Point3>& waypoints, const FlightLimits& limits,
                          const std::function<double(double, double)>& dsm_z) {
-  check_vertical(site.takeoff_top, site.home[2], limits, dsm_z, "--home", "climb from home");
+  try {
+    check_vertical(site.takeoff_top, site.home[2], limits, dsm_z, "--home", "climb from home");
+  } catch (const ArgumentError& error) {
+    // Where it could take off instead: a user moves home there and runs again.
+    const auto [x, y] = nearest_clear_climb(site.takeoff_top, site.home[2], limits, dsm_z);
+    if (std::isnan(x)) throw ArgumentError("--home", error.problem() + "; no clear spot within 50 m");
+    throw ArgumentError("--home", error.problem() + "; the nearest clear spot: --home " + two_decimals(x) + "," +
+                                      two_decimals(y) + " (" +
+                                      two_decimals(std::hypot(x - site.home[0], y - site.home[1])) + " m away)");
+  }
   if (site.end == MissionEnd::land)
     check_vertical(waypoints.back(), site.land[2], limits, dsm_z, "--end", "descent to land");
 }

@@ -91,30 +91,46 @@ Grid read_companion(const std::string& path, const char* what, const Crs& mesh_c
   return grid;
 }
 
-// InputError naming the first waypoint closer than the safety distance to the DSM's columns,
-// before any work on the mesh (the mesh would only refuse it later, after it is indexed).
-void refuse_near_columns(const std::vector<Point3>& waypoints, const Grid& columns, const PlanJobOptions& options) {
-  for (size_t i = 0; i < waypoints.size(); ++i) {
-    const double d = column_clearance(columns, waypoints[i], waypoints[i], options.plan.safety);
-    if (d >= options.plan.safety) continue;
-    throw InputError(options.waypoints, "waypoint " + std::to_string(i + 1),
-                     d <= 0 ? "inside the DSM (under its surface)"
-                            : "closer than the safety distance to the DSM: " + two_decimals(d) +
-                                  " m from its columns, --safety " + two_decimals(options.plan.safety));
-  }
+// InputError naming every waypoint closer than the safety distance to the DSM's columns, with
+// the column that stands nearest, before any work on the mesh (the mesh would only refuse it
+// later, after it is indexed). `problems` lists them as "waypoint k: why" (the first is the place).
+void refuse_waypoints(const std::string& file, const std::vector<std::pair<size_t, std::string>>& problems) {
+  if (problems.empty()) return;
+  std::string text = problems.front().second;
+  for (size_t k = 1; k < problems.size() && k <= 10; ++k)
+    text += "; also waypoint " + std::to_string(problems[k].first + 1) + ": " + problems[k].second;
+  if (problems.size() > 11) text += "; and " + std::to_string(problems.size() - 11) + " more";
+  throw InputError(file, "waypoint " + std::to_string(problems.front().first + 1), text);
 }
 
-// InputError naming the first waypoint above the ceiling (in the planner's words), before any work.
+void refuse_near_columns(const std::vector<Point3>& waypoints, const Grid& columns, const PlanJobOptions& options) {
+  std::vector<std::pair<size_t, std::string>> problems;
+  for (size_t i = 0; i < waypoints.size(); ++i) {
+    const NearestColumn c = nearest_column(columns, waypoints[i], options.plan.safety);
+    if (!c.found || c.distance >= options.plan.safety) continue;
+    const std::string where =
+        "the column at x " + two_decimals(c.x) + ", y " + two_decimals(c.y) + " (top " + two_decimals(c.top) + " m)";
+    problems.push_back({i, c.distance <= 0
+                               ? "inside the DSM (under its surface): in " + where
+                               : "closer than the safety distance to the DSM: " + two_decimals(c.distance) +
+                                     " m from " + where + ", --safety " + two_decimals(options.plan.safety)});
+  }
+  refuse_waypoints(options.waypoints, problems);
+}
+
+// InputError naming every waypoint above the ceiling (in the planner's words), before any work.
 void refuse_above_ceiling(const std::vector<Point3>& waypoints, const GroundGrid& ground,
                           const PlanJobOptions& options) {
+  std::vector<std::pair<size_t, std::string>> problems;
   for (size_t i = 0; i < waypoints.size(); ++i) {
     const double above = ground.height_above(waypoints[i]);
     if (above <= options.plan.max_agl) continue;
-    throw InputError(options.waypoints, "waypoint " + std::to_string(i + 1),
-                     std::isinf(above) ? "outside the ground's extent (no ground below it to count --max-agl from)"
-                                       : "above the ceiling: " + two_decimals(above) +
-                                             " m above the ground, --max-agl " + two_decimals(options.plan.max_agl));
+    problems.push_back({i, std::isinf(above)
+                               ? "outside the ground's extent (no ground below it to count --max-agl from)"
+                               : "above the ceiling: " + two_decimals(above) + " m above the ground, --max-agl " +
+                                     two_decimals(options.plan.max_agl)});
   }
+  refuse_waypoints(options.waypoints, problems);
 }
 
 // The written path held to both limits once more, measured on its own: clearance to the DSM's
@@ -273,6 +289,14 @@ PlanReport plan_job(const PlanJobOptions& options, const Progress& progress) {
   const auto failure_place = [&](const PlanResult& r) {
     return mission_out ? detail::mission_place(r, site, waypoints.size()) : r.place();
   };
+  // Why the planner refused, every invalid waypoint named as the user numbers them.
+  const auto failure_problems = [&](const PlanResult& r) {
+    return r.problems([&](size_t k) {
+      PlanResult other = r;
+      other.waypoint = k;
+      return failure_place(other);
+    });
+  };
   if (corridor) {
     CorridorOptions along = options.corridor;
     if (!options.dtm.empty()) {
@@ -329,7 +353,8 @@ PlanReport plan_job(const PlanJobOptions& options, const Progress& progress) {
     take_planner_figures(result, report);
     report.corridor_windows = planned.windows;
     report.corridor_largest_window_cells = planned.largest_window_cells;
-    if (result.status != PlanStatus::Solved) throw InputError(options.waypoints, failure_place(result), result.reason);
+    if (result.status != PlanStatus::Solved)
+      throw InputError(options.waypoints, failure_place(result), failure_problems(result));
     report.path_points = result.path.size();
     report.path_length_m = path_length(result.path);
     report.min_clearance_m = planned.min_clearance_m;
@@ -462,7 +487,7 @@ PlanReport plan_job(const PlanJobOptions& options, const Progress& progress) {
     }
     take_planner_figures(result, report);
     if (result.status != PlanStatus::Solved) {
-      std::string why = result.reason;
+      std::string why = failure_problems(result);
       // Worth a word only when the mesh does not fit its DSM (more than a conservative mesh needs).
       if (report.safety_margin_m > half_diagonal + 1e-9)
         why += " (on the mesh the safety distance is --safety " + two_decimals(options.plan.safety) + " widened by " +

@@ -326,6 +326,9 @@ def waypoint_fixtures():
     out("wp_deep.geojson", (b'{"type": "FeatureCollection", "features": [{"type": "Feature", "geometry": '
                             b'{"type": "Point", "coordinates": ' + b"[" * 100000 + b"]" * 100000 + b"}}]}"))
     out("wp_near_wall.csv", (head + a + "356313.8,5699770,60\n" + b).encode())  # 1.2 m west of the wall
+    # Several bad waypoints in one file: every one is named in one run.
+    out("wp_several_bad.csv", (head + a + "356320,5699770,60\n356305,5699760,40\n" + b).encode())
+    out("wp_several_near_columns.csv", (head + a + "356313.8,5699770,60\n356320,5699770,60\n" + b).encode())
     out("wp_malformed.csv", (head + a + "356320;5699770;60\n" + b).encode())
     out("wp_nan.csv", (head + a + "356320,5699770,nan\n" + b).encode())
     out("wp_one_point.csv", (head + a).encode())

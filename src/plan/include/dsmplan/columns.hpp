@@ -22,6 +22,16 @@ namespace dsmplan {
 /// Time O(cells within the distance found of the segment's box; doubling search from 2 cells).
 double column_clearance(const Grid& dsm, const Point3& p, const Point3& q, double max_d);
 
+/// The DSM's column nearest to the point `p` within `max_d`: where an obstacle stands, for the
+/// message that refuses a waypoint. `distance` is column_clearance(dsm, p, p, max_d) (0 inside
+/// a column); x, y the cell's centre and `top` its height; found = false when none is nearer than
+/// max_d. O(cells within max_d).
+struct NearestColumn {
+  bool found = false;
+  double distance = 0, x = 0, y = 0, top = 0;
+};
+NearestColumn nearest_column(const Grid& dsm, const Point3& p, double max_d);
+
 // ---- holding a mesh plan to the DSM's columns ---------------------------------------------
 //
 // With the DSM known, dsmplan guarantees more than clearance to its mesh: every point of the

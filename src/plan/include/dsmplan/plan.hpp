@@ -199,8 +199,19 @@ struct PlanResult {
   size_t refined_samples = 0;  ///< samples query-time refinement added (0: the roadmap sufficed)
   int refine_rounds = 0;       ///< refinement rounds run, over all legs
   size_t lattice_nodes = 0;    ///< nodes the refinement's lattice searches made, over all legs
+  /// InvalidWaypoint: every waypoint that cannot be flown to, in order, with why (the first is
+  /// `waypoint` and `reason`): a user mends them all in one go.
+  struct Invalid {
+    size_t waypoint = 0;
+    std::string reason;
+  };
+  std::vector<Invalid> invalid;
   /// "waypoint N" or "waypoints N to N+1" (1-based), empty when solved.
   std::string place() const;
+  /// `reason`, then for each further invalid waypoint "; also <name(k)>: <its reason>" (at most
+  /// ten, then how many more); `name` (default "waypoint k+1") names a 0-based waypoint as the
+  /// caller's user numbers them.
+  std::string problems(const std::function<std::string(size_t)>& name = {}) const;
 };
 
 /// A path through `waypoints` (CRS coordinates, in order) over an existing roadmap built by
