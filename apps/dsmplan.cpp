@@ -9,6 +9,7 @@
 #include <filesystem>
 #include <new>
 #include <string>
+#include <tuple>
 #include <vector>
 
 #include "dsmplan/export.hpp"
@@ -502,10 +503,13 @@ int main(int argc, char** argv) {
         throw ArgumentError("--cameras",
                             "give either satellite images with RPCs (dsmplan stereo IMG1 IMG2 ...) or "
                             "--cameras CAMERAS.json for frame cameras, not both");
-      if (!(fusion_memory_mb >= 0.0625 && fusion_memory_mb < 1e9))
-        throw ArgumentError("--fusion-memory", "must be at least 0.0625 (MB)");
-      if (!(band_memory_mb >= 1 && band_memory_mb < 1e9))
-        throw ArgumentError("--band-memory", "must be at least 1 (MB)");
+      for (const auto& [flag, megabytes, least] :
+           {std::tuple{"--fusion-memory", fusion_memory_mb, 0.0625}, std::tuple{"--band-memory", band_memory_mb, 1.0}})
+        if (!(megabytes >= least && megabytes < 1e9)) {
+          char range[96];  // %g: 1e300 as typed, not as 301 digits
+          std::snprintf(range, sizeof range, "must lie in [%g, 1e9) MB, got %g", least, megabytes);
+          throw ArgumentError(flag, range);
+        }
       stereo.band_memory_bytes = static_cast<std::size_t>(band_memory_mb * 1048576.0);
       stereo.fusion_memory_bytes = satellite.fusion_memory_bytes =
           static_cast<std::size_t>(fusion_memory_mb * 1048576.0);

@@ -2346,6 +2346,28 @@ TEST(MissionWpml, EveryEndAndFrameReadsBackAsTheMission) {
   EXPECT_EQ(dir.files().size(), 6u);  // no temporaries beside them
 }
 
+// Every entry carries a real date (GDAL's writer left the MS-DOS date 0, read as 1980-00-00):
+// Python's zipfile (both the central directory and each local header; testzip() checks every
+// entry's CRC) is the oracle.
+TEST(MissionWpml, EntriesAreDatedAndTheArchiveTestsClean) {
+  testkit::TempDir dir;
+  const std::string path = dir.path("m.kmz");
+  write_wpml_kmz(sample_mission(MissionEnd::rtl), MissionOptions{}, path);
+  const std::string script =
+      "import sys, zipfile, struct\n"
+      "z = zipfile.ZipFile(sys.argv[1])\n"
+      "assert z.testzip() is None\n"
+      "raw = open(sys.argv[1], 'rb').read()\n"
+      "for info in z.infolist():\n"
+      "    local = struct.unpack_from('<HH', raw, info.header_offset + 10)\n"
+      "    print(info.filename, info.date_time, local)\n";
+  const auto listed = testkit::run_program("python3", {"-c", script, path});
+  ASSERT_EQ(listed.exit_code, 0) << listed.err;
+  EXPECT_NE(listed.out.find("wpmz/template.kml (1980, 1, 1, 0, 0, 0) (0, 33)"), std::string::npos) << listed.out;
+  EXPECT_NE(listed.out.find("wpmz/waylines.wpml (1980, 1, 1, 0, 0, 0) (0, 33)"), std::string::npos) << listed.out;
+  expect_wpml_mission(path, sample_mission(MissionEnd::rtl), MissionOptions{});
+}
+
 TEST(MissionWpml, ALongerRouteKeepsItsOrderAndOverwritesInPlace) {
   Mission mission = sample_mission(MissionEnd::rtl);
   for (int i = 1; i <= 40; ++i) mission.route.push_back({6.935 + 1e-5 * i, 51.4271 - 7e-6 * i, 179 + 0.125 * (i % 7)});

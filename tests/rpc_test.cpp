@@ -437,14 +437,21 @@ TEST(RpcBadInput, GeomWithANonNumericCoefficient) {
   const std::string path = scratch.path("nan.geom");
   write_text(path, geom_with("line_num_coeff_12", "1.2e-4x"));
   EXPECT_EQ(input_error([&] { dsmplan::read_ossim_geom(path); }),
-            path + ": line_num_coeff_12: not a number: \"1.2e-4x\"");
+            path + ": line_num_coeff_12: not a number: '1.2e-4x'");
   write_text(path, geom_with("lat_scale", "nan"));
-  EXPECT_EQ(input_error([&] { dsmplan::read_ossim_geom(path); }), path + ": lat_scale: not a number: \"nan\"");
+  EXPECT_EQ(input_error([&] { dsmplan::read_ossim_geom(path); }), path + ": lat_scale: not a number: 'nan'");
   write_text(path, geom_with("height_scale", "0"));
   EXPECT_EQ(input_error([&] { dsmplan::read_ossim_geom(path); }), path + ": height_scale: is zero (a scale divides)");
   write_text(path, geom_with("polynomial_format", "A"));
   EXPECT_EQ(input_error([&] { dsmplan::read_ossim_geom(path); }),
-            path + ": polynomial_format: is \"A\"; only B (RPC00B) is read");
+            path + ": polynomial_format: is 'A'; only B (RPC00B) is read");
+  // A long value is not echoed whole: the line stays short. A .geom over 1 MB is no .geom.
+  write_text(path, geom_with("line_num_coeff_12", std::string(600000, '7') + "x"));
+  const std::string long_value = input_error([&] { dsmplan::read_ossim_geom(path); });
+  EXPECT_EQ(long_value, path + ": line_num_coeff_12: not a number: '" + std::string(40, '7') + "...'");
+  write_text(path, geom_with("line_num_coeff_12", std::string(5 << 20, '7') + "x"));
+  EXPECT_EQ(input_error([&] { dsmplan::read_ossim_geom(path); }),
+            path + ": is 5.2 MB, more than an OSSIM .geom may be (at most 1.0 MB): is it the file meant?");
   const std::string message = input_error([&] { dsmplan::read_ossim_geom(scratch.path("none.geom")); });
   EXPECT_EQ(message, scratch.path("none.geom") + ": no such file");
   for (const std::string& m : {message}) EXPECT_EQ(m.find('\n'), std::string::npos);

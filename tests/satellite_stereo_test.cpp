@@ -450,7 +450,7 @@ TEST(SatelliteStereo, BadInputOneLineNoOutput) {
       {"missing coefficient", {a, dir.path("missing.tif")}, dir.path("missing.geom") + ": samp_num_coeff_07: missing"},
       {"non-numeric coefficient",
        {a, dir.path("spoiled.tif")},
-       dir.path("spoiled.geom") + ": line_den_coeff_03: not a number: \"0.00x1\""},
+       dir.path("spoiled.geom") + ": line_den_coeff_03: not a number: '0.00x1'"},
       {"no overlap", {a, dir.path("moved.tif")}, dir.path("moved.tif") + ": does not overlap " + a},
       {"height range",
        {dir.path("high_pre_event_img1.tif"), dir.path("high_pre_event_img2.tif")},

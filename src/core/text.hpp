@@ -5,6 +5,7 @@
 #include <cctype>
 #include <cstdio>
 #include <string>
+#include <string_view>
 
 namespace dsmplan {
 
@@ -27,6 +28,19 @@ inline std::string short_number(double v) {
   char buffer[32];
   std::snprintf(buffer, sizeof buffer, "%g", v);
   return buffer;
+}
+
+/// A piece of a file as it can stand inside a one-line message: at most 40 bytes, quoted, other
+/// bytes than printable ASCII as '?', "..." when cut (a 5 MB value is not echoed whole).
+inline std::string shown(std::string_view text) {
+  constexpr size_t kQuoteLength = 40;
+  std::string out;
+  for (char c : text.substr(0, kQuoteLength)) {
+    const auto byte = static_cast<unsigned char>(c);
+    out += (byte < 32 || byte >= 127) ? '?' : c;
+  }
+  if (text.size() > kQuoteLength) out += "...";
+  return "'" + out + "'";
 }
 
 }  // namespace dsmplan

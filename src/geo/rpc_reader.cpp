@@ -24,6 +24,7 @@
 #include <string>
 #include <utility>
 
+#include "core/text.hpp"
 #include "dsmplan/core.hpp"
 #include "dsmplan/rpc.hpp"
 #include "dsmplan/rpc_io.hpp"
@@ -67,7 +68,7 @@ struct Keys {
     const auto it = values.find(key);
     if (it == values.end()) throw InputError(file, key, "missing");
     double v = 0;
-    if (!parse_double(it->second, v)) throw InputError(file, key, "not a number: \"" + it->second + "\"");
+    if (!parse_double(it->second, v)) throw InputError(file, key, "not a number: " + shown(it->second));
     return v;
   }
 };
@@ -113,9 +114,9 @@ RpcModel read_ossim_geom(const std::string& path) {
     if (!keys.values.emplace(key, trim(line.substr(colon + 1))).second) throw InputError(path, key, "repeated");
   }
   if (const auto it = keys.values.find("polynomial_format"); it != keys.values.end() && it->second != "B")
-    throw InputError(path, "polynomial_format", "is \"" + it->second + "\"; only B (RPC00B) is read");
+    throw InputError(path, "polynomial_format", "is " + shown(it->second) + "; only B (RPC00B) is read");
   if (const auto it = keys.values.find("type"); it != keys.values.end() && it->second.find("Rpc") == std::string::npos)
-    throw InputError(path, "type", "is \"" + it->second + "\", not an RPC model");
+    throw InputError(path, "type", "is " + shown(it->second) + ", not an RPC model");
   RpcModel m;
   read_offsets_and_scales(keys, false, m);
   auto coeffs = [&](const std::string& stem, std::array<double, 20>& out) {
@@ -172,7 +173,7 @@ RpcModel read_gdal_rpc(const std::string& raster_path) {
       throw InputError(raster_path, key, "has " + std::to_string(words.size()) + " numbers, RPC00B needs 20");
     for (int i = 0; i < 20; ++i)
       if (!parse_double(words[i], out[i]))
-        throw InputError(raster_path, key, "term " + std::to_string(i + 1) + " is not a number: \"" + words[i] + "\"");
+        throw InputError(raster_path, key, "term " + std::to_string(i + 1) + " is not a number: " + shown(words[i]));
   };
   coeffs("LINE_NUM_COEFF", m.line_num);
   coeffs("LINE_DEN_COEFF", m.line_den);

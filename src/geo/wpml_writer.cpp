@@ -44,7 +44,10 @@
 #include <array>
 #include <climits>
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
+#include <fstream>
+#include <iterator>
 #include <string>
 #include <vector>
 
@@ -306,6 +309,41 @@ private:
 
 }  // namespace
 
+namespace {
+
+// GDAL's ZIP writer (CPLCreateFileInZip) stamps every entry with the MS-DOS date 0, which reads
+// as 1980-00-00: no date at all, shown as such by unzip and refused by strict readers. Each entry
+// is dated 1980-01-01 00:00 instead, the first date the format has: a real date, and the same
+// bytes for the same mission. The date is patched in the central directory (APPNOTE.TXT 4.3.12:
+// time at offset 12, date at 14) and in each entry's local header (4.3.7: 10 and 12); no
+// checksum covers them.
+void date_zip_entries(const std::string& zip, const std::string& path) {
+  std::fstream file(zip, std::ios::in | std::ios::out | std::ios::binary);
+  std::string bytes((std::istreambuf_iterator<char>(file)), std::istreambuf_iterator<char>());
+  const auto u16 = [&](size_t at) { return unsigned(uint8_t(bytes[at])) | unsigned(uint8_t(bytes[at + 1])) << 8; };
+  const auto u32 = [&](size_t at) { return u16(at) | u16(at + 2) << 16; };
+  const auto put16 = [&](size_t at, unsigned v) { bytes[at] = char(v & 0xff), bytes[at + 1] = char(v >> 8); };
+  constexpr unsigned kTime = 0, kDate = (0u << 9) | (1u << 5) | 1u;  // 00:00:00, 1980-01-01
+  // The end of central directory record: the last "PK\5\6" (no archive comment is written).
+  const size_t end = bytes.size() >= 22 ? bytes.rfind(std::string("PK\5\6", 4)) : std::string::npos;
+  if (end == std::string::npos || end + 22 > bytes.size()) throw OutputError(path, "cannot date the ZIP entries");
+  size_t at = u32(end + 16);
+  for (unsigned entry = 0, entries = u16(end + 10); entry < entries; ++entry) {
+    if (at + 46 > bytes.size() || u32(at) != 0x02014b50) throw OutputError(path, "cannot date the ZIP entries");
+    put16(at + 12, kTime), put16(at + 14, kDate);
+    const size_t local = u32(at + 42);
+    if (local + 30 > bytes.size() || u32(local) != 0x04034b50) throw OutputError(path, "cannot date the ZIP entries");
+    put16(local + 10, kTime), put16(local + 12, kDate);
+    at += 46 + u16(at + 28) + u16(at + 30) + u16(at + 32);
+  }
+  file.clear();
+  file.seekp(0);
+  file.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
+  if (!file.flush()) throw OutputError(path, "cannot write the ZIP entries' dates");
+}
+
+}  // namespace
+
 void write_wpml_kmz(const Mission& mission, const MissionOptions& options, const std::string& path) {
   // The same refusals as the .plan and .waypoints writers, by calling them: a mission one format
   // refuses must not fly through another. The text itself is not needed.
@@ -346,6 +384,7 @@ void write_wpml_kmz(const Mission& mission, const MissionOptions& options, const
     }
     if (!zip.close()) throw OutputError(path, "cannot write: " + gdal_reason("cannot finish the ZIP archive"));
   }
+  date_zip_entries(out.temp_path(), path);
   out.commit();
 }
 

@@ -22,7 +22,9 @@
 #include <vector>
 
 #include "core/huge_pages.hpp"
+#include "core/text.hpp"
 #include "dsmplan/export.hpp"
+#include "dsmplan/raster.hpp"
 
 namespace dsmplan {
 
@@ -30,21 +32,9 @@ namespace {
 
 constexpr uint64_t kMaxVertices = std::numeric_limits<uint32_t>::max();  // Triangle holds uint32 indices
 constexpr size_t kProgressBytes = size_t{1} << 20;
-constexpr size_t kQuoteLength = 40;
 
 std::string line_place(size_t line) { return "line " + std::to_string(line); }
 std::string byte_place(size_t byte) { return "byte " + std::to_string(byte); }
-
-// A piece of the file as it can stand inside a one-line message.
-std::string shown(std::string_view text) {
-  std::string out;
-  for (char c : text.substr(0, kQuoteLength)) {
-    const auto byte = static_cast<unsigned char>(c);
-    out += (byte < 32 || byte >= 127) ? '?' : c;
-  }
-  if (text.size() > kQuoteLength) out += "...";
-  return "'" + out + "'";
-}
 
 bool is_blank(char c) { return c == ' ' || c == '\t' || c == '\r' || c == '\n' || c == '\f' || c == '\v'; }
 
@@ -971,6 +961,17 @@ Mesh read_mesh(const std::string& path, const Progress& progress) {
     mesh = OffReader(path, bytes, progress).read();
   } else {
     mesh = ObjReader(path, bytes, progress).read();
+  }
+  // Where no projected CRS reaches (a vertex astray at 1e15 made the roadmap's --spacing take the
+  // blame): the readers' rule for rasters (kMaxCoordinate, kMaxHeight), said of the mesh file.
+  for (size_t i = 0; i < mesh.vertices.size(); ++i) {
+    const Vertex& v = mesh.vertices[i];
+    if (std::abs(v.x) <= kMaxCoordinate && std::abs(v.y) <= kMaxCoordinate && std::abs(v.z) <= kMaxHeight) continue;
+    char at[96];
+    std::snprintf(at, sizeof at, "x %.10g, y %.10g, z %.10g", v.x, v.y, v.z);
+    throw InputError(path, "vertex " + std::to_string(i + 1),
+                     std::string(at) + " lies beyond any projected CRS (x, y within 1e9 CRS units of the origin, " +
+                         "heights within 1e5)");
   }
   report(progress, 1);
   return mesh;

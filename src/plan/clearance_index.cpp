@@ -16,6 +16,7 @@
 
 #include "clearance_layout.hpp"
 #include "core/huge_pages.hpp"
+#include "core/text.hpp"
 #include "dsmplan/plan.hpp"
 
 namespace dsmplan {
@@ -108,7 +109,7 @@ inline int clamp_index(double v, int n) {
 
 ClearanceIndex::Layout::Layout(const Mesh& mesh, const ClearanceOptions& options) : options_(options) {
   if (!(options.bucket_size >= 0) || !std::isfinite(options.bucket_size))
-    throw ArgumentError("bucket_size", "must be a finite number >= 0, not " + std::to_string(options.bucket_size));
+    throw ArgumentError("bucket_size", "must be a finite number >= 0, not " + short_number(options.bucket_size));
   const size_t nv = mesh.vertices.size();
   for (size_t t = 0; t < mesh.triangles.size(); ++t) {
     for (uint32_t i : mesh.triangles[t]) {

@@ -84,7 +84,7 @@ float aggregate(std::vector<float>& values, Resampling method, float nearest) {
 
 Grid resample(const Grid& grid, double resolution, Resampling method, const Progress& progress) {
   if (!(resolution > 0) || !std::isfinite(resolution)) {
-    throw ArgumentError("resolution", "must be a positive number of CRS units, got " + std::to_string(resolution));
+    throw ArgumentError("resolution", "must be a positive number of CRS units, got " + short_number(resolution));
   }
   // A grid made in memory may have any georeference: cells of 5e-324 make (i + 0.5) * cell round
   // onto the next block, past the last one (fuzz_pipeline). The readers refuse the same.

@@ -1,6 +1,9 @@
 // dsmplan view: the three.js viewer of web/viewer and the files it shows, over HTTP on localhost,
 // with Debian's cpp-httplib. Only the viewer's folder and the named files are served.
 #include <httplib.h>
+#include <netdb.h>
+#include <sys/socket.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <cctype>
@@ -59,6 +62,25 @@ void check_csv(const std::string& path, const char* what) {
   if (!fs::is_regular_file(path)) throw InputError(path, "", "no such file");
   // The viewer reads the same "x,y,z" lines; a broken file is refused here with its line number.
   if (read_waypoints_csv(path).empty()) throw InputError(path, "", std::string("no points in the ") + what);
+}
+
+// Whether a socket can be bound to `host` (on a port the system picks): false for a name that
+// does not resolve or an address of another machine.
+bool can_listen_on(const std::string& host) {
+  addrinfo hints{};
+  hints.ai_socktype = SOCK_STREAM;
+  hints.ai_flags = AI_PASSIVE;
+  addrinfo* found = nullptr;
+  if (::getaddrinfo(host.c_str(), "0", &hints, &found) != 0) return false;
+  bool bound = false;
+  for (const addrinfo* a = found; a && !bound; a = a->ai_next) {
+    const int probe = ::socket(a->ai_family, a->ai_socktype, a->ai_protocol);
+    if (probe < 0) continue;
+    bound = ::bind(probe, a->ai_addr, a->ai_addrlen) == 0;
+    ::close(probe);
+  }
+  ::freeaddrinfo(found);
+  return bound;
 }
 
 // True for "ADDRESS:PORT" with our port and an IP address or "localhost" before it: a name
@@ -157,14 +179,16 @@ void serve_view(const ViewOptions& options, const std::function<void(const std::
     int yes = 1;
     setsockopt(sock, SOL_SOCKET, SO_REUSEADDR, &yes, sizeof yes);
   });
+  // The host first, so that a port in use and an address not of this machine are told apart.
+  if (!can_listen_on(options.host))
+    throw Error("--host: cannot listen on " + options.host + ": not an address of this machine");
   int port = options.port;
   if (port == 0) {
     port = server.bind_to_any_port(options.host);
     // Not a usage error (exit 2) but the machine's state: an Error (exit 1).
     if (port < 0) throw Error("--host: cannot listen on " + options.host);
   } else if (!server.bind_to_port(options.host, port)) {
-    throw Error("--port: cannot listen on " + options.host + ":" + std::to_string(port) +
-                " (in use, or not an address of this machine)");
+    throw Error("--port: cannot listen on " + options.host + ":" + std::to_string(port) + " (in use)");
   }
   const std::string authority =
       (options.host.find(':') != std::string::npos ? "[" + options.host + "]" : options.host) + ":" +
