@@ -483,6 +483,29 @@ TEST(CliMesh, ThreeDTilesWritesTheTilesetBesideTheGlbOrNothing) {
 
 // ==== grid ==================================================================================
 
+// --fill-holes keeps GDAL's work rasters in memory: with its temporary folder unwritable (a
+// read-only current folder) GDAL's default GeoTIFF work files failed the run, and an interrupted
+// run left them behind (up to 34 MB). The filled DSM is the one filled with a writable folder.
+TEST(CliGrid, FillingHolesWritesNoWorkFiles) {
+  TempDir out;
+  const std::string las = testkit::data_path("delft-ahn3/ahn3_cropped_1.las");
+  const std::vector<std::string> args{"grid",      las, "--crs",        "EPSG:28992", "--res", "1",
+                                      "--classes", "2", "--fill-holes", "30",         "-q",    "-o"};
+  auto with_output = [&](const std::string& name) {
+    std::vector<std::string> a = args;
+    a.push_back(out.path(name));
+    return a;
+  };
+  ASSERT_EQ(run_cli(with_output("writable.tif")).exit_code, 0);
+  setenv("CPL_TMPDIR", "/proc/self", 1);  // no one may create a file there, root included
+  const auto unwritable = run_cli(with_output("unwritable.tif"));
+  unsetenv("CPL_TMPDIR");
+  ASSERT_EQ(unwritable.exit_code, 0) << unwritable.err;
+  const Raster a = read_with_gdal(out.path("writable.tif")), b = read_with_gdal(out.path("unwritable.tif"));
+  EXPECT_EQ(a.z, b.z);
+  EXPECT_EQ(out.files().size(), 2u);
+}
+
 TEST(CliGrid, DelftLasPairToGeoTiff) {
   const std::string las1 = testkit::data_path("delft-ahn3/ahn3_cropped_1.las");
   const std::string las2 = testkit::data_path("delft-ahn3/ahn3_cropped_2.las");

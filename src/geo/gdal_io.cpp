@@ -699,7 +699,10 @@ void fill_holes(Grid& grid, double max_distance, const Progress& progress) {
     throw Error("fill holes: cannot stage grid" + gdal_message());
   }
   GdalProgress bridge{progress};
-  if (GDALFillNodata(band, nullptr, max_distance, 0, 0, nullptr, GdalProgress::call, &bridge) != CE_None) {
+  // Its work rasters in memory, not as GeoTIFFs in the current folder (see raster_io.hpp).
+  CPLStringList options;
+  options.SetNameValue("TEMP_FILE_DRIVER", "MEM");
+  if (GDALFillNodata(band, nullptr, max_distance, 0, 0, options.List(), GdalProgress::call, &bridge) != CE_None) {
     if (bridge.cancelled) throw Cancelled();
     throw Error("fill holes: GDALFillNodata failed" + gdal_message());
   }

@@ -136,8 +136,9 @@ Grid grid_points(const std::vector<PointCloud>& clouds, const GridPointsOptions&
     throw ArgumentError("resolution", "a resolution of " + number(res) + " gives " + number(columns) + " x " +
                                           number(rows) + " cells for the points' extent; choose a coarser one");
   // The grid's float and the counting sort's bound per cell, a double per kept point.
-  const std::string memory = memory_problem(columns * rows * (sizeof(float) + sizeof(uint32_t)) +
-                                            double(kept) * sizeof(double) + options.other_bytes);
+  const std::string memory =
+      memory_problem(columns * rows * (sizeof(float) + sizeof(uint32_t) + options.other_bytes_per_cell) +
+                     double(kept) * sizeof(double) + options.other_bytes);
   if (!memory.empty())
     throw ArgumentError("resolution", "a resolution of " + number(res) + " gives " + number(columns) + " x " +
                                           number(rows) + " cells for " + std::to_string(kept) + " points, which " +

@@ -36,6 +36,7 @@ GridSummary grid_to_geotiff(const GridOptions& options, const Progress& progress
   }
   GridPointsOptions grid_options = options.grid;
   grid_options.other_bytes += geotiff_buffer_bytes();  // the GeoTIFF writer's, while the grid lives
+  if (options.fill_distance > 0) grid_options.other_bytes_per_cell += fill_holes_bytes_per_cell();
   Grid grid;
   try {
     grid = grid_points(clouds, grid_options, sub_progress(progress, 0.6, 0.8));

@@ -96,7 +96,13 @@ void write_geotiff(const Grid& grid, const std::string& path, const Progress& pr
 double geotiff_buffer_bytes();
 
 /// GDAL's FillNodata (inverse-distance interpolation) for holes up to `max_distance` cells
-/// from valid data. Holes farther away stay holes.
+/// from valid data. Holes farther away stay holes. All in memory (GDAL's work rasters too:
+/// its default writes _PID_fill_*_work.tif files to the current folder or CPL_TMPDIR, which an
+/// interrupted run left behind and a read-only folder refused): fill_holes_bytes_per_cell()
+/// beside the grid.
 void fill_holes(Grid& grid, double max_distance, const Progress& progress = {});
+/// The memory fill_holes() takes beside the grid, per cell: its copy and GDAL's two work
+/// rasters (4 bytes a cell each).
+constexpr double fill_holes_bytes_per_cell() { return 12; }
 
 }  // namespace dsmplan

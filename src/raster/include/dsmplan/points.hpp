@@ -46,6 +46,9 @@ struct GridPointsOptions {
   /// Memory the caller will hold beside the grid while it lives (a writer's buffers, e.g.
   /// geotiff_buffer_bytes()), counted in the up-front refusal.
   double other_bytes = 0;
+  /// Memory the caller will hold per cell of the grid beside it (filling its holes in memory:
+  /// fill_holes_bytes_per_cell()), counted in the same refusal.
+  double other_bytes_per_cell = 0;
 };
 
 /// Grids point clouds (all in one CRS) into one DSM. The grid is aligned to multiples of the
