@@ -1,6 +1,6 @@
 // The Python module `dsmplan` (pybind11): the library's stages on numpy arrays, for GIS people
 // who script. A contract (issue 18), documented in the README's "Python" section:
-//   dsm = dsmplan.read_dsm(path)        .heights (rows x columns float32, nodata NaN; the DSM's
+//   dsm = dsmplan.read_dsm(path)        .heights (rows x columns float32, nodata NaN; a read-only view of the DSM's
 //                                       own memory), .transform (GDAL geotransform), .crs (WKT)
 //   mesh = dsmplan.simplify(dsm, max_error=0.4, conservative=True)   the bounded mode;
 //                                       .vertices N x 3 float64, .faces M x 3 uint32 (views of
@@ -30,6 +30,14 @@ namespace py = pybind11;
 using namespace dsmplan;
 
 namespace {
+
+// The library's memory handed out as a numpy view that cannot be written through: a mesh or DSM
+// changed behind the library's back (a face naming a vertex that is not there, a height made
+// infinite) would be written or planned on as if it had been checked.
+py::array read_only(py::array view) {
+  view.attr("setflags")(py::arg("write") = false);
+  return view;
+}
 
 struct PyDsm {
   Grid grid;
@@ -97,11 +105,13 @@ PYBIND11_MODULE(dsmplan, m) {
           [](py::object self) {
             PyDsm& dsm = self.cast<PyDsm&>();
             const Grid& g = dsm.grid;
-            return py::array_t<float>({py::ssize_t(g.height), py::ssize_t(g.width)},
-                                      {py::ssize_t(g.width) * py::ssize_t(sizeof(float)), py::ssize_t(sizeof(float))},
-                                      dsm.grid.z.data(), self);
+            return read_only(
+                py::array_t<float>({py::ssize_t(g.height), py::ssize_t(g.width)},
+                                   {py::ssize_t(g.width) * py::ssize_t(sizeof(float)), py::ssize_t(sizeof(float))},
+                                   dsm.grid.z.data(), self));
           },
-          "rows x columns float32 heights (row 0 north), nodata as NaN; a view of the DSM's memory")
+          "rows x columns float32 heights (row 0 north), nodata as NaN; a read-only view of the DSM's memory "
+          "(copy it to change it)")
       .def_property_readonly(
           "transform",
           [](const PyDsm& d) {
@@ -118,20 +128,20 @@ PYBIND11_MODULE(dsmplan, m) {
           "vertices",
           [](py::object self) {
             Mesh& mesh = self.cast<PyMesh&>().mesh;
-            return py::array_t<double>({py::ssize_t(mesh.vertices.size()), py::ssize_t{3}},
-                                       {py::ssize_t(sizeof(Vertex)), py::ssize_t(sizeof(double))},
-                                       reinterpret_cast<double*>(mesh.vertices.data()), self);
+            return read_only(py::array_t<double>({py::ssize_t(mesh.vertices.size()), py::ssize_t{3}},
+                                                 {py::ssize_t(sizeof(Vertex)), py::ssize_t(sizeof(double))},
+                                                 reinterpret_cast<double*>(mesh.vertices.data()), self));
           },
-          "N x 3 float64 x, y, z (a view of the mesh)")
+          "N x 3 float64 x, y, z (a read-only view of the mesh)")
       .def_property_readonly(
           "faces",
           [](py::object self) {
             Mesh& mesh = self.cast<PyMesh&>().mesh;
-            return py::array_t<uint32_t>({py::ssize_t(mesh.triangles.size()), py::ssize_t{3}},
-                                         {py::ssize_t(sizeof(Triangle)), py::ssize_t(sizeof(uint32_t))},
-                                         reinterpret_cast<uint32_t*>(mesh.triangles.data()), self);
+            return read_only(py::array_t<uint32_t>({py::ssize_t(mesh.triangles.size()), py::ssize_t{3}},
+                                                   {py::ssize_t(sizeof(Triangle)), py::ssize_t(sizeof(uint32_t))},
+                                                   reinterpret_cast<uint32_t*>(mesh.triangles.data()), self));
           },
-          "M x 3 vertex indices, counter-clockwise from above (a view of the mesh)")
+          "M x 3 vertex indices, counter-clockwise from above (a read-only view of the mesh)")
       .def_property_readonly(
           "certified",
           [](const PyMesh& m) -> py::object {

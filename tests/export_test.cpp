@@ -230,6 +230,28 @@ TEST(MeshWriter, HeadersCarryTheCrs) {
   EXPECT_NE(testkit::read_file(dir.path("m.obj")).find("# crs_epsg 25832\n"), std::string::npos);
 }
 
+// What dsmplan's reader would refuse is not written, whatever handed the mesh in (a C++ caller,
+// Python): a face naming a vertex that is not there, a coordinate that is not finite; nor a name
+// with a NUL byte (the system would write the name cut there). Each format, nothing left.
+TEST(MeshWriter, RefusesWhatItsReaderWouldRefuse) {
+  testkit::TempDir dir;
+  Mesh base;
+  base.vertices = {{0, 0, 1}, {1, 0, 1}, {0, 1, 1}};
+  base.triangles = {{0, 1, 2}};
+  Mesh out_of_range = base, not_finite = base;
+  out_of_range.triangles.push_back({0, 2, 3});
+  not_finite.vertices[1].z = NAN;
+  for (const char* name : {"m.ply", "m.obj", "m.off", "m.glb"}) {
+    EXPECT_THROW(write_mesh(out_of_range, dir.path(name), mesh_format_for(name)), ArgumentError) << name;
+    EXPECT_THROW(write_mesh(not_finite, dir.path(name), mesh_format_for(name)), ArgumentError) << name;
+    EXPECT_THROW(write_mesh(base, dir.path(name) + std::string(1, '\0') + ".txt", mesh_format_for(name)), OutputError)
+        << name;
+  }
+  EXPECT_TRUE(dir.files().empty());
+  write_mesh(base, dir.path("m.ply"), MeshFormat::Ply);  // the same mesh, whole, is written
+  EXPECT_EQ(read_mesh(dir.path("m.ply")).triangles.size(), 1u);
+}
+
 TEST(MeshWriter, FailedWritesLeaveNothing) {
   const Mesh mesh = real_mesh();
   testkit::TempDir dir;

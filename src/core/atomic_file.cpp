@@ -60,6 +60,9 @@ void remove_partial_outputs_on_signals() {
 
 AtomicFile::AtomicFile(std::string path) : path_(std::move(path)) {
   namespace fs = std::filesystem;
+  // A NUL byte would cut the name where the system reads it: another file would be written.
+  if (path_.find('\0') != std::string::npos)
+    throw OutputError(path_.substr(0, path_.find('\0')) + "\\0...", "a file name with a NUL byte");
   const fs::path target(path_);
   if (target.filename().empty()) throw OutputError(path_, "not a file name");
   std::error_code ec;

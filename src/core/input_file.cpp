@@ -26,6 +26,9 @@ std::string size_text(double bytes) {
 }  // namespace
 
 void require_input_file(const std::string& path, uint64_t max_bytes, const char* what) {
+  // A NUL byte would cut the name where the system reads it: another file would be read.
+  if (path.find('\0') != std::string::npos)
+    throw InputError(path.substr(0, path.find('\0')) + "\\0...", "", "a file name with a NUL byte");
   struct stat info;
   if (::stat(path.c_str(), &info) != 0) return;  // missing: the reader says so in its own words
   const char* kind = S_ISDIR(info.st_mode)    ? "a directory"

@@ -5,6 +5,7 @@
 #include <bit>
 #include <cctype>
 #include <charconv>
+#include <cmath>
 #include <cstring>
 #include <filesystem>
 #include <string>
@@ -190,6 +191,17 @@ MeshFormat parse_mesh_format(const std::string& name, const std::string& option)
 }
 
 size_t write_mesh(const Mesh& mesh, const std::string& path, MeshFormat format, const Progress& progress) {
+  // Nothing is written that dsmplan's own reader refuses (a mesh handed in by C++ or Python).
+  for (size_t i = 0; i < mesh.vertices.size(); ++i) {
+    const Vertex& v = mesh.vertices[i];
+    if (!std::isfinite(v.x) || !std::isfinite(v.y) || !std::isfinite(v.z))
+      throw ArgumentError("mesh", "vertex " + std::to_string(i) + " has a coordinate that is not a finite number");
+  }
+  for (size_t t = 0; t < mesh.triangles.size(); ++t)
+    for (const uint32_t i : mesh.triangles[t])
+      if (i >= mesh.vertices.size())
+        throw ArgumentError("mesh", "triangle " + std::to_string(t) + " names vertex " + std::to_string(i) + " of " +
+                                        std::to_string(mesh.vertices.size()));
   AtomicFile file(path);
   size_t dropped = 0;
   if (format == MeshFormat::Ply) {

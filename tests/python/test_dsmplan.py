@@ -192,6 +192,26 @@ def test_errors_are_dsmplan_errors_with_the_one_line_text(crop, tmp_path):
         mesh.write(str(tmp_path / "mesh.xyz"))
 
 
+def test_arrays_handed_out_are_read_only_and_paths_with_nul_are_refused(crop, tmp_path):
+    # A view written through would change what the library checked behind its back: a face
+    # naming a vertex that is not there, written as it is, is a file dsmplan's reader refuses.
+    dsm = dsmplan.read_dsm(crop)
+    mesh = dsmplan.simplify(dsm, max_error=0.4)
+    for array in (dsm.heights, mesh.vertices, mesh.faces):
+        assert not array.flags.writeable
+        with pytest.raises(ValueError, match="read-only"):
+            array[0, 0] = 10**6
+    faces = mesh.faces.copy()  # a copy is the user's to change
+    faces[0, 0] = 10**6
+    assert mesh.faces[0, 0] != 10**6
+    # A NUL byte would cut the name where the system reads it: refused, nothing written.
+    with pytest.raises(dsmplan.Error, match="NUL byte"):
+        mesh.write(str(tmp_path / "mesh.ply") + "\0.obj")
+    assert os.listdir(tmp_path) == []
+    with pytest.raises(dsmplan.Error, match="NUL byte"):
+        dsmplan.read_dsm(crop + "\0ignored")
+
+
 def test_read_dsm_refuses_what_is_no_file_instead_of_waiting(tmp_path):
     # A FIFO with no writer would hold GDAL's open() forever; /dev/zero never ends.
     fifo = tmp_path / "pipe.tif"

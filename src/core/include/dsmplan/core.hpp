@@ -40,7 +40,8 @@ public:
 /// but is not a regular file (a FIFO, whose open() waits forever for a writer; a character
 /// device such as /dev/zero, which never ends; a directory; a block device; a socket), or when
 /// `max_bytes` > 0 and the file is larger (the size cap of a text format read whole, `what`
-/// naming it: "a CAMERAS.json"). A missing path passes: the reader says so. Opens nothing
+/// naming it: "a CAMERAS.json"), or when the name holds a NUL byte (the system would read the
+/// name cut there: another file). A missing path passes: the reader says so. Opens nothing
 /// (stat()). Every reader of dsmplan calls it first.
 void require_input_file(const std::string& path, uint64_t max_bytes = 0, const char* what = nullptr);
 
