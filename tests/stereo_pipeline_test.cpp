@@ -257,6 +257,47 @@ TEST(StereoPairs, ExplicitAndAuto) {
   EXPECT_EQ(footprint_overlap(cameras[0], cameras[4], 0), 0.0);
 }
 
+// A dense block of 200 views (10 strips of 20, 80 % forward and 75 % side overlap): the pairs grow
+// with the views (each camera's best 4), every pair chosen is one brute force finds valid, and
+// every camera with a valid partner keeps its best one. Explicitly named pairs with a baseline
+// too short to measure depth are refused by the job (CliStereo / hostile catalogue).
+TEST(StereoPairs, AutoGrowsWithTheViewsAndKeepsEachCamerasBest) {
+  std::vector<FrameCamera> cameras;
+  for (int strip = 0; strip < 10; ++strip)
+    for (int i = 0; i < 20; ++i) cameras.push_back(nadir_camera(200, 200 * 100 / 60.0, {12.0 * i, 15.0 * strip, 100}));
+  PairSelectionOptions options;
+  const auto chosen = select_pairs_auto(cameras, options);
+  const int n = static_cast<int>(cameras.size());
+  EXPECT_LE(chosen.size(), static_cast<size_t>(options.max_partners * n));
+  // Brute force: every valid pair and its score, as the selection's rule states them.
+  std::vector<std::vector<std::pair<double, int>>> valid(n);
+  size_t all_valid = 0;
+  for (int i = 0; i < n; ++i)
+    for (int j = i + 1; j < n; ++j) {
+      const double ratio = base_to_height(cameras[i], cameras[j], 0);
+      const double overlap =
+          std::min(footprint_overlap(cameras[i], cameras[j], 0), footprint_overlap(cameras[j], cameras[i], 0));
+      if (ratio < 0.1 || ratio > 1.2 || overlap < 0.3) continue;
+      ++all_valid;
+      const double score = overlap * std::min(1.0, ratio / 0.3);
+      valid[i].emplace_back(score, j), valid[j].emplace_back(score, i);
+    }
+  EXPECT_GT(all_valid, chosen.size()) << "the block should offer more pairs than are kept";
+  for (const auto& [a, b] : chosen) {
+    const bool found = std::any_of(valid[a].begin(), valid[a].end(), [&](const auto& p) { return p.second == b; });
+    EXPECT_TRUE(found) << a << "-" << b << " is not a valid pair";
+  }
+  for (int i = 0; i < n; ++i) {
+    if (valid[i].empty()) continue;
+    const auto best = *std::max_element(valid[i].begin(), valid[i].end(), [](const auto& x, const auto& y) {
+      return x.first < y.first || (x.first == y.first && x.second > y.second);
+    });
+    const std::pair<int, int> pair{std::min(i, best.second), std::max(i, best.second)};
+    EXPECT_TRUE(std::find(chosen.begin(), chosen.end(), pair) != chosen.end()) << "camera " << i << "'s best";
+  }
+  std::printf("200 views: %zu pairs chosen of %zu valid\n", chosen.size(), all_valid);
+}
+
 namespace {
 
 // 40 m x 40 m of the real DSM (1 m cells) in the middle of the 500 m crop, seen by two cameras:

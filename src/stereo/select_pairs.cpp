@@ -4,6 +4,7 @@
 // useful intersection angle (too small: depth noise grows as H/B; too large: occlusions and
 // perspective distortion defeat the matching; aerial photogrammetry works with B/H of about
 // 0.1 (dense multi-view blocks) to 1).
+#include <algorithm>
 #include <cmath>
 #include <sstream>
 
@@ -39,16 +40,34 @@ double base_to_height(const FrameCamera& left, const FrameCamera& right, double 
 
 std::vector<std::pair<int, int>> select_pairs_auto(const std::vector<FrameCamera>& cameras,
                                                    const PairSelectionOptions& options) {
-  std::vector<std::pair<int, int>> pairs;
+  if (options.max_partners < 1) throw ArgumentError("max_partners", "must be at least 1");
+  // Below this B/H a pair's depth noise (as H/B) outweighs its overlap: such partners rank lower.
+  constexpr double kPreferredBaseToHeight = 0.3;
   const int n = static_cast<int>(cameras.size());
+  std::vector<std::vector<std::pair<double, int>>> partners(n);  // (score, camera)
   for (int i = 0; i < n; ++i)
     for (int j = i + 1; j < n; ++j) {
       const double ratio = base_to_height(cameras[i], cameras[j], options.ground_height);
       if (!(ratio >= options.min_base_to_height && ratio <= options.max_base_to_height)) continue;
-      if (footprint_overlap(cameras[i], cameras[j], options.ground_height) >= options.min_overlap &&
-          footprint_overlap(cameras[j], cameras[i], options.ground_height) >= options.min_overlap)
-        pairs.emplace_back(i, j);
+      const double overlap = std::min(footprint_overlap(cameras[i], cameras[j], options.ground_height),
+                                      footprint_overlap(cameras[j], cameras[i], options.ground_height));
+      if (!(overlap >= options.min_overlap)) continue;
+      const double score = overlap * std::min(1.0, ratio / kPreferredBaseToHeight);
+      partners[i].emplace_back(score, j);
+      partners[j].emplace_back(score, i);
     }
+  std::vector<std::pair<int, int>> pairs;
+  for (int i = 0; i < n; ++i) {
+    auto& mine = partners[i];
+    const size_t kept = std::min(mine.size(), static_cast<size_t>(options.max_partners));
+    // Best score first; the nearer index breaks ties, so the choice does not depend on order.
+    std::partial_sort(
+        mine.begin(), mine.begin() + static_cast<std::ptrdiff_t>(kept), mine.end(),
+        [](const auto& a, const auto& b) { return a.first > b.first || (a.first == b.first && a.second < b.second); });
+    for (size_t k = 0; k < kept; ++k) pairs.emplace_back(std::min(i, mine[k].second), std::max(i, mine[k].second));
+  }
+  std::sort(pairs.begin(), pairs.end());
+  pairs.erase(std::unique(pairs.begin(), pairs.end()), pairs.end());
   return pairs;
 }
 

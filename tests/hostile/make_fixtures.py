@@ -374,6 +374,11 @@ def disagreement_fixtures():
     for i, camera in enumerate(text["cameras"]):
         camera["center"] = [1e12 + 50 * i, 1e12, 300]
     out("cameras_far.json", json.dumps(text, indent=1).encode())
+    # Two cameras 5 cm apart, 250 m over the heights: no depth to measure.
+    text["height_range"] = [40, 80]
+    for i, camera in enumerate(text["cameras"]):
+        camera["center"] = [356300 + 0.05 * i, 5699770, 300]
+    out("cameras_5cm.json", json.dumps(text, indent=1).encode())
     out("xyz_far.xyz", b"1e12 1e12 5.0\n1000000000010 1e12 6.0\n1e12 1000000000010 7.0\n")
 
 

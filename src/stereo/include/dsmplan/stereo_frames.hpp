@@ -157,6 +157,22 @@ bool triangulate(const RectifiedPair& pair, double u, double v, double d, Vec3& 
 std::vector<Vec3> triangulate(const RectifiedPair& pair, const Disparity& disparity, int row_begin = 0,
                               int row_end = std::numeric_limits<int>::max());
 
+// ---- CAMERAS.json: the cameras of `dsmplan stereo --cameras` (README, "Stereo from frame cameras")
+
+struct CameraFile {
+  std::string crs;  ///< as written ("EPSG:25832", WKT): the job resolves and checks it
+  bool has_height_range = false;
+  double min_height = 0, max_height = 0;
+  std::vector<FrameCamera> cameras;
+  std::vector<std::string> images;  ///< paths as resolved against the JSON's folder
+};
+/// Reads CAMERAS.json whole: crs, the optional height_range, and at least two cameras each with
+/// image, width, height, fx, fy, cx, cy, optional distortion, rotation and center, every camera
+/// checked (check_camera()). InputError naming the file and the key (e.g. "cameras[2].fx") for
+/// anything missing, malformed or out of range, for a file that is not JSON, or is no file or
+/// over 64 MB (require_input_file()). Opens no image.
+CameraFile read_camera_file(const std::string& path);
+
 /// The coarsest DSM cell stereo makes, CRS units (metres): 10 km.
 constexpr double kMaxDsmResolution = 1e4;
 
@@ -183,13 +199,22 @@ struct PairSelectionOptions {
   double ground_height = 0;  ///< the plane footprints are cut with (e.g. mid of the height range)
   double min_overlap = 0.3;  ///< share of the left footprint seen by the right camera
   double min_base_to_height = 0.1, max_base_to_height = 1.2;
+  /// Each camera's best partners kept (by overlap, a B/H under 0.3 counting less): at most
+  /// max_partners x cameras pairs, so the matching grows with the views, not their square.
+  int max_partners = 4;
 };
+/// The least base-to-height ratio a pair given by name (--pairs) may have: below it (a 5 cm base
+/// 300 m up) the two rays of a point are parallel to rounding, and the heights come out at the
+/// cameras' own height; such a pair is refused, not matched.
+constexpr double kMinPairBaseToHeight = 0.02;
 /// The share (0..1) of a 16 x 16 lattice of left pixels whose rays, cut with Z = ground_height,
 /// the right camera sees inside its image.
 double footprint_overlap(const FrameCamera& left, const FrameCamera& right, double ground_height);
 /// Base-to-height ratio: |C_l - C_r| / (mean camera height above ground_height).
 double base_to_height(const FrameCamera& left, const FrameCamera& right, double ground_height);
-/// `auto`: every pair (i < j) with overlap >= min_overlap and a ratio within the bounds.
+/// `auto`: the pairs (i < j) with overlap >= min_overlap both ways and a ratio within the
+/// bounds, each camera keeping its max_partners best (a pair kept by either camera is kept).
+/// The B/H test (a distance) comes first, so footprints are cut only for pairs within it.
 std::vector<std::pair<int, int>> select_pairs_auto(const std::vector<FrameCamera>& cameras,
                                                    const PairSelectionOptions& options);
 /// "0-1,1-2": explicit pairs. ArgumentError (`flag`) for a bad token, an index out of range or i == j.
