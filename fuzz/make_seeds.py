@@ -183,6 +183,60 @@ def pipeline_seeds():
         put("pipeline", f"random_{i}_{size}.bin", bytes(r.getrandbits(8) for _ in range(size)))
 
 
+def camera_seeds():
+    """CAMERAS.json: two and three nadir and tilted views over the NRW sample, with and without
+    a height range and distortion, and the hostile fixtures' camera files."""
+    import json
+    nadir = [[1, 0, 0], [0, -1, 0], [0, 0, -1]]
+    tilted = [[1, 0, 0], [0, -0.9848, -0.1736], [0, 0.1736, -0.9848]]
+    def cam(i, x, rotation, distortion=None):
+        c = {"image": "view%d.tif" % i, "width": 1588, "height": 1542, "fx": 4000, "fy": 4000, "cx": 794,
+             "cy": 771, "rotation": rotation, "center": [x, 5699500, 400]}
+        if distortion:
+            c["distortion"] = distortion
+        return c
+    put("cameras", "two_nadir.json", json.dumps({"crs": "EPSG:25832", "cameras": [
+        cam(0, 356500, nadir), cam(1, 356560, nadir)]}))
+    put("cameras", "three_tilted_range.json", json.dumps({"crs": "EPSG:25832", "height_range": [115, 155],
+        "cameras": [cam(0, 356500, nadir), cam(1, 356560, tilted, [-0.05, 0.01, 0.0001, -0.0002, 0]),
+                    cam(2, 356620, nadir)]}))
+    hostile("cameras", "cameras_*.json")
+
+
+def rpc_seeds():
+    """The RPC readers' seeds, each a first byte choosing the file (0 .geom, 1 .RPB, 2 _RPC.TXT)
+    then its text: the four real .geom files of data/pleiades-kahramanmaras, and their models
+    written as .RPB and _RPC.TXT (GDAL's formats, as GDALLoadRPBFile and GDALLoadRPCFile read)."""
+    for geom in sorted(glob.glob(os.path.join(REPO, "data", "pleiades-kahramanmaras", "*.geom"))):
+        text = open(geom).read()
+        name = os.path.basename(geom)[:-5]
+        put("rpc", name + ".geom", b"\x00" + text.encode())
+        keys = {}
+        for line in text.splitlines():
+            if ":" in line:
+                k, v = line.split(":", 1)
+                keys[k.strip()] = v.strip()
+        names = [("line_off", "lineOffset", "LINE_OFF"), ("samp_off", "sampOffset", "SAMP_OFF"),
+                 ("lat_off", "latOffset", "LAT_OFF"), ("long_off", "longOffset", "LONG_OFF"),
+                 ("height_off", "heightOffset", "HEIGHT_OFF"), ("line_scale", "lineScale", "LINE_SCALE"),
+                 ("samp_scale", "sampScale", "SAMP_SCALE"), ("lat_scale", "latScale", "LAT_SCALE"),
+                 ("long_scale", "longScale", "LONG_SCALE"), ("height_scale", "heightScale", "HEIGHT_SCALE")]
+        groups = [("line_num_coeff", "lineNumCoef", "LINE_NUM_COEFF"), ("line_den_coeff", "lineDenCoef", "LINE_DEN_COEFF"),
+                  ("samp_num_coeff", "sampNumCoef", "SAMP_NUM_COEFF"), ("samp_den_coeff", "sampDenCoef", "SAMP_DEN_COEFF")]
+        rpb = 'satId = "PHR1A";\nbandId = "P";\nSpecId = "RPC00B";\nBEGIN_GROUP = IMAGE\n\terrBias = 1.0;\n\terrRand = 0.0;\n'
+        txt = ""
+        for geom_key, rpb_key, txt_key in names:
+            rpb += "\t%s = %s;\n" % (rpb_key, keys[geom_key])
+            txt += "%s: %s\n" % (txt_key, keys[geom_key])
+        for geom_key, rpb_key, txt_key in groups:
+            values = [keys["%s_%02d" % (geom_key, i)] for i in range(20)]
+            rpb += "\t%s = (\n" % rpb_key + ",\n".join("\t\t\t" + v for v in values) + ");\n"
+            txt += "".join("%s_%d: %s\n" % (txt_key, i + 1, v) for i, v in enumerate(values))
+        rpb += "END_GROUP = IMAGE\nEND;\n"
+        put("rpc", name + ".RPB", b"\x01" + rpb.encode())
+        put("rpc", name + "_RPC.TXT", b"\x02" + txt.encode())
+
+
 if __name__ == "__main__":
     las_seeds()
     hostile("las", "*.las")
@@ -192,3 +246,5 @@ if __name__ == "__main__":
     roadmap_seeds()
     pipeline_seeds()
     index_seeds()
+    camera_seeds()
+    rpc_seeds()

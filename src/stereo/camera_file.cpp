@@ -26,12 +26,14 @@ struct JsonReader {
   int integer(const nlohmann::json& parent, const std::string& key, const std::string& where) const {
     const double value = number(parent, key, where);
     if (value != std::floor(value) || value < 1 || value > 1e6)
-      throw InputError(file, where + "." + key, "must be a whole number of pixels >= 1, got " + shown(parent[key].dump()));
+      throw InputError(file, where + "." + key,
+                       "must be a whole number of pixels >= 1, got " + shown(parent[key].dump()));
     return static_cast<int>(value);
   }
   std::vector<double> numbers(const nlohmann::json& value, size_t count, const std::string& where) const {
     if (!value.is_array() || value.size() != count)
-      throw InputError(file, where, "must be an array of " + std::to_string(count) + " numbers, got " + shown(value.dump()));
+      throw InputError(file, where,
+                       "must be an array of " + std::to_string(count) + " numbers, got " + shown(value.dump()));
     std::vector<double> out;
     for (const auto& v : value) {
       if (!v.is_number() || !std::isfinite(v.get<double>()))
@@ -41,7 +43,6 @@ struct JsonReader {
     return out;
   }
 };
-
 
 }  // namespace
 
@@ -53,7 +54,7 @@ CameraFile read_camera_file(const std::string& path) {
   nlohmann::json root;
   try {
     root = nlohmann::json::parse(in);
-  } catch (const nlohmann::json::parse_error& error) {
+  } catch (const nlohmann::json::exception& error) {  // a syntax error, or a number beyond a double (fuzz_cameras)
     throw InputError(path, "", std::string("is not JSON: ") + error.what());
   }
   if (!root.is_object()) throw InputError(path, "", "must be a JSON object with crs and cameras");

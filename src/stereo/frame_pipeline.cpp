@@ -54,7 +54,7 @@ FrameStereoStats stereo_dsm(const std::vector<FrameCamera>& cameras, const Image
   SgmMatcher matcher;
   std::vector<std::pair<int, std::shared_ptr<const GreyImage>>> held;
   for (std::size_t k = 0; k < pairs.size(); ++k) {
-    const auto [a, b] = pairs[k];
+    const int a = pairs[k].first, b = pairs[k].second;  // not a structured binding: lambdas take these (clang 14)
     if (a < 0 || b < 0 || a >= static_cast<int>(cameras.size()) || b >= static_cast<int>(cameras.size()) || a == b)
       throw ArgumentError("pairs", "pair " + std::to_string(a) + "-" + std::to_string(b) + " is not two cameras");
     // The pair's two images: kept from the previous pair when it shares them, read otherwise.

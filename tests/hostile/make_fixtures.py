@@ -379,6 +379,8 @@ def disagreement_fixtures():
     for i, camera in enumerate(text["cameras"]):
         camera["center"] = [356300 + 0.05 * i, 5699770, 300]
     out("cameras_5cm.json", json.dumps(text, indent=1).encode())
+    # Valid JSON syntax, a number beyond a double: nlohmann throws out_of_range (found by fuzz_cameras).
+    out("cameras_number_overflow.json", b'{"crs": "EPSG:25832", "cameras": [640e3003, 1]}\n')
     out("xyz_far.xyz", b"1e12 1e12 5.0\n1000000000010 1e12 6.0\n1e12 1000000000010 7.0\n")
 
 
