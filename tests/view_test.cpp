@@ -237,6 +237,11 @@ TEST(View, PageLoadsTheMeshAndPathAndSaysReady) {
   EXPECT_NE(dom.find("data-state=\"ready\""), std::string::npos) << dom;
   EXPECT_NE(dom.find("path: 4 points"), std::string::npos) << dom;
   EXPECT_NE(dom.find("2 waypoints"), std::string::npos) << dom;
+  // The bare address, what people type, shows the same page (not "no mesh").
+  const std::string bare = server.url().substr(0, server.url().find('?'));
+  const std::string typed = run_chromium(scene.dir, bare, "--dump-dom");
+  EXPECT_NE(typed.find("data-state=\"ready\""), std::string::npos) << typed;
+  EXPECT_NE(typed.find("path: 4 points"), std::string::npos) << typed;
 }
 
 TEST(View, ScreenshotShowsTheMeshAndThePathInItsColour) {
@@ -322,7 +327,12 @@ TEST(View, ServesTheViewerAndTheNamedFilesOnly) {
   client.set_url_encode(false);  // send the paths below as they are
   const auto get = [&](const std::string& path) { return client.Get(path.c_str()); };
 
-  const auto page = get("/");
+  // The bare address is sent to the page with what it shows.
+  const auto bare = get("/");
+  ASSERT_TRUE(bare);
+  EXPECT_EQ(bare->status, 302);
+  EXPECT_EQ(bare->get_header_value("Location"), "/?mesh=/data/mesh.glb&path=/data/path.csv");
+  const auto page = get("/?mesh=/data/mesh.glb&path=/data/path.csv");
   ASSERT_TRUE(page);
   EXPECT_EQ(page->status, 200);
   EXPECT_NE(page->body.find("importmap"), std::string::npos);
@@ -373,7 +383,7 @@ TEST(View, NoDotfilesNoSymlinksOutNoForeignHostNoBlockingIdlers) {
   client.set_url_encode(false);
   const std::string port = std::to_string(server.port());
 
-  EXPECT_EQ(client.Get("/")->status, 200);
+  EXPECT_EQ(client.Get("/index.html")->status, 200);
   EXPECT_EQ(client.Get("/alias.js")->status, 200);  // a link that stays inside is fine
   for (const char* refused : {"/.env", "/leak.txt", "/node_modules/.bin/x", "/%2eenv"}) {
     const auto r = client.Get(refused);
@@ -388,7 +398,7 @@ TEST(View, NoDotfilesNoSymlinksOutNoForeignHostNoBlockingIdlers) {
                                                                              {"localhost:" + port, 200},
                                                                              {"127.0.0.1:1", 403},
                                                                              {"", 403}}) {
-    const auto r = client.Get("/", httplib::Headers{{"Host", host}});
+    const auto r = client.Get("/index.html", httplib::Headers{{"Host", host}});
     ASSERT_TRUE(r) << host;
     EXPECT_EQ(r->status, status) << "Host: " << host;
   }
@@ -406,7 +416,7 @@ TEST(View, NoDotfilesNoSymlinksOutNoForeignHostNoBlockingIdlers) {
   const auto started = Clock::now();
   httplib::Client browser("127.0.0.1", server.port());
   browser.set_read_timeout(30, 0);
-  const auto page = browser.Get("/");
+  const auto page = browser.Get("/index.html");
   const double seconds = std::chrono::duration<double>(Clock::now() - started).count();
   for (int fd : idle) ::close(fd);
   ASSERT_TRUE(page);

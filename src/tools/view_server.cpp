@@ -124,6 +124,11 @@ void serve_view(const ViewOptions& options, const std::function<void(const std::
   if (!options.path.empty()) data["/data/path.csv"] = options.path;
   if (!options.waypoints.empty()) data["/data/waypoints.csv"] = options.waypoints;
 
+  // What the page is told to show; the bare address (what people type) is sent there too.
+  std::string query = "/?mesh=/data/mesh.glb";
+  if (!options.path.empty()) query += "&path=/data/path.csv";
+  if (!options.waypoints.empty()) query += "&waypoints=/data/waypoints.csv";
+
   httplib::Server server;
   const fs::path viewer_real = fs::canonical(viewer);
   std::string port_text;  // the port we listen on (set below, before the first request)
@@ -139,6 +144,7 @@ void serve_view(const ViewOptions& options, const std::function<void(const std::
       return refuse(response, "Host '" + host + "' is not an address of this server (port " + port_text + ")");
     // request.path is percent-decoded already, so "%2e%2e" is caught here too.
     const std::string& url = request.path;
+    if (url == "/" && request.params.empty()) return response.set_redirect(query);
     fs::path file;
     if (const auto it = data.find(url); it != data.end()) {
       file = it->second;
@@ -194,9 +200,7 @@ void serve_view(const ViewOptions& options, const std::function<void(const std::
       (options.host.find(':') != std::string::npos ? "[" + options.host + "]" : options.host) + ":" +
       std::to_string(port);
   port_text = std::to_string(port);
-  std::string url = "http://" + authority + "/?mesh=/data/mesh.glb";
-  if (!options.path.empty()) url += "&path=/data/path.csv";
-  if (!options.waypoints.empty()) url += "&waypoints=/data/waypoints.csv";
+  const std::string url = "http://" + authority + query;
   listening(url);
   if (!server.listen_after_bind()) throw OutputError(url, "the server stopped");
 }
