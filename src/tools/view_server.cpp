@@ -7,10 +7,15 @@
 
 #include <algorithm>
 #include <cctype>
+#include <condition_variable>
+#include <deque>
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <memory>
+#include <mutex>
 #include <sstream>
+#include <thread>
 
 #include "core/text.hpp"
 #include "dsmplan/plan_job.hpp"
@@ -63,6 +68,48 @@ void check_csv(const std::string& path, const char* what) {
   // The viewer reads the same "x,y,z" lines; a broken file is refused here with its line number.
   if (read_waypoints_csv(path).empty()) throw InputError(path, "", std::string("no points in the ") + what);
 }
+
+// Each connection on a thread of its own, up to kMaxConnections at once, the rest waiting their
+// turn in arrival order. httplib's pool serves one connection a thread: with 32 threads, 40
+// clients sending a header byte a second (each read within the 2 s timeout) held every request
+// for 25 s, and 200 idle connections stalled one for over 10 s. Here a slow or idle client holds
+// only its own thread. The threads share the queue's state, which outlives the queue.
+class ConnectionThreads : public httplib::TaskQueue {
+public:
+  static constexpr int kMaxConnections = 256;
+  void enqueue(std::function<void()> fn) override {
+    std::unique_lock<std::mutex> lock(state_->mutex);
+    state_->waiting.push_back(std::move(fn));
+    start(state_, lock);
+  }
+  void shutdown() override {  // the requests in flight finish, then the server stops
+    std::unique_lock<std::mutex> lock(state_->mutex);
+    state_->done.wait(lock, [&] { return state_->running == 0 && state_->waiting.empty(); });
+  }
+
+private:
+  struct State {
+    std::mutex mutex;
+    std::condition_variable done;
+    std::deque<std::function<void()>> waiting;
+    int running = 0;
+  };
+  static void start(const std::shared_ptr<State>& state, std::unique_lock<std::mutex>&) {
+    while (state->running < kMaxConnections && !state->waiting.empty()) {
+      std::function<void()> fn = std::move(state->waiting.front());
+      state->waiting.pop_front();
+      ++state->running;
+      std::thread([state, fn = std::move(fn)] {
+        fn();
+        std::unique_lock<std::mutex> lock(state->mutex);
+        --state->running;
+        start(state, lock);
+        state->done.notify_all();
+      }).detach();
+    }
+  }
+  std::shared_ptr<State> state_ = std::make_shared<State>();
+};
 
 // Whether a socket can be bound to `host` (on a port the system picks): false for a name that
 // does not resolve or an address of another machine.
@@ -175,10 +222,10 @@ void serve_view(const ViewOptions& options, const std::function<void(const std::
 
   // Idle connections must not hold the workers: a browser reconnects at once, a silent client
   // is dropped after 2 s (httplib's defaults, 5 s on a pool of a few threads, let 40 of them
-  // block the page for 20 s).
+  // block the page for 20 s), and each connection has a thread of its own (ConnectionThreads).
   server.set_read_timeout(2, 0);
   server.set_keep_alive_timeout(2);
-  server.new_task_queue = [] { return new httplib::ThreadPool(32); };
+  server.new_task_queue = [] { return new ConnectionThreads; };
   // httplib's default also sets SO_REUSEPORT, with which a second server binds a port in use
   // and the two share the requests; SO_REUSEADDR alone still allows a restart at once.
   server.set_socket_options([](socket_t sock) {
