@@ -194,14 +194,20 @@ std::string PlanResult::place() const {
   return {};
 }
 
-std::string PlanResult::problems(const std::function<std::string(size_t)>& name) const {
+std::string waypoint_problems(const std::vector<PlanResult::Invalid>& invalid,
+                              const std::function<std::string(size_t)>& name) {
   constexpr size_t kListed = 10;
-  std::string text = reason;
+  if (invalid.empty()) return {};
+  std::string text = invalid.front().reason;
   for (size_t k = 1; k < invalid.size() && k <= kListed; ++k)
     text += "; also " + (name ? name(invalid[k].waypoint) : "waypoint " + std::to_string(invalid[k].waypoint + 1)) +
             ": " + invalid[k].reason;
   if (invalid.size() > kListed + 1) text += "; and " + std::to_string(invalid.size() - kListed - 1) + " more";
   return text;
+}
+
+std::string PlanResult::problems(const std::function<std::string(size_t)>& name) const {
+  return invalid.empty() ? reason : waypoint_problems(invalid, name);
 }
 
 double path_length(const std::vector<Point3>& path) {

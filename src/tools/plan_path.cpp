@@ -91,20 +91,17 @@ Grid read_companion(const std::string& path, const char* what, const Crs& mesh_c
   return grid;
 }
 
-// InputError naming every waypoint closer than the safety distance to the DSM's columns, with
-// the column that stands nearest, before any work on the mesh (the mesh would only refuse it
-// later, after it is indexed). `problems` lists them as "waypoint k: why" (the first is the place).
-void refuse_waypoints(const std::string& file, const std::vector<std::pair<size_t, std::string>>& problems) {
+// InputError naming every waypoint of `problems` in one line (the first is the place), when any.
+void refuse_waypoints(const std::string& file, const std::vector<PlanResult::Invalid>& problems) {
   if (problems.empty()) return;
-  std::string text = problems.front().second;
-  for (size_t k = 1; k < problems.size() && k <= 10; ++k)
-    text += "; also waypoint " + std::to_string(problems[k].first + 1) + ": " + problems[k].second;
-  if (problems.size() > 11) text += "; and " + std::to_string(problems.size() - 11) + " more";
-  throw InputError(file, "waypoint " + std::to_string(problems.front().first + 1), text);
+  throw InputError(file, "waypoint " + std::to_string(problems.front().waypoint + 1), waypoint_problems(problems));
 }
 
+// Every waypoint closer than the safety distance to the DSM's columns, with the column that
+// stands nearest, refused before any work on the mesh (the mesh would only refuse it later,
+// after it is indexed).
 void refuse_near_columns(const std::vector<Point3>& waypoints, const Grid& columns, const PlanJobOptions& options) {
-  std::vector<std::pair<size_t, std::string>> problems;
+  std::vector<PlanResult::Invalid> problems;
   for (size_t i = 0; i < waypoints.size(); ++i) {
     const NearestColumn c = nearest_column(columns, waypoints[i], options.plan.safety);
     if (!c.found || c.distance >= options.plan.safety) continue;
@@ -121,7 +118,7 @@ void refuse_near_columns(const std::vector<Point3>& waypoints, const Grid& colum
 // InputError naming every waypoint above the ceiling (in the planner's words), before any work.
 void refuse_above_ceiling(const std::vector<Point3>& waypoints, const GroundGrid& ground,
                           const PlanJobOptions& options) {
-  std::vector<std::pair<size_t, std::string>> problems;
+  std::vector<PlanResult::Invalid> problems;
   for (size_t i = 0; i < waypoints.size(); ++i) {
     const double above = ground.height_above(waypoints[i]);
     if (above <= options.plan.max_agl) continue;

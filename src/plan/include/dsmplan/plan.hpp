@@ -208,11 +208,16 @@ struct PlanResult {
   std::vector<Invalid> invalid;
   /// "waypoint N" or "waypoints N to N+1" (1-based), empty when solved.
   std::string place() const;
-  /// `reason`, then for each further invalid waypoint "; also <name(k)>: <its reason>" (at most
-  /// ten, then how many more); `name` (default "waypoint k+1") names a 0-based waypoint as the
-  /// caller's user numbers them.
+  /// `reason`, then every further invalid waypoint as waypoint_problems() lists them.
   std::string problems(const std::function<std::string(size_t)>& name = {}) const;
 };
+
+/// One line naming every waypoint refused: the first one's reason, then "; also <name(k)>:
+/// <reason>" for the others (at most ten, then how many more). `name` (default "waypoint k+1")
+/// names a 0-based waypoint as the caller's user numbers them. The planner's refusals and the
+/// tools' own checks against the DSM list theirs with it.
+std::string waypoint_problems(const std::vector<PlanResult::Invalid>& invalid,
+                              const std::function<std::string(size_t)>& name = {});
 
 /// A path through `waypoints` (CRS coordinates, in order) over an existing roadmap built by
 /// build_roadmap() from the same index and options: validation, connection, A* per leg, smoothing
