@@ -139,6 +139,7 @@ std::string flag_message(const ArgumentError& error) {
       {"zstep", "--zstep"},
       {"resampling", "--resampling"},
       {"bounds", "--bounds"},
+      {"pairs", "--pairs"},
   };
   const auto found = flags.find(error.field());
   return found == flags.end() ? error.what() : located_message("", found->second, error.problem());

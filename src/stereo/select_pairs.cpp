@@ -8,6 +8,7 @@
 #include <cmath>
 #include <sstream>
 
+#include "core/text.hpp"
 #include "dsmplan/stereo_frames.hpp"
 
 namespace dsmplan {
@@ -69,6 +70,20 @@ std::vector<std::pair<int, int>> select_pairs_auto(const std::vector<FrameCamera
   std::sort(pairs.begin(), pairs.end());
   pairs.erase(std::unique(pairs.begin(), pairs.end()), pairs.end());
   return pairs;
+}
+
+void check_pair_baselines(const std::vector<FrameCamera>& cameras, const std::vector<std::pair<int, int>>& pairs,
+                          double ground_height) {
+  for (const auto& [a, b] : pairs) {
+    const double ratio = base_to_height(cameras.at(a), cameras.at(b), ground_height);
+    if (ratio >= kMinPairBaseToHeight) continue;
+    const double height = cameras[a].center[2] - ground_height;
+    throw ArgumentError("pairs", "cameras " + std::to_string(a) + " and " + std::to_string(b) + " stand " +
+                                     short_number(ratio * height) + " m apart for " + short_number(height) +
+                                     " m above the ground (B/H " + short_number(ratio) + ", less than " +
+                                     short_number(kMinPairBaseToHeight) +
+                                     "): no depth can be measured; pair cameras farther apart");
+  }
 }
 
 std::vector<std::pair<int, int>> parse_pairs(const std::string& text, int cameras, const std::string& flag) {

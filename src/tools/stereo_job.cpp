@@ -172,16 +172,7 @@ StereoReport stereo_job(const StereoJobOptions& options, const Progress& progres
                        "no two cameras overlap by 30 % on the ground with a base-to-height ratio of 0.1..1.2");
   } else {
     out.pairs = parse_pairs(options.pairs, n, "--pairs");
-    for (const auto& [a, b] : out.pairs) {
-      const double ratio = base_to_height(file.cameras[a], file.cameras[b], ground);
-      if (!(ratio >= kMinPairBaseToHeight))
-        throw ArgumentError("--pairs", "cameras " + std::to_string(a) + " and " + std::to_string(b) + " stand " +
-                                           short_number(ratio * (file.cameras[a].center[2] - ground)) +
-                                           " m apart for " + short_number(file.cameras[a].center[2] - ground) +
-                                           " m above the ground (B/H " + short_number(ratio) + ", less than " +
-                                           short_number(kMinPairBaseToHeight) +
-                                           "): no depth can be measured; pair cameras farther apart");
-    }
+    check_pair_baselines(file.cameras, out.pairs, ground);
   }
   std::array<double, 4> footprint{};
   bool any_footprint = false;

@@ -217,6 +217,10 @@ double base_to_height(const FrameCamera& left, const FrameCamera& right, double 
 /// The B/H test (a distance) comes first, so footprints are cut only for pairs within it.
 std::vector<std::pair<int, int>> select_pairs_auto(const std::vector<FrameCamera>& cameras,
                                                    const PairSelectionOptions& options);
+/// ArgumentError("pairs") naming the first of `pairs` whose base-to-height ratio over
+/// `ground_height` is under kMinPairBaseToHeight (its base and height in the message).
+void check_pair_baselines(const std::vector<FrameCamera>& cameras, const std::vector<std::pair<int, int>>& pairs,
+                          double ground_height);
 /// "0-1,1-2": explicit pairs. ArgumentError (`flag`) for a bad token, an index out of range or i == j.
 std::vector<std::pair<int, int>> parse_pairs(const std::string& text, int cameras, const std::string& flag = "--pairs");
 
