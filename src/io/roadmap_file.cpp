@@ -37,16 +37,6 @@ uint64_t fnv1a(const unsigned char* data, size_t bytes, uint64_t hash = 14695981
   return hash;
 }
 
-// A 64-bit mix (splitmix64's finaliser) for hashing words rather than bytes: 8x fewer steps.
-uint64_t mix(uint64_t h, uint64_t word) {
-  h ^= word + 0x9e3779b97f4a7c15ull + (h << 6) + (h >> 2);
-  h ^= h >> 30;
-  h *= 0xbf58476d1ce4e5b9ull;
-  h ^= h >> 27;
-  h *= 0x94d049bb133111ebull;
-  return h ^ (h >> 31);
-}
-
 template <class T>
 void put(std::string& out, const T& value) {
   out.append(reinterpret_cast<const char*>(&value), sizeof value);
@@ -76,18 +66,6 @@ std::string mismatch(const char* option, double built, double asked) {
 }
 
 }  // namespace
-
-uint64_t mesh_fingerprint(const Mesh& mesh) {
-  uint64_t h = mix(mesh.vertices.size(), mesh.triangles.size());
-  for (const Vertex& v : mesh.vertices) {
-    h = mix(h, std::bit_cast<uint64_t>(v.x));
-    h = mix(h, std::bit_cast<uint64_t>(v.y));
-    h = mix(h, std::bit_cast<uint64_t>(v.z));
-  }
-  for (const Triangle& t : mesh.triangles)
-    h = mix(h, (static_cast<uint64_t>(t[0]) << 32 | t[1]) ^ (static_cast<uint64_t>(t[2]) * 0x9e3779b97f4a7c15ull));
-  return h;
-}
 
 void write_roadmap(const std::string& path, const Roadmap& map, uint64_t fingerprint, const PlanOptions& options) {
   if (!options.constraints.empty())

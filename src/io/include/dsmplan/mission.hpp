@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "dsmplan/core.hpp"
+#include "dsmplan/flight.hpp"  // MissionEnd
 
 namespace dsmplan {
 
@@ -32,7 +33,6 @@ std::string path_to_geojson(const std::vector<Point3>& lonlath, const std::strin
 // OGC KML 2.2): mission_writers.cpp.
 
 enum class Firmware { generic, px4, ardupilot };  ///< MAV_AUTOPILOT 0, 12, 3
-enum class MissionEnd { rtl, land, none };        ///< after the route: return to launch, land there, nothing
 enum class AltitudeFrame {
   relative,  ///< metres above home (MAV_FRAME_GLOBAL_RELATIVE_ALT, QGC AltitudeMode 1): how most missions fly
   amsl       ///< metres above mean sea level (MAV_FRAME_GLOBAL, QGC AltitudeMode 2)

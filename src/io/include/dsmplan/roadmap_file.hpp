@@ -5,6 +5,7 @@
 #include <cstdint>
 #include <string>
 
+#include "dsmplan/flight.hpp"  // mesh_fingerprint()
 #include "dsmplan/mesh.hpp"
 #include "dsmplan/plan.hpp"
 
@@ -18,9 +19,6 @@ namespace dsmplan {
 // what this run uses, so a roadmap is never used on a mesh or with a safety distance it was not
 // checked against. The format is dsmplan's own (src/io/roadmap_file.cpp), 28 bytes a node
 // and 8 an edge, with a checksum; a file from a machine of the other byte order is refused.
-
-/// A 64-bit hash of the mesh's vertices (their exact bits) and triangles. O(mesh).
-uint64_t mesh_fingerprint(const Mesh& mesh);
 
 /// Writes `map` atomically (the whole file or nothing). OutputError when it cannot.
 /// Both functions throw ArgumentError("constraints") when options.constraints is not empty: the

@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "dsmplan/corridor.hpp"
+#include "dsmplan/flight.hpp"
 #include "dsmplan/mission.hpp"
 #include "dsmplan/plan.hpp"
 #include "dsmplan/tools.hpp"
@@ -20,14 +21,8 @@ namespace dsmplan {
 
 // ---- dsmplan plan ---------------------------------------------------------------------------
 
-/// How a mission (.plan, .waypoints) takes off and ends. The takeoff is vertical at home, to the
-/// first waypoint's height above the ground (with the default home, the first waypoint itself);
-/// when home is elsewhere, the route from there to the first waypoint is planned like any leg.
-/// `--end rtl` plans a leg back above home, so that the autopilot's RTL, which flies a straight
-/// unchecked line at its own altitude, finds nothing left to fly but the descent; `land` descends
-/// at the last waypoint. The vertical climb and descent keep the safety distance from 1 m plus
-/// `safety` above the ground up (below, a drone is taking off or landing). Without a DTM the
-/// ground is the DSM's (or the mesh floor's) surface: a roof cannot be told from a street.
+/// How a mission (.plan, .waypoints, .kmz) takes off and ends (MissionEnds, flight.hpp), and
+/// how it is written.
 struct MissionJobOptions {
   /// x, y in the mesh's CRS, or longitude, latitude in degrees when |a| <= 180 and |b| <= 90;
   /// NaN: the ground under the first waypoint.
@@ -74,50 +69,13 @@ struct PlanJobOptions {
   MissionJobOptions mission;  ///< .plan and .waypoints: home, end, firmware, altitude frame, speeds
 };
 
-struct PlanReport {
+/// The stage's figures (FlightReport, flight.hpp) and the files around them.
+struct PlanReport : FlightReport {
   std::string mesh, waypoints, output;
-  size_t waypoint_count = 0, path_points = 0;
-  double path_length_m = 0;
-  /// Least distance of the written path to the mesh, measured on its own with
-  /// ClearanceIndex::clearance() (capped at safety + max_agl).
-  double min_clearance_m = 0;
-  /// With a DSM: least distance of the path to the DSM's columns (column_clearance(), same cap); NaN without.
-  double min_clearance_dsm_m = NAN;
-  /// With a DSM: the mesh's certified depth below it (certify().max_below) and the tolerance
-  /// the path is held to, sqrt((cell diagonal / 2)^2 + max_below^2): the path is written only
-  /// when min_clearance_dsm_m >= safety - tolerance and > 0.
-  double mesh_max_below_dsm_m = NAN, dsm_tolerance_m = NAN;
-  /// With a DSM: the most a column rises above the mesh anywhere (certify_columns()), and the
-  /// margin the safety distance was widened by on the mesh to hold against the columns.
-  double column_max_above_mesh_m = NAN, safety_margin_m = NAN;
-  /// Greatest height of the written path above the ground in use (exact), and which ground.
-  double max_agl_m = NAN;
-  std::string ground;
-  size_t roadmap_nodes = 0, roadmap_edges = 0;
-  bool roadmap_reused = false;  ///< the roadmap came from the --roadmap file
-  bool index_reused = false;    ///< the clearance index came from the --index file
-  size_t refined_samples = 0;   ///< samples the query added where the roadmap failed a leg (plan.hpp, "Refinement")
-  std::string planner = "prm";
-  size_t corridor_windows = 0;               ///< a DSM input: windows planned in (0: a mesh input)
-  size_t corridor_largest_window_cells = 0;  ///< a DSM input: cells of the largest window
   /// The PROJ operation(s) used: GeoJSON waypoints' and GeoJSON output's (to ellipsoidal
   /// heights), then "; path by: " the missions' and KML's (to EGM96 heights); empty when none.
   std::string transformation;
-  double seconds_load = 0, seconds_roadmap = 0, seconds_query = 0, seconds_smooth = 0;
-  /// seconds_load split: reading the files (mesh, DSM, DTM, a reused roadmap) and the rest
-  /// (the clearance index, the mesh's floor, the DSM's columns against the mesh).
-  double seconds_read = 0, seconds_index = 0;
-  /// Missions: the items written (takeoff, speed, waypoints, end), home (x, y in the CRS, z its
-  /// ground) and the height of the takeoff above it.
-  size_t mission_items = 0;
-  Point3 home{NAN, NAN, NAN};
-  /// The surface home's ground (home[2]) was taken from, the best given: "dtm", "dsm" or "mesh
-  /// floor" (a lower bound of the mesh); and its uncertainty, GroundGrid::spread_at(): half the
-  /// range of that ground over the 3 x 3 cells around home. The relative altitudes count from it.
-  std::string home_ground;
-  double home_ground_uncertainty_m = NAN;
-  double takeoff_height_m = NAN;
-  std::string mission_end;  ///< rtl, land or none
+  size_t mission_items = 0;  ///< missions: the items written (takeoff, speed, waypoints, end)
 };
 
 /// Mesh file + waypoints -> roadmap -> path (plan_path(), see plan.hpp) -> CSV, GeoJSON, a

@@ -1,20 +1,21 @@
-// Flyable missions from a planned path: home on the ground, a vertical takeoff, the legs to and
-// from home planned like any other, the vertical climb and descent checked against the data, and
-// the fewest mission items whose straight lines keep the limits. The item order and what the
-// autopilots check of it: src/io/mission_writers.cpp.
+// A mission's site (flight.hpp): home on the ground, a vertical takeoff, the legs to and from
+// home planned like any other, and the vertical climb and descent checked against the data. The
+// fewest straight items: straight_legs.cpp; the item order and what the autopilots check of it:
+// src/io/mission_writers.cpp.
 #include <array>
 #include <cmath>
 
 #include "core/text.hpp"
-#include "tools/mission_parts.hpp"
+#include "dsmplan/columns.hpp"
+#include "dsmplan/flight.hpp"
 
-namespace dsmplan::detail {
+namespace dsmplan {
 
 namespace {
 
 constexpr double kSameSpot = 1e-6;         // m: a home this close to the first waypoint is under it
 constexpr double kTouchdown = 1.0;         // m above the ground where the check of a climb starts
-constexpr double kWrittenRounding = 0.01;  // m: what verify_limits() allows for written decimals
+constexpr double kWrittenRounding = 0.01;  // m: what plan_flight()'s verification allows for written decimals
 
 bool same_point(const Point3& a, const Point3& b) {
   return std::abs(a[0] - b[0]) <= kSameSpot && std::abs(a[1] - b[1]) <= kSameSpot && std::abs(a[2] - b[2]) <= kSameSpot;
@@ -22,35 +23,8 @@ bool same_point(const Point3& a, const Point3& b) {
 
 }  // namespace
 
-double FlightLimits::clearance(const Point3& p, const Point3& q) const {
-  return columns ? column_clearance(*columns, p, q, safety) : mesh->clearance(p, q, safety);
-}
-
-bool FlightLimits::keeps(const Point3& p, const Point3& q) const {
-  if (ground && std::isfinite(max_agl) && !ground->below_ceiling(p, q, max_agl)) return false;
-  return clearance(p, q) >= safety;
-}
-
-std::vector<Point3> fewest_straight_legs(const std::vector<Point3>& path, const std::vector<Point3>& waypoints,
-                                         const FlightLimits& limits) {
-  if (path.size() < 3) return path;
-  // The waypoints are visited in order: the path's points that are them are kept.
-  std::vector<bool> visit(path.size(), false);
-  for (size_t i = 0, k = 0; i < path.size() && k < waypoints.size(); ++i)
-    if (same_point(path[i], waypoints[k])) visit[i] = true, ++k;
-  std::vector<Point3> kept{path.front()};
-  for (size_t i = 0; i + 1 < path.size();) {
-    size_t j = i + 1;
-    while (j + 1 < path.size() && !visit[j] && limits.keeps(path[i], path[j + 1])) ++j;
-    kept.push_back(path[j]);
-    i = j;
-  }
-  return kept;
-}
-
-MissionSite mission_site(const MissionJobOptions& options, const std::vector<Point3>& waypoints,
-                         const std::function<double(double, double)>& ground_z,
-                         const std::function<Point3(double, double)>& from_lonlat) {
+MissionSite mission_site(const MissionEnds& options, const std::vector<Point3>& waypoints,
+                         const std::function<double(double, double)>& ground_z) {
   MissionSite site;
   site.end = options.end.value_or(MissionEnd::rtl);
   const Point3& first = waypoints.front();
@@ -64,7 +38,9 @@ MissionSite mission_site(const MissionJobOptions& options, const std::vector<Poi
     if (!std::isfinite(a) || !std::isfinite(b))
       throw ArgumentError("--home", "must be two finite numbers, x,y or lon,lat");
     const bool degrees = std::abs(a) <= 180 && std::abs(b) <= 90;
-    const Point3 p = degrees ? from_lonlat(a, b) : Point3{a, b, 0};
+    if (degrees && !options.from_lonlat)
+      throw ArgumentError("--home", "is in degrees, but no transformation from longitude, latitude was given");
+    const Point3 p = degrees ? options.from_lonlat(a, b) : Point3{a, b, 0};
     x = p[0], y = p[1];
   }
   const double ground = ground_z(x, y);
@@ -96,11 +72,12 @@ namespace {
 
 // The vertical leg from `top` down to 1 m plus the safety distance above `ground` (or only `top`
 // when it is lower) against the limits; the refusal names `flag` and what stands there.
-void check_vertical(const Point3& top, double ground, const FlightLimits& limits,
+void check_vertical(const Point3& top, double ground, const FlightRules& limits,
                     const std::function<double(double, double)>& dsm_z, const char* flag, const char* what) {
-  const Point3 bottom{top[0], top[1], std::min(top[2], ground + kTouchdown + limits.safety)};
-  const double d = limits.clearance(bottom, top);
-  if (d >= limits.safety - kWrittenRounding) {
+  const Point3 bottom{top[0], top[1], std::min(top[2], ground + kTouchdown + limits.obstacles->safety())};
+  const double safety = limits.obstacles->safety();
+  const double d = limits.obstacles->clearance(bottom, top);
+  if (d >= safety - kWrittenRounding) {
     if (limits.ground && std::isfinite(limits.max_agl) &&
         !limits.ground->below_ceiling(bottom, top, limits.max_agl + 0.05))
       throw ArgumentError(flag, std::string("the ") + what + " rises above --max-agl " + two_decimals(limits.max_agl));
@@ -115,15 +92,13 @@ void check_vertical(const Point3& top, double ground, const FlightLimits& limits
                                 two_decimals(top[1]) +
                                 (d <= 0 ? " goes through an obstacle"
                                         : " passes " + two_decimals(d) + " m from an obstacle, closer than --safety " +
-                                              two_decimals(limits.safety)) +
+                                              two_decimals(safety)) +
                                 " (checked from " + two_decimals(kTouchdown) + " m plus --safety above the ground up)");
 }
 
-}  // namespace
-
 // The nearest place to `top` (within 50 m, on the ground's cells) whose climb, as high above
 // the ground as `top`'s, keeps the limits; NaN, NaN when there is none.
-std::array<double, 2> nearest_clear_climb(const Point3& top, double ground, const FlightLimits& limits,
+std::array<double, 2> nearest_clear_climb(const Point3& top, double ground, const FlightRules& limits,
                                           const std::function<double(double, double)>& dsm_z) {
   if (!limits.ground || limits.ground->empty()) return {NAN, NAN};
   const double step = std::max(limits.ground->grid().cell_x, 0.5), above = top[2] - ground;
@@ -150,7 +125,9 @@ std::array<double, 2> nearest_clear_climb(const Point3& top, double ground, cons
   return found;
 }
 
-void check_vertical_legs(const MissionSite& site, const std::vector<Point3>& waypoints, const FlightLimits& limits,
+}  // namespace
+
+void check_vertical_legs(const MissionSite& site, const std::vector<Point3>& waypoints, const FlightRules& limits,
                          const std::function<double(double, double)>& dsm_z) {
   try {
     check_vertical(site.takeoff_top, site.home[2], limits, dsm_z, "--home", "climb from home");
@@ -195,9 +172,8 @@ void check_vertical_legs_in(GridSource& dsm, const MissionSite& site, const std:
     if (c1 <= c0 || r1 <= r0) throw ArgumentError(flag, "lies outside the DSM");
     Grid columns = read_window(dsm, c0, r0, c1 - c0, r1 - r0);
     fill_holes_from_rim(columns, RimHeight::highest);
-    FlightLimits limits;
-    limits.columns = &columns;
-    limits.safety = safety;
+    const ColumnsClearance obstacles(columns, safety);
+    const FlightRules limits{&obstacles, nullptr, INFINITY};
     check_vertical(
         top, ground, limits, [&](double x, double y) { return columns.height_at(x, y); }, flag, what);
   };
@@ -205,4 +181,4 @@ void check_vertical_legs_in(GridSource& dsm, const MissionSite& site, const std:
   if (site.end == MissionEnd::land) check(waypoints.back(), site.land[2], "--end", "descent to land");
 }
 
-}  // namespace dsmplan::detail
+}  // namespace dsmplan

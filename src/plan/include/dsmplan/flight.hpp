@@ -1,0 +1,290 @@
+// dsmplan/flight.hpp: stage 4's whole request: a flight through waypoints over the data, planned,
+// held to every rule and verified against the data, in one call (plan_flight()). The command
+// line (`dsmplan plan`), a C++ program and the Python module are faces over it: they read the
+// files, call plan_flight(), and write what it returns.
+//
+// What it guarantees, for the path it returns (and refuses otherwise, naming the file and place):
+//   - Every point keeps `safety` from the obstacles: with a DSM, from its cells as solid columns
+//     (holes as high as their rim: columns.hpp), measured on the returned path itself; without,
+//     from the mesh's triangles.
+//   - No point is more than `max_agl` above the ground: the DTM, else the DSM, else the mesh's
+//     floor (ground.hpp), measured exactly on every segment.
+//   - Every constraint of PlanOptions::constraints (no-fly zones) holds on every segment.
+//   - Data that disagree are refused before planning: a DTM or DSM in another CRS than the mesh,
+//     one that does not overlap it, a DSM that does not cover it, a DTM above its surface
+//     (terrain_above_surface()).
+//   - Waypoints, home and the landing are refused, all of them in one message, when they lie
+//     under the surface, closer than `safety` to the columns, above the ceiling or outside the
+//     ground; a mission's vertical climb and descent are checked from 1 m plus `safety` above
+//     the ground up, and a home that fails is answered with the nearest clear spot.
+#pragma once
+
+#include <array>
+#include <cmath>
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "dsmplan/clearance.hpp"
+#include "dsmplan/core.hpp"
+#include "dsmplan/flight_space.hpp"
+#include "dsmplan/ground.hpp"
+#include "dsmplan/mesh.hpp"
+#include "dsmplan/plan.hpp"
+#include "dsmplan/raster.hpp"
+
+namespace dsmplan {
+
+// ---- a mission's takeoff and end ---------------------------------------------------------------
+
+enum class MissionEnd { rtl, land, none };  ///< after the route: return to launch, land there, nothing
+
+/// How a mission takes off and ends. The takeoff is vertical at home, to the first waypoint's
+/// height above the ground (with the default home, the first waypoint itself); when home is
+/// elsewhere, the route from there to the first waypoint is planned like any leg. `rtl` plans a
+/// leg back above home, so that the autopilot's RTL, which flies a straight unchecked line at its
+/// own altitude, finds nothing left to fly but the descent; `land` descends at the last waypoint.
+/// The vertical climb and descent keep the safety distance from 1 m plus `safety` above the
+/// ground up (below, a drone is taking off or landing). Without a DTM the ground is the DSM's
+/// (or the mesh floor's) surface: a roof cannot be told from a street.
+struct MissionEnds {
+  /// x, y in the mesh's CRS, or longitude, latitude in degrees when |a| <= 180 and |b| <= 90
+  /// (turned into the CRS by `from_lonlat`); NaN: the ground under the first waypoint.
+  std::array<double, 2> home{NAN, NAN};
+  std::optional<MissionEnd> end;  ///< unset: rtl
+  /// Longitude, latitude in degrees to x, y in the mesh's CRS; needed only for a home in degrees.
+  std::function<Point3(double, double)> from_lonlat;
+};
+
+/// Home, the top of the takeoff above it, and the landing; the legs they add to the route.
+struct MissionSite {
+  Point3 home{NAN, NAN, NAN};         ///< x, y in the CRS; z the ground there
+  Point3 takeoff_top{NAN, NAN, NAN};  ///< above home, as high above the ground as the first waypoint
+  Point3 land{NAN, NAN, NAN};         ///< MissionEnd::land: the ground under the last waypoint
+  MissionEnd end = MissionEnd::rtl;
+  bool leading = false;  ///< the takeoff top is a waypoint of its own, before the first
+  bool returns = false;  ///< a leg back to the takeoff top follows the last waypoint
+};
+
+// ---- the request -------------------------------------------------------------------------------
+
+/// Where a face keeps what a plan builds, for the next run (files for the command line, memory
+/// for a service). Each member may be empty. `key` names what a thing was built from: a roadmap
+/// by the obstacles' mesh_fingerprint() and the ground's GroundGrid::fingerprint() (xor), an index
+/// by the obstacles' mesh_fingerprint().
+struct FlightStore {
+  /// A roadmap kept for `key` and these options, or std::nullopt to build one. When this member is
+  /// empty no roadmap is kept, and the planner builds its own (plan_path()).
+  std::function<std::optional<Roadmap>(uint64_t key, const PlanOptions& options)> kept_roadmap;
+  /// Given the roadmap built when kept_roadmap() had none.
+  std::function<void(const Roadmap& map, uint64_t key, const PlanOptions& options)> keep_roadmap;
+  /// Given the clearance index as soon as it is built (before planning: it depends on the mesh
+  /// and the DSM only).
+  std::function<void(const ClearanceIndex& index, uint64_t key)> keep_index;
+};
+
+/// Names of the inputs, for the messages that refuse them (file names on the command line).
+struct FlightNames {
+  std::string mesh = "the mesh", waypoints = "the waypoints", dsm = "the DSM", dtm = "the DTM";
+};
+
+struct FlightRequest {
+  /// The obstacles: a 2.5D mesh in a projected CRS. With `index` given and no DSM, only its CRS
+  /// is used (the triangles may be left unread: read_mesh_crs()).
+  std::shared_ptr<const Mesh> mesh;
+  /// A clearance index kept from an earlier plan_flight() over this very mesh (and DSM:
+  /// obstacle_key() names it), and the fingerprint FlightStore::keep_index was given with it;
+  /// null: built from the mesh.
+  std::shared_ptr<const ClearanceIndex> index;
+  uint64_t index_fingerprint = 0;
+  /// The raw DSM (the mesh's CRS, covering the mesh): every point of the path keeps `safety` from
+  /// its columns (columns.hpp), planned with the safety widened by how far the mesh lies inside
+  /// them (column_margin()). Optional.
+  std::shared_ptr<const Grid> dsm;
+  /// The terrain (the mesh's CRS, any resolution): the ground max_agl counts from. Optional:
+  /// without it the DSM's cells, else the mesh's floor.
+  std::shared_ptr<const Grid> dtm;
+  std::vector<Point3> waypoints;  ///< x, y, z in the mesh's CRS, at least two
+  /// Planner, safety, ceiling, constraints (no-fly zones). `ground` is set by plan_flight() from
+  /// the DTM or DSM.
+  PlanOptions options;
+  /// A mission: a takeoff from home, the end, and the fewest straight legs that keep every
+  /// limit (merge_straight_legs()). Unset: the path alone.
+  std::optional<MissionEnds> mission;
+  FlightStore store;
+  FlightNames names;
+};
+
+/// The key a kept index is named by: the mesh's own key (e.g. a hash of its file) and, when there
+/// is a DSM, its holes' columns, which join the mesh in the index. O(DSM cells).
+uint64_t obstacle_key(uint64_t mesh_key, const Grid* dsm);
+
+/// A 64-bit hash of the mesh's vertices (their exact bits) and triangles. O(mesh).
+uint64_t mesh_fingerprint(const Mesh& mesh);
+
+/// InputError(name) unless `raster` (what: "DSM" or "DTM") shares `crs` (when both name an EPSG
+/// code) and overlaps the x,y box [xmin, xmax] x [ymin, ymax]; a DSM must cover it (to half a
+/// cell), or a path there would go unchecked.
+void require_beside(const Grid& raster, const std::string& name, const char* what, const Crs& crs, double xmin,
+                    double ymin, double xmax, double ymax);
+
+// ---- the answer --------------------------------------------------------------------------------
+
+/// The figures of a flight, each measured on the returned path (measure_flight()), not taken from
+/// the planner: what a user checks the path by.
+struct FlightReport {
+  size_t waypoint_count = 0, path_points = 0;
+  double path_length_m = 0;
+  /// Least distance of the path to the mesh (ClearanceIndex::clearance(), capped at safety + max_agl).
+  double min_clearance_m = 0;
+  /// With a DSM: least distance of the path to the DSM's columns (column_clearance(), same cap); NaN without.
+  double min_clearance_dsm_m = NAN;
+  /// With a DSM: the mesh's certified depth below it (certify().max_below), and the tolerance the
+  /// path is held to: min_clearance_dsm_m >= safety - dsm_tolerance_m (the rounding of written decimals).
+  double mesh_max_below_dsm_m = NAN, dsm_tolerance_m = NAN;
+  /// With a DSM: the most a column rises above the mesh anywhere (certify_columns()), and the
+  /// margin the safety distance was widened by on the mesh to hold against the columns.
+  double column_max_above_mesh_m = NAN, safety_margin_m = NAN;
+  /// Greatest height of the path above the ground in use (exact), and which ground: "dtm", "dsm"
+  /// or "mesh floor".
+  double max_agl_m = NAN;
+  std::string ground;
+  size_t roadmap_nodes = 0, roadmap_edges = 0;
+  bool roadmap_reused = false;  ///< the roadmap came from FlightStore::kept_roadmap
+  bool index_reused = false;    ///< the clearance index came with the request
+  size_t refined_samples = 0;   ///< samples the query added where the roadmap failed a leg (plan.hpp)
+  std::string planner = "prm";
+  size_t corridor_windows = 0;               ///< planned along a corridor: windows (0: a mesh)
+  size_t corridor_largest_window_cells = 0;  ///< planned along a corridor: cells of the largest window
+  /// Seconds: before the planner (index, columns, ground, a kept roadmap), then the planner's parts.
+  double seconds_load = 0, seconds_roadmap = 0, seconds_query = 0, seconds_smooth = 0;
+  /// seconds_load split: reading the files (the face's, added by it) and the rest.
+  double seconds_read = 0, seconds_index = 0;
+  /// Missions: home (x, y in the CRS, z its ground), the surface its ground was taken from, the
+  /// best given ("dtm", "dsm" or "mesh floor"), and that ground's uncertainty
+  /// (GroundGrid::spread_at()); the height of the takeoff above home; the end.
+  Point3 home{NAN, NAN, NAN};
+  std::string home_ground;
+  double home_ground_uncertainty_m = NAN;
+  double takeoff_height_m = NAN;
+  std::string mission_end;  ///< rtl, land or none (missions only)
+};
+
+struct FlightPlan {
+  /// The path through every waypoint, in order; a mission's from the top of the takeoff above
+  /// home (or the first waypoint) with the fewest straight legs that keep every limit.
+  std::vector<Point3> path;
+  std::optional<MissionSite> site;  ///< missions: home, takeoff, landing
+  FlightReport report;
+  /// The clearance index planned on (the request's, or built: FlightStore::keep_index had it).
+  std::shared_ptr<const ClearanceIndex> index;
+};
+
+/// Plans the request and verifies the path against the data, as the top of this header says.
+/// Errors: ArgumentError for options out of range (check_plan_options()) or a home or landing
+/// that cannot be flown ("--home", "--end"); InputError(names.waypoints, "waypoint N" or
+/// "waypoints N to M", why) for waypoints that cannot be flown to or legs without a path;
+/// InputError(names.dsm / names.dtm / names.mesh, ...) for data that disagree. Deterministic.
+FlightPlan plan_flight(const FlightRequest& request, const Progress& progress = {});
+
+// ---- the rules, one implementation each ------------------------------------------------------
+
+/// Keeps `safety` from obstacles, and says how far they are: the DSM's columns or the mesh.
+class ObstacleClearance : public FlightConstraint {
+public:
+  explicit ObstacleClearance(double safety) : safety_(safety) {}
+  double safety() const { return safety_; }
+  /// min(safety, the distance of the segment [p, q] to the obstacles).
+  virtual double clearance(const Point3& p, const Point3& q) const = 0;
+  bool state_valid(const Point3& p) const override { return clearance(p, p) >= safety_; }
+  bool motion_valid(const Point3& p, const Point3& q) const override { return clearance(p, q) >= safety_; }
+
+private:
+  double safety_;
+};
+
+/// The DSM's cells as solid columns (`columns`: holes filled from their rim, RimHeight::highest).
+class ColumnsClearance : public ObstacleClearance {
+public:
+  ColumnsClearance(const Grid& columns, double safety) : ObstacleClearance(safety), columns_(columns) {}
+  double clearance(const Point3& p, const Point3& q) const override;
+  std::string name() const override { return "the DSM's columns"; }
+
+private:
+  const Grid& columns_;
+};
+
+/// The mesh's triangles.
+class MeshClearance : public ObstacleClearance {
+public:
+  MeshClearance(const ClearanceIndex& index, double safety) : ObstacleClearance(safety), index_(index) {}
+  double clearance(const Point3& p, const Point3& q) const override;
+  std::string name() const override { return "the mesh"; }
+
+private:
+  const ClearanceIndex& index_;
+};
+
+/// What a straight motion of a flight is held to: the obstacles, the ceiling over `ground`.
+struct FlightRules {
+  const ObstacleClearance* obstacles = nullptr;
+  const GroundGrid* ground = nullptr;  ///< null: no ceiling
+  double max_agl = INFINITY;
+  bool keeps(const Point3& p, const Point3& q) const;
+};
+
+/// Path simplification for missions, which fly straight from item to item: the fewest points of
+/// `path` (first and last kept, and every one of `waypoints`, which the path passes in order)
+/// whose straight segments keep `rules`; greedy, from each kept point to the farthest point
+/// before the first whose direct segment fails. O(n x run) clearance queries.
+std::vector<Point3> merge_straight_legs(const std::vector<Point3>& path, const std::vector<Point3>& waypoints,
+                                        const FlightRules& rules);
+
+/// The site of a mission through `waypoints` (CRS). `ground_z(x, y)`: the ground's height there,
+/// not finite where unknown. ArgumentError("--home"/"--end") for a home or landing over no ground.
+MissionSite mission_site(const MissionEnds& ends, const std::vector<Point3>& waypoints,
+                         const std::function<double(double, double)>& ground_z);
+
+/// The waypoints the planner goes through: the takeoff top first when it is a leg of its own,
+/// the takeoff top last when the mission returns.
+std::vector<Point3> route_waypoints(const std::vector<Point3>& waypoints, const MissionSite& site);
+
+/// ArgumentError("--home") or ArgumentError("--end") when the vertical climb at home or the
+/// descent at the landing passes nearer the obstacles than the safety distance (less 1 cm) from
+/// 1 m plus `safety` above the ground up, or rises above the ceiling; `dsm_z`, when given, also
+/// refuses a home or landing under a roof or tree (DSM more than 1 m above the ground). A home
+/// that fails is answered with the nearest clear spot within 50 m.
+void check_vertical_legs(const MissionSite& site, const std::vector<Point3>& waypoints, const FlightRules& rules,
+                         const std::function<double(double, double)>& dsm_z);
+
+/// check_vertical_legs() for a DSM read window by window (along a corridor): the columns around
+/// each vertical leg read from `dsm` (holes as high as their rim); no ceiling check (the takeoff
+/// top is as high above the ground as the first waypoint, which is checked).
+void check_vertical_legs_in(GridSource& dsm, const MissionSite& site, const std::vector<Point3>& waypoints,
+                            double safety);
+
+/// The planner's place of a failure in the user's words: "waypoint k" of the user's list, or the
+/// takeoff above --home, or the leg back above home (--end rtl).
+std::string mission_place(const PlanResult& result, const MissionSite& site, size_t user_waypoints);
+
+/// InputError(file, place, problem) naming every waypoint of `invalid` in one line (the first is
+/// the place), when any.
+void refuse_waypoints(const std::string& file, const std::vector<PlanResult::Invalid>& invalid);
+
+/// The measures of a path, each defined once: the greatest height above `ground` (exact, per
+/// segment: GroundGrid::max_height_above()) with the segment where it is reached (1-based), and,
+/// when `columns` is given, the least distance to the DSM's columns (column_clearance(), capped at
+/// `cap`) with its segment. plan_flight()'s verification, `dsmplan profile` and Python read these.
+struct PathMeasures {
+  double max_agl_m = -INFINITY;
+  size_t max_agl_segment = 0;
+  double min_clearance_dsm_m = NAN;
+  size_t min_clearance_dsm_segment = 0;
+};
+PathMeasures measure_path(const std::vector<Point3>& path, const GroundGrid& ground, const Grid* columns,
+                          double cap);
+
+}  // namespace dsmplan
