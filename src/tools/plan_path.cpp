@@ -298,8 +298,8 @@ FlightStore file_store(const PlanJobOptions& options, uint64_t index_key) {
 }
 
 // Writes the path (or the mission) in the output's format, in WGS 84 where the format asks.
-void write_flight(const PlanJobOptions& options, const OutputKind& kind, const FlightPlan& flight,
-                  const std::vector<Point3>& waypoints, const Crs& crs, const Transforms& t, PlanReport& report) {
+void write_flight_as(const PlanJobOptions& options, const OutputKind& kind, const FlightPlan& flight,
+                     const std::vector<Point3>& waypoints, const Crs& crs, const Transforms& t, PlanReport& report) {
   const std::vector<Point3>& path = flight.path;
   if (kind.ext == "csv") return write_text_file(options.output, path_to_csv(path));
   if (kind.geojson) {
@@ -397,9 +397,21 @@ PlanReport plan_job(const PlanJobOptions& options, const Progress& progress) {
   report.waypoints = options.waypoints;
   report.output = options.output;
   dsmplan::report(progress, 0.95);
-  write_flight(options, kind, flight, waypoints, crs, t, report);
+  write_flight_as(options, kind, flight, waypoints, crs, t, report);
   dsmplan::report(progress, 1);
   return report;
+}
+
+void write_flight(const FlightPlan& flight, const std::vector<Point3>& waypoints, const Crs& crs,
+                  const PlanJobOptions& options, PlanReport& report) {
+  const OutputKind kind = output_kind(options);
+  if (kind.mission && !flight.site)
+    throw ArgumentError(
+        "mission", "a ." + kind.ext + " file is a mission: plan the flight as one (a home and an end) to write it");
+  check_writable(options.output);
+  Transforms t;
+  make_transforms(t, crs, false, kind, options.vertical, report.transformation);
+  write_flight_as(options, kind, flight, waypoints, crs, t, report);
 }
 
 Json to_json(const PlanReport& r) {

@@ -3,6 +3,7 @@
 # certified error (every valid cell centre against the triangle above it) and for the path's
 # clearance (every 0.25 m of it against every triangle), a numpy reader of the PLY written.
 import os
+import subprocess
 import re
 
 import numpy as np
@@ -135,7 +136,9 @@ def test_plan_keeps_the_safety_distance_from_every_triangle(crop):
     x0, cx, _, y0, _, ny = dsm.transform
     top = float(np.nanmax(dsm.heights))
     waypoints = np.array([[x0 + 10, y0 - 10, top - 5], [x0 + 110, y0 - 90, top - 5]])
-    path = dsmplan.plan(mesh, waypoints, safety=2.0, max_agl=60.0, spacing=8.0)
+    flight = dsmplan.plan(mesh, waypoints, safety=2.0, max_agl=60.0, spacing=8.0)
+    path = flight.path
+    assert flight.report["min_clearance_m"] >= 2.0 - 1e-9
     assert path.shape[1] == 3 and path.dtype == np.float64 and len(path) >= 2
     np.testing.assert_array_equal(path[0], waypoints[0])
     np.testing.assert_array_equal(path[-1], waypoints[-1])
@@ -220,3 +223,88 @@ def test_read_dsm_refuses_what_is_no_file_instead_of_waiting(tmp_path):
         dsmplan.read_dsm(str(fifo))
     with pytest.raises(dsmplan.Error, match="is a directory"):
         dsmplan.read_dsm(str(tmp_path))
+
+
+# ---- one library, three faces: the Python face gives what the command line gives ----------------
+
+LOW_WAYPOINTS = os.path.join(os.path.dirname(SAMPLE), "low_waypoints.csv")
+
+
+def read_waypoints(path):
+    rows = [line for line in open(path) if line[0].isdigit() or line[0] == "-"]
+    return np.array([[float(v) for v in row.split(",")] for row in rows])
+
+
+def run_cli(*args):
+    return subprocess.run([os.environ.get("DSMPLAN_CLI", "dsmplan"), *args], capture_output=True, text=True)
+
+
+@pytest.fixture(scope="module")
+def sample_plan(tmp_path_factory):
+    """The sample's conservative mesh (written, so that both faces plan on the same bytes) and a
+    DTM under it: the lowest DSM cell within 15 m, a ground no roof stands on."""
+    folder = tmp_path_factory.mktemp("parity")
+    dsm = dsmplan.read_dsm(SAMPLE)
+    mesh_file = str(folder / "mesh.ply")
+    dsmplan.simplify(dsm, max_error=0.4, conservative=True).write(mesh_file)
+    heights = np.where(np.isnan(dsm.heights), np.inf, dsm.heights)
+    r = 15
+    padded = np.pad(heights, r, mode="edge")
+    low = np.full_like(heights, np.inf)
+    for dy in range(0, 2 * r + 1, 3):
+        for dx in range(0, 2 * r + 1, 3):
+            low = np.minimum(low, padded[dy : dy + heights.shape[0], dx : dx + heights.shape[1]])
+    dtm_file = str(folder / "dtm.tif")
+    source = gdal.Open(SAMPLE)
+    out = gdal.GetDriverByName("GTiff").Create(dtm_file, low.shape[1], low.shape[0], 1, gdal.GDT_Float32)
+    out.SetGeoTransform(source.GetGeoTransform())
+    out.SetProjection(source.GetProjection())
+    out.GetRasterBand(1).WriteArray(low.astype(np.float32))
+    out = None
+    return folder, mesh_file, dtm_file, low.astype(np.float32)
+
+
+def test_plan_in_python_writes_what_the_command_line_writes(sample_plan):
+    folder, mesh_file, dtm_file, dtm_heights = sample_plan
+    cli_csv, cli_mission = str(folder / "cli.csv"), str(folder / "cli.waypoints")
+    common = ["--waypoints", LOW_WAYPOINTS, "--dsm", SAMPLE, "--dtm", dtm_file, "--max-agl", "30", "--spacing", "10"]
+    result = run_cli("plan", mesh_file, *common, "-o", cli_csv, "-q")
+    assert result.returncode == 0, result.stderr
+    vertical = ["--vertical-crs", "EPSG:7837", "--allow-approximate-vertical"]
+    result = run_cli("plan", mesh_file, *common, *vertical, "-o", cli_mission, "-q")
+    assert result.returncode == 0, result.stderr
+
+    dsm = dsmplan.read_dsm(SAMPLE)
+    # The DTM from the numpy array itself, as a rasterio user holds one: affine (a, b, c, d, e, f).
+    x0, cx, _, y0, _, ny = dsm.transform
+    dtm = dsmplan.Dsm(dtm_heights, (cx, 0.0, x0, 0.0, ny, y0), "EPSG:25832")
+    mesh = dsmplan.simplify(dsm, max_error=0.4, conservative=True)
+    waypoints = read_waypoints(LOW_WAYPOINTS)
+    flight = dsmplan.plan(mesh, waypoints, dsm=dsm, dtm=dtm, max_agl=30, spacing=10)
+    py_csv = str(folder / "py.csv")
+    flight.write(py_csv)
+    assert open(py_csv, "rb").read() == open(cli_csv, "rb").read()
+    assert flight.report["ground"] == "dtm" and flight.report["min_clearance_dsm_m"] >= 2.0 - 0.01
+    mission = dsmplan.plan(mesh, waypoints, dsm=dsm, dtm=dtm, max_agl=30, spacing=10, mission=True)
+    py_mission = str(folder / "py.waypoints")
+    mission.write(py_mission, vertical_crs="EPSG:7837", allow_approximate_vertical=True)
+    assert open(py_mission, "rb").read() == open(cli_mission, "rb").read()
+    with pytest.raises(dsmplan.ArgumentError, match="is a mission"):
+        flight.write(str(folder / "not_a_mission.plan"))
+
+
+def test_a_waypoint_under_a_roof_is_refused_in_the_same_words(sample_plan, tmp_path):
+    folder, mesh_file, _, _ = sample_plan
+    waypoints = read_waypoints(LOW_WAYPOINTS)
+    waypoints[1, 2] = 90.0  # under the street's surface
+    under = str(tmp_path / "under.csv")
+    np.savetxt(under, waypoints, delimiter=",", header="x,y,z", comments="", fmt="%.3f")
+    result = run_cli("plan", mesh_file, "--waypoints", under, "--dsm", SAMPLE, "-o", str(tmp_path / "p.csv"), "-q")
+    assert result.returncode == 1
+    cli_words = result.stderr.strip().split("waypoint 2: ", 1)[1]
+    dsm = dsmplan.read_dsm(SAMPLE)
+    mesh = dsmplan.simplify(dsm, max_error=0.4, conservative=True)
+    with pytest.raises(dsmplan.InputError) as caught:
+        dsmplan.plan(mesh, waypoints, dsm=dsm)
+    assert str(caught.value).split("waypoint 2: ", 1)[1] == cli_words
+    assert "inside the DSM" in cli_words
