@@ -1773,6 +1773,56 @@ struct MissionFixture : PlanFixture {
   }
 };
 
+// One definition of each measure (issue 32): the height above the ground `plan` verifies and
+// reports is the one `profile` reports for the same path, to the last bit: over the DSM, over a
+// DTM, and over a DTM with a hole where the path is highest above it (which the two counted apart
+// before: plan 12.52 m, profile 12.07 m on a satellite DSM with holes).
+TEST(CliPlan, PlanAndProfileGiveTheSameHeightAboveTheGround) {
+  MissionFixture f;
+  TempDir out;
+  dsmplan::Grid terrain = dsmplan::read_raster(testkit::data_path(kSample));
+  for (float& z : terrain.z) z -= 8;  // a ground 8 m under the DSM
+  const auto plan_and_profile = [&](const std::string& name, const std::string& dtm) {
+    const std::string path = out.path(name + ".csv"), stats = path + ".json";
+    std::vector<std::string> extra{"--stats", stats};
+    if (!dtm.empty()) extra.insert(extra.end(), {"--dtm", dtm});
+    const auto planned = f.plan(path, extra);
+    EXPECT_EQ(planned.exit_code, 0) << planned.err;
+    std::vector<std::string> args{"profile", testkit::data_path(kSample), "--path", path, "-o", path + ".png", "--json",
+                                  "-q"};
+    if (!dtm.empty()) args.insert(args.end(), {"--dtm", dtm});
+    const auto profiled = run_cli(args);
+    EXPECT_EQ(profiled.exit_code, 0) << profiled.err;
+    const json profile = json::parse(profiled.out);
+    EXPECT_EQ(json::parse(testkit::read_file(stats))["max_agl_m"].get<double>(),
+              profile["max_above_ground_m"].get<double>())
+        << name;
+    return std::make_pair(read_path_csv(path), profile["max_above_ground_at_m"].get<double>());
+  };
+  plan_and_profile("over_dsm", "");
+  const std::string dtm = out.path("dtm.tif");
+  dsmplan::write_geotiff(terrain, dtm);
+  const auto [path, at] = plan_and_profile("over_dtm", dtm);
+  // A hole of 7 x 7 cells in the DTM where the path is highest above it.
+  double walked = 0, x = path[0][0], y = path[0][1];
+  for (size_t k = 1; k < path.size(); ++k) {
+    const double leg = std::hypot(path[k][0] - path[k - 1][0], path[k][1] - path[k - 1][1]);
+    if (walked + leg >= at) {
+      const double t = leg > 0 ? (at - walked) / leg : 0;
+      x = path[k - 1][0] + t * (path[k][0] - path[k - 1][0]), y = path[k - 1][1] + t * (path[k][1] - path[k - 1][1]);
+      break;
+    }
+    walked += leg;
+  }
+  int col = 0, row = 0;
+  ASSERT_TRUE(terrain.cell_at(x, y, col, row));
+  for (int r = row - 3; r <= row + 3; ++r)
+    for (int c = col - 3; c <= col + 3; ++c) terrain.z[terrain.index(c, r)] = NAN;
+  const std::string holed = out.path("holed.tif");
+  dsmplan::write_geotiff(terrain, holed);
+  plan_and_profile("over_holed_dtm", holed);
+}
+
 TEST(CliPlan, MissionsAndKmlCarryTheWaypointsInLatLonAndMeanSeaLevelHeights) {
   MissionFixture f;
   const auto waypoints = f.corners();

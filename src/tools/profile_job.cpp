@@ -6,6 +6,7 @@
 #include <filesystem>
 
 #include "core/text.hpp"
+#include "dsmplan/flight.hpp"
 #include "dsmplan/ground.hpp"
 #include "dsmplan/picture.hpp"
 #include "dsmplan/picture_job.hpp"
@@ -36,6 +37,24 @@ bool cells_around(const Grid& frame, double xmin, double ymin, double xmax, doub
   if (!(a < b && c < d)) return false;
   c0 = static_cast<int>(a), c1 = static_cast<int>(b), r0 = static_cast<int>(c), r1 = static_cast<int>(d);
   return true;
+}
+
+// Where along the path (x,y distance from its start) segment k (1-based) comes highest above the
+// ground: sampled every tenth of a cell; the height itself is measured exactly (measure_path()).
+double highest_point_at(const std::vector<Point3>& path, const GroundGrid& ground, size_t k,
+                        const std::vector<double>& distance) {
+  const Point3 &p = path[k - 1], &q = path[k];
+  const double cell = std::min(ground.grid().cell_x, ground.grid().cell_y);
+  const double length = std::hypot(q[0] - p[0], q[1] - p[1]);
+  const int steps = std::max(1, static_cast<int>(std::ceil(length / (cell / 10))));
+  double best = -INFINITY, at = 0;
+  for (int i = 0; i <= steps; ++i) {
+    const double t = double(i) / steps;
+    const double above =
+        ground.height_above({p[0] + t * (q[0] - p[0]), p[1] + t * (q[1] - p[1]), p[2] + t * (q[2] - p[2])});
+    if (above > best) best = above, at = t;
+  }
+  return distance[k - 1] + at * (distance[k] - distance[k - 1]);
 }
 
 }  // namespace
@@ -120,7 +139,15 @@ ProfileReport profile_job(const ProfileJobOptions& options, const Progress& prog
     drawing.title = "Height profile: " + file_name(options.path) + " over " + file_name(options.dsm);
   const Grid* terrain = dtm_source ? &dtm : nullptr;
   const Image image = render_profile(path, dsm, terrain, drawing);
-  const PathProfile profile = profile_path(path, dsm, terrain);
+  PathProfile profile = profile_path(path, dsm, terrain);
+  // The height above ground is the plan stage's measure (measure_path()), the one `dsmplan plan`
+  // verifies and reports: the same figure for the same path, whichever command says it.
+  const GroundGrid ground(terrain ? dtm : dsm);
+  const PathMeasures measured = measure_path(path, ground, nullptr, 0);
+  profile.max_above_ground = std::isinf(measured.max_agl_m) ? NAN : measured.max_agl_m;
+  profile.max_above_ground_at = std::isnan(profile.max_above_ground)
+                                    ? NAN
+                                    : highest_point_at(path, ground, measured.max_agl_segment, profile.distance);
   write_png(image, options.output);
   report(progress, 1);
 
