@@ -39,8 +39,8 @@ void require_beside(const Grid& grid, const std::string& name, const char* what,
                      std::string("the ") + what + " (" + box(grid.x0, grid.x1(), grid.y1(), grid.y0) +
                          ") does not overlap the mesh (" + mesh_box + ")");
   const double hx = grid.cell_x / 2 + 1e-9, hy = grid.cell_y / 2 + 1e-9;
-  if (std::string(what) == "DSM" && !(grid.x0 <= e.xmin + hx && grid.x1() >= e.xmax - hx &&
-                                      grid.y1() <= e.ymin + hy && grid.y0 >= e.ymax - hy))
+  if (std::string(what) == "DSM" &&
+      !(grid.x0 <= e.xmin + hx && grid.x1() >= e.xmax - hx && grid.y1() <= e.ymin + hy && grid.y0 >= e.ymax - hy))
     throw InputError(name, "",
                      "the DSM (" + box(grid.x0, grid.x1(), grid.y1(), grid.y0) + ") does not cover the mesh (" +
                          mesh_box + "): a path there would go unchecked");
@@ -59,9 +59,8 @@ void refuse_near_columns(const std::vector<Point3>& waypoints, const Grid& colum
     const std::string where =
         "the column at x " + two_decimals(c.x) + ", y " + two_decimals(c.y) + " (top " + two_decimals(c.top) + " m)";
     problems.push_back({i, c.distance <= 0 ? "inside the DSM (under its surface): in " + where
-                                           : "closer than the safety distance to the DSM: " +
-                                                 two_decimals(c.distance) + " m from " + where + ", --safety " +
-                                                 two_decimals(safety)});
+                                           : "closer than the safety distance to the DSM: " + two_decimals(c.distance) +
+                                                 " m from " + where + ", --safety " + two_decimals(safety)});
   }
   refuse_waypoints(file, problems);
 }
@@ -73,9 +72,10 @@ void refuse_above_ceiling(const std::vector<Point3>& waypoints, const GroundGrid
   for (size_t i = 0; i < waypoints.size(); ++i) {
     const double above = ground.height_above(waypoints[i]);
     if (above <= max_agl) continue;
-    problems.push_back({i, std::isinf(above) ? "outside the ground's extent (no ground below it to count --max-agl from)"
-                                             : "above the ceiling: " + two_decimals(above) +
-                                                   " m above the ground, --max-agl " + two_decimals(max_agl)});
+    problems.push_back({i, std::isinf(above)
+                               ? "outside the ground's extent (no ground below it to count --max-agl from)"
+                               : "above the ceiling: " + two_decimals(above) + " m above the ground, --max-agl " +
+                                     two_decimals(max_agl)});
   }
   refuse_waypoints(file, problems);
 }
@@ -170,7 +170,6 @@ PlanResult run_planner(const ClearanceIndex& index, const std::vector<Point3>& r
   if (report.roadmap_reused) report.seconds_load += seconds_roadmap, report.seconds_read += seconds_roadmap;
   return result;
 }
-
 
 // The DSM's columns, holes as high as their rim (what the path must keep `safety` from), and the
 // mesh the planner runs on: the request's, with the holes' columns joined.
@@ -283,7 +282,9 @@ FlightPlan plan_flight(const FlightRequest& request, const Progress& progress) {
   out.index = request.index ? request.index : std::make_shared<const ClearanceIndex>(*obstacles.mesh);
   // Kept files are named by the obstacles (the mesh and the DSM's holes' columns); a kept index holds it.
   const FlightStore& store = request.store;
-  const auto obstacles_key = [&] { return request.index ? request.index_fingerprint : mesh_fingerprint(*obstacles.mesh); };
+  const auto obstacles_key = [&] {
+    return request.index ? request.index_fingerprint : mesh_fingerprint(*obstacles.mesh);
+  };
   if (!request.index && store.keep_index) store.keep_index(*out.index, obstacles_key());
   const ClearanceIndex& index = *out.index;
   report.ground = request.dtm ? "dtm" : request.dsm ? "dsm" : "mesh floor";

@@ -18,8 +18,7 @@ bool FlightRules::keeps(const Point3& p, const Point3& q) const {
   return obstacles->motion_valid(p, q);
 }
 
-PathMeasures measure_path(const std::vector<Point3>& path, const GroundGrid& ground, const Grid* columns,
-                          double cap) {
+PathMeasures measure_path(const std::vector<Point3>& path, const GroundGrid& ground, const Grid* columns, double cap) {
   PathMeasures m;
   for (size_t k = 1; k < path.size(); ++k) {
     const double above = ground.max_height_above(path[k - 1], path[k]);

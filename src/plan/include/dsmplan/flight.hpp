@@ -284,7 +284,6 @@ struct PathMeasures {
   double min_clearance_dsm_m = NAN;
   size_t min_clearance_dsm_segment = 0;
 };
-PathMeasures measure_path(const std::vector<Point3>& path, const GroundGrid& ground, const Grid* columns,
-                          double cap);
+PathMeasures measure_path(const std::vector<Point3>& path, const GroundGrid& ground, const Grid* columns, double cap);
 
 }  // namespace dsmplan
