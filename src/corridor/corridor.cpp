@@ -11,6 +11,7 @@
 #include <string>
 
 #include "dsmplan/columns.hpp"
+#include "dsmplan/flight.hpp"
 #include "dsmplan/plan.hpp"
 #include "dsmplan/simplify_streamed.hpp"
 #include "plan/path_parts.hpp"
@@ -171,13 +172,13 @@ CorridorResult plan_corridor(GridSource& dsm, const std::vector<Point3>& waypoin
       return out;
     }
     if (options.finish_piece) piece.path = options.finish_piece(piece.path);
-    for (size_t s = 1; s < piece.path.size(); ++s) {
+    for (size_t s = 1; s < piece.path.size(); ++s)
       out.min_clearance_m =
           std::min(out.min_clearance_m, current->index->clearance(piece.path[s - 1], piece.path[s], cap));
-      out.min_clearance_dsm_m =
-          std::min(out.min_clearance_dsm_m, column_clearance(current->dsm, piece.path[s - 1], piece.path[s], cap));
-      out.max_agl_m = std::max(out.max_agl_m, current->plan.ground->max_height_above(piece.path[s - 1], piece.path[s]));
-    }
+    // The plan stage's measures (measure_path()), as a mesh plan is verified by.
+    const PathMeasures measured = measure_path(piece.path, *current->plan.ground, &current->dsm, cap);
+    out.min_clearance_dsm_m = std::min(out.min_clearance_dsm_m, measured.min_clearance_dsm_m);
+    out.max_agl_m = std::max(out.max_agl_m, measured.max_agl_m);
     const size_t skip = result.path.empty() ? 0 : 1;  // the joint is the previous piece's end
     result.path.insert(result.path.end(), piece.path.begin() + skip, piece.path.end());
     result.raw_path.insert(result.raw_path.end(), piece.raw_path.begin() + (result.raw_path.empty() ? 0 : 1),

@@ -80,20 +80,6 @@ void refuse_above_ceiling(const std::vector<Point3>& waypoints, const GroundGrid
   refuse_waypoints(file, problems);
 }
 
-// The terrain may not stand above the surface it lies under (terrain_above_surface()): at a
-// waypoint, home, the landing, or over the cells.
-void refuse_terrain_above(const GroundGrid& terrain, const std::function<double(double, double)>& surface_z,
-                          const std::vector<Point3>& waypoints, const MissionSite* site,
-                          const std::string& terrain_name, const std::string& surface_name) {
-  std::vector<NamedPlace> places;
-  if (site) places.push_back({"home", site->home[0], site->home[1]});
-  for (size_t i = 0; i < waypoints.size(); ++i)
-    places.push_back({"waypoint " + std::to_string(i + 1), waypoints[i][0], waypoints[i][1]});
-  if (site && site->end == MissionEnd::land) places.push_back({"the landing", site->land[0], site->land[1]});
-  if (const auto problem = terrain_above_surface(terrain, surface_z, places, surface_name))
-    throw InputError(terrain_name, problem->place, problem->problem);
-}
-
 // The path held to both limits once more, measured on its own (measure_path()): clearance to the
 // DSM's columns at least the safety distance, less 1 cm for the rounding of what is written;
 // height above the ground at most max_agl, plus 5 cm. A path planned as above always passes:
@@ -245,6 +231,18 @@ void measure_flight(FlightPlan& out, const FlightRequest& request, const Grid& c
 }
 
 }  // namespace
+
+void refuse_terrain_above(const GroundGrid& terrain, const std::function<double(double, double)>& surface_z,
+                          const std::vector<Point3>& waypoints, const MissionSite* site,
+                          const std::string& terrain_name, const std::string& surface_name) {
+  std::vector<NamedPlace> places;
+  if (site) places.push_back({"home", site->home[0], site->home[1]});
+  for (size_t i = 0; i < waypoints.size(); ++i)
+    places.push_back({"waypoint " + std::to_string(i + 1), waypoints[i][0], waypoints[i][1]});
+  if (site && site->end == MissionEnd::land) places.push_back({"the landing", site->land[0], site->land[1]});
+  if (const auto problem = terrain_above_surface(terrain, surface_z, places, surface_name))
+    throw InputError(terrain_name, problem->place, problem->problem);
+}
 
 void refuse_waypoints(const std::string& file, const std::vector<PlanResult::Invalid>& invalid) {
   if (invalid.empty()) return;

@@ -153,13 +153,7 @@ void check_corridor_terrain(GridSource& city, const GroundGrid& terrain, const s
     if (row != row_read) city.read(0, row, frame.width, 1, heights.data()), row_read = row;
     return double(heights[col]);
   };
-  std::vector<NamedPlace> places;
-  if (site) places.push_back({"home", site->home[0], site->home[1]});
-  for (size_t i = 0; i < waypoints.size(); ++i)
-    places.push_back({"waypoint " + std::to_string(i + 1), waypoints[i][0], waypoints[i][1]});
-  if (site && site->end == MissionEnd::land) places.push_back({"the landing", site->land[0], site->land[1]});
-  if (const auto problem = terrain_above_surface(terrain, surface_z, places, "the DSM " + options.mesh))
-    throw InputError(options.dtm, problem->place, problem->problem);
+  refuse_terrain_above(terrain, surface_z, waypoints, site, options.dtm, "the DSM " + options.mesh);
 }
 
 // A DSM (raster, VRT mosaic) instead of a mesh: planned along a corridor, window by window.

@@ -270,6 +270,14 @@ void check_vertical_legs_in(GridSource& dsm, const MissionSite& site, const std:
 /// takeoff above --home, or the leg back above home (--end rtl).
 std::string mission_place(const PlanResult& result, const MissionSite& site, size_t user_waypoints);
 
+/// InputError(terrain_name, place, problem) when the terrain stands above the surface it should
+/// lie under (terrain_above_surface()): at home, a waypoint ("waypoint N", 1-based), the landing
+/// (those of `site` when given), or over the cells. `surface_z(x, y)` as terrain_above_surface()
+/// takes it; `surface_name` names the surface in the message ("the DSM dsm.tif").
+void refuse_terrain_above(const GroundGrid& terrain, const std::function<double(double, double)>& surface_z,
+                          const std::vector<Point3>& waypoints, const MissionSite* site,
+                          const std::string& terrain_name, const std::string& surface_name);
+
 /// InputError(file, place, problem) naming every waypoint of `invalid` in one line (the first is
 /// the place), when any.
 void refuse_waypoints(const std::string& file, const std::vector<PlanResult::Invalid>& invalid);
