@@ -1,7 +1,5 @@
 // dsmplan: the command-line face of the library. It parses argv into the option structs of
 // dsmplan/tools.hpp, calls the tool, and prints or writes the report; nothing else.
-#include <cpl_progress.h>
-
 #include <CLI/CLI.hpp>
 #include <algorithm>
 #include <cmath>
@@ -18,6 +16,7 @@
 #include "dsmplan/picture.hpp"
 #include "dsmplan/picture_job.hpp"
 #include "dsmplan/plan_job.hpp"
+#include "dsmplan/raster_io.hpp"
 #include "dsmplan/satellite_stereo_job.hpp"
 #include "dsmplan/stereo_job.hpp"
 #include "dsmplan/tools.hpp"
@@ -37,7 +36,7 @@ Progress terminal_progress(bool quiet) {
   if (quiet) return {};
   return [](double fraction) {
     progress_line_open = fraction < 1;
-    return GDALTermProgress(fraction, nullptr, nullptr) != 0;
+    return print_terminal_progress(fraction);
   };
 }
 
@@ -181,22 +180,21 @@ int main(int argc, char** argv) {
   grid_cmd->add_flag("--json", grid_json, "Print the DSM's counts and height range as JSON");
   grid_cmd->add_option("--of", grid_of, "Output format: gtiff (the only one)");
 
-  StereoJobOptions stereo;
-  SatelliteStereoOptions satellite;
-  std::string stereo_bounds, stereo_stats;
+  StereoRequest stereo;
+  std::string stereo_stats;
   CLI::App* stereo_cmd = app.add_subcommand(
       "stereo",
       "DSM from images: satellite images with RPCs (IMG1 IMG2 ...) or frame cameras with known poses (--cameras): "
       "rectification, SGM, triangulation, median per cell");
-  stereo_cmd->add_option("images", satellite.images,
+  stereo_cmd->add_option("images", stereo.images,
                          "Satellite images with RPC cameras (TIFF tags, _RPC.TXT, .RPB or an OSSIM .geom beside "
                          "them), two or more: every overlapping pair is matched");
   stereo_cmd->add_option("--cameras", stereo.cameras,
                          "CAMERAS.json: CRS, cameras and images, optionally the height range (README)");
-  stereo_cmd->add_option("--crs", satellite.crs,
+  stereo_cmd->add_option("--crs", stereo.crs,
                          "With satellite images: output CRS (default: WGS 84 / UTM of the scene; heights above the "
                          "WGS 84 ellipsoid)");
-  stereo_cmd->add_flag("--allow-approximate-vertical", satellite.allow_approximate_vertical,
+  stereo_cmd->add_flag("--allow-approximate-vertical", stereo.allow_approximate_vertical,
                        "With satellite images and a compound --crs whose geoid grid PROJ lacks: heights through "
                        "EGM96 (about 1 m off; --stats' transformation says so) instead of refusing");
   stereo_cmd->add_option("-o,--output", stereo.output, "Output GeoTIFF (Float32, nodata where nothing matched)")
@@ -204,16 +202,14 @@ int main(int argc, char** argv) {
   stereo_cmd->add_option("--res", stereo.resolution, "Cell size (CRS units: m)")->required();
   stereo_cmd->add_option("--pairs", stereo.pairs, "auto (overlap and base-to-height ratio) or pairs like 0-1,1-2")
       ->capture_default_str();
-  stereo_cmd->add_option("--bounds", stereo_bounds, "x0,y0,x1,y1 of the DSM (CRS units); default: the pairs' overlap");
+  stereo_cmd->add_option("--bounds", stereo.bounds, "x0,y0,x1,y1 of the DSM (CRS units); default: the pairs' overlap");
   stereo_cmd->add_option("--stats", stereo_stats, "Write counts and seconds per stage as JSON");
-  double fusion_memory_mb = 1024;
   stereo_cmd
-      ->add_option("--fusion-memory", fusion_memory_mb,
+      ->add_option("--fusion-memory", stereo.fusion_memory_mb,
                    "MB of memory for the points before the fusion spills sorted runs to $TMPDIR (or /tmp)")
       ->capture_default_str();
-  double band_memory_mb = 1024;
   stereo_cmd
-      ->add_option("--band-memory", band_memory_mb,
+      ->add_option("--band-memory", stereo.band_memory_mb,
                    "MB for one band of a frame pair's rectified images and matching (taller pairs go in bands of rows)")
       ->capture_default_str();
   stereo_cmd->add_flag("-q,--quiet", quiet, "No progress output");
@@ -490,54 +486,17 @@ int main(int argc, char** argv) {
       if (grid_json) std::fputs((to_json(summary).dump(2) + "\n").c_str(), stdout);
     }
     if (*stereo_cmd) {
-      if (!stereo_bounds.empty()) {
-        try {
-          const Window w = parse_window(stereo_bounds);
-          stereo.bounds = std::array<double, 4>{w.xmin, w.ymin, w.xmax, w.ymax};
-        } catch (const ArgumentError&) {
-          throw ArgumentError("--bounds",
-                              "expected four numbers x0,y0,x1,y1, got '" + stereo_bounds.substr(0, 80) + "'");
-        }
-      }
-      if (stereo.cameras.empty() == satellite.images.empty())
-        throw ArgumentError("--cameras",
-                            "give either satellite images with RPCs (dsmplan stereo IMG1 IMG2 ...) or "
-                            "--cameras CAMERAS.json for frame cameras, not both");
-      for (const auto& [flag, megabytes, least] :
-           {std::tuple{"--fusion-memory", fusion_memory_mb, 0.0625}, std::tuple{"--band-memory", band_memory_mb, 1.0}})
-        if (!(megabytes >= least && megabytes < 1e9)) {
-          char range[96];  // %g: 1e300 as typed, not as 301 digits
-          std::snprintf(range, sizeof range, "must lie in [%g, 1e9) MB, got %g", least, megabytes);
-          throw ArgumentError(flag, range);
-        }
-      stereo.band_memory_bytes = static_cast<std::size_t>(band_memory_mb * 1048576.0);
-      stereo.fusion_memory_bytes = satellite.fusion_memory_bytes =
-          static_cast<std::size_t>(fusion_memory_mb * 1048576.0);
-      if (!stereo.cameras.empty()) {
-        if (!satellite.crs.empty())
-          throw ArgumentError("--crs", "belongs to satellite images; CAMERAS.json states its CRS");
-        if (satellite.allow_approximate_vertical)
-          throw ArgumentError("--allow-approximate-vertical", "belongs to satellite images with a compound --crs");
-        refuse_overwrites(stereo_job_inputs(stereo), {{"-o", stereo.output}, {"--stats", stereo_stats}});
+      const StereoJob job = stereo_job_for(stereo);  // the flags' rules, as every caller gets them
+      if (job.frame) {
+        refuse_overwrites(stereo_job_inputs(*job.frame), {{"-o", stereo.output}, {"--stats", stereo_stats}});
         if (!stereo_stats.empty()) check_writable(stereo_stats);
-        const StereoReport report = stereo_job(stereo, terminal_progress(quiet));
+        const StereoReport report = stereo_job(*job.frame, terminal_progress(quiet));
         write_stats(stereo_stats, to_json(report), {stereo.output});
       } else {
-        if (stereo.pairs != "auto")
-          throw ArgumentError("--pairs", "belongs to --cameras; satellite images are paired by overlap");
-        satellite.output = stereo.output;
-        satellite.resolution = stereo.resolution;
-        satellite.bounds = stereo.bounds;
-        std::vector<NamedFile> inputs;
-        for (const std::string& image : satellite.images) {
-          inputs.push_back({"IMAGES", image});
-          const std::string geom = std::filesystem::path(image).replace_extension(".geom").string();
-          if (std::filesystem::exists(geom)) inputs.push_back({"IMAGES", geom});
-        }
-        refuse_overwrites(inputs, {{"-o", satellite.output}, {"--stats", stereo_stats}});
+        refuse_overwrites(satellite_stereo_inputs(*job.satellite), {{"-o", stereo.output}, {"--stats", stereo_stats}});
         if (!stereo_stats.empty()) check_writable(stereo_stats);
-        const SatelliteStereoReport report = satellite_stereo_job(satellite, terminal_progress(quiet));
-        write_stats(stereo_stats, to_json(report), {satellite.output});
+        const SatelliteStereoReport report = satellite_stereo_job(*job.satellite, terminal_progress(quiet));
+        write_stats(stereo_stats, to_json(report), {stereo.output});
       }
     }
     if (*mesh_cmd) {

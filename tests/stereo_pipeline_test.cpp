@@ -27,8 +27,11 @@
 #include <vector>
 
 #include "aerial_scene.hpp"
+#include "dsmplan/frame_dsm.hpp"
 #include "dsmplan/median_fusion.hpp"
+#include "dsmplan/raster_io.hpp"
 #include "dsmplan/stereo_frames.hpp"
+#include "dsmplan/stereo_io.hpp"
 #include "dsmplan/stereo_job.hpp"
 #include "dsmplan/tools.hpp"
 #include "testkit.hpp"
@@ -730,4 +733,120 @@ TEST(StereoCli, BadInputOneLineNoOutput) {
     EXPECT_NE(std::string(error.what()).find("broken.json: is not JSON"), std::string::npos) << error.what();
   }
   EXPECT_FALSE(std::filesystem::exists(dir.path("dsm.tif")));
+}
+
+// The rules of `dsmplan stereo`'s flags taken together are the library's (stereo_job_for()): a
+// C++ or Python caller gets the command line's one line, flag included.
+TEST(StereoRequest, FlagRulesAreTheLibrarysOwn) {
+  StereoRequest frame;
+  frame.cameras = "cameras.json", frame.output = "dsm.tif", frame.resolution = 1;
+  StereoRequest satellite;
+  satellite.images = {"a.tif", "b.tif"}, satellite.output = "dsm.tif", satellite.resolution = 1;
+  const auto refused = [](StereoRequest request, auto change, const std::string& expected) {
+    change(request);
+    try {
+      stereo_job_for(request);
+      ADD_FAILURE() << expected << ": no error";
+    } catch (const ArgumentError& error) {
+      EXPECT_EQ(error.what(), expected);
+    }
+  };
+  refused(
+      frame, [](StereoRequest& r) { r.bounds = "1,2,3"; }, "--bounds: expected four numbers x0,y0,x1,y1, got '1,2,3'");
+  refused(
+      frame, [](StereoRequest& r) { r.images = {"a.tif"}; },
+      "--cameras: give either satellite images with RPCs (dsmplan stereo IMG1 IMG2 ...) or --cameras "
+      "CAMERAS.json for frame cameras, not both");
+  refused(
+      StereoRequest{}, [](StereoRequest&) {},
+      "--cameras: give either satellite images with RPCs (dsmplan stereo IMG1 IMG2 ...) or --cameras "
+      "CAMERAS.json for frame cameras, not both");
+  refused(
+      frame, [](StereoRequest& r) { r.fusion_memory_mb = 0.01; },
+      "--fusion-memory: must lie in [0.0625, 1e9) MB, got 0.01");
+  refused(
+      satellite, [](StereoRequest& r) { r.band_memory_mb = 1e300; },
+      "--band-memory: must lie in [1, 1e9) MB, got 1e+300");
+  refused(
+      frame, [](StereoRequest& r) { r.crs = "EPSG:32632"; },
+      "--crs: belongs to satellite images; CAMERAS.json states its CRS");
+  refused(
+      frame, [](StereoRequest& r) { r.allow_approximate_vertical = true; },
+      "--allow-approximate-vertical: belongs to satellite images with a compound --crs");
+  refused(
+      satellite, [](StereoRequest& r) { r.pairs = "0-1"; },
+      "--pairs: belongs to --cameras; satellite images are paired by overlap");
+
+  frame.bounds = "0,0,10,20", frame.pairs = "0-1", frame.fusion_memory_mb = 2, frame.band_memory_mb = 3;
+  const StereoJob job = stereo_job_for(frame);
+  ASSERT_TRUE(job.frame);
+  EXPECT_FALSE(job.satellite);
+  EXPECT_EQ(job.frame->cameras, "cameras.json");
+  EXPECT_EQ(job.frame->pairs, "0-1");
+  EXPECT_EQ(*job.frame->bounds, (std::array<double, 4>{0, 0, 10, 20}));
+  EXPECT_EQ(job.frame->fusion_memory_bytes, 2u << 20);
+  EXPECT_EQ(job.frame->band_memory_bytes, 3u << 20);
+  satellite.crs = "EPSG:32637", satellite.allow_approximate_vertical = true;
+  const StereoJob sat = stereo_job_for(satellite);
+  ASSERT_TRUE(sat.satellite);
+  EXPECT_FALSE(sat.frame);
+  EXPECT_EQ(sat.satellite->images, satellite.images);
+  EXPECT_EQ(sat.satellite->crs, "EPSG:32637");
+  EXPECT_TRUE(sat.satellite->allow_approximate_vertical);
+  EXPECT_EQ(sat.satellite->resolution, 1);
+}
+
+namespace {
+// An ImageReader around another that counts the windows read: what the stage reads, and how.
+class CountingReader final : public ImageReader {
+public:
+  CountingReader(std::unique_ptr<ImageReader> inner, int& reads) : inner_(std::move(inner)), reads_(reads) {}
+  const std::string& path() const override { return inner_->path(); }
+  int width() const override { return inner_->width(); }
+  int height() const override { return inner_->height(); }
+  int bands() const override { return inner_->bands(); }
+  std::optional<double> nodata(int band) const override { return inner_->nodata(band); }
+  std::string read(int band, int col0, int row0, int cols, int rows, float* out) const override {
+    ++reads_;
+    return inner_->read(band, col0, row0, cols, rows, out);
+  }
+
+private:
+  std::unique_ptr<ImageReader> inner_;
+  int& reads_;
+};
+}  // namespace
+
+// The stage reads its images through any ImageReader, and gives the DSM the job writes.
+TEST(StereoPipeline, FrameDsmReadsThroughTheImageReaderGiven) {
+  testkit::TempDir dir;
+  write_json(write_pair_files(dir), dir.path("cameras.json"));
+  const RenderedScene& scene = rendered_scene();
+  StereoJobOptions options;
+  options.cameras = dir.path("cameras.json");
+  options.output = dir.path("dsm.tif");
+  options.resolution = 1;
+  options.bounds = std::array<double, 4>{scene.truth.x0, scene.truth.y1(), scene.truth.x1(), scene.truth.y0};
+  const StereoReport written = stereo_job(options);
+
+  int reads = 0, opened = 0;
+  const ImageOpener counting = [&](const std::string& path, const std::string& place) {
+    ++opened;
+    return std::make_unique<CountingReader>(open_image_file(path, place), reads);
+  };
+  const CameraFile cameras = read_camera_file(options.cameras);
+  Crs crs;
+  crs.definition = cameras.crs;
+  Grid dsm;
+  int checked = 0;
+  const StereoReport report =
+      frame_dsm(cameras, crs, counting, options, dsm, [&](const Grid& grid) { checked += grid.cells() > 0; });
+  EXPECT_EQ(checked, 1);
+  EXPECT_EQ(opened, 4);     // each image checked before the matching, then read for its pair
+  EXPECT_EQ(reads, 1 + 3);  // img_0.png grey: one band; img_1.png RGB: three
+  EXPECT_EQ(report.points, written.points);
+  const Grid file = read_raster(options.output);
+  ASSERT_EQ(file.cells(), dsm.cells());
+  for (std::size_t i = 0; i < dsm.cells(); ++i)
+    ASSERT_TRUE(std::isnan(dsm.z[i]) ? std::isnan(file.z[i]) : dsm.z[i] == file.z[i]) << i;
 }

@@ -60,6 +60,7 @@ CameraFile read_camera_file(const std::string& path) {
   if (!root.is_object()) throw InputError(path, "", "must be a JSON object with crs and cameras");
   const JsonReader read{path};
   CameraFile file;
+  file.path = path;
   if (!root.contains("crs") || !root["crs"].is_string() || root["crs"].get<std::string>().empty())
     throw InputError(path, "crs", "missing or not a string (e.g. \"EPSG:25832\")");
   file.crs = root["crs"].get<std::string>();

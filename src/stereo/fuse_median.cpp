@@ -208,6 +208,24 @@ Grid footprint_grid(const std::array<double, 4>& bounds, double resolution, cons
   }
 }
 
+DsmExtent dsm_extent(const std::array<double, 4>& footprint, const std::optional<std::array<double, 4>>& bounds,
+                     double resolution, const std::string& file, const std::string& footprint_name) {
+  DsmExtent extent;
+  if (bounds) {
+    const auto& b = *bounds;
+    if (b[2] <= footprint[0] || b[0] >= footprint[2] || b[3] <= footprint[1] || b[1] >= footprint[3])
+      throw InputError(file, "--bounds", "lies outside every pair's " + footprint_name);
+    extent.bounds = b;
+    extent.grid = dsm_grid(b, resolution);
+    return extent;
+  }
+  const double r = resolution;
+  extent.bounds = {std::floor(footprint[0] / r) * r, std::floor(footprint[1] / r) * r, std::ceil(footprint[2] / r) * r,
+                   std::ceil(footprint[3] / r) * r};
+  extent.grid = footprint_grid(extent.bounds, resolution, file);
+  return extent;
+}
+
 std::size_t fuse_median(Grid& grid, const std::vector<std::vector<Vec3>>& point_sets) {
   MedianFusion fusion(grid);
   for (const auto& set : point_sets) fusion.add(set);

@@ -13,22 +13,56 @@
 
 namespace dsmplan {
 
+namespace {
+
+// Where the ray of left pixel (u, v) meets the plane Z = ground, and the right camera's pixel
+// (ur, vr) of that point; false when the ray runs parallel to the plane, meets it behind the
+// camera, or the right camera does not face the point.
+bool seen_on_plane(const FrameCamera& left, const FrameCamera& right, double u, double v, double ground, Vec3& X,
+                   double& ur, double& vr) {
+  const Vec3 ray = pixel_ray(left, u, v);
+  if (std::abs(ray[2]) < 1e-12) return false;
+  const double t = (ground - left.center[2]) / ray[2];
+  if (!(t > 0)) return false;
+  X = {left.center[0] + t * ray[0], left.center[1] + t * ray[1], ground};
+  return project(right, X, ur, vr);
+}
+
+}  // namespace
+
 double footprint_overlap(const FrameCamera& left, const FrameCamera& right, double ground_height) {
+  // A 16 x 16 lattice of pixel centres, each standing for its cell of the image; seen when the
+  // right camera's pixel lies within its image's area.
   int seen = 0, total = 0;
   for (int i = 0; i < 16; ++i)
     for (int j = 0; j < 16; ++j) {
       const double u = (i + 0.5) / 16 * left.width - 0.5, v = (j + 0.5) / 16 * left.height - 0.5;
-      const Vec3 ray = pixel_ray(left, u, v);
       ++total;
-      if (std::abs(ray[2]) < 1e-12) continue;
-      const double t = (ground_height - left.center[2]) / ray[2];
-      if (!(t > 0)) continue;
-      const Vec3 X{left.center[0] + t * ray[0], left.center[1] + t * ray[1], ground_height};
+      Vec3 X;
       double ur, vr;
-      if (project(right, X, ur, vr) && ur >= -0.5 && vr >= -0.5 && ur <= right.width - 0.5 && vr <= right.height - 0.5)
+      if (seen_on_plane(left, right, u, v, ground_height, X, ur, vr) && ur >= -0.5 && vr >= -0.5 &&
+          ur <= right.width - 0.5 && vr <= right.height - 0.5)
         ++seen;
     }
   return static_cast<double>(seen) / total;
+}
+
+bool footprint_box(const FrameCamera& left, const FrameCamera& right, double ground_height,
+                   std::array<double, 4>& box) {
+  bool any = false;
+  for (int i = 0; i <= 64; ++i)
+    for (int j = 0; j <= 64; ++j) {
+      Vec3 X;
+      double u, v;
+      if (!seen_on_plane(left, right, i / 64.0 * (left.width - 1), j / 64.0 * (left.height - 1), ground_height, X, u,
+                         v) ||
+          u < 0 || v < 0 || u > right.width - 1 || v > right.height - 1)
+        continue;
+      if (!any) box = {X[0], X[1], X[0], X[1]};
+      any = true;
+      box = {std::min(box[0], X[0]), std::min(box[1], X[1]), std::max(box[2], X[0]), std::max(box[3], X[1])};
+    }
+  return any;
 }
 
 double base_to_height(const FrameCamera& left, const FrameCamera& right, double ground_height) {

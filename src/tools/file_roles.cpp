@@ -1,5 +1,4 @@
 // The files of one run kept apart: no output may replace an input or another output.
-#include <gdal_priv.h>
 #include <sys/stat.h>
 
 #include <algorithm>
@@ -8,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include "dsmplan/raster_io.hpp"
 #include "dsmplan/tools.hpp"
 
 namespace dsmplan {
@@ -36,13 +36,7 @@ std::vector<NamedFile> with_vrt_sources(const std::vector<NamedFile>& inputs) {
                    [](unsigned char c) { return std::tolower(c); });
     if (extension != ".vrt") continue;
     require_input_file(in.path);  // GDAL would wait forever on a FIFO
-    GDALAllRegister();
-    CPLPushErrorHandler(CPLQuietErrorHandler);  // a broken VRT is the reader's to report, once
-    std::unique_ptr<GDALDataset> vrt(GDALDataset::Open(in.path.c_str(), GDAL_OF_RASTER | GDAL_OF_READONLY));
-    CPLPopErrorHandler();
-    if (!vrt) continue;  // the reader says what is wrong with it, in its own words
-    const CPLStringList files(vrt->GetFileList());
-    for (int k = 0; k < files.size(); ++k) all.push_back({in.flag + "'s source", files[k]});
+    for (const std::string& file : raster_file_list(in.path)) all.push_back({in.flag + "'s source", file});
   }
   return all;
 }

@@ -7,6 +7,7 @@
 
 #include <memory>
 #include <string>
+#include <vector>
 
 #include "dsmplan/core.hpp"
 #include "dsmplan/raster.hpp"
@@ -50,9 +51,22 @@ constexpr const char* kEllipsoidalHeightsKey = "VERTICAL_CRS";
 /// raster's size. VRT mosaics are read through, window by window.
 std::unique_ptr<GridSource> open_raster(const std::string& path, const ReadRasterOptions& options = {});
 
+/// The files GDAL reads to read the raster `path` (GDALDataset::GetFileList(): the file itself,
+/// and for a VRT mosaic its sources); empty when GDAL cannot open it (quietly: the raster's
+/// reader says what is wrong with it). Call require_input_file() first: GDAL would wait forever
+/// on a FIFO.
+std::vector<std::string> raster_file_list(const std::string& path);
+
 /// Fills `crs.name`, `crs.epsg`, `crs.wkt` and the vertical fields from `crs.definition`
 /// (PROJ via GDAL's OGRSpatialReference). Throws ArgumentError when it cannot be parsed.
 void resolve_crs(Crs& crs);
+
+// ---- progress on a terminal ----------------------------------------------------------------
+
+/// One step of GDAL's terminal progress ("0...10...20...30...40...50...60...70...80...90...100 -
+/// done." on stdout, as the GDAL utilities print it) at `fraction` (0..1). False when the user
+/// asked to stop (never, today).
+bool print_terminal_progress(double fraction);
 
 // ---- units: dsmplan measures in metres ----------------------------------------------------
 

@@ -43,6 +43,7 @@
 #include <functional>
 #include <limits>
 #include <memory>
+#include <optional>
 #include <string>
 #include <utility>
 #include <vector>
@@ -160,7 +161,8 @@ std::vector<Vec3> triangulate(const RectifiedPair& pair, const Disparity& dispar
 // ---- CAMERAS.json: the cameras of `dsmplan stereo --cameras` (README, "Stereo from frame cameras")
 
 struct CameraFile {
-  std::string crs;  ///< as written ("EPSG:25832", WKT): the job resolves and checks it
+  std::string path;  ///< the file read (the one the pipeline's errors name)
+  std::string crs;   ///< as written ("EPSG:25832", WKT): the job resolves and checks it
   bool has_height_range = false;
   double min_height = 0, max_height = 0;
   std::vector<FrameCamera> cameras;
@@ -187,6 +189,19 @@ Grid dsm_grid(const std::array<double, 4>& bounds, double resolution);
 /// gave): its refusals are InputError(cameras) naming the footprint, since the cameras in the
 /// file `cameras` (a CAMERAS.json, a satellite image) put it there, not a flag.
 Grid footprint_grid(const std::array<double, 4>& bounds, double resolution, const std::string& cameras);
+/// The grid a stereo job makes and the bounds it stands for: `bounds` when given (InputError
+/// naming `file` and "--bounds" when they miss `footprint`: "lies outside every pair's " +
+/// `footprint_name`), else `footprint` widened to whole multiples of `resolution`
+/// (footprint_grid()). Errors of dsm_grid() and footprint_grid().
+struct DsmExtent {
+  std::array<double, 4> bounds{};
+  Grid grid;
+};
+DsmExtent dsm_extent(const std::array<double, 4>& footprint, const std::optional<std::array<double, 4>>& bounds,
+                     double resolution, const std::string& file, const std::string& footprint_name);
+/// Called by the stereo entry points with the DSM's grid (geometry only) as soon as it is known,
+/// before any matching: where the job checks that it can hold and write it (require_memory()).
+using GridCheck = std::function<void(const Grid& grid)>;
 /// Ortho-projection and fusion (the paper's Section 2): each point falls into the cell holding
 /// its (x, y); each cell gets the median of its heights (the mean of the two middle ones for an
 /// even count), nodata where none fell. `grid` gives the geometry; its heights are replaced.
@@ -210,6 +225,11 @@ constexpr double kMinPairBaseToHeight = 0.02;
 /// The share (0..1) of a 16 x 16 lattice of left pixels whose rays, cut with Z = ground_height,
 /// the right camera sees inside its image.
 double footprint_overlap(const FrameCamera& left, const FrameCamera& right, double ground_height);
+/// The bounding box (xmin, ymin, xmax, ymax) on the plane Z = ground_height of the ground points
+/// of a 65 x 65 lattice of left pixels, from the first pixel centre to the last, that the right
+/// camera sees within its pixel centres; false when it sees none. A DSM's extent (the common
+/// footprint of a pair), where footprint_overlap() is a share for pair selection.
+bool footprint_box(const FrameCamera& left, const FrameCamera& right, double ground_height, std::array<double, 4>& box);
 /// Base-to-height ratio: |C_l - C_r| / (mean camera height above ground_height).
 double base_to_height(const FrameCamera& left, const FrameCamera& right, double ground_height);
 /// `auto`: the pairs (i < j) with overlap >= min_overlap both ways and a ratio within the

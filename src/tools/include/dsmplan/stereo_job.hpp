@@ -10,7 +10,8 @@
 #include <utility>
 #include <vector>
 
-#include "dsmplan/raster.hpp"
+#include "dsmplan/frame_dsm.hpp"
+#include "dsmplan/satellite_stereo_job.hpp"
 #include "dsmplan/tools.hpp"
 
 namespace dsmplan {
@@ -33,34 +34,9 @@ namespace dsmplan {
 /// coarse disparity steps. InputError (key height_range) when no such pair matches. `image` is any GDAL raster,
 /// relative to the JSON's folder: one band (grey) or three or more (RGB taken as luminance 0.299 R + 0.587 G + 0.114
 /// B), 8 or 16 bit.
-struct StereoJobOptions {
+struct StereoJobOptions : FrameDsmOptions {
   std::string cameras;  ///< CAMERAS.json
   std::string output;   ///< GeoTIFF (.tif, .tiff)
-  double resolution = 0;
-  std::string pairs = "auto";                   ///< "auto" or "0-1,1-2,..."
-  std::optional<std::array<double, 4>> bounds;  ///< x0, y0, x1, y1; none: the pairs' overlap on the ground
-  /// The fusion's memory for points, bytes (8 a point; beyond it sorted runs go to a temporary
-  /// file in $TMPDIR or /tmp: MedianFusion, median_fusion.hpp); at least 64 KiB.
-  std::size_t fusion_memory_bytes = std::size_t{1} << 30;
-  /// Memory for one band of a pair's rectified images and matching, bytes (FrameStereoOptions::band_bytes).
-  std::size_t band_memory_bytes = std::size_t{1} << 30;
-};
-
-struct StereoReport {
-  std::string cameras, output;
-  size_t camera_count = 0;
-  std::vector<std::pair<int, int>> pairs;
-  double min_height = 0, max_height = 0;  ///< the height range used
-  bool height_range_estimated = false;    ///< not in CAMERAS.json: estimated (seconds_height_range)
-  std::array<double, 4> bounds{};
-  int width = 0, height = 0;
-  size_t matched_pixels = 0, points = 0, points_in_grid = 0;
-  size_t points_outside_range = 0;  ///< triangulated outside height_range, dropped as mismatches
-  size_t fusion_runs_spilled = 0;   ///< 0: the points fitted in fusion_memory_bytes
-  size_t bands = 0;                 ///< bands of rectified rows matched (one a pair when it fits band_memory_bytes)
-  GridSummary summary;
-  double seconds_read = 0, seconds_height_range = 0, seconds_rectify = 0, seconds_match = 0, seconds_triangulate = 0,
-         seconds_fuse = 0, seconds_write = 0;
 };
 
 /// The files a run of `options` reads: CAMERAS.json ("--cameras") and every image it names
@@ -69,14 +45,45 @@ struct StereoReport {
 /// CAMERAS.json it cannot read.
 std::vector<NamedFile> stereo_job_inputs(const StereoJobOptions& options);
 
-/// Reads CAMERAS.json and the images, checks everything (one InputError naming the file and the
-/// camera/key), selects the pairs, runs stereo_dsm() and writes the Float32 GeoTIFF atomically.
-/// InputError when no pair overlaps, when --bounds lies outside every pair's footprint, or when
-/// nothing was matched (no output is written then).
+/// Reads CAMERAS.json and resolves its CRS (InputError "crs" for one dsmplan cannot measure in:
+/// metric_problem()), runs frame_dsm() (dsmplan/frame_dsm.hpp: its checks and errors, the images
+/// read through GDAL) and writes the Float32 GeoTIFF atomically. ArgumentError naming the output
+/// when it is not .tif. Nothing is written when it fails. Progress: the stage to 0.9, then the writing.
 StereoReport stereo_job(const StereoJobOptions& options, const Progress& progress = {});
 /// Keys: cameras, output, camera_count, pairs [[i,j],...], height_range, height_range_estimated, bounds, width, height,
 /// matched_pixels, points, points_outside_height_range, points_in_grid, fusion_runs_spilled, bands, dsm {cells, valid,
 /// nodata, holes, z_min, z_max}, seconds {read, height_range, rectify, match, triangulate, fuse, write, total}.
 Json to_json(const StereoReport& report);
+
+// ---- the request of `dsmplan stereo`, either pipeline ----------------------------------------
+
+/// `dsmplan stereo`'s flags as given, before it is known which pipeline runs: satellite images
+/// (`images`) or frame cameras (`cameras`). What the command line, Python and C++ callers fill.
+struct StereoRequest {
+  std::vector<std::string> images;          ///< satellite images with RPCs (IMAGES)
+  std::string cameras;                      ///< CAMERAS.json (--cameras)
+  std::string output;                       ///< -o
+  double resolution = 0;                    ///< --res
+  std::string pairs = "auto";               ///< --pairs, frame cameras only
+  std::string bounds;                       ///< --bounds "x0,y0,x1,y1"; empty: the pairs' footprint
+  std::string crs;                          ///< --crs, satellite images only
+  bool allow_approximate_vertical = false;  ///< --allow-approximate-vertical, satellite images only
+  double fusion_memory_mb = 1024;           ///< --fusion-memory, MB, [0.0625, 1e9)
+  double band_memory_mb = 1024;             ///< --band-memory, MB, [1, 1e9)
+};
+
+/// The options of the pipeline a request runs: exactly one of frame and satellite is set.
+struct StereoJob {
+  std::optional<StereoJobOptions> frame;
+  std::optional<SatelliteStereoOptions> satellite;
+};
+
+/// The rules of `dsmplan stereo`'s flags taken together, one ArgumentError naming the flag for
+/// the first broken: --bounds not four numbers; neither or both of IMAGES and --cameras
+/// (reported as "--cameras"); --fusion-memory outside [0.0625, 1e9) MB, --band-memory outside
+/// [1, 1e9) MB; with --cameras, --crs or --allow-approximate-vertical (satellite images only);
+/// with IMAGES, --pairs other than auto (frame cameras only). The options' own ranges are checked
+/// by the jobs (check(FrameDsmOptions), check(SatelliteDsmOptions)).
+StereoJob stereo_job_for(const StereoRequest& request);
 
 }  // namespace dsmplan
