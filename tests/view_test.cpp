@@ -2,11 +2,14 @@
 // end to end: the real binary serves a GLB meshed from the bundled DSM and a path, Debian's
 // headless Chromium (scripts/test.sh installs it) renders the page with SwiftShader's WebGL, and
 // the screenshot is read back with libpng. Chromium missing is a failure, not a skip.
+#include "dsmplan/view.hpp"
+
 #include <fcntl.h>
 #include <gtest/gtest.h>
 #include <httplib.h>
 #include <netinet/in.h>
 #include <png.h>
+#include <poll.h>
 #include <signal.h>
 #include <spawn.h>
 #include <sys/socket.h>
@@ -107,6 +110,166 @@ private:
   std::string log_, url_;
   pid_t pid_ = -1;
 };
+
+// serve_view() with options the command line does not offer (a short request deadline), in a
+// child process of the test: the URL comes back through a pipe, the child is killed at the end.
+// Forked before the test starts any thread of its own.
+class ForkedViewServer {
+public:
+  explicit ForkedViewServer(const dsmplan::ViewOptions& options) {
+    int fds[2];
+    if (::pipe(fds) != 0) throw std::runtime_error("pipe failed");
+    pid_ = ::fork();
+    if (pid_ < 0) throw std::runtime_error("fork failed");
+    if (pid_ == 0) {
+      ::close(fds[0]);
+      try {
+        dsmplan::serve_view(options, [&](const std::string& url) {
+          (void)!::write(fds[1], url.data(), url.size());
+          ::close(fds[1]);
+        });
+      } catch (const std::exception& e) {
+        std::fprintf(stderr, "serve_view: %s\n", e.what());
+      }
+      ::_exit(1);
+    }
+    ::close(fds[1]);
+    pollfd ready{fds[0], POLLIN, 0};
+    char buffer[512];
+    for (ssize_t n = 1; n > 0 && ::poll(&ready, 1, 30000) > 0;)
+      if ((n = ::read(fds[0], buffer, sizeof buffer)) > 0) url_.append(buffer, static_cast<size_t>(n));
+    ::close(fds[0]);
+    if (url_.empty()) ADD_FAILURE() << "serve_view gave no URL";
+  }
+  ~ForkedViewServer() {
+    ::kill(pid_, SIGKILL);
+    ::waitpid(pid_, nullptr, 0);
+  }
+  ForkedViewServer(const ForkedViewServer&) = delete;
+  ForkedViewServer& operator=(const ForkedViewServer&) = delete;
+  int port() const { return std::stoi(url_.substr(url_.rfind(':') + 1)); }
+
+private:
+  pid_t pid_ = -1;
+  std::string url_;
+};
+
+// A client connected to 127.0.0.1:`port`, or -1.
+int connect_to(int port) {
+  const int fd = ::socket(AF_INET, SOCK_STREAM, 0);
+  sockaddr_in address{};
+  address.sin_family = AF_INET;
+  address.sin_port = htons(static_cast<uint16_t>(port));
+  address.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  if (::connect(fd, reinterpret_cast<sockaddr*>(&address), sizeof address) != 0) {
+    ::close(fd);
+    return -1;
+  }
+  return fd;
+}
+
+// A request head that a slowloris client never finishes: one more byte of it on each call.
+struct Slowloris {
+  int fd = -1;
+  size_t sent = 0;
+  std::string reply;
+  bool closed = false;
+  double closed_after = 0;  // seconds from the first byte
+  Clock::time_point start;
+
+  void send_next_byte() {
+    static const std::string head = "GET /index.html HTTP/1.1\r\nHost: 127.0.0.1\r\nX-Slow: " + std::string(4000, 'a');
+    if (sent == 0) start = Clock::now();
+    if (!closed) (void)!::send(fd, &head[sent++ % head.size()], 1, MSG_NOSIGNAL);
+  }
+  // Reads what the server sent without waiting; true once the server closed the connection.
+  bool check_closed() {
+    if (closed) return true;
+    char buffer[512];
+    for (;;) {
+      const ssize_t n = ::recv(fd, buffer, sizeof buffer, MSG_DONTWAIT);
+      if (n > 0) {
+        reply.append(buffer, static_cast<size_t>(n));
+        continue;
+      }
+      if (n < 0 && (errno == EAGAIN || errno == EWOULDBLOCK)) return false;
+      closed = true;  // end of stream, or reset
+      closed_after = std::chrono::duration<double>(Clock::now() - start).count();
+      return true;
+    }
+  }
+};
+
+dsmplan::ViewOptions short_deadline_view(const std::string& glb, double deadline) {
+  dsmplan::ViewOptions options;
+  options.mesh = glb;
+  options.port = 0;
+  options.viewer_dir = (fs::path(DSMPLAN_CLI).parent_path() / "web" / "viewer").string();
+  options.request_deadline_seconds = deadline;
+  return options;
+}
+
+// `clients` slow clients (Slowloris) of a viewer with the given deadline, then a browser asking
+// for the page, with `page_timeout` seconds to answer; then up to 10 s for the server to cut
+// every slow client, when it got the page.
+struct Crowd {
+  int status = 0;     // of the page; 0: none came
+  std::string error;  // why not
+  double page_seconds = 0, last_closed = 0;
+  size_t closed = 0, with_408 = 0, clients = 0;
+  std::string describe() const {
+    std::ostringstream out;
+    out << (status ? "page " + std::to_string(status) : "no page (" + error + ")") << " after " << page_seconds
+        << " s; " << closed << " of " << clients << " slow clients cut (" << with_408 << " with 408), the last "
+        << last_closed << " s after its first byte";
+    return out.str();
+  }
+};
+
+Crowd page_behind_slow_clients(const std::string& glb, double deadline, size_t clients, int page_timeout) {
+  ForkedViewServer server(short_deadline_view(glb, deadline));
+  Crowd crowd;
+  crowd.clients = clients;
+  std::vector<Slowloris> slow(clients);
+  for (Slowloris& s : slow) {
+    s.fd = connect_to(server.port());
+    EXPECT_GE(s.fd, 0);
+    s.send_next_byte();
+  }
+  std::atomic<bool> stop{false};
+  std::atomic<size_t> closed{0};  // the slow clients are the trickle thread's until it stops
+  std::thread trickle([&] {
+    while (!stop) {
+      for (int t = 0; t < 5 && !stop; ++t) std::this_thread::sleep_for(std::chrono::milliseconds(100));
+      size_t now_closed = 0;
+      for (Slowloris& s : slow) {
+        if (!s.check_closed()) s.send_next_byte();
+        now_closed += s.closed;
+      }
+      closed = now_closed;
+    }
+  });
+  std::this_thread::sleep_for(std::chrono::milliseconds(200));  // every thread is taken
+  const auto started = Clock::now();
+  httplib::Client browser("127.0.0.1", server.port());
+  browser.set_read_timeout(page_timeout, 0);
+  const auto page = browser.Get("/index.html");
+  crowd.page_seconds = std::chrono::duration<double>(Clock::now() - started).count();
+  crowd.status = page ? page->status : 0;
+  crowd.error = httplib::to_string(page.error());
+  if (page)
+    for (const auto end = Clock::now() + std::chrono::seconds(10); Clock::now() < end && closed < clients;)
+      std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  stop = true;
+  trickle.join();
+  for (Slowloris& s : slow) {
+    crowd.closed += s.check_closed();
+    crowd.with_408 += s.reply.rfind("HTTP/1.1 408", 0) == 0;
+    if (s.closed) crowd.last_closed = std::max(crowd.last_closed, s.closed_after);
+    ::close(s.fd);
+  }
+  return crowd;
+}
 
 std::string find_chromium() {
   for (const char* name : {"chromium", "chromium-browser"}) {
@@ -439,4 +602,79 @@ TEST(View, NoDotfilesNoSymlinksOutNoForeignHostNoBlockingIdlers) {
   ASSERT_TRUE(page);
   EXPECT_EQ(page->status, 200);
   EXPECT_LT(seconds, 2) << "the page waited behind idle or slow connections";
+}
+
+TEST(View, SlowClientIsCutAtTheRequestDeadline) {
+  // A client sending its request head a byte every 0.5 s: each read comes well within the 2 s
+  // read timeout, so before the deadline it held its thread for as long as it kept sending.
+  testkit::TempDir dir;
+  const std::string glb = dir.path("m.glb");
+  ASSERT_EQ(testkit::run_cli({"mesh", testkit::data_path(kDsm), "--res", "25", "-o", glb, "-q"}).exit_code, 0);
+  constexpr double kDeadline = 1;
+  ForkedViewServer server(short_deadline_view(glb, kDeadline));
+  Slowloris slow;
+  slow.fd = connect_to(server.port());
+  ASSERT_GE(slow.fd, 0);
+  for (const auto end = Clock::now() + std::chrono::seconds(15); Clock::now() < end && !slow.check_closed();) {
+    slow.send_next_byte();
+    pollfd ready{slow.fd, POLLIN, 0};
+    ::poll(&ready, 1, 500);
+  }
+  ::close(slow.fd);
+  ASSERT_TRUE(slow.closed) << "still open after 15 s and " << slow.sent << " bytes";
+  std::printf("slow client: closed after %.2f s and %zu bytes, reply \"%s\"\n", slow.closed_after, slow.sent,
+              slow.reply.substr(0, slow.reply.find('\r')).c_str());
+  EXPECT_GT(slow.closed_after, kDeadline - 0.1);
+  EXPECT_LT(slow.closed_after, kDeadline + 1.5);
+  EXPECT_EQ(slow.reply.rfind("HTTP/1.1 408 Request Timeout\r\n", 0), 0u) << slow.reply;
+}
+
+TEST(View, MoreSlowClientsThanThreadsDoNotKeepThePageFromOthers) {
+  // 300 slow clients, more than the 256 connection threads, then a browser asks for the page.
+  testkit::TempDir dir;
+  const std::string glb = dir.path("m.glb");
+  ASSERT_EQ(testkit::run_cli({"mesh", testkit::data_path(kDsm), "--res", "25", "-o", glb, "-q"}).exit_code, 0);
+  constexpr double kDeadline = 1;
+  const Crowd cut = page_behind_slow_clients(glb, kDeadline, 300, 20);
+  std::printf("deadline %.0f s: %s\n", kDeadline, cut.describe().c_str());
+  // Each slow client is cut at the deadline, and the page comes within about one deadline.
+  EXPECT_EQ(cut.status, 200) << cut.describe();
+  EXPECT_LT(cut.page_seconds, kDeadline + 3) << "the page waited behind the slow clients";
+  EXPECT_EQ(cut.closed, 300u) << cut.describe();
+  EXPECT_GE(cut.with_408, 250u) << cut.describe();  // the reply may be lost to a reset
+  EXPECT_LT(cut.last_closed, 2 * kDeadline + 3) << cut.describe();
+
+  // The control: with a deadline of a minute the same clients do hold every thread (as they did
+  // for as long as they kept sending before there was a deadline), so the page does not come.
+  const Crowd held = page_behind_slow_clients(glb, 60, 300, 3);
+  std::printf("deadline 60 s: %s\n", held.describe().c_str());
+  EXPECT_EQ(held.status, 0) << "the slow clients did not take every thread: the test above proves nothing";
+}
+
+TEST(View, OversizedHeadOrBodyIsRefused) {
+  // httplib reads a whole header line, any number of lines, and a chunked body, into memory
+  // without a limit. Each case sends exactly one byte past the 64 KiB cap, so that the server has
+  // read all of it when it answers (unread bytes would turn its close into a reset).
+  testkit::TempDir dir;
+  const std::string glb = dir.path("m.glb");
+  ASSERT_EQ(testkit::run_cli({"mesh", testkit::data_path(kDsm), "--res", "25", "-o", glb, "-q"}).exit_code, 0);
+  ForkedViewServer server(short_deadline_view(glb, 10));
+  const size_t kCap = 64 * 1024;
+  const std::string head = "GET /index.html HTTP/1.1\r\nHost: 127.0.0.1\r\nX-Long: ";
+  const std::string post = "POST /index.html HTTP/1.1\r\nHost: 127.0.0.1\r\nTransfer-Encoding: chunked\r\n\r\n";
+  const std::string chunk = "FFFFF\r\n";
+  for (const auto& [request, status] : std::vector<std::pair<std::string, std::string>>{
+           {head + std::string(kCap + 1 - head.size(), 'a'), "431"},
+           {post + chunk + std::string(kCap + 1 - chunk.size(), 'b'), "413"}}) {
+    const int fd = connect_to(server.port());
+    ASSERT_GE(fd, 0);
+    ASSERT_EQ(::send(fd, request.data(), request.size(), MSG_NOSIGNAL), static_cast<ssize_t>(request.size()));
+    std::string reply;
+    char buffer[512];
+    pollfd ready{fd, POLLIN, 0};
+    for (ssize_t n = 1; n > 0 && ::poll(&ready, 1, 5000) > 0;)
+      if ((n = ::recv(fd, buffer, sizeof buffer, 0)) > 0) reply.append(buffer, static_cast<size_t>(n));
+    ::close(fd);
+    EXPECT_EQ(reply.rfind("HTTP/1.1 " + status + " ", 0), 0u) << status << ": " << reply;
+  }
 }

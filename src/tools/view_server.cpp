@@ -1,25 +1,21 @@
 // dsmplan view: the three.js viewer of web/viewer and the files it shows, over HTTP on localhost,
 // with Debian's cpp-httplib. Only the viewer's folder and the named files are served.
-#include <httplib.h>
 #include <netdb.h>
 #include <sys/socket.h>
 #include <unistd.h>
 
 #include <algorithm>
 #include <cctype>
-#include <condition_variable>
-#include <deque>
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <map>
-#include <memory>
-#include <mutex>
 #include <sstream>
-#include <thread>
 
 #include "core/text.hpp"
 #include "dsmplan/plan_job.hpp"
 #include "dsmplan/view.hpp"
+#include "http_server.hpp"
 
 namespace dsmplan {
 
@@ -69,48 +65,6 @@ void check_csv(const std::string& path, const char* what) {
   if (read_waypoints_csv(path).empty()) throw InputError(path, "", std::string("no points in the ") + what);
 }
 
-// Each connection on a thread of its own, up to kMaxConnections at once, the rest waiting their
-// turn in arrival order. httplib's pool serves one connection a thread: with 32 threads, 40
-// clients sending a header byte a second (each read within the 2 s timeout) held every request
-// for 25 s, and 200 idle connections stalled one for over 10 s. Here a slow or idle client holds
-// only its own thread. The threads share the queue's state, which outlives the queue.
-class ConnectionThreads : public httplib::TaskQueue {
-public:
-  static constexpr int kMaxConnections = 256;
-  void enqueue(std::function<void()> fn) override {
-    std::unique_lock<std::mutex> lock(state_->mutex);
-    state_->waiting.push_back(std::move(fn));
-    start(state_, lock);
-  }
-  void shutdown() override {  // the requests in flight finish, then the server stops
-    std::unique_lock<std::mutex> lock(state_->mutex);
-    state_->done.wait(lock, [&] { return state_->running == 0 && state_->waiting.empty(); });
-  }
-
-private:
-  struct State {
-    std::mutex mutex;
-    std::condition_variable done;
-    std::deque<std::function<void()>> waiting;
-    int running = 0;
-  };
-  static void start(const std::shared_ptr<State>& state, std::unique_lock<std::mutex>&) {
-    while (state->running < kMaxConnections && !state->waiting.empty()) {
-      std::function<void()> fn = std::move(state->waiting.front());
-      state->waiting.pop_front();
-      ++state->running;
-      std::thread([state, fn = std::move(fn)] {
-        fn();
-        std::unique_lock<std::mutex> lock(state->mutex);
-        --state->running;
-        start(state, lock);
-        state->done.notify_all();
-      }).detach();
-    }
-  }
-  std::shared_ptr<State> state_ = std::make_shared<State>();
-};
-
 // Whether a socket can be bound to `host` (on a port the system picks): false for a name that
 // does not resolve or an address of another machine.
 bool can_listen_on(const std::string& host) {
@@ -157,6 +111,9 @@ void serve_view(const ViewOptions& options, const std::function<void(const std::
   if (!options.waypoints.empty()) check_csv(options.waypoints, "waypoints");
   if (options.port < 0 || options.port > 65535)
     throw ArgumentError("--port", "must be 0 (any free port) to 65535, got " + std::to_string(options.port));
+  if (!(options.request_deadline_seconds >= 0.001 && options.request_deadline_seconds <= 86400))
+    throw ArgumentError("request_deadline_seconds",
+                        "must be 0.001 to 86400, got " + short_number(options.request_deadline_seconds));
   const fs::path viewer = options.viewer_dir.empty() ? fs::path(default_viewer_dir()) : fs::path(options.viewer_dir);
   for (const char* part : {"index.html", "viewer.js"})
     if (!fs::is_regular_file(viewer / part))
@@ -176,7 +133,17 @@ void serve_view(const ViewOptions& options, const std::function<void(const std::
   if (!options.path.empty()) query += "&path=/data/path.csv";
   if (!options.waypoints.empty()) query += "&waypoints=/data/waypoints.csv";
 
-  httplib::Server server;
+  // A slow or idle client holds a connection thread for a bounded time: a request (head and
+  // body) must arrive within the deadline (a client sending a header byte a second was held for
+  // as long as it kept sending), an idle connection is dropped after 2 s (httplib's defaults,
+  // 5 s on a pool of a few threads, let 40 of them block the page for 20 s), and up to 256
+  // connections are served at once, each on a thread of its own, the others in arrival order.
+  RequestLimits limits;
+  limits.deadline = std::chrono::milliseconds(std::lround(options.request_deadline_seconds * 1000));
+  DeadlineServer server(limits);
+  server.set_read_timeout(2, 0);
+  server.set_keep_alive_timeout(2);
+  server.set_payload_max_length(64 * 1024);  // the viewer takes no bodies: any is junk
   const fs::path viewer_real = fs::canonical(viewer);
   std::string port_text;  // the port we listen on (set below, before the first request)
   auto refuse = [](httplib::Response& response, const std::string& why) {
@@ -220,12 +187,6 @@ void serve_view(const ViewOptions& options, const std::function<void(const std::
     response.set_content(std::move(bytes), content_type(file));
   });
 
-  // Idle connections must not hold the workers: a browser reconnects at once, a silent client
-  // is dropped after 2 s (httplib's defaults, 5 s on a pool of a few threads, let 40 of them
-  // block the page for 20 s), and each connection has a thread of its own (ConnectionThreads).
-  server.set_read_timeout(2, 0);
-  server.set_keep_alive_timeout(2);
-  server.new_task_queue = [] { return new ConnectionThreads; };
   // httplib's default also sets SO_REUSEPORT, with which a second server binds a port in use
   // and the two share the requests; SO_REUSEADDR alone still allows a restart at once.
   server.set_socket_options([](socket_t sock) {

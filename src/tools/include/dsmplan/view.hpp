@@ -17,6 +17,9 @@ struct ViewOptions {
   /// The viewer's static files: index.html, viewer.js and node_modules/three (the build puts
   /// them in build/web/viewer). Empty: default_viewer_dir().
   std::string viewer_dir;
+  /// Seconds a client has to send each request, head and body, from its first byte: past it
+  /// the connection is closed (408), so that slow clients cannot hold the server's threads.
+  double request_deadline_seconds = 10;
 };
 
 /// web/viewer beside the running executable (build/dsmplan -> build/web/viewer).
