@@ -460,7 +460,11 @@ int main(int argc, char** argv) {
     cli::refuse_single_dash_long_options(app, argc, argv);
     app.parse(argc, argv);
     if (farm.active() && farm.rank() > 0) {  // a worker: makes blocks for rank 0, says nothing
-      if (*simplify_cmd) farm.serve(simplify);
+      if (*simplify_cmd) {
+        // The blocks as rank 0 asks for them: --max-error alone is not conservative (see below).
+        if (max_error->count()) simplify.bounded.conservative = conservative->count() > 0;
+        farm.serve(simplify);
+      }
       return 0;
     }
     ReleaseWorkers release{farm, farm.active() && *simplify_cmd};

@@ -2329,6 +2329,18 @@ TEST(CliScale, MpiTaskFarmOfTwoRanksWritesTheSameMesh) {
   const json a = json::parse(one.out), b = json::parse(two.out);  // only rank 0 prints
   for (const char* key : {"vertices_out", "faces_out", "max_above_m", "max_below_m", "rms_m", "certified_cells"})
     EXPECT_EQ(a[key], b[key]) << key;
+  // --max-error alone, |mesh - DSM| <= E: the workers made conservative blocks of it once, while
+  // rank 0 reported a two-sided bound.
+  for (std::vector<std::string>* run : {&single, &farm}) {
+    run->erase(std::find(run->begin(), run->end(), "--conservative"));
+    run->back() += ".two_sided.ply";
+  }
+  const auto one_sided = run_cli(single);
+  const auto farmed = testkit::run_program("mpirun", farm);
+  ASSERT_EQ(one_sided.exit_code, 0) << one_sided.err;
+  ASSERT_EQ(farmed.exit_code, 0) << farmed.err << farmed.out;
+  EXPECT_GT(json::parse(one_sided.out)["max_below_m"].get<double>(), 0.1);
+  EXPECT_EQ(testkit::read_file(single.back()), testkit::read_file(farm.back()));
   // A failure on a worker (a piece of the mosaic gone) reaches rank 0's one line, no hang.
   std::filesystem::remove(dir.path("piece_1_2.tif"));
   std::vector<std::string> broken{"--allow-run-as-root",
