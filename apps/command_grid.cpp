@@ -35,21 +35,16 @@ std::vector<int> parse_classes(const char* flag, const std::string& text) {
 struct Request {
   GridOptions options;
   std::string fusion = "median", drop_classes, classes, of;
-  bool keep_all_classes = false, json = false;
+  bool json = false;
 };
 
+// The class lists as the library takes them: an empty --drop-classes word is the default.
 void run(Request& request, bool quiet) {
   GridOptions& grid = request.options;
   grid.grid.fusion = parse_fusion(request.fusion);
   const std::vector<int> drop_classes = parse_classes("--drop-classes", request.drop_classes);
-  grid.grid.keep_classes = parse_classes("--classes", request.classes);
-  if (request.keep_all_classes && !grid.grid.keep_classes.empty())
-    throw ArgumentError("--classes", "keeps only the classes listed, --keep-all-classes every class: give one");
-  if (request.keep_all_classes || (!grid.grid.keep_classes.empty() && drop_classes.empty())) {
-    grid.grid.drop_classes.clear();  // --classes alone: exactly the classes listed, noise too if listed
-  } else if (!drop_classes.empty()) {
-    grid.grid.drop_classes = drop_classes;
-  }
+  grid.classes = parse_classes("--classes", request.classes);
+  if (!drop_classes.empty()) grid.drop_classes = drop_classes;
   std::vector<NamedFile> inputs;
   for (const std::string& points : grid.inputs) inputs.push_back({"POINTS", points});
   check_single_format(request.of, {"gtiff", "geotiff", "tif", "tiff"});
@@ -74,7 +69,7 @@ Command grid_command(CLI::App& app, Session& session) {
   // the point files after it as classes ("--classes 2 a.laz b.laz").
   command->add_option("--drop-classes", request->drop_classes,
                       "ASPRS classes to drop, comma-separated (default 7,18: noise)");
-  command->add_flag("--keep-all-classes", request->keep_all_classes, "Keep every class, noise included");
+  command->add_flag("--keep-all-classes", grid.keep_all_classes, "Keep every class, noise included");
   command->add_option("--classes", request->classes,
                       "Keep only these ASPRS classes, comma-separated (e.g. 2: ground, a DTM; 2,9: ground and water)");
   command->add_option("--crs", grid.crs, kCrsHelp);

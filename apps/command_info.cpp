@@ -16,9 +16,7 @@ struct Request {
 
 void run(const Request& request) {
   const RasterReport report = describe_raster(request.options);
-  if (!request.of.empty() && request.of != "json" && request.of != "text")
-    throw ArgumentError("--of", "info prints text or json, got '" + request.of + "'");
-  if (request.json || request.of == "json")
+  if (request.json || parse_info_format(request.of) == InfoFormat::Json)
     print_json(to_json(report));
   else
     std::fputs(to_text(report).c_str(), stdout);

@@ -10,13 +10,14 @@ namespace dsmplan::cli {
 
 namespace {
 
-// What CLI11 parses into, and the options whose being given matters.
+// What CLI11 parses into, and whether each flag with a default was given: the library tells a
+// parameter given from its default (SimplifyJobOptions::check()).
 struct Request {
   SimplifyJobOptions options;
   std::string method = "bounded", resampling = "median", stats, of;
-  CLI::Option *method_given = nullptr, *max_error_given = nullptr, *conservative_given = nullptr, *dz_given = nullptr,
-              *dco_given = nullptr, *res_given = nullptr;
-  double resolution = 0;
+  CLI::Option *method_given = nullptr, *max_error_given = nullptr, *dz_given = nullptr, *dco_given = nullptr,
+              *res_given = nullptr;
+  double max_error = 0, resolution = 0, dz = PaperSimplifyOptions().dz, dco = PaperSimplifyOptions().dco;
   bool json = false;
 };
 
@@ -28,35 +29,23 @@ struct ReleaseWorkers {
   }
 };
 
-// --max-error E alone keeps its meaning, |mesh - DSM| <= E; without it the default is
-// conservative (SimplifyJobOptions). A worker rank needs this too, for its blocks.
-void resolve_conservative(Request& request) {
-  if (request.max_error_given->count()) request.options.bounded.conservative = request.conservative_given->count() > 0;
+// The numbers given, as the options hold them: none throws, so that a worker rank takes them
+// too (its blocks need max_error) without refusing anything itself.
+void take_given_numbers(Request& request) {
+  SimplifyJobOptions& simplify = request.options;
+  if (request.res_given->count()) simplify.resolution = request.resolution;
+  if (request.max_error_given->count()) simplify.max_error = request.max_error;
+  if (request.dz_given->count()) simplify.dz = request.dz;
+  if (request.dco_given->count()) simplify.dco = request.dco;
 }
 
 void run(Request& request, const Session& session) {
   const ReleaseWorkers release{session.farm};
+  take_given_numbers(request);
   SimplifyJobOptions& simplify = request.options;
-  if (request.res_given->count()) simplify.resolution = request.resolution;
   simplify.resampling = parse_resampling(request.resampling);
   if (!request.of.empty()) simplify.format = parse_mesh_format(request.of, "--of");
-  simplify.method = parse_simplify_method(request.method);
-  // Without --method nor --max-error: the bounded mode, conservative, at E = 0.4 m
-  // (SimplifyJobOptions). --max-error E alone keeps its meaning: |mesh - DSM| <= E.
-  if (request.max_error_given->count()) {
-    if (request.method_given->count() && simplify.method != SimplifyMethod::Bounded) {
-      throw ArgumentError("--max-error", "belongs to the bounded mode, not --method " + request.method);
-    }
-    simplify.method = SimplifyMethod::Bounded;
-    resolve_conservative(request);
-  }
-  if (simplify.method != SimplifyMethod::Bounded && request.conservative_given->count())
-    throw ArgumentError("--conservative", "belongs to the bounded mode, not --method " + request.method);
-  for (const CLI::Option* paper : {request.dz_given, request.dco_given})
-    if (simplify.method == SimplifyMethod::Bounded && paper->count())
-      throw ArgumentError(paper->get_name(),
-                          "belongs to the paper's variants (--method variant1|variant2); the "
-                          "bounded mode (the default) is bounded by --max-error");
+  if (request.method_given->count()) simplify.method = parse_simplify_method(request.method);
   const std::string tileset = simplify.tileset ? tileset_path_for(simplify.output) : "";
   refuse_overwrites({{"INPUT", simplify.input}, {"--dsm", simplify.dsm}},
                     {{"-o", simplify.output}, {"--stats", request.stats}, {"--3dtiles", tileset}});
@@ -86,25 +75,22 @@ Command simplify_command(CLI::App& app, Session& session) {
                        "bounded (certified; by default conservative at --max-error 0.4), or the paper's variant1, "
                        "variant2 (no error bound)")
           ->capture_default_str();
-  request->dz_given =
-      command->add_option("--dz", simplify.paper.dz, "Paper's variants: co-planar tolerance (m, vertical)")
-          ->capture_default_str();
-  request->dco_given = command->add_option("--dco", simplify.paper.dco, "Paper's variants: co-linear tolerance (m)")
-                           ->capture_default_str();
-  request->max_error_given = command->add_option("--max-error", simplify.bounded.max_error,
+  request->dz_given = command->add_option("--dz", request->dz, "Paper's variants: co-planar tolerance (m, vertical)")
+                          ->capture_default_str();
+  request->dco_given =
+      command->add_option("--dco", request->dco, "Paper's variants: co-linear tolerance (m)")->capture_default_str();
+  request->max_error_given = command->add_option("--max-error", request->max_error,
                                                  "Bounded mode: certified |mesh - DSM| <= E (m) at every cell");
-  request->conservative_given =
-      command->add_flag("--conservative", simplify.bounded.conservative,
-                        "Bounded mode: the mesh never below the DSM (0 <= mesh - DSM <= E); the default unless "
-                        "--max-error is given alone");
-  command->add_flag("--delaunay", simplify.bounded.delaunay,
+  command->add_flag("--conservative", simplify.conservative,
+                    "Bounded mode: the mesh never below the DSM (0 <= mesh - DSM <= E); the default unless "
+                    "--max-error is given alone");
+  command->add_flag("--delaunay", simplify.delaunay,
                     "Bounded mode: one global Delaunay triangulation (single-threaded) instead of tiles");
-  command->add_option("--threads", simplify.bounded.threads, "Bounded mode: threads (0: every core)")
-      ->capture_default_str();
-  command->add_option("--tile-size", simplify.bounded.tile_size, "Bounded mode: cells a tile side (0: 64)")
+  command->add_option("--threads", simplify.threads, "Bounded mode: threads (0: every core)")->capture_default_str();
+  command->add_option("--tile-size", simplify.tile_size, "Bounded mode: cells a tile side (0: 64)")
       ->capture_default_str();
   command
-      ->add_option("--block-tiles", simplify.bounded.block_tiles,
+      ->add_option("--block-tiles", simplify.block_tiles,
                    "Bounded mode: tiles a block side, the unit read and farmed out (0: 16)")
       ->capture_default_str();
   command->add_option("--dsm", simplify.dsm, "With a mesh input: the DSM it was made from (for the error)");
@@ -122,7 +108,7 @@ Command simplify_command(CLI::App& app, Session& session) {
   // A worker rank makes blocks for rank 0 and says nothing.
   return {command, [request, &session] { run(*request, session); },
           [request, &session] {
-            resolve_conservative(*request);
+            take_given_numbers(*request);
             session.farm.serve(request->options);
           }};
 }
