@@ -37,6 +37,7 @@
 #include "dsmplan/plan.hpp"
 #include "dsmplan/raster.hpp"
 #include "dsmplan/raster_io.hpp"
+#include "dsmplan/tools.hpp"
 #include "dsmplan/wgs84.hpp"
 #include "testkit.hpp"
 
@@ -845,6 +846,43 @@ TEST(CliBadInput, SimplifyNegativeDzOrNonPositiveMaxError) {
   }
   expect_clean_failure(run_cli({"simplify", dsm, "-o", out.path("o.ply"), "--method", "variant2", "--conservative"}),
                        out, "--conservative", {"bounded"});
+}
+
+// The rules between flags are the library's: the CLI prints, byte for byte, what the library
+// throws for the same options (and a C++ or Python caller gets the same line).
+TEST(CliBadInput, CrossFlagRulesSayWhatTheLibrarySays) {
+  TempDir out;
+  const std::string dsm = testkit::data_path(kSample);
+  const auto library_says = [](const auto& job) {
+    try {
+      job();
+    } catch (const dsmplan::ArgumentError& error) {
+      return "dsmplan: " + std::string(error.what()) + "\n";
+    }
+    return std::string("(accepted)");
+  };
+  dsmplan::SimplifyJobOptions simplify;
+  simplify.input = dsm;
+  simplify.output = out.path("o.ply");
+  simplify.method = dsmplan::SimplifyMethod::Variant1;
+  simplify.max_error = 0.3;
+  EXPECT_EQ(run_cli({"simplify", dsm, "-o", simplify.output, "--method", "variant1", "--max-error", "0.3"}).err,
+            library_says([&] { simplify_job(simplify); }));
+  simplify.method = dsmplan::SimplifyMethod::Bounded;
+  simplify.dz = 0.3;
+  EXPECT_EQ(run_cli({"simplify", dsm, "-o", simplify.output, "--max-error", "0.3", "--dz", "0.3"}).err,
+            library_says([&] { simplify_job(simplify); }));
+
+  dsmplan::GridOptions grid;
+  grid.inputs = {out.path("points.las")};
+  grid.output = out.path("dsm.tif");
+  grid.classes = {2};
+  grid.keep_all_classes = true;
+  EXPECT_EQ(
+      run_cli({"grid", grid.inputs[0], "-o", grid.output, "--res", "1", "--classes", "2", "--keep-all-classes"}).err,
+      library_says([&] { grid_to_geotiff(grid); }));
+  EXPECT_EQ(run_cli({"info", dsm, "--of", "xml"}).err, library_says([] { dsmplan::parse_info_format("xml"); }));
+  EXPECT_TRUE(out.files().empty());
 }
 
 TEST(CliBadInput, SimplifyMeshWithoutItsDsm) {
@@ -2379,6 +2417,18 @@ TEST(CliScale, MpiTaskFarmOfTwoRanksWritesTheSameMesh) {
   const json a = json::parse(one.out), b = json::parse(two.out);  // only rank 0 prints
   for (const char* key : {"vertices_out", "faces_out", "max_above_m", "max_below_m", "rms_m", "certified_cells"})
     EXPECT_EQ(a[key], b[key]) << key;
+  // --max-error alone, |mesh - DSM| <= E: the workers made conservative blocks of it once, while
+  // rank 0 reported a two-sided bound.
+  for (std::vector<std::string>* run : {&single, &farm}) {
+    run->erase(std::find(run->begin(), run->end(), "--conservative"));
+    run->back() += ".two_sided.ply";
+  }
+  const auto one_sided = run_cli(single);
+  const auto farmed = testkit::run_program("mpirun", farm);
+  ASSERT_EQ(one_sided.exit_code, 0) << one_sided.err;
+  ASSERT_EQ(farmed.exit_code, 0) << farmed.err << farmed.out;
+  EXPECT_GT(json::parse(one_sided.out)["max_below_m"].get<double>(), 0.1);
+  EXPECT_EQ(testkit::read_file(single.back()), testkit::read_file(farm.back()));
   // A failure on a worker (a piece of the mosaic gone) reaches rank 0's one line, no hang.
   std::filesystem::remove(dir.path("piece_1_2.tif"));
   std::vector<std::string> broken{"--allow-run-as-root",

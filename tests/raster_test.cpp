@@ -581,7 +581,7 @@ TEST(Units, HeightsInFeetAreRefusedByTheBandUnitTypeOrTheCompoundCrs) {
     simplify.input = path;
     simplify.output = dir.path("out.ply");
     simplify.method = SimplifyMethod::Bounded;
-    simplify.bounded.max_error = 0.5;
+    simplify.max_error = 0.5;
     expect_phrases(input_error([&] { simplify_job(simplify); }), {"dsm_vft.tif", unit});
   }
   // Metres, however spelt, are read; so is a band without unit.

@@ -98,8 +98,10 @@ TEST(Tools, SimplifyReportIsTheWrittenMeshAndKeepsItsKeys) {
     job.output = dir.path(std::string(to_string(method)) + ".ply");
     job.resolution = 2;
     job.method = method;
-    job.bounded.max_error = 0.4;
-    job.bounded.conservative = method == SimplifyMethod::Bounded;
+    if (method == SimplifyMethod::Bounded) {
+      job.max_error = 0.4;
+      job.conservative = true;
+    }
     const SimplifyReport report = simplify_job(job);
     const std::string ply = testkit::read_file(job.output);
     EXPECT_EQ(ply_count(ply, "vertex"), static_cast<long long>(report.vertices_out));
@@ -172,4 +174,125 @@ TEST(Tools, SimplifyMeshInputNeedsItsDsm) {
   EXPECT_EQ(from_mesh.vertices_out, direct.vertices_out);
   EXPECT_EQ(from_mesh.faces_out, direct.faces_out);
   EXPECT_DOUBLE_EQ(from_mesh.error.max_below, direct.error.max_below);
+}
+
+// ---- the options' own checks: the same one-line error as `dsmplan ...` prints ----------------
+
+namespace {
+
+// What `options` is refused with (ArgumentError's what(), the CLI's line after "dsmplan: "),
+// or "" when the job got past its checks; nothing may be written either way.
+template <typename Job>
+std::string refusal(const Job& job, const std::string& output) {
+  try {
+    job();
+  } catch (const ArgumentError& error) {
+    EXPECT_FALSE(std::filesystem::exists(output)) << output;
+    return error.what();
+  } catch (const Error&) {
+  }
+  return "";
+}
+
+}  // namespace
+
+// A parameter of the other simplification method would be ignored without a word: refused by
+// the library itself, with the flag's name, as `dsmplan simplify` refuses it.
+TEST(Tools, SimplifyRefusesAParameterOfTheOtherMethod) {
+  testkit::TempDir dir;
+  SimplifyJobOptions base;
+  base.input = testkit::data_path("nrw-dom1/nrw_dom1_crop500m_1m.tif");
+  base.output = dir.path("simplified.ply");
+  const auto refused = [&](const SimplifyJobOptions& job) { return refusal([&] { simplify_job(job); }, job.output); };
+  const std::string bounded_only =
+      "belongs to the paper's variants (--method variant1|variant2); the bounded mode "
+      "(the default) is bounded by --max-error";
+
+  SimplifyJobOptions job = base;
+  job.method = SimplifyMethod::Variant1;
+  job.max_error = 0.3;
+  EXPECT_EQ(refused(job), "--max-error: belongs to the bounded mode, not --method variant1");
+  job.max_error.reset();
+  job.method = SimplifyMethod::Variant2;
+  job.conservative = true;
+  EXPECT_EQ(refused(job), "--conservative: belongs to the bounded mode, not --method variant2");
+
+  job = base;
+  job.dz = 0.3;  // the bounded mode by default
+  EXPECT_EQ(refused(job), "--dz: " + bounded_only);
+  job = base;
+  job.method = SimplifyMethod::Bounded;
+  job.dco = 1e-4;
+  EXPECT_EQ(refused(job), "--dco: " + bounded_only);
+  job.max_error = 0.3;  // --max-error makes no paper's tolerance right
+  EXPECT_EQ(refused(job), "--dco: " + bounded_only);
+
+  // The ranges, after the rules: what check_bounded_options says, by the flag the CLI maps it to.
+  job = base;
+  job.max_error = 0;
+  EXPECT_EQ(refused(job), "max_error: must be from 0.001 to 10000 (vertical units), got 0");
+}
+
+// Given or not is what the defaults hang on: no --max-error is the conservative bounded mode at
+// 0.4 m; --max-error E alone is |mesh - DSM| <= E; --conservative with it is 0 <= mesh - DSM <= E.
+TEST(Tools, SimplifyOptionsResolveWhatWasNotGiven) {
+  SimplifyJobOptions job;
+  EXPECT_EQ(job.chosen_method(), SimplifyMethod::Bounded);
+  EXPECT_EQ(job.bounded_options().max_error, 0.4);
+  EXPECT_TRUE(job.bounded_options().conservative);
+  job.max_error = 0.7;
+  EXPECT_EQ(job.bounded_options().max_error, 0.7);
+  EXPECT_FALSE(job.bounded_options().conservative);
+  job.conservative = true;
+  EXPECT_TRUE(job.bounded_options().conservative);
+  job = SimplifyJobOptions();
+  job.output = "simplified.ply";
+  job.method = SimplifyMethod::Variant1;
+  job.dz = 0.2;
+  EXPECT_EQ(job.paper_options().variant, PaperVariant::One);
+  EXPECT_EQ(job.paper_options().dz, 0.2);
+  EXPECT_EQ(job.paper_options().dco, PaperSimplifyOptions().dco);
+  EXPECT_NO_THROW(job.check());
+}
+
+// --classes keeps exactly what it lists, --keep-all-classes everything: both at once is refused
+// by the library, as `dsmplan grid` refuses it; each alone, and with --drop-classes, resolves
+// as the CLI always did.
+TEST(Tools, GridClassesAreOneChoice) {
+  testkit::TempDir dir;
+  GridOptions job;
+  job.inputs = {dir.path("points.las")};  // never opened: the options are refused first
+  job.output = dir.path("dsm.tif");
+  job.crs = "EPSG:28992";
+  job.classes = {2};
+  job.keep_all_classes = true;
+  EXPECT_EQ(refusal([&] { grid_to_geotiff(job); }, job.output),
+            "--classes: keeps only the classes listed, --keep-all-classes every class: give one");
+
+  const std::vector<int> noise = {7, 18};
+  job.classes.clear();
+  EXPECT_EQ(job.points_options().drop_classes, std::vector<int>());  // --keep-all-classes
+  job.keep_all_classes = false;
+  EXPECT_EQ(job.points_options().drop_classes, noise);  // nothing given
+  job.classes = {2, 7};
+  EXPECT_EQ(job.points_options().keep_classes, job.classes);
+  EXPECT_EQ(job.points_options().drop_classes, std::vector<int>());  // --classes alone: noise too if listed
+  job.drop_classes = std::vector<int>{18};
+  EXPECT_EQ(job.points_options().drop_classes, std::vector<int>{18});
+
+  // The grid's own lists would be replaced: refused rather than ignored.
+  job.grid.keep_classes = {2};
+  EXPECT_NE(refusal([&] { grid_to_geotiff(job); }, job.output), "");
+}
+
+TEST(Tools, InfoFormatIsTextOrJson) {
+  EXPECT_EQ(parse_info_format(""), InfoFormat::Text);
+  EXPECT_EQ(parse_info_format("text"), InfoFormat::Text);
+  EXPECT_EQ(parse_info_format("json"), InfoFormat::Json);
+  try {
+    parse_info_format("xml");
+    ADD_FAILURE() << "--of xml was taken";
+  } catch (const ArgumentError& error) {
+    EXPECT_EQ(std::string(error.what()), "--of: info prints text or json, got 'xml'");
+  }
 }

@@ -42,6 +42,12 @@ Json rpc_json(const RasterReport& report) {
 
 }  // namespace
 
+InfoFormat parse_info_format(const std::string& name) {
+  if (name.empty() || name == "text") return InfoFormat::Text;
+  if (name == "json") return InfoFormat::Json;
+  throw ArgumentError("--of", "info prints text or json, got '" + name + "'");
+}
+
 RasterReport describe_raster(const InfoOptions& options) {
   ReadRasterOptions read = options.read;
   read.allow_no_crs = true;       // info describes what is there, CRS or not,

@@ -7,13 +7,33 @@
 
 namespace dsmplan {
 
+void GridOptions::check() const {
+  // grid's own class lists would be replaced by points_options(), not silently.
+  const GridPointsOptions defaults;
+  if (grid.keep_classes != defaults.keep_classes || grid.drop_classes != defaults.drop_classes)
+    throw ArgumentError("grid", "its classes are set by GridOptions::classes, drop_classes and keep_all_classes");
+  if (keep_all_classes && !classes.empty())
+    throw ArgumentError("--classes", "keeps only the classes listed, --keep-all-classes every class: give one");
+  const std::string extension = std::filesystem::path(output).extension().string();
+  if (extension != ".tif" && extension != ".tiff") throw ArgumentError(output, "output must be a GeoTIFF (.tif)");
+  if (!(grid.resolution > 0)) throw ArgumentError("--res", "must be a positive number of CRS units");
+  if (!(fill_distance >= 0)) throw ArgumentError("--fill-holes", "must be >= 0");
+  if (inputs.empty()) throw ArgumentError("POINTS", "no point cloud given");
+}
+
+GridPointsOptions GridOptions::points_options() const {
+  GridPointsOptions points = grid;
+  points.keep_classes = classes;
+  // `classes` alone: exactly the classes listed, noise too if listed.
+  if (keep_all_classes || (!classes.empty() && !drop_classes))
+    points.drop_classes.clear();
+  else if (drop_classes)
+    points.drop_classes = *drop_classes;
+  return points;
+}
+
 GridSummary grid_to_geotiff(const GridOptions& options, const Progress& progress) {
-  const std::string extension = std::filesystem::path(options.output).extension().string();
-  if (extension != ".tif" && extension != ".tiff")
-    throw ArgumentError(options.output, "output must be a GeoTIFF (.tif)");
-  if (!(options.grid.resolution > 0)) throw ArgumentError("--res", "must be a positive number of CRS units");
-  if (!(options.fill_distance >= 0)) throw ArgumentError("--fill-holes", "must be >= 0");
-  if (options.inputs.empty()) throw ArgumentError("POINTS", "no point cloud given");
+  options.check();
   check_writable(options.output);  // a missing folder is known now, not after the gridding
 
   std::vector<PointCloud> clouds;
@@ -34,7 +54,7 @@ GridSummary grid_to_geotiff(const GridOptions& options, const Progress& progress
                                                (cloud.min_y + cloud.max_y) / 2, /*units_only=*/true);
     if (!problem.empty()) throw InputError(options.inputs[i], "", problem);
   }
-  GridPointsOptions grid_options = options.grid;
+  GridPointsOptions grid_options = options.points_options();
   grid_options.other_bytes += geotiff_buffer_bytes();  // the GeoTIFF writer's, while the grid lives
   if (options.fill_distance > 0) grid_options.other_bytes_per_cell += fill_holes_bytes_per_cell();
   Grid grid;

@@ -180,6 +180,8 @@ BoundedEngine MpiFarm::master() const {
 void MpiFarm::serve(const SimplifyJobOptions& options) const {
   std::unique_ptr<GridSource> dsm;  // opened at the first block: rank 0 may not farm at all
   BoundedLayout layout;
+  // Resolved as rank 0 resolves them (max_error and conservative): every block made alike.
+  const BoundedSimplifyOptions bounded = options.bounded_options();
   for (;;) {
     int64_t index = 0;
     MPI_Status status;
@@ -190,9 +192,9 @@ void MpiFarm::serve(const SimplifyJobOptions& options) const {
     try {
       if (!dsm) {
         dsm = open_raster(options.input, options.read);
-        layout = bounded_layout(dsm->frame().width, dsm->frame().height, options.bounded);
+        layout = bounded_layout(dsm->frame().width, dsm->frame().height, bounded);
       }
-      reply = pack(simplify_bounded_block(*dsm, layout, static_cast<size_t>(index), options.bounded));
+      reply = pack(simplify_bounded_block(*dsm, layout, static_cast<size_t>(index), bounded));
       if (reply.size() > static_cast<size_t>(std::numeric_limits<int>::max()))
         throw ArgumentError("--block-tiles", "a block exceeds one MPI message (2 GB); use fewer tiles a block");
     } catch (const std::exception& error) {

@@ -39,10 +39,14 @@ SimplifyReport start_report(const SimplifyJobOptions& options) {
   SimplifyReport report;
   report.input = options.input;
   report.output = options.output;
-  report.method = options.method;
-  report.paper = options.paper;
-  report.bounded = options.bounded;
+  report.method = options.chosen_method();
+  report.paper = options.paper_options();
+  report.bounded = options.bounded_options();
   return report;
+}
+
+MeshFormat output_format(const SimplifyJobOptions& options) {
+  return options.format ? *options.format : mesh_format_for(options.output);
 }
 
 // The bounded mode on the DSM as it is: read window by window and written block by block, so
@@ -61,8 +65,8 @@ SimplifyReport simplify_streamed(const SimplifyJobOptions& options, MeshFormat f
   report.seconds.emplace_back("mesh", 0.0);
   const Progress simplify_progress = sub_progress(progress, 0, format == MeshFormat::Ply ? 1.0 : 0.8);
   auto simplify = [&](MeshSink& sink) {
-    return options.bounded_engine ? options.bounded_engine(*dsm, options.bounded, sink, simplify_progress)
-                                  : simplify_bounded(*dsm, options.bounded, sink, simplify_progress);
+    return options.bounded_engine ? options.bounded_engine(*dsm, report.bounded, sink, simplify_progress)
+                                  : simplify_bounded(*dsm, report.bounded, sink, simplify_progress);
   };
   BoundedStreamResult result;
   if (format == MeshFormat::Ply) {
@@ -117,19 +121,55 @@ SimplifyMethod parse_simplify_method(const std::string& name) {
   throw ArgumentError("--method", "must be variant1, variant2 or bounded, got '" + name + "'");
 }
 
-SimplifyReport simplify_job(const SimplifyJobOptions& options, const Progress& progress) {
-  // Everything that can be checked is checked before the long work starts.
-  const MeshFormat format = options.format ? *options.format : mesh_format_for(options.output);
-  if (options.resolution && !(*options.resolution > 0 && std::isfinite(*options.resolution))) {
+void SimplifyJobOptions::check() const {
+  // A parameter of the other method would be ignored without a word: refused, by its flag.
+  const std::string not_method = "not --method " + std::string(to_string(chosen_method()));
+  if (max_error && method && *method != SimplifyMethod::Bounded)
+    throw ArgumentError("--max-error", "belongs to the bounded mode, " + not_method);
+  const bool bounded = chosen_method() == SimplifyMethod::Bounded;
+  if (!bounded && conservative) throw ArgumentError("--conservative", "belongs to the bounded mode, " + not_method);
+  for (const auto& [flag, tolerance] : {std::pair{"--dz", dz}, std::pair{"--dco", dco}})
+    if (bounded && tolerance)
+      throw ArgumentError(flag,
+                          "belongs to the paper's variants (--method variant1|variant2); the "
+                          "bounded mode (the default) is bounded by --max-error");
+  const MeshFormat format = output_format(*this);
+  if (resolution && !(*resolution > 0 && std::isfinite(*resolution))) {
     throw ArgumentError("--res", "must be a positive number of CRS units");
   }
-  const bool bounded = options.method == SimplifyMethod::Bounded;
   if (bounded) {
-    check_bounded_options(options.bounded);
+    check_bounded_options(bounded_options());
   } else {
-    check_paper_options(options.paper);
+    check_paper_options(paper_options());
   }
-  check_tileset_request(options.tileset, format, options.output);
+  check_tileset_request(tileset, format, output);
+}
+
+BoundedSimplifyOptions SimplifyJobOptions::bounded_options() const {
+  BoundedSimplifyOptions options;
+  // Without --max-error, the safe default; --max-error E alone keeps its meaning: |mesh - DSM| <= E.
+  options.max_error = max_error.value_or(options.max_error);
+  options.conservative = conservative || !max_error;
+  options.delaunay = delaunay;
+  options.tile_size = tile_size;
+  options.block_tiles = block_tiles;
+  options.threads = threads;
+  return options;
+}
+
+PaperSimplifyOptions SimplifyJobOptions::paper_options() const {
+  PaperSimplifyOptions options;
+  options.variant = chosen_method() == SimplifyMethod::Variant1 ? PaperVariant::One : PaperVariant::Two;
+  options.dz = dz.value_or(options.dz);
+  options.dco = dco.value_or(options.dco);
+  return options;
+}
+
+SimplifyReport simplify_job(const SimplifyJobOptions& options, const Progress& progress) {
+  // Everything that can be checked is checked before the long work starts.
+  options.check();
+  const MeshFormat format = output_format(options);
+  const bool bounded = options.chosen_method() == SimplifyMethod::Bounded;
   const bool mesh_input = is_mesh_file(options.input);
   if (mesh_input && options.dsm.empty()) {
     throw ArgumentError("--dsm", options.input +
@@ -178,13 +218,10 @@ SimplifyReport simplify_job(const SimplifyJobOptions& options, const Progress& p
     GridView view(dsm);
     output.crs = dsm.crs;
     MeshCollector collector(output);
-    report.error = simplify_bounded(view, options.bounded, collector, simplify_progress).error;
+    report.error = simplify_bounded(view, report.bounded, collector, simplify_progress).error;
     report.seconds.emplace_back("simplify", clock.lap());
   } else {
-    PaperSimplifyOptions paper = options.paper;
-    paper.variant = options.method == SimplifyMethod::Variant1 ? PaperVariant::One : PaperVariant::Two;
-    report.paper = paper;
-    PaperSimplifyResult result = simplify_paper(input, paper, simplify_progress);
+    PaperSimplifyResult result = simplify_paper(input, report.paper, simplify_progress);
     report.removed_coplanar = result.removed_coplanar;
     report.removed_colinear = result.removed_colinear;
     report.restored_colinear = result.restored_colinear;

@@ -77,6 +77,10 @@ struct RasterReport {
 
 /// Throws what read_rpc_camera throws for an image whose RPC is there but bad.
 RasterReport describe_raster(const InfoOptions& options);
+/// How `dsmplan info` prints the report (`--of`).
+enum class InfoFormat { Text, Json };
+/// "text" (or empty: not given) or "json"; ArgumentError("--of") otherwise.
+InfoFormat parse_info_format(const std::string& name);
 /// Keys: file, width, height, resolution [x,y], extent {xmin,ymin,xmax,ymax}, crs {name,epsg,wkt},
 /// vertical {name,unit}, units {horizontal, horizontal_m, vertical, vertical_m} (unit names and
 /// metres per unit, null when not known; info shows a CRS in feet, the other tools refuse it),
@@ -92,8 +96,19 @@ struct GridOptions {
   std::vector<std::string> inputs;  ///< LAS or XYZ files, all in one CRS
   std::string output;               ///< GeoTIFF (.tif, .tiff)
   std::string crs;                  ///< overrides the files' CRS; required when they have none
-  GridPointsOptions grid;
-  double fill_distance = 0;  ///< > 0: fill holes up to this distance (CRS units) from data
+  GridPointsOptions grid;           ///< resolution, fusion (its class lists: from the three below)
+  // The ASPRS classes gridded, as asked (a list not given is not the same as an empty one):
+  std::vector<int> classes;                      ///< only these (e.g. {2}: ground, a DTM); empty: all not dropped
+  std::optional<std::vector<int>> drop_classes;  ///< left out; none: 7, 18 (noise), or nothing with `classes`
+  bool keep_all_classes = false;                 ///< every class, noise included; not with `classes`
+  double fill_distance = 0;                      ///< > 0: fill holes up to this distance (CRS units) from data
+
+  /// Every option, before any file is opened (grid_to_geotiff calls it first): ArgumentError for
+  /// `classes` with keep_all_classes, grid's own class lists changed (they would be replaced),
+  /// an output not .tif, a resolution that is not positive, a negative fill_distance, no input.
+  void check() const;
+  /// `grid` with the classes resolved: what grid_points() runs with.
+  GridPointsOptions points_options() const;
 };
 
 /// Reads the point clouds, grids them (median or max per cell), optionally fills holes, writes
@@ -178,22 +193,36 @@ struct SimplifyJobOptions {
   std::optional<double> resolution;  ///< resample the DSM to this x/y cell size first
   Resampling resampling = Resampling::Median;
   MeshOptions mesh;  ///< how a DSM input is meshed before the paper's variants
-  /// The safe default: the bounded mode, conservative, at E = 0.4 m (the paper's Δz): the mesh
-  /// never below the DSM. The paper's variants have no error bound (variant two leaves the
-  /// sample tile's mesh 8.4 m below the DSM): asked for by name.
-  SimplifyMethod method = SimplifyMethod::Bounded;
-  PaperSimplifyOptions paper;  ///< dz, dco (the variant comes from `method`)
-  /// max_error, conservative, delaunay, threads: the bounded mode's; the paper's variants ignore them.
-  BoundedSimplifyOptions bounded = [] {
-    BoundedSimplifyOptions conservative;
-    conservative.conservative = true;
-    return conservative;
-  }();
+  // The method and its parameters as asked: what is not given (none, false) takes its default,
+  // so that a parameter of one method given with the other can be refused (check()). The default
+  // is the safe one: the bounded mode, conservative, at E = 0.4 m (the paper's Δz): the mesh
+  // never below the DSM. The paper's variants have no error bound (variant two leaves the sample
+  // tile's mesh 8.4 m below the DSM): asked for by name.
+  std::optional<SimplifyMethod> method;  ///< none: the bounded mode
+  std::optional<double> max_error;       ///< the bounded mode's E (m); none: 0.4, conservative
+  bool conservative = false;             ///< the bounded mode: 0 <= mesh - DSM <= E (implied without max_error)
+  std::optional<double> dz, dco;         ///< the paper's tolerances; none: PaperSimplifyOptions' 0.4 m, 1e-5 m
+  bool delaunay = false;                 ///< the bounded mode: one global Delaunay triangulation (one thread)
+  int tile_size = 0;                     ///< the bounded mode: cells a tile side; 0: 64
+  int block_tiles = 0;                   ///< the bounded mode: tiles a block side (read and farmed out); 0: 16
+  int threads = 0;                       ///< the bounded mode: threads; 0: every core
   /// Who makes the blocks of the bounded mode when it streams (a DSM input without --res):
   /// empty = this process, on its threads; the dsmplan binary under mpirun sets MpiFarm's.
   BoundedEngine bounded_engine;
   bool tileset = false;      ///< `--3dtiles`, as MeshJobOptions::tileset
   VerticalOptions vertical;  ///< --vertical-crs, --allow-approximate-vertical (for --3dtiles)
+
+  /// Every option, before any file is opened (simplify_job calls it first): ArgumentError for a
+  /// parameter of the other method (max_error, conservative with a paper's variant; dz, dco
+  /// with the bounded mode: named by its flag), an unknown output format, a resolution that is
+  /// not positive, a parameter out of range, --3dtiles without a .glb.
+  void check() const;
+  /// The method that runs: `method`, else the bounded mode.
+  SimplifyMethod chosen_method() const { return method.value_or(SimplifyMethod::Bounded); }
+  /// The bounded mode's options as it runs them: max_error and conservative resolved.
+  BoundedSimplifyOptions bounded_options() const;
+  /// The paper's variant's options as it runs them: the variant, dz and dco resolved.
+  PaperSimplifyOptions paper_options() const;
 };
 
 struct SimplifyReport {

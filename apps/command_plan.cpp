@@ -1,0 +1,179 @@
+// dsmplan plan: plan_job() (dsmplan/plan_job.hpp). Its parsing and checks stay here as they
+// were while the plan stage is reworked (issue 32).
+#include <array>
+#include <cmath>
+#include <cstdio>
+#include <memory>
+#include <stdexcept>
+
+#include "command.hpp"
+#include "dsmplan/mission.hpp"
+#include "dsmplan/plan_job.hpp"
+
+namespace dsmplan::cli {
+
+namespace {
+
+// One of a flag's named values, else ArgumentError listing them.
+template <typename T>
+T parse_choice(const char* flag, const std::string& value, const std::vector<std::pair<std::string, T>>& choices) {
+  std::string names;
+  for (const auto& [name, choice] : choices) {
+    if (name == value) return choice;
+    names += (names.empty() ? "" : ", ") + name;
+  }
+  throw ArgumentError(flag, "must be one of " + names + ", got '" + value + "'");
+}
+
+// --home "a,b": two numbers, or NaN, NaN when not given.
+std::array<double, 2> parse_home(const std::string& text) {
+  if (text.empty()) return {NAN, NAN};
+  const size_t comma = text.find(',');
+  try {
+    size_t used_a = 0, used_b = 0;
+    if (comma == std::string::npos) throw std::invalid_argument("");
+    const std::string a = text.substr(0, comma), b = text.substr(comma + 1);
+    const std::array<double, 2> home{std::stod(a, &used_a), std::stod(b, &used_b)};
+    if (used_a != a.size() || used_b != b.size() || !std::isfinite(home[0]) || !std::isfinite(home[1]))
+      throw std::invalid_argument("");
+    return home;
+  } catch (const std::exception&) {
+    throw ArgumentError("--home", "must be x,y in the mesh's CRS or lon,lat in degrees, got '" + text + "'");
+  }
+}
+
+struct Request {
+  PlanJobOptions options;
+  std::string stats;
+  std::string planner = "prm";
+  int64_t seed = 1;  // signed: CLI11 would wrap -3 round to 2^64 - 3 as an unsigned
+  bool json = false;
+  std::string home, end, altitude_frame = "relative", firmware = "generic";
+  double hover_speed = NAN;
+};
+
+void run(Request& request, bool quiet) {
+  PlanJobOptions& plan = request.options;
+  if (request.planner != "prm" && request.planner != "rrtconnect")
+    throw ArgumentError("--planner", "must be prm or rrtconnect, got '" + request.planner + "'");
+  plan.plan.planner = request.planner == "rrtconnect" ? PlannerKind::rrt_connect : PlannerKind::prm;
+  if (request.seed < 0) throw ArgumentError("--seed", "must be >= 0, got " + std::to_string(request.seed));
+  plan.plan.seed = static_cast<uint64_t>(request.seed);
+  plan.mission.home = parse_home(request.home);
+  if (!request.end.empty())
+    plan.mission.end = parse_choice<MissionEnd>(
+        "--end", request.end, {{"rtl", MissionEnd::rtl}, {"land", MissionEnd::land}, {"none", MissionEnd::none}});
+  plan.mission.format.altitude_frame =
+      parse_choice<AltitudeFrame>("--altitude-frame", request.altitude_frame,
+                                  {{"relative", AltitudeFrame::relative}, {"amsl", AltitudeFrame::amsl}});
+  plan.mission.format.firmware = parse_choice<Firmware>(
+      "--firmware", request.firmware,
+      {{"px4", Firmware::px4}, {"ardupilot", Firmware::ardupilot}, {"generic", Firmware::generic}});
+  plan.mission.format.hover_speed = std::isnan(request.hover_speed) ? plan.mission.format.speed : request.hover_speed;
+  // The roadmap and index files are read when they exist and written when not: each may be
+  // none of the others.
+  refuse_overwrites(
+      {{"MESH", plan.mesh}, {"--waypoints", plan.waypoints}, {"--dsm", plan.dsm}, {"--dtm", plan.dtm}},
+      {{"-o", plan.output}, {"--stats", request.stats}, {"--roadmap", plan.roadmap}, {"--index", plan.index}});
+  if (!request.stats.empty()) check_writable(request.stats);
+  const PlanReport report = plan_job(plan, terminal_progress(quiet));
+  write_stats(request.stats, to_json(report), {plan.output});
+  if (request.json)
+    std::fputs((to_json(report).dump(2) + "\n").c_str(), stdout);
+  else if (!quiet)
+    std::fputs(to_text(report).c_str(), stdout);
+}
+
+}  // namespace
+
+Command plan_command(CLI::App& app, Session& session) {
+  auto request = std::make_shared<Request>();
+  PlanJobOptions& plan = request->options;
+  CLI::App* command = app.add_subcommand("plan",
+                                         "Plan a collision-free path through waypoints over an obstacle mesh (Halton "
+                                         "PRM or RRT-Connect, shortcuts, spline)");
+  command
+      ->add_option("MESH", plan.mesh,
+                   "Obstacle mesh (.ply, .obj, .off) in a projected CRS, or a DSM (raster, VRT mosaic of a city): "
+                   "planned along a corridor, window by window")
+      ->required();
+  command->add_option("--corridor-chunk", plan.corridor.chunk, "DSM input: longest piece of a leg in one window (m)")
+      ->capture_default_str();
+  command->add_option("--corridor-margin", plan.corridor.margin, "DSM input: flight area around a piece's box (m)")
+      ->capture_default_str();
+  command
+      ->add_option("--max-error", plan.corridor.mesh.max_error,
+                   "DSM input: the windows' conservative bounded meshes' error bound (m)")
+      ->capture_default_str();
+  command
+      ->add_option("--waypoints", plan.waypoints,
+                   "Waypoints: .csv (x,y,z in the mesh's CRS) or .geojson (WGS 84 lon, lat, ellipsoidal height)")
+      ->required();
+  command
+      ->add_option("-o,--output", plan.output,
+                   "Path: .csv (x,y,z in the mesh's CRS), .geojson (WGS 84, ellipsoidal heights), or with heights "
+                   "above mean sea level: .plan (QGroundControl), .waypoints (QGC WPL 110), .kmz (DJI WPML), .kml")
+      ->required();
+  command->add_option("--safety", plan.plan.safety, "Least distance to the mesh, and with --dsm to the DSM's cells (m)")
+      ->capture_default_str();
+  command->add_option("--spacing", plan.plan.spacing, "Sample distance (m): samples = volume / spacing^3")
+      ->capture_default_str();
+  command->add_option("--max-edge", plan.plan.max_edge, "Longest roadmap edge (m)")->capture_default_str();
+  command
+      ->add_option(
+          "--max-agl", plan.plan.max_agl,
+          "Ceiling, metres above the ground (the DTM, else the DSM's cells, else the mesh) for every point of the path")
+      ->capture_default_str();
+  command
+      ->add_option("--refine-rounds", plan.plan.refine_rounds,
+                   "Where the roadmap fails a leg: a lattice search, then at most this many rounds of denser "
+                   "samples (0: neither)")
+      ->capture_default_str();
+  command->add_option("--threads", plan.plan.threads, "Threads (0: every core)")->capture_default_str();
+  // Checked in run(), not by CLI::IsMember: CLI11 adds a second line ("Run with --help") to its errors.
+  command
+      ->add_option("--planner", request->planner, "prm (Halton roadmap, A*) or rrtconnect (RRT-Connect, single query)")
+      ->capture_default_str();
+  command->add_option("--seed", request->seed, "Random seed of rrtconnect (>= 0): the same seed, the same path")
+      ->capture_default_str();
+  command->add_option("--of", plan.format,
+                      "Path format, overriding the extension: csv, geojson, plan, waypoints, kmz, kml");
+  command->add_flag("--json", request->json, "Print the statistics as JSON instead of the summary line");
+  command->add_option("--roadmap", plan.roadmap,
+                      "Roadmap file: reused when it exists (same mesh and options), else built and saved");
+  command->add_option("--index", plan.index,
+                      "Index file of the mesh: opened when it exists (built from the same mesh and DSM), else built "
+                      "and saved; later runs skip building it");
+  command->add_option("--dsm", plan.dsm,
+                      "Raw DSM: the path keeps --safety from its cells as solid columns (holes as high as their rim)");
+  command->add_option("--dtm", plan.dtm,
+                      "Terrain raster (the mesh's CRS, any resolution): the ground --max-agl counts from");
+  command->add_option("--vertical-crs", plan.vertical.vertical_crs,
+                      "Vertical CRS of the mesh's heights when the file does not say (e.g. EPSG:7837; EPSG:4979: "
+                      "WGS 84 ellipsoidal heights, as satellite DSMs)");
+  command->add_flag(
+      "--allow-approximate-vertical", plan.vertical.allow_approximate_vertical,
+      "Heights of an unknown or grid-less vertical datum taken as EGM96 heights (about 1 m off) for WGS 84 output");
+  command->add_option("--stats", request->stats, "Write statistics as JSON to this file");
+  command->add_flag("-q,--quiet", session.quiet, "No progress output");
+  command->add_option("--home", request->home,
+                      "Missions: where the drone takes off, x,y in the mesh's CRS (m) or lon,lat (degrees); "
+                      "default: the ground under the first waypoint");
+  command->add_option("--end", request->end,
+                      "Missions: rtl (a planned leg back above home, then return to launch), land "
+                      "(at the last waypoint) or none; default rtl");
+  command
+      ->add_option("--altitude-frame", request->altitude_frame,
+                   "Missions: relative (m above home) or amsl (m above mean sea level)")
+      ->capture_default_str();
+  command->add_option("--firmware", request->firmware, "Missions: px4, ardupilot or generic")->capture_default_str();
+  command->add_option("--speed", plan.mission.format.speed, "Missions: speed along the route (m/s, (0, 100])")
+      ->capture_default_str();
+  command->add_flag("--extrude", plan.mission.format.extrude,
+                    "KML: a wall from the path and the waypoints down to the ground");
+  command->add_option("--hover-speed", request->hover_speed,
+                      "Missions: the .plan's hoverSpeed (m/s, (0, 100]); default --speed");
+  return {command, [request, &session] { run(*request, session.quiet); }};
+}
+
+}  // namespace dsmplan::cli

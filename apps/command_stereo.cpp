@@ -1,0 +1,74 @@
+// dsmplan stereo: stereo_job() for frame cameras (--cameras), satellite_stereo_job() for images
+// with RPCs; the flags' rules are the library's (stereo_job_for()).
+#include <memory>
+
+#include "command.hpp"
+#include "dsmplan/satellite_stereo_job.hpp"
+#include "dsmplan/stereo_job.hpp"
+
+namespace dsmplan::cli {
+
+namespace {
+
+struct Request {
+  StereoRequest stereo;
+  std::string stats;
+};
+
+void run(const Request& request, bool quiet) {
+  const StereoJob job = stereo_job_for(request.stereo);  // the flags' rules, as every caller gets them
+  const std::string& output = request.stereo.output;
+  if (job.frame) {
+    refuse_overwrites(stereo_job_inputs(*job.frame), {{"-o", output}, {"--stats", request.stats}});
+    if (!request.stats.empty()) check_writable(request.stats);
+    const StereoReport report = stereo_job(*job.frame, terminal_progress(quiet));
+    write_stats(request.stats, to_json(report), {output});
+  } else {
+    refuse_overwrites(satellite_stereo_inputs(*job.satellite), {{"-o", output}, {"--stats", request.stats}});
+    if (!request.stats.empty()) check_writable(request.stats);
+    const SatelliteStereoReport report = satellite_stereo_job(*job.satellite, terminal_progress(quiet));
+    write_stats(request.stats, to_json(report), {output});
+  }
+}
+
+}  // namespace
+
+Command stereo_command(CLI::App& app, Session& session) {
+  auto request = std::make_shared<Request>();
+  StereoRequest& stereo = request->stereo;
+  CLI::App* command = app.add_subcommand(
+      "stereo",
+      "DSM from images: satellite images with RPCs (IMG1 IMG2 ...) or frame cameras with known poses (--cameras): "
+      "rectification, SGM, triangulation, median per cell");
+  command->add_option("images", stereo.images,
+                      "Satellite images with RPC cameras (TIFF tags, _RPC.TXT, .RPB or an OSSIM .geom beside "
+                      "them), two or more: every overlapping pair is matched");
+  command->add_option("--cameras", stereo.cameras,
+                      "CAMERAS.json: CRS, cameras and images, optionally the height range (README)");
+  command->add_option("--crs", stereo.crs,
+                      "With satellite images: output CRS (default: WGS 84 / UTM of the scene; heights above the "
+                      "WGS 84 ellipsoid)");
+  command->add_flag("--allow-approximate-vertical", stereo.allow_approximate_vertical,
+                    "With satellite images and a compound --crs whose geoid grid PROJ lacks: heights through "
+                    "EGM96 (about 1 m off; --stats' transformation says so) instead of refusing");
+  command->add_option("-o,--output", stereo.output, "Output GeoTIFF (Float32, nodata where nothing matched)")
+      ->required();
+  command->add_option("--res", stereo.resolution, "Cell size (CRS units: m)")->required();
+  command->add_option("--pairs", stereo.pairs, "auto (overlap and base-to-height ratio) or pairs like 0-1,1-2")
+      ->capture_default_str();
+  command->add_option("--bounds", stereo.bounds, "x0,y0,x1,y1 of the DSM (CRS units); default: the pairs' overlap");
+  command->add_option("--stats", request->stats, "Write counts and seconds per stage as JSON");
+  command
+      ->add_option("--fusion-memory", stereo.fusion_memory_mb,
+                   "MB of memory for the points before the fusion spills sorted runs to $TMPDIR (or /tmp)")
+      ->capture_default_str();
+  command
+      ->add_option("--band-memory", stereo.band_memory_mb,
+                   "MB for one band of a frame pair's rectified images and matching (taller pairs go in bands of rows)")
+      ->capture_default_str();
+  command->add_flag("-q,--quiet", session.quiet, "No progress output");
+
+  return {command, [request, &session] { run(*request, session.quiet); }};
+}
+
+}  // namespace dsmplan::cli

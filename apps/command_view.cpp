@@ -1,0 +1,48 @@
+// dsmplan view: serve_view() (dsmplan/view.hpp) until the process is stopped.
+#include <cstdio>
+#include <memory>
+
+#include "command.hpp"
+#include "dsmplan/view.hpp"
+
+namespace dsmplan::cli {
+
+namespace {
+
+struct Request {
+  ViewOptions options;
+  bool json = false;
+};
+
+void run(const Request& request) {
+  serve_view(request.options, [json = request.json](const std::string& url) {
+    // Flushed: a script or test reading stdout through a pipe needs the URL now.
+    if (json)
+      std::printf("%s\n", Json{{"url", url}}.dump().c_str());
+    else
+      std::printf("Serving the 3D viewer at %s (Ctrl-C stops)\n", url.c_str());
+    std::fflush(stdout);
+  });
+}
+
+}  // namespace
+
+Command view_command(CLI::App& app, Session& session) {
+  auto request = std::make_shared<Request>();
+  ViewOptions& view = request->options;
+  CLI::App* command = app.add_subcommand(
+      "view", "Show a GLB mesh and a path in 3D in the browser: serves the three.js viewer on localhost until Ctrl-C");
+  command->add_option("MESH", view.mesh, "Mesh: .glb (dsmplan mesh|simplify -o MESH.glb)")->required();
+  command->add_option("--path", view.path, "Path CSV (dsmplan plan -o PATH.csv): x,y,z in the mesh's CRS");
+  command->add_option("--waypoints", view.waypoints, "Waypoint CSV: x,y,z in the mesh's CRS");
+  command->add_option("--port", view.port, "TCP port (0: any free one)")->capture_default_str();
+  command->add_option("--host", view.host, "Address to listen on")->capture_default_str();
+  command->add_option("--viewer-dir", view.viewer_dir,
+                      "The viewer's files (index.html, viewer.js, node_modules/three); default: web/viewer beside "
+                      "the dsmplan binary");
+  command->add_flag("--json", request->json, "Print the viewer's address as JSON ({\"url\": ...})");
+  command->add_flag("-q,--quiet", session.quiet, "Accepted for every command; the address is still printed");
+  return {command, [request] { run(*request); }};
+}
+
+}  // namespace dsmplan::cli
