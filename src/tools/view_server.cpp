@@ -105,7 +105,10 @@ std::string default_viewer_dir() {
   return (exe.parent_path() / "web" / "viewer").string();
 }
 
-void serve_view(const ViewOptions& options, const std::function<void(const std::string& url)>& listening) {
+namespace {
+
+// The options and the viewer's folder, before the port is taken; the folder checked.
+fs::path checked_viewer_dir(const ViewOptions& options) {
   check_glb(options.mesh);
   if (!options.path.empty()) check_csv(options.path, "path");
   if (!options.waypoints.empty()) check_csv(options.waypoints, "waypoints");
@@ -121,41 +124,28 @@ void serve_view(const ViewOptions& options, const std::function<void(const std::
   if (!fs::is_regular_file(viewer / "node_modules/three/build/three.module.js"))
     throw InputError(viewer.string(), "",
                      "three is not installed in node_modules (scripts/build.sh installs it: npm ci from web/viewer)");
+  return viewer;
+}
 
-  // URL path -> file: the data files under fixed names (no file name reaches a URL or the disk
-  // from a request), everything else inside the viewer's folder.
-  std::map<std::string, fs::path> data{{"/data/mesh.glb", options.mesh}};
-  if (!options.path.empty()) data["/data/path.csv"] = options.path;
-  if (!options.waypoints.empty()) data["/data/waypoints.csv"] = options.waypoints;
+void refuse(httplib::Response& response, const std::string& why) {
+  response.status = 403;
+  response.set_content("refused: " + why + "\n", "text/plain");
+}
 
-  // What the page is told to show; the bare address (what people type) is sent there too.
-  std::string query = "/?mesh=/data/mesh.glb";
-  if (!options.path.empty()) query += "&path=/data/path.csv";
-  if (!options.waypoints.empty()) query += "&waypoints=/data/waypoints.csv";
+// Answers a GET: the data files under fixed names (no file name reaches a URL or the disk from a
+// request), everything else inside the viewer's folder; the bare address is sent to `query`.
+struct ViewFiles {
+  fs::path viewer, viewer_real;
+  std::map<std::string, fs::path> data;
+  std::string query;
+  const std::string* port;  // the port listened on, set before the first request
 
-  // A slow or idle client holds a connection thread for a bounded time: a request (head and
-  // body) must arrive within the deadline (a client sending a header byte a second was held for
-  // as long as it kept sending), an idle connection is dropped after 2 s (httplib's defaults,
-  // 5 s on a pool of a few threads, let 40 of them block the page for 20 s), and up to 256
-  // connections are served at once, each on a thread of its own, the others in arrival order.
-  RequestLimits limits;
-  limits.deadline = std::chrono::milliseconds(std::lround(options.request_deadline_seconds * 1000));
-  DeadlineServer server(limits);
-  server.set_read_timeout(2, 0);
-  server.set_keep_alive_timeout(2);
-  server.set_payload_max_length(64 * 1024);  // the viewer takes no bodies: any is junk
-  const fs::path viewer_real = fs::canonical(viewer);
-  std::string port_text;  // the port we listen on (set below, before the first request)
-  auto refuse = [](httplib::Response& response, const std::string& why) {
-    response.status = 403;
-    response.set_content("refused: " + why + "\n", "text/plain");
-  };
-  server.Get(R"(/.*)", [&](const httplib::Request& request, httplib::Response& response) {
+  void answer(const httplib::Request& request, httplib::Response& response) const {
     // A page of another site that made its name resolve to this address (DNS rebinding) sends
     // its own name as Host: only an address (or "localhost") with our port is answered.
     const std::string host = request.get_header_value("Host");
-    if (!host_is_ours(host, port_text))
-      return refuse(response, "Host '" + host + "' is not an address of this server (port " + port_text + ")");
+    if (!host_is_ours(host, *port))
+      return refuse(response, "Host '" + host + "' is not an address of this server (port " + *port + ")");
     // request.path is percent-decoded already, so "%2e%2e" is caught here too.
     const std::string& url = request.path;
     if (url == "/" && request.params.empty()) return response.set_redirect(query);
@@ -185,8 +175,11 @@ void serve_view(const ViewOptions& options, const std::function<void(const std::
     // The files change between runs (a new mesh, a new path) under the same names.
     response.set_header("Cache-Control", "no-store");
     response.set_content(std::move(bytes), content_type(file));
-  });
+  }
+};
 
+// Binds the host and port (0: any free one) and returns the port.
+int bind_view(DeadlineServer& server, const ViewOptions& options) {
   // httplib's default also sets SO_REUSEPORT, with which a second server binds a port in use
   // and the two share the requests; SO_REUSEADDR alone still allows a restart at once.
   server.set_socket_options([](socket_t sock) {
@@ -204,11 +197,40 @@ void serve_view(const ViewOptions& options, const std::function<void(const std::
   } else if (!server.bind_to_port(options.host, port)) {
     throw Error("--port: cannot listen on " + options.host + ":" + std::to_string(port) + " (in use)");
   }
+  return port;
+}
+
+}  // namespace
+
+void serve_view(const ViewOptions& options, const std::function<void(const std::string& url)>& listening) {
+  std::string port_text;
+  ViewFiles files{
+      checked_viewer_dir(options), {}, {{"/data/mesh.glb", options.mesh}}, "/?mesh=/data/mesh.glb", &port_text};
+  files.viewer_real = fs::canonical(files.viewer);
+  if (!options.path.empty()) files.data["/data/path.csv"] = options.path, files.query += "&path=/data/path.csv";
+  if (!options.waypoints.empty())
+    files.data["/data/waypoints.csv"] = options.waypoints, files.query += "&waypoints=/data/waypoints.csv";
+
+  // A slow or idle client holds a connection thread for a bounded time: a request (head and
+  // body) must arrive within the deadline (a client sending a header byte a second was held for
+  // as long as it kept sending), an idle connection is dropped after 2 s (httplib's defaults,
+  // 5 s on a pool of a few threads, let 40 of them block the page for 20 s), and up to 256
+  // connections are served at once, each on a thread of its own, the others in arrival order.
+  RequestLimits limits;
+  limits.deadline = std::chrono::milliseconds(std::lround(options.request_deadline_seconds * 1000));
+  DeadlineServer server(limits);
+  server.set_read_timeout(2, 0);
+  server.set_keep_alive_timeout(2);
+  server.set_payload_max_length(64 * 1024);  // the viewer takes no bodies: any is junk
+  server.Get(R"(/.*)", [&files](const httplib::Request& request, httplib::Response& response) {
+    files.answer(request, response);
+  });
+  const int port = bind_view(server, options);
   const std::string authority =
       (options.host.find(':') != std::string::npos ? "[" + options.host + "]" : options.host) + ":" +
       std::to_string(port);
   port_text = std::to_string(port);
-  const std::string url = "http://" + authority + query;
+  const std::string url = "http://" + authority + files.query;
   listening(url);
   if (!server.listen_after_bind()) throw OutputError(url, "the server stopped");
 }
