@@ -1,5 +1,5 @@
-// dsmplan plan: plan_job() (dsmplan/plan_job.hpp). Its parsing and checks stay here as they
-// were while the plan stage is reworked (issue 32).
+// dsmplan plan: plan_job() (dsmplan/plan_job.hpp), which checks the options and their rules; the
+// choices' names are the library's (parse_planner(), ...), as Python takes them.
 #include <array>
 #include <cmath>
 #include <cstdio>
@@ -13,17 +13,6 @@
 namespace dsmplan::cli {
 
 namespace {
-
-// One of a flag's named values, else ArgumentError listing them.
-template <typename T>
-T parse_choice(const char* flag, const std::string& value, const std::vector<std::pair<std::string, T>>& choices) {
-  std::string names;
-  for (const auto& [name, choice] : choices) {
-    if (name == value) return choice;
-    names += (names.empty() ? "" : ", ") + name;
-  }
-  throw ArgumentError(flag, "must be one of " + names + ", got '" + value + "'");
-}
 
 // --home "a,b": two numbers, or NaN, NaN when not given.
 std::array<double, 2> parse_home(const std::string& text) {
@@ -54,21 +43,13 @@ struct Request {
 
 void run(Request& request, bool quiet) {
   PlanJobOptions& plan = request.options;
-  if (request.planner != "prm" && request.planner != "rrtconnect")
-    throw ArgumentError("--planner", "must be prm or rrtconnect, got '" + request.planner + "'");
-  plan.plan.planner = request.planner == "rrtconnect" ? PlannerKind::rrt_connect : PlannerKind::prm;
+  plan.plan.planner = parse_planner(request.planner);
   if (request.seed < 0) throw ArgumentError("--seed", "must be >= 0, got " + std::to_string(request.seed));
   plan.plan.seed = static_cast<uint64_t>(request.seed);
   plan.mission.home = parse_home(request.home);
-  if (!request.end.empty())
-    plan.mission.end = parse_choice<MissionEnd>(
-        "--end", request.end, {{"rtl", MissionEnd::rtl}, {"land", MissionEnd::land}, {"none", MissionEnd::none}});
-  plan.mission.format.altitude_frame =
-      parse_choice<AltitudeFrame>("--altitude-frame", request.altitude_frame,
-                                  {{"relative", AltitudeFrame::relative}, {"amsl", AltitudeFrame::amsl}});
-  plan.mission.format.firmware = parse_choice<Firmware>(
-      "--firmware", request.firmware,
-      {{"px4", Firmware::px4}, {"ardupilot", Firmware::ardupilot}, {"generic", Firmware::generic}});
+  if (!request.end.empty()) plan.mission.end = parse_mission_end(request.end);
+  plan.mission.format.altitude_frame = parse_altitude_frame(request.altitude_frame);
+  plan.mission.format.firmware = parse_firmware(request.firmware);
   plan.mission.format.hover_speed = std::isnan(request.hover_speed) ? plan.mission.format.speed : request.hover_speed;
   // The roadmap and index files are read when they exist and written when not: each may be
   // none of the others.

@@ -110,6 +110,10 @@ std::string flag_message(const ArgumentError& error) {
   // The fields of the options structs (and parameters) that a flag of some command sets.
   static const std::map<std::string, std::string> flags = {
       {"dz", "--dz"},
+      {"planner", "--planner"},
+      {"end", "--end"},
+      {"firmware", "--firmware"},
+      {"altitude_frame", "--altitude-frame"},
       {"dco", "--dco"},
       {"max_error", "--max-error"},
       {"tile_size", "--tile-size"},

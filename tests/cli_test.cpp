@@ -30,11 +30,13 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 #include <string>
+#include <tuple>
 #include <vector>
 
 #include "dsmplan/columns.hpp"
 #include "dsmplan/export.hpp"
 #include "dsmplan/plan.hpp"
+#include "dsmplan/plan_job.hpp"
 #include "dsmplan/raster.hpp"
 #include "dsmplan/raster_io.hpp"
 #include "dsmplan/tools.hpp"
@@ -883,6 +885,32 @@ TEST(CliBadInput, CrossFlagRulesSayWhatTheLibrarySays) {
       library_says([&] { grid_to_geotiff(grid); }));
   EXPECT_EQ(run_cli({"info", dsm, "--of", "xml"}).err, library_says([] { dsmplan::parse_info_format("xml"); }));
   EXPECT_TRUE(out.files().empty());
+}
+
+// The plan's choices are the library's names (parse_planner(), ...), which Python takes too: the
+// library names the field, the command line its flag, and the problem is the same words.
+TEST(CliBadInput, PlanChoicesAreTheLibrarysNames) {
+  const auto refusal = [](const auto& parse) -> std::pair<std::string, std::string> {
+    try {
+      parse();
+    } catch (const dsmplan::ArgumentError& error) {
+      return {error.field(), error.problem()};
+    }
+    return {"", "(accepted)"};
+  };
+  const std::vector<std::tuple<std::string, std::string, std::pair<std::string, std::string>>> cases{
+      {"--planner", "rrt", refusal([] { dsmplan::parse_planner("rrt"); })},
+      {"--end", "hover", refusal([] { dsmplan::parse_mission_end("hover"); })},
+      {"--firmware", "dji", refusal([] { dsmplan::parse_firmware("dji"); })},
+      {"--altitude-frame", "agl", refusal([] { dsmplan::parse_altitude_frame("agl"); })}};
+  for (const auto& [flag, value, library] : cases) {
+    SCOPED_TRACE(flag);
+    EXPECT_EQ(library.first, flag.substr(2) == "altitude-frame" ? "altitude_frame" : flag.substr(2));
+    const auto result = run_cli({"plan", "mesh.ply", "--waypoints", "w.csv", "-o", "p.plan", flag, value});
+    EXPECT_EQ(result.exit_code, 2);
+    EXPECT_EQ(result.err, "dsmplan: " + flag + ": " + library.second + "\n");
+  }
+  EXPECT_EQ(refusal([] { dsmplan::parse_planner("rrtconnect"); }).second, "(accepted)");
 }
 
 TEST(CliBadInput, SimplifyMeshWithoutItsDsm) {

@@ -396,6 +396,42 @@ PlanReport plan_job(const PlanJobOptions& options, const Progress& progress) {
   return report;
 }
 
+namespace {
+
+// One of a field's named values, else ArgumentError listing them.
+template <typename T>
+T parse_choice(const char* field, const std::string& value, const std::vector<std::pair<std::string, T>>& choices) {
+  std::string names;
+  for (const auto& [name, choice] : choices) {
+    if (name == value) return choice;
+    names += (names.empty() ? "" : ", ") + name;
+  }
+  throw ArgumentError(field, "must be one of " + names + ", got '" + value + "'");
+}
+
+}  // namespace
+
+PlannerKind parse_planner(const std::string& name) {
+  if (name != "prm" && name != "rrtconnect")
+    throw ArgumentError("planner", "must be prm or rrtconnect, got '" + name + "'");
+  return name == "rrtconnect" ? PlannerKind::rrt_connect : PlannerKind::prm;
+}
+
+MissionEnd parse_mission_end(const std::string& name) {
+  return parse_choice<MissionEnd>("end", name,
+                                  {{"rtl", MissionEnd::rtl}, {"land", MissionEnd::land}, {"none", MissionEnd::none}});
+}
+
+Firmware parse_firmware(const std::string& name) {
+  return parse_choice<Firmware>(
+      "firmware", name, {{"px4", Firmware::px4}, {"ardupilot", Firmware::ardupilot}, {"generic", Firmware::generic}});
+}
+
+AltitudeFrame parse_altitude_frame(const std::string& name) {
+  return parse_choice<AltitudeFrame>("altitude_frame", name,
+                                     {{"relative", AltitudeFrame::relative}, {"amsl", AltitudeFrame::amsl}});
+}
+
 void write_flight(const FlightPlan& flight, const std::vector<Point3>& waypoints, const Crs& crs,
                   const PlanJobOptions& options, PlanReport& report) {
   const OutputKind kind = output_kind(options);

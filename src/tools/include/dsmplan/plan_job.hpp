@@ -90,6 +90,14 @@ struct PlanReport : FlightReport {
 /// index file built before a leg fails is kept: it depends on the mesh only). seconds_load includes reading a
 /// reused roadmap and opening a kept index (in seconds_read).
 PlanReport plan_job(const PlanJobOptions& options, const Progress& progress = {});
+/// The names every face takes for the plan's choices (the CLI's flags, Python's keywords), one
+/// ArgumentError naming the field ("planner", "end", "firmware", "altitude_frame": the CLI
+/// shows --planner, ...) and listing the names otherwise.
+PlannerKind parse_planner(const std::string& name);           ///< prm, rrtconnect
+MissionEnd parse_mission_end(const std::string& name);        ///< rtl, land, none
+Firmware parse_firmware(const std::string& name);             ///< px4, ardupilot, generic
+AltitudeFrame parse_altitude_frame(const std::string& name);  ///< relative, amsl
+
 /// Writes a flight planned by plan_flight() over a mesh in `crs` as `dsmplan plan -o` does:
 /// options.output in options.format or by its extension (csv, geojson, plan, waypoints, kmz,
 /// kml), atomically; missions with options.mission.format, heights to WGS 84 through
