@@ -12,12 +12,21 @@
 //                                       flight.hpp): .path K x 3 float64, CRS; .report (the figures of
 //                                       `dsmplan plan --stats`); .write(path) every path and mission format
 //   mesh.write(path)                    .ply, .obj, .off or .glb by the extension
+//   dsm = dsmplan.grid(points, res=1.0, classes=[2], fill_holes=30)   LAS/LAZ/XYZ to a DSM in memory,
+//                                       grid_point_files() of `dsmplan grid`; dsm.write(path): write_dsm()
+//   dsmplan.render(dsm, output, ...), dsmplan.profile(dsm, path, output, ...)   PNGs by render_job()
+//                                       and profile_job(), returning the report of `--json` as a dict
+// Keyword arguments mirror the CLI's flags; an ArgumentError names the keyword argument where
+// the CLI names the flag (keyword_for()). Every public name is in dsmplan.pyi beside the module,
+// with the same parameters (tests/python/test_stubs.py).
 // Errors are dsmplan.Error (subclasses InputError, ArgumentError, OutputError, as the C++
 // hierarchy) with the library's one-line text. The long calls release the GIL.
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
 
+#include <algorithm>
+#include <map>
 #include <memory>
 #include <optional>
 #include <string>
@@ -26,12 +35,14 @@
 #include "dsmplan/export.hpp"
 #include "dsmplan/flight.hpp"
 #include "dsmplan/mesh.hpp"
+#include "dsmplan/picture_job.hpp"
 #include "dsmplan/plan.hpp"
 #include "dsmplan/plan_job.hpp"
 #include "dsmplan/raster.hpp"
 #include "dsmplan/raster_io.hpp"
 #include "dsmplan/simplify.hpp"
 #include "dsmplan/simplify_streamed.hpp"
+#include "dsmplan/tools.hpp"
 #include "dsmplan/wgs84.hpp"
 
 namespace py = pybind11;
@@ -142,9 +153,7 @@ std::shared_ptr<PyFlight> plan(const std::shared_ptr<PyMesh>& mesh,
   request.options.safety = safety;
   request.options.max_agl = max_agl;
   request.options.spacing = spacing;
-  if (planner != "prm" && planner != "rrtconnect")
-    throw ArgumentError("planner", "must be prm or rrtconnect, got '" + planner + "'");
-  request.options.planner = planner == "rrtconnect" ? PlannerKind::rrt_connect : PlannerKind::prm;
+  request.options.planner = parse_planner(planner);
   // Shared with the Python objects, not copied: the arrays handed out are read-only.
   request.mesh = std::shared_ptr<const Mesh>(mesh, &mesh->mesh);
   if (dsm) request.dsm = std::shared_ptr<const Grid>(dsm, &dsm->grid);
@@ -159,11 +168,7 @@ std::shared_ptr<PyFlight> plan(const std::shared_ptr<PyMesh>& mesh,
     if (mission) {
       MissionEnds ends;
       if (home) ends.home = *home;
-      if (end) {
-        if (*end != "rtl" && *end != "land" && *end != "none")
-          throw ArgumentError("end", "must be rtl, land or none, got '" + *end + "'");
-        ends.end = *end == "rtl" ? MissionEnd::rtl : *end == "land" ? MissionEnd::land : MissionEnd::none;
-      }
+      if (end) ends.end = parse_mission_end(*end);
       ends.from_lonlat = [&](double lon, double lat) {
         if (!to_msl) to_msl.emplace(out->crs, HeightReference::MeanSeaLevel, VerticalOptions{vertical_crs, false});
         return to_msl->from_wgs84({lon, lat, 0});
@@ -177,23 +182,161 @@ std::shared_ptr<PyFlight> plan(const std::shared_ptr<PyMesh>& mesh,
   return out;
 }
 
+// The keyword argument that sets the library's `field`: `names` first (the library's field names
+// where the keyword differs), then a flag as its keyword ("--max-agl" -> "max_agl", "POINTS" ->
+// "points"), else the field as it is. Only the name changes: the checks and their words are the
+// library's.
+std::string keyword_for(const std::string& field, const std::map<std::string, std::string>& names) {
+  if (const auto found = names.find(field); found != names.end()) return found->second;
+  std::string keyword = field;
+  if (keyword.rfind("--", 0) == 0) {
+    keyword = keyword.substr(2);
+    for (char& c : keyword)
+      if (c == '-') c = '_';
+  } else if (!keyword.empty() &&
+             std::all_of(keyword.begin(), keyword.end(), [](unsigned char c) { return c >= 'A' && c <= 'Z'; })) {
+    for (char& c : keyword) c = static_cast<char>(c - 'A' + 'a');
+  }
+  return keyword;
+}
+
+template <class Call>
+auto naming_keywords(const std::map<std::string, std::string>& names, Call&& call) {
+  try {
+    return call();
+  } catch (const ArgumentError& error) {
+    throw ArgumentError(keyword_for(error.field(), names), error.problem());
+  }
+}
+
+// One path or a sequence of them (a str is one path, not a sequence of letters).
+std::vector<std::string> paths_of(const py::object& given, const char* name) {
+  if (given.is_none()) return {};
+  if (py::isinstance<py::str>(given)) return {given.cast<std::string>()};
+  try {
+    return given.cast<std::vector<std::string>>();
+  } catch (const py::cast_error&) {
+    throw ArgumentError(name, "must be a path (str) or a list of paths");
+  }
+}
+
+py::object json_dict(const Json& json) { return py::module_::import("json").attr("loads")(json.dump()); }
+
+std::shared_ptr<PyDsm> grid(const py::object& points, double res, const std::string& crs, const std::string& fusion,
+                            const std::vector<int>& classes, std::optional<std::vector<int>> drop_classes,
+                            bool keep_all_classes, double fill_holes) {
+  // Where the library's field differs from the keyword argument (the CLI's flag, as Python).
+  static const std::map<std::string, std::string> names = {
+      {"resolution", "res"}, {"keep_classes", "classes"}, {"max_distance", "fill_holes"}};
+  return naming_keywords(names, [&] {
+    GridOptions options;
+    options.inputs = paths_of(points, "points");
+    options.crs = crs;
+    options.grid.resolution = res;
+    options.grid.fusion = parse_fusion(fusion);
+    options.classes = classes;
+    options.drop_classes = drop_classes;
+    options.keep_all_classes = keep_all_classes;
+    options.fill_distance = fill_holes;
+    auto out = std::make_shared<PyDsm>();
+    py::gil_scoped_release release;
+    out->grid = grid_point_files(options);
+    return out;
+  });
+}
+
+py::object render(const std::string& dsm, const std::string& output, const py::object& meshes, const py::object& titles,
+                  const py::object& paths, std::optional<std::string> waypoints, std::optional<std::string> roadmap,
+                  std::optional<std::array<double, 4>> window, double zoom, bool edges, std::optional<double> res,
+                  int band, const std::string& crs) {
+  static const std::map<std::string, std::string> names = {
+      {"--title", "titles"}, {"pixels_per_cell", "zoom"}, {"resolution", "res"}};
+  return naming_keywords(names, [&] {
+    RenderJobOptions options;
+    options.dsm = dsm;
+    options.output = output;
+    options.meshes = paths_of(meshes, "meshes");
+    options.titles = paths_of(titles, "titles");
+    options.paths = paths_of(paths, "paths");
+    options.waypoints = waypoints.value_or("");
+    options.roadmap = roadmap.value_or("");
+    if (window) options.render.window = Window{(*window)[0], (*window)[1], (*window)[2], (*window)[3]};
+    options.render.pixels_per_cell = zoom;
+    options.render.edges = edges;
+    options.resolution = res;
+    options.read.band = band;
+    options.read.assign_crs = crs;
+    std::vector<NamedFile> inputs = {
+        {"dsm", options.dsm}, {"waypoints", options.waypoints}, {"roadmap", options.roadmap}};
+    for (const std::string& mesh : options.meshes) inputs.push_back({"meshes", mesh});
+    for (const std::string& path : options.paths) inputs.push_back({"paths", path});
+    RenderReport report;
+    {
+      py::gil_scoped_release release;
+      refuse_overwrites(inputs, {{"output", options.output}});
+      report = render_job(options);
+    }
+    return json_dict(to_json(report));
+  });
+}
+
+py::object profile(const std::string& dsm, const std::string& path, const std::string& output,
+                   std::optional<std::string> dtm, std::optional<std::string> waypoints, double safety, double max_agl,
+                   const std::string& title, int width, int height) {
+  return naming_keywords({}, [&] {
+    ProfileJobOptions options;
+    options.dsm = dsm;
+    options.path = path;
+    options.output = output;
+    options.dtm = dtm.value_or("");
+    options.waypoints = waypoints.value_or("");
+    options.profile.safety = safety;
+    options.profile.max_agl = max_agl;
+    options.profile.title = title;
+    options.profile.width = width;
+    options.profile.height = height;
+    ProfileReport report;
+    {
+      py::gil_scoped_release release;
+      refuse_overwrites(
+          {{"dsm", options.dsm}, {"path", options.path}, {"dtm", options.dtm}, {"waypoints", options.waypoints}},
+          {{"output", options.output}});
+      report = profile_job(options);
+    }
+    return json_dict(to_json(report));
+  });
+}
+
 }  // namespace
 
 PYBIND11_MODULE(dsmplan, m) {
-  m.doc() = "dsmplan: DSM to conservative obstacle mesh to collision-free drone paths";
+  m.doc() =
+      "dsmplan: DSM to conservative obstacle mesh to collision-free drone paths.\n\n"
+      "The library's stages on files and numpy arrays, with the checks and one-line errors of the "
+      "`dsmplan` command line; keyword arguments mirror its flags. The reference is dsmplan.pyi beside "
+      "the module; the guide is docs/python.md.";
   m.attr("__version__") = DSMPLAN_VERSION;
   // The C++ hierarchy (core.hpp): catch dsmplan.Error for all, a subclass for one kind.
   auto error = py::register_exception<Error>(m, "Error");
-  py::register_exception<InputError>(m, "InputError", error.ptr());
-  py::register_exception<ArgumentError>(m, "ArgumentError", error.ptr());
-  py::register_exception<OutputError>(m, "OutputError", error.ptr());
+  error.attr("__doc__") = "Every error dsmplan raises, with the library's one-line text (the command line's words).";
+  py::register_exception<InputError>(m, "InputError", error.ptr()).attr("__doc__") =
+      "A file or data that cannot be used: missing, damaged, in feet, no path through it, "
+      "a waypoint under a roof; the text names the file and the place.";
+  py::register_exception<ArgumentError>(m, "ArgumentError", error.ptr()).attr("__doc__") =
+      "An argument out of range or contradicting another; the text starts with the keyword "
+      "argument's name (the CLI shows the flag).";
+  py::register_exception<OutputError>(m, "OutputError", error.ptr()).attr("__doc__") =
+      "A file that could not be written (nothing is left half-written).";
 
-  py::class_<PyDsm, std::shared_ptr<PyDsm>>(m, "Dsm", "A DSM raster in memory (read_dsm(), or from a numpy array)")
+  py::class_<PyDsm, std::shared_ptr<PyDsm>>(
+      m, "Dsm", "A DSM raster in memory: read_dsm(), grid(), or a numpy array (Dsm(heights, transform, crs)).")
       .def(py::init(&dsm_from_array), py::arg("heights"), py::arg("transform"), py::arg("crs") = "",
            py::arg("nodata") = py::none(),
-           "A DSM from a rows x columns array (row 0 north) with rasterio's affine transform (a, b, c, d, e, f) "
-           "= (cell width, 0, west, 0, -cell height, north) and a CRS (\"EPSG:n\", WKT or PROJ); heights equal "
-           "to `nodata`, NaN or infinite are holes. The heights are copied.")
+           "A DSM from a numpy array, as rasterio holds one. The heights are copied.\n\n"
+           "heights: rows x columns array (row 0 north); NaN, infinite or `nodata` heights are holes.\n"
+           "transform: rasterio's affine (a, b, c, d, e, f) = (cell width, 0, west, 0, -cell height, north).\n"
+           "crs: \"EPSG:n\", WKT or PROJ (empty: unknown; plan() and write() then refuse the DSM).\n"
+           "nodata: the height that marks a hole, or None.")
       .def_property_readonly(
           "heights",
           [](py::object self) {
@@ -215,9 +358,19 @@ PYBIND11_MODULE(dsmplan, m) {
           "GDAL geotransform (x0, cell_x, 0, y0, 0, -cell_y)")
       .def_property_readonly(
           "crs", [](const PyDsm& d) { return d.grid.crs.wkt.empty() ? d.grid.crs.definition : d.grid.crs.wkt; },
-          "the CRS as WKT (empty when unknown)");
+          "the CRS as WKT (empty when unknown)")
+      .def(
+          "write",
+          [](const PyDsm& dsm, const std::string& path) {
+            py::gil_scoped_release release;
+            write_dsm(dsm.grid, path);
+          },
+          py::arg("path"),
+          "Writes the DSM as `dsmplan grid` does: a Float32 GeoTIFF (DEFLATE, nodata -9999), atomically.\n\n"
+          "path: .tif or .tiff. A DSM dsmplan could not read back is refused before anything is written: "
+          "no CRS, x, y or heights not in metres, no valid cell (ArgumentError).");
 
-  py::class_<PyMesh, std::shared_ptr<PyMesh>>(m, "Mesh", "A triangle mesh in the DSM's CRS")
+  py::class_<PyMesh, std::shared_ptr<PyMesh>>(m, "Mesh", "A triangle mesh in the DSM's CRS: mesh() or simplify().")
       .def_property_readonly(
           "vertices",
           [](py::object self) {
@@ -247,14 +400,17 @@ PYBIND11_MODULE(dsmplan, m) {
             d["cells"] = m.certified->cells;
             return d;
           },
-          "simplify()'s certified error against the DSM at every valid cell; None for mesh()")
+          "simplify()'s certified error against the DSM at every valid cell (max_above_m, max_below_m, rms_m, "
+          "cells); None for mesh()")
       .def(
           "write",
           [](const PyMesh& m, const std::string& path) {
             py::gil_scoped_release release;
             write_mesh(m.mesh, path, mesh_format_for(path));
           },
-          py::arg("path"), "Writes .ply, .obj, .off or .glb (by the extension), atomically, with the CRS");
+          py::arg("path"),
+          "Writes the mesh with its CRS, atomically.\n\n"
+          "path: .ply, .obj, .off or .glb (the format by the extension).");
 
   m.def(
       "read_dsm",
@@ -264,7 +420,22 @@ PYBIND11_MODULE(dsmplan, m) {
         dsm->grid = read_raster(path);
         return dsm;
       },
-      py::arg("path"), "Reads a DSM raster (any GDAL raster or VRT)");
+      py::arg("path"),
+      "Reads a DSM raster.\n\n"
+      "path: any GDAL raster or VRT, with a CRS, x, y and heights in metres.");
+  m.def("grid", &grid, py::arg("points"), py::arg("res"), py::kw_only(), py::arg("crs") = "",
+        py::arg("fusion") = "median", py::arg("classes") = std::vector<int>{}, py::arg("drop_classes") = py::none(),
+        py::arg("keep_all_classes") = false, py::arg("fill_holes") = 0.0,
+        "Point clouds to a DSM in memory, as `dsmplan grid` (the same library function, grid_point_files()): "
+        "one height per cell, the median of its points; cells without points are holes (NaN).\n\n"
+        "points: a LAS, LAZ (1.0-1.4) or XYZ file, or a list of them, all in one CRS.\n"
+        "res: cell size in CRS units (metres), > 0 (--res).\n"
+        "crs: the points' CRS (\"EPSG:7415\", WKT, PROJ), overriding the files'; needed when they state none.\n"
+        "fusion: the height per cell, \"median\" or \"max\".\n"
+        "classes: keep only these ASPRS classes (e.g. [2]: ground, a DTM); noise too when listed.\n"
+        "drop_classes: ASPRS classes to drop (None or empty: 7 and 18, noise).\n"
+        "keep_all_classes: keep every class, noise included (not with `classes`).\n"
+        "fill_holes: > 0: fill holes up to this distance (CRS units) from data, by GDAL's FillNodata.");
   m.def(
       "mesh",
       [](const PyDsm& dsm, double zstep) {
@@ -276,12 +447,19 @@ PYBIND11_MODULE(dsmplan, m) {
         return out;
       },
       py::arg("dsm"), py::arg("zstep") = 0.1,
-      "The XY-3 Delaunay mesh of the DSM (heights in zstep steps; 0 keeps them)");
-  m.def(
-      "simplify", &simplify, py::arg("dsm"), py::arg("max_error") = 0.4, py::arg("conservative") = true,
-      py::arg("delaunay") = false,
-      "The bounded simplification: |mesh - DSM| <= max_error (conservative: 0 <= mesh - DSM <= max_error), certified");
-  py::class_<PyFlight, std::shared_ptr<PyFlight>>(m, "Flight", "A path planned and verified by plan()")
+      "The XY-3 Delaunay mesh of the DSM (the paper's Section 3), as `dsmplan mesh`.\n\n"
+      "dsm: the Dsm to mesh.\n"
+      "zstep: heights rounded to steps of this size (0 keeps them).");
+  m.def("simplify", &simplify, py::arg("dsm"), py::arg("max_error") = 0.4, py::arg("conservative") = true,
+        py::arg("delaunay") = false,
+        "The bounded simplification of `dsmplan simplify --max-error`, its error certified cell by cell "
+        "(Mesh.certified).\n\n"
+        "dsm: the Dsm to simplify.\n"
+        "max_error: the largest vertical distance between mesh and DSM at any valid cell (0.001 to 10000).\n"
+        "conservative: True: 0 <= mesh - DSM <= max_error (never below an obstacle); False: |mesh - DSM| <= "
+        "max_error.\n"
+        "delaunay: make the triangulation Delaunay (a few more triangles).");
+  py::class_<PyFlight, std::shared_ptr<PyFlight>>(m, "Flight", "A path planned and verified by plan().")
       .def_property_readonly(
           "path",
           [](py::object self) {
@@ -292,8 +470,7 @@ PYBIND11_MODULE(dsmplan, m) {
           },
           "K x 3 float64 x, y, z in the mesh's CRS, through every waypoint (a read-only view)")
       .def_property_readonly(
-          "report",
-          [](const PyFlight& f) { return py::module_::import("json").attr("loads")(to_json(f.report).dump()); },
+          "report", [](const PyFlight& f) { return json_dict(to_json(f.report)); },
           "The figures of `dsmplan plan --stats` as a dict: path_length_m, min_clearance_m, min_clearance_dsm_m "
           "(with a DSM), max_agl_m, ground, the mission's home and takeoff, ...")
       .def(
@@ -307,31 +484,78 @@ PYBIND11_MODULE(dsmplan, m) {
             options.vertical = {vertical_crs, allow_approximate_vertical};
             MissionOptions& m = options.mission.format;
             m.speed = m.hover_speed = speed;
-            if (firmware != "generic" && firmware != "px4" && firmware != "ardupilot")
-              throw ArgumentError("firmware", "must be px4, ardupilot or generic, got '" + firmware + "'");
-            m.firmware = firmware == "px4"         ? Firmware::px4
-                         : firmware == "ardupilot" ? Firmware::ardupilot
-                                                   : Firmware::generic;
-            if (altitude_frame != "relative" && altitude_frame != "amsl")
-              throw ArgumentError("altitude_frame", "must be relative or amsl, got '" + altitude_frame + "'");
-            m.altitude_frame = altitude_frame == "amsl" ? AltitudeFrame::amsl : AltitudeFrame::relative;
+            m.firmware = parse_firmware(firmware);
+            m.altitude_frame = parse_altitude_frame(altitude_frame);
             py::gil_scoped_release release;
             write_flight(f.flight, f.waypoints, f.crs, options, f.report);
           },
           py::arg("path"), py::arg("format") = "", py::arg("firmware") = "generic",
           py::arg("altitude_frame") = "relative", py::arg("speed") = 5.0, py::arg("vertical_crs") = "",
           py::arg("allow_approximate_vertical") = false,
-          "Writes the path as `dsmplan plan -o` does, by the extension or `format`: .csv (x,y,z in the CRS), "
-          ".geojson (WGS 84), .kml; a flight planned with mission=True also as .plan, .waypoints, .kmz");
+          "Writes the path as `dsmplan plan -o` does, atomically.\n\n"
+          "path: .csv (x,y,z in the CRS), .geojson (WGS 84), .kml; a flight planned with mission=True also "
+          ".plan (QGroundControl), .waypoints (ArduPilot), .kmz (DJI WPML).\n"
+          "format: the format's name when the extension does not say it (as --of).\n"
+          "firmware: missions: px4, ardupilot or generic.\n"
+          "altitude_frame: missions: relative (to home) or amsl.\n"
+          "speed: missions: the cruise and hover speed, m/s.\n"
+          "vertical_crs: the heights' vertical CRS when the mesh's CRS has none (e.g. \"EPSG:7837\").\n"
+          "allow_approximate_vertical: take heights of an unknown or grid-less vertical datum as EGM96 "
+          "(about 1 m off).");
   m.def("plan", &plan, py::arg("mesh"), py::arg("waypoints"), py::arg("dsm") = nullptr, py::arg("dtm") = nullptr,
         py::arg("safety") = 2.0, py::arg("max_agl") = 120.0, py::arg("spacing") = 20.0, py::arg("planner") = "prm",
         py::arg("mission") = false, py::arg("home") = py::none(), py::arg("end") = py::none(),
         py::arg("vertical_crs") = "",
-        "A collision-free path through the waypoints (K x 3, the mesh's CRS), by the plan stage's plan_flight(), "
-        "with every check of `dsmplan plan`: every point at least `safety` from the mesh, and with `dsm` from its "
-        "cells as solid columns; at most `max_agl` above the ground (the DTM, else the DSM, else the mesh's "
-        "floor); waypoints under the surface, too near or above the ceiling refused; a DTM above the DSM "
-        "refused. mission=True plans a takeoff from `home` (x, y or lon, lat; default: under the first "
-        "waypoint) and the `end` (rtl, land, none). Returns a Flight; raises dsmplan.InputError when there is "
-        "no path, naming the waypoint.");
+        "A collision-free path through the waypoints by the plan stage's plan_flight(), with every check of "
+        "`dsmplan plan`; returns a Flight. Raises InputError when there is no path, naming the waypoint.\n\n"
+        "mesh: the obstacle Mesh (simplify(..., conservative=True)), in metres.\n"
+        "waypoints: K x 3 array of x, y, z in the mesh's CRS; refused under the surface, too near it or above "
+        "the ceiling.\n"
+        "dsm: a Dsm whose cells are kept `safety` away from as solid columns (holes as high as their rim).\n"
+        "dtm: a Dsm of the terrain: the ground of the ceiling (refused where it stands above the DSM).\n"
+        "safety: the least distance from the mesh (and the DSM's columns), metres.\n"
+        "max_agl: the ceiling above the ground (the DTM, else the DSM, else the mesh's floor), metres.\n"
+        "spacing: the roadmap's sample spacing, metres.\n"
+        "planner: \"prm\" or \"rrtconnect\".\n"
+        "mission: plan a mission: a takeoff from `home` and the `end`, written as .plan, .waypoints, .kmz.\n"
+        "home: missions: x, y in the CRS or lon, lat in degrees (default: under the first waypoint).\n"
+        "end: missions: \"rtl\", \"land\" or \"none\".\n"
+        "vertical_crs: the heights' vertical CRS when the mesh's CRS has none, for a home given in lon, lat.");
+  m.def("render", &render, py::arg("dsm"), py::arg("output"), py::kw_only(), py::arg("meshes") = py::none(),
+        py::arg("titles") = py::none(), py::arg("paths") = py::none(), py::arg("waypoints") = py::none(),
+        py::arg("roadmap") = py::none(), py::arg("window") = py::none(), py::arg("zoom") = 4.0, py::arg("edges") = true,
+        py::arg("res") = py::none(), py::arg("band") = 1, py::arg("crs") = "",
+        "The DSM from above, hillshaded, one panel per mesh with its edges drawn, as `dsmplan render` (the same "
+        "library function, render_job()); returns the report of `dsmplan render --json` as a dict (output, "
+        "width, height, panels).\n\n"
+        "dsm: the DSM raster file.\n"
+        "output: the picture, .png (written atomically).\n"
+        "meshes: a mesh file (.ply, .obj, .off, in the DSM's CRS) or a list of them: one panel each (--mesh).\n"
+        "titles: a title or a list of them, one per panel (default: the file names) (--title).\n"
+        "paths: a path CSV (Flight.write(\"path.csv\")) or a list of them, drawn on every panel (--path).\n"
+        "waypoints: a waypoint CSV: numbered discs.\n"
+        "roadmap: a roadmap file (`dsmplan plan --roadmap`): its edges, thin.\n"
+        "window: (xmin, ymin, xmax, ymax) in the CRS: the area to draw (default: all).\n"
+        "zoom: pixels per DSM cell.\n"
+        "edges: draw the meshes' edges (False: --no-edges).\n"
+        "res: resample the DSM (median) to this cell size first.\n"
+        "band: the raster band to read.\n"
+        "crs: the DSM's CRS, overriding what the file states.");
+  m.def("profile", &profile, py::arg("dsm"), py::arg("path"), py::arg("output"), py::kw_only(),
+        py::arg("dtm") = py::none(), py::arg("waypoints") = py::none(), py::arg("safety") = 2.0,
+        py::arg("max_agl") = 120.0, py::arg("title") = "", py::arg("width") = 1200, py::arg("height") = 500,
+        "A path's height profile over the DSM below it, the terrain and the ceiling, as `dsmplan profile` (the "
+        "same library function, profile_job()); returns the report of `dsmplan profile --json` as a dict "
+        "(length_m, min_above_dsm_m, max_above_ground_m, ground, max_agl_m, ...), measured as plan() "
+        "verifies.\n\n"
+        "dsm: the DSM raster file the path was planned over.\n"
+        "path: the path CSV (Flight.write(\"path.csv\")), in the DSM's CRS.\n"
+        "output: the picture, .png (written atomically).\n"
+        "dtm: a terrain raster file: the ground of the ceiling (default: the DSM).\n"
+        "waypoints: a waypoint CSV: numbered markers on the path.\n"
+        "safety: the half-height of the band drawn around the path, metres.\n"
+        "max_agl: the ceiling above the ground, metres.\n"
+        "title: the title (default: the path's and the DSM's file names).\n"
+        "width: the picture's width, pixels (240 to 30000).\n"
+        "height: the picture's height, pixels (160 to 30000).");
 }

@@ -4,8 +4,11 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <filesystem>
+#include <optional>
 #include <sstream>
+#include <utility>
 
 #include "dsmplan/export.hpp"
 #include "testkit.hpp"
@@ -86,6 +89,84 @@ TEST_P(GridKeepsTheCompoundCrs, GridSummaryIsTheWrittenGeoTiff) {
 }
 
 INSTANTIATE_TEST_SUITE_P(Tools, GridKeepsTheCompoundCrs, ::testing::Values("EPSG:28992+5709", "EPSG:7415"));
+
+// grid_point_files() is grid_to_geotiff() without the writing: the same grid, cell for cell.
+TEST(Tools, GridPointFilesIsTheGridThatGridToGeotiffWrites) {
+  testkit::TempDir dir;
+  GridOptions options;
+  options.inputs = {testkit::data_path("delft-ahn3/ahn3_cropped_1.las"),
+                    testkit::data_path("delft-ahn3/ahn3_cropped_2.las")};
+  options.output = dir.path("dsm.tif");
+  options.crs = "EPSG:7415";
+  options.grid.resolution = 2;
+  options.fill_distance = 10;
+  grid_to_geotiff(options);
+  const Grid written = read_raster(options.output);
+  const Grid in_memory = grid_point_files(options);
+  ASSERT_EQ(in_memory.width, written.width);
+  ASSERT_EQ(in_memory.height, written.height);
+  EXPECT_EQ(in_memory.x0, written.x0);
+  EXPECT_EQ(in_memory.y0, written.y0);
+  EXPECT_EQ(in_memory.crs.epsg, written.crs.epsg);
+  for (size_t i = 0; i < written.z.size(); ++i)
+    ASSERT_TRUE(in_memory.z[i] == written.z[i] || (std::isnan(in_memory.z[i]) && std::isnan(written.z[i]))) << i;
+  // And write_dsm() writes the same bytes.
+  write_dsm(in_memory, dir.path("again.tif"));
+  EXPECT_EQ(testkit::read_file(dir.path("again.tif")), testkit::read_file(options.output));
+}
+
+// write_dsm() writes nothing dsmplan's own reader would refuse.
+TEST(Tools, WriteDsmRefusesWhatReadRasterWouldRefuse) {
+  testkit::TempDir dir;
+  Grid grid;
+  grid.width = 2, grid.height = 2, grid.x0 = 356000, grid.y0 = 5699000;
+  grid.z = {1, 2, 3, 4};
+  const auto refused = [&](const Grid& g, const std::string& name, const std::string& field) {
+    try {
+      write_dsm(g, dir.path(name));
+      ADD_FAILURE() << name << " was written";
+    } catch (const ArgumentError& error) {
+      EXPECT_EQ(error.field(), field) << error.what();
+    }
+  };
+  refused(grid, "no_crs.tif", "crs");
+  grid.crs.definition = "EPSG:2263";  // New York Long Island, US survey feet
+  resolve_crs(grid.crs);
+  refused(grid, "feet.tif", "crs");
+  grid.crs = Crs();
+  grid.crs.definition = "EPSG:25832";
+  resolve_crs(grid.crs);
+  Grid empty = grid;
+  empty.z.assign(4, NAN);
+  refused(empty, "empty.tif", "heights");
+  refused(grid, "dsm.png", dir.path("dsm.png"));
+  EXPECT_TRUE(dir.files().empty());
+  write_dsm(grid, dir.path("dsm.tif"));
+  EXPECT_EQ(read_raster(dir.path("dsm.tif")).z, grid.z);
+}
+
+// choose_classes() is the rule of grid's three class flags, for every face.
+TEST(Tools, ChooseClassesIsTheRuleOfGridsClassFlags) {
+  const auto chosen = [](std::vector<int> keep, std::optional<std::vector<int>> drop, bool all) {
+    GridPointsOptions options;
+    choose_classes(options, keep, drop, all);
+    return std::make_pair(options.keep_classes, options.drop_classes);
+  };
+  using Classes = std::vector<int>;
+  EXPECT_EQ(chosen({}, std::nullopt, false), std::make_pair(Classes{}, Classes{7, 18}));  // noise dropped
+  EXPECT_EQ(chosen({}, Classes{}, false), std::make_pair(Classes{}, Classes{7, 18}));     // empty: the default
+  EXPECT_EQ(chosen({}, Classes{6}, false), std::make_pair(Classes{}, Classes{6}));
+  EXPECT_EQ(chosen({2, 7}, std::nullopt, false), std::make_pair(Classes{2, 7}, Classes{}));  // listed alone
+  EXPECT_EQ(chosen({2}, Classes{9}, false), std::make_pair(Classes{2}, Classes{9}));
+  EXPECT_EQ(chosen({}, Classes{6}, true), std::make_pair(Classes{}, Classes{}));  // every class
+  try {
+    chosen({2}, std::nullopt, true);
+    ADD_FAILURE() << "--classes with --keep-all-classes was taken";
+  } catch (const ArgumentError& error) {
+    EXPECT_EQ(error.field(), "keep_classes");
+    EXPECT_NE(error.problem().find("--keep-all-classes"), std::string::npos);
+  }
+}
 
 // The simplify report is the written mesh, its keys are Table 2's columns and the certified
 // error, and that error is the one the written file (read back) has against the DSM.
@@ -267,7 +348,7 @@ TEST(Tools, GridClassesAreOneChoice) {
   job.classes = {2};
   job.keep_all_classes = true;
   EXPECT_EQ(refusal([&] { grid_to_geotiff(job); }, job.output),
-            "--classes: keeps only the classes listed, --keep-all-classes every class: give one");
+            "keep_classes: keeps only the classes listed, --keep-all-classes every class: give one");
 
   const std::vector<int> noise = {7, 18};
   job.classes.clear();

@@ -53,6 +53,19 @@ Fusion parse_fusion(const std::string& name) {
   throw ArgumentError("fusion", "unknown rule '" + name + "' (use median or max)");
 }
 
+void choose_classes(GridPointsOptions& options, const std::vector<int>& keep,
+                    const std::optional<std::vector<int>>& drop, bool keep_all) {
+  if (keep_all && !keep.empty())
+    throw ArgumentError("keep_classes", "keeps only the classes listed, --keep-all-classes every class: give one");
+  options.keep_classes = keep;
+  const bool drop_given = drop && !drop->empty();
+  if (keep_all || (!keep.empty() && !drop_given)) {
+    options.drop_classes.clear();  // the classes listed alone: exactly those, noise too if listed
+  } else if (drop_given) {
+    options.drop_classes = *drop;
+  }
+}
+
 Grid grid_points(const std::vector<PointCloud>& clouds, const GridPointsOptions& options, const Progress& progress) {
   const double res = options.resolution;
   if (!(res > 0) || !std::isfinite(res))

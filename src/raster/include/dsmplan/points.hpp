@@ -7,6 +7,7 @@
 
 #include <cmath>
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -50,6 +51,15 @@ struct GridPointsOptions {
   /// fill_holes_bytes_per_cell()), counted in the same refusal.
   double other_bytes_per_cell = 0;
 };
+
+/// The classes `dsmplan grid` grids, from its three choices: one rule for every face (the CLI's
+/// flags, Python's keyword arguments). `keep` (--classes) alone keeps exactly those classes,
+/// noise too when listed; `drop` (--drop-classes; none or empty: the default 7, 18) is dropped
+/// besides; `keep_all` (--keep-all-classes) keeps every class, noise included, and with `keep`
+/// is an ArgumentError ("keep_classes"). Sets options.keep_classes and options.drop_classes; the
+/// classes' range and a class both kept and dropped are grid_points()'s to refuse.
+void choose_classes(GridPointsOptions& options, const std::vector<int>& keep,
+                    const std::optional<std::vector<int>>& drop, bool keep_all);
 
 /// Grids point clouds (all in one CRS) into one DSM. The grid is aligned to multiples of the
 /// resolution and just covers the kept points; a point on a cell's west/north edge belongs to

@@ -114,6 +114,15 @@ struct GridOptions {
 /// Reads the point clouds, grids them (median or max per cell), optionally fills holes, writes
 /// the GeoTIFF atomically. Returns the written grid's summary.
 GridSummary grid_to_geotiff(const GridOptions& options, const Progress& progress = {});
+/// grid_to_geotiff() without the writing: the DSM in memory (options.output is not used), with
+/// the same checks of the options and the files (ArgumentError "--res", "--fill-holes",
+/// "POINTS"; InputError for a file with no points, no CRS and none given, or in feet).
+Grid grid_point_files(const GridOptions& options, const Progress& progress = {});
+/// Writes a DSM as `dsmplan grid` does (write_geotiff(): Float32, DEFLATE, atomic), refusing
+/// before anything is written what dsmplan's own readers would refuse: an output not named
+/// .tif or .tiff (ArgumentError naming it), a DSM without CRS or with x, y or heights in a unit
+/// other than the metre ("crs"), one without a valid cell ("heights").
+void write_dsm(const Grid& grid, const std::string& output, const Progress& progress = {});
 /// cells, valid, nodata, holes, z_min, z_max (null when there is no valid cell).
 Json to_json(const GridSummary& summary);
 
