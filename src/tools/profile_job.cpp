@@ -59,11 +59,13 @@ double highest_point_at(const std::vector<Point3>& path, const GroundGrid& groun
 
 }  // namespace
 
-ProfileReport profile_job(const ProfileJobOptions& options, const Progress& progress) {
+namespace {
+
+// The picture's options and the output, before any file is read (render_profile() checks them again).
+void check_profile_options(const ProfileJobOptions& options) {
   const std::string extension = lower_case(std::filesystem::path(options.output).extension().string());
   if (extension != ".png") throw ArgumentError(options.output, "the picture is written as PNG: name it .png");
   check_writable(options.output);  // a missing folder is known now, not after the reading
-  // The picture's options before any file is read (render_profile() checks them again).
   const ProfileOptions& picture = options.profile;
   if (picture.width < 240 || picture.height < 160 || picture.width > 30000 || picture.height > 30000)
     throw ArgumentError(picture.width < 240 || picture.width > 30000 ? "--width" : "--height",
@@ -72,7 +74,80 @@ ProfileReport profile_job(const ProfileJobOptions& options, const Progress& prog
     throw ArgumentError("--safety", "must be from 0 to 1000, got " + short_number(picture.safety));
   if (!(picture.max_agl > 0 && std::isfinite(picture.max_agl)))
     throw ArgumentError("--max-agl", "must be positive and finite");
+}
 
+struct Box {
+  double xmin = INFINITY, ymin = INFINITY, xmax = -INFINITY, ymax = -INFINITY;
+};
+
+// The path's x,y box; InputError naming the first point outside the DSM.
+Box path_box(const std::vector<Point3>& path, const Grid& frame, const std::string& path_file) {
+  Box box;
+  for (size_t i = 0; i < path.size(); ++i) {
+    const Point3& p = path[i];
+    if (!(p[0] >= frame.x0 && p[0] <= frame.x1() && p[1] >= frame.y1() && p[1] <= frame.y0)) {
+      char where[96];
+      std::snprintf(where, sizeof where, "%.10g,%.10g", p[0], p[1]);
+      throw InputError(
+          path_file, "point " + std::to_string(i + 1),
+          std::string(where) + " lies outside the DSM (" + extent(frame) + "); is the path in the DSM's CRS?");
+    }
+    box.xmin = std::min(box.xmin, p[0]), box.xmax = std::max(box.xmax, p[0]);
+    box.ymin = std::min(box.ymin, p[1]), box.ymax = std::max(box.ymax, p[1]);
+  }
+  return box;
+}
+
+// The DTM's cells under the path (opened, checked against the DSM's frame before any cell is read).
+struct TerrainWindow {
+  std::unique_ptr<GridSource> source;
+  int c0 = 0, r0 = 0, c1 = 0, r1 = 0;
+};
+TerrainWindow open_terrain(const std::string& dtm, const Grid& frame, const Box& box) {
+  TerrainWindow w;
+  w.source = open_raster(dtm);
+  const Grid& terrain = w.source->frame();
+  if (terrain.crs.epsg && frame.crs.epsg && terrain.crs.epsg != frame.crs.epsg)
+    throw InputError(dtm, "",
+                     "its CRS is EPSG:" + std::to_string(terrain.crs.epsg) + ", the DSM's is EPSG:" +
+                         std::to_string(frame.crs.epsg) + "; reproject it to the DSM's first (gdalwarp -t_srs)");
+  if (!(terrain.x0 < frame.x1() && terrain.x1() > frame.x0 && terrain.y1() < frame.y0 && terrain.y0 > frame.y1()))
+    throw InputError(dtm, "", "does not overlap the DSM: it covers " + extent(terrain) + ", the DSM " + extent(frame));
+  if (!cells_around(terrain, box.xmin, box.ymin, box.xmax, box.ymax, w.c0, w.r0, w.c1, w.r1))
+    throw InputError(dtm, "", "has no cell under the path (it covers " + extent(terrain) + ")");
+  return w;
+}
+
+// The ceiling drawn over a terrain in another datum than the DSM would be drawn where it is not.
+void check_terrain(const Grid& dtm, const Grid& dsm, const std::vector<Point3>& path,
+                   const ProfileJobOptions& options) {
+  std::vector<NamedPlace> places;
+  for (size_t i = 0; i < path.size(); ++i) places.push_back({"point " + std::to_string(i + 1), path[i][0], path[i][1]});
+  const auto surface_z = [&](double x, double y) { return double(dsm.height_at(x, y)); };
+  if (const auto problem = terrain_above_surface(GroundGrid(dtm), surface_z, places, "the DSM " + options.dsm))
+    throw InputError(options.dtm, problem->place, problem->problem);
+}
+
+ProfileReport report_of(const Image& image, const PathProfile& profile, const ProfileJobOptions& options,
+                        bool ground_is_dtm) {
+  ProfileReport result;
+  result.output = options.output;
+  result.width = image.width;
+  result.height = image.height;
+  result.length = profile.length;
+  result.min_above_dsm = profile.min_above_dsm;
+  result.min_above_dsm_at = profile.min_above_dsm_at;
+  result.max_above_ground = profile.max_above_ground;
+  result.max_above_ground_at = profile.max_above_ground_at;
+  result.ground_is_dtm = ground_is_dtm;
+  result.max_agl = options.profile.max_agl;
+  return result;
+}
+
+}  // namespace
+
+ProfileReport profile_job(const ProfileJobOptions& options, const Progress& progress) {
+  check_profile_options(options);
   const std::vector<Point3> path = read_waypoints_csv(options.path);
   if (path.size() < 2) throw InputError(options.path, "", "a path needs at least two points");
   const std::vector<Point3> waypoints =
@@ -82,62 +157,29 @@ ProfileReport profile_job(const ProfileJobOptions& options, const Progress& prog
   const std::unique_ptr<GridSource> dsm_source = open_raster(options.dsm);
   const Grid& frame = dsm_source->frame();
   require_projected(frame.crs, options.dsm, centre_of(frame));
-  double xmin = INFINITY, ymin = INFINITY, xmax = -INFINITY, ymax = -INFINITY;
-  for (size_t i = 0; i < path.size(); ++i) {
-    const Point3& p = path[i];
-    if (!(p[0] >= frame.x0 && p[0] <= frame.x1() && p[1] >= frame.y1() && p[1] <= frame.y0)) {
-      char where[96];
-      std::snprintf(where, sizeof where, "%.10g,%.10g", p[0], p[1]);
-      throw InputError(
-          options.path, "point " + std::to_string(i + 1),
-          std::string(where) + " lies outside the DSM (" + extent(frame) + "); is the path in the DSM's CRS?");
-    }
-    xmin = std::min(xmin, p[0]), xmax = std::max(xmax, p[0]), ymin = std::min(ymin, p[1]), ymax = std::max(ymax, p[1]);
-  }
-  std::unique_ptr<GridSource> dtm_source;
-  int d0 = 0, e0 = 0, d1 = 0, e1 = 0;
-  if (!options.dtm.empty()) {
-    dtm_source = open_raster(options.dtm);
-    const Grid& terrain = dtm_source->frame();
-    if (terrain.crs.epsg && frame.crs.epsg && terrain.crs.epsg != frame.crs.epsg) {
-      throw InputError(options.dtm, "",
-                       "its CRS is EPSG:" + std::to_string(terrain.crs.epsg) + ", the DSM's is EPSG:" +
-                           std::to_string(frame.crs.epsg) + "; reproject it to the DSM's first (gdalwarp -t_srs)");
-    }
-    if (!(terrain.x0 < frame.x1() && terrain.x1() > frame.x0 && terrain.y1() < frame.y0 && terrain.y0 > frame.y1())) {
-      throw InputError(options.dtm, "",
-                       "does not overlap the DSM: it covers " + extent(terrain) + ", the DSM " + extent(frame));
-    }
-    if (!cells_around(terrain, xmin, ymin, xmax, ymax, d0, e0, d1, e1)) {
-      throw InputError(options.dtm, "", "has no cell under the path (it covers " + extent(terrain) + ")");
-    }
-  }
+  const Box box = path_box(path, frame, options.path);
+  TerrainWindow terrain_window;
+  if (!options.dtm.empty()) terrain_window = open_terrain(options.dtm, frame, box);
   report(progress, 0.05);
 
   int c0 = 0, r0 = 0, c1 = 0, r1 = 0;
-  cells_around(frame, xmin, ymin, xmax, ymax, c0, r0, c1, r1);  // the path is inside: never empty
+  cells_around(frame, box.xmin, box.ymin, box.xmax, box.ymax, c0, r0, c1, r1);  // the path is inside: never empty
   require_memory(options.dsm, "", 4.0 * (c1 - c0) * (r1 - r0));
   const Grid dsm = read_window(*dsm_source, c0, r0, c1 - c0, r1 - r0);
   report(progress, 0.45);
   Grid dtm;
-  if (dtm_source) {
-    require_memory(options.dtm, "", 4.0 * (d1 - d0) * (e1 - e0));
-    dtm = read_window(*dtm_source, d0, e0, d1 - d0, e1 - e0);
-    // The ceiling drawn over a terrain in another datum than the DSM would be drawn where it is not.
-    std::vector<NamedPlace> places;
-    for (size_t i = 0; i < path.size(); ++i)
-      places.push_back({"point " + std::to_string(i + 1), path[i][0], path[i][1]});
-    const auto surface_z = [&](double x, double y) { return double(dsm.height_at(x, y)); };
-    if (const auto problem = terrain_above_surface(GroundGrid(dtm), surface_z, places, "the DSM " + options.dsm))
-      throw InputError(options.dtm, problem->place, problem->problem);
+  if (const TerrainWindow& w = terrain_window; w.source) {
+    require_memory(options.dtm, "", 4.0 * (w.c1 - w.c0) * (w.r1 - w.r0));
+    dtm = read_window(*w.source, w.c0, w.r0, w.c1 - w.c0, w.r1 - w.r0);
+    check_terrain(dtm, dsm, path, options);
   }
   report(progress, 0.8);
 
-  ProfileOptions drawing = picture;
+  ProfileOptions drawing = options.profile;
   drawing.waypoints = waypoints;
   if (drawing.title.empty())
     drawing.title = "Height profile: " + file_name(options.path) + " over " + file_name(options.dsm);
-  const Grid* terrain = dtm_source ? &dtm : nullptr;
+  const Grid* terrain = terrain_window.source ? &dtm : nullptr;
   const Image image = render_profile(path, dsm, terrain, drawing);
   PathProfile profile = profile_path(path, dsm, terrain);
   // The height above ground is the plan stage's measure (measure_path()), the one `dsmplan plan`
@@ -150,19 +192,7 @@ ProfileReport profile_job(const ProfileJobOptions& options, const Progress& prog
                                     : highest_point_at(path, ground, measured.max_agl_segment, profile.distance);
   write_png(image, options.output);
   report(progress, 1);
-
-  ProfileReport result;
-  result.output = options.output;
-  result.width = image.width;
-  result.height = image.height;
-  result.length = profile.length;
-  result.min_above_dsm = profile.min_above_dsm;
-  result.min_above_dsm_at = profile.min_above_dsm_at;
-  result.max_above_ground = profile.max_above_ground;
-  result.max_above_ground_at = profile.max_above_ground_at;
-  result.ground_is_dtm = terrain != nullptr;
-  result.max_agl = picture.max_agl;
-  return result;
+  return report_of(image, profile, options, terrain != nullptr);
 }
 
 std::string to_text(const ProfileReport& r) {
