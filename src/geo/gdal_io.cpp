@@ -23,6 +23,7 @@
 #include "core/text.hpp"
 #include "dsmplan/raster.hpp"
 #include "dsmplan/raster_io.hpp"
+#include "raster_inputs.hpp"
 
 namespace dsmplan {
 
@@ -450,7 +451,7 @@ class GdalGridSource : public GridSource {
 public:
   GdalGridSource(const std::string& path, const ReadRasterOptions& options) : path_(path), band_index_(options.band) {
     init_gdal();
-    require_input_file(path);  // a FIFO would hold GDALOpen forever
+    require_raster_files(path);  // a FIFO (or a VRT naming one) would hold GDALOpen forever
     VSIStatBufL stat;
     if (VSIStatL(path.c_str(), &stat) != 0) throw InputError(path, "", "no such file");
     if (VSI_ISDIR(stat.st_mode)) throw InputError(path, "", "is a directory, not a raster");

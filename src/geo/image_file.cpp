@@ -5,6 +5,7 @@
 
 #include "dsmplan/rpc_io.hpp"
 #include "dsmplan/stereo_io.hpp"
+#include "raster_inputs.hpp"
 
 namespace dsmplan {
 namespace {
@@ -43,7 +44,7 @@ private:
 }  // namespace
 
 std::unique_ptr<ImageReader> open_image_file(const std::string& path, const std::string& place) {
-  require_input_file(path);
+  require_raster_files(path);
   GDALAllRegister();
   CPLPushErrorHandler(CPLQuietErrorHandler);
   std::unique_ptr<GDALDataset, DatasetCloser> dataset(

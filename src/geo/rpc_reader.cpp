@@ -28,6 +28,7 @@
 #include "dsmplan/core.hpp"
 #include "dsmplan/rpc.hpp"
 #include "dsmplan/rpc_io.hpp"
+#include "raster_inputs.hpp"
 
 namespace dsmplan {
 
@@ -138,7 +139,7 @@ struct DatasetCloser {
 };
 
 std::unique_ptr<GDALDataset, DatasetCloser> open_raster(const std::string& path) {
-  require_input_file(path);
+  require_raster_files(path);
   init_gdal_quietly();
   VSIStatBufL stat;  // GDAL's stat: /vsizip/, /vsicurl/ ... paths are files too
   if (VSIStatL(path.c_str(), &stat) != 0) throw InputError(path, "", "no such file");
