@@ -33,6 +33,7 @@ std::array<double, 2> parse_home(const std::string& text) {
 
 struct Request {
   PlanJobOptions options;
+  std::vector<std::string> outputs;  // -o, repeated: the first is options.output
   std::string stats;
   std::string planner = "prm";
   int64_t seed = 1;  // signed: CLI11 would wrap -3 round to 2^64 - 3 as an unsigned
@@ -43,6 +44,8 @@ struct Request {
 
 void run(Request& request, bool quiet) {
   PlanJobOptions& plan = request.options;
+  plan.output = request.outputs.front();
+  plan.more_outputs.assign(request.outputs.begin() + 1, request.outputs.end());
   plan.plan.planner = parse_planner(request.planner);
   if (request.seed < 0) throw ArgumentError("--seed", "must be >= 0, got " + std::to_string(request.seed));
   plan.plan.seed = static_cast<uint64_t>(request.seed);
@@ -53,12 +56,14 @@ void run(Request& request, bool quiet) {
   plan.mission.format.hover_speed = std::isnan(request.hover_speed) ? plan.mission.format.speed : request.hover_speed;
   // The roadmap and index files are read when they exist and written when not: each may be
   // none of the others.
-  refuse_overwrites(
-      {{"MESH", plan.mesh}, {"--waypoints", plan.waypoints}, {"--dsm", plan.dsm}, {"--dtm", plan.dtm}},
-      {{"-o", plan.output}, {"--stats", request.stats}, {"--roadmap", plan.roadmap}, {"--index", plan.index}});
+  std::vector<NamedFile> outputs{{"--stats", request.stats}, {"--roadmap", plan.roadmap}, {"--index", plan.index}};
+  for (auto it = request.outputs.rbegin(); it != request.outputs.rend(); ++it)
+    outputs.insert(outputs.begin(), {"-o", *it});
+  refuse_overwrites({{"MESH", plan.mesh}, {"--waypoints", plan.waypoints}, {"--dsm", plan.dsm}, {"--dtm", plan.dtm}},
+                    outputs);
   if (!request.stats.empty()) check_writable(request.stats);
   const PlanReport report = plan_job(plan, terminal_progress(quiet));
-  write_stats(request.stats, to_json(report), {plan.output});
+  write_stats(request.stats, to_json(report), request.outputs);
   if (request.json)
     std::fputs((to_json(report).dump(2) + "\n").c_str(), stdout);
   else if (!quiet)
@@ -91,9 +96,10 @@ Command plan_command(CLI::App& app, Session& session) {
                    "Waypoints: .csv (x,y,z in the mesh's CRS) or .geojson (WGS 84 lon, lat, ellipsoidal height)")
       ->required();
   command
-      ->add_option("-o,--output", plan.output,
+      ->add_option("-o,--output", request->outputs,
                    "Path: .csv (x,y,z in the mesh's CRS), .geojson (WGS 84, ellipsoidal heights), or with heights "
-                   "above mean sea level: .plan (QGroundControl), .waypoints (QGC WPL 110), .kmz (DJI WPML), .kml")
+                   "above mean sea level: .plan (QGroundControl), .waypoints (QGC WPL 110), .kmz (DJI WPML), .kml; "
+                   "repeat -o for several files of the same flight")
       ->required();
   command->add_option("--safety", plan.plan.safety, "Least distance to the mesh, and with --dsm to the DSM's cells (m)")
       ->capture_default_str();

@@ -1897,6 +1897,44 @@ TEST(CliPlan, PlanAndProfileGiveTheSameHeightAboveTheGround) {
   plan_and_profile("over_holed_dtm", holed);
 }
 
+// Several outputs of one flight (issue 32, point 5): with a mission among them, the others show
+// the mission as flown: from home on the ground up the vertical takeoff, along the planned items,
+// and back down at home (--end rtl).
+TEST(CliPlan, SeveralOutputsOfOneMissionShowItAsFlown) {
+  MissionFixture f;
+  TempDir out;
+  const std::string csv = out.path("flown.csv"), mission = out.path("m.waypoints"), kml = out.path("flown.kml");
+  const auto planned = f.plan(csv, {"-o", mission, "-o", kml, "--stats", out.path("s.json")});
+  ASSERT_EQ(planned.exit_code, 0) << planned.err;
+  const json stats = json::parse(testkit::read_file(out.path("s.json")));
+  const auto flown = read_path_csv(csv);
+  const auto home = stats["home"].get<std::vector<double>>();
+  // --end rtl: the items are the takeoff, the speed, the planned points after the first and the
+  // return, as many as the flown path's points (home, the planned points, home).
+  ASSERT_EQ(flown.size(), stats["mission_items"].get<size_t>());
+  for (const auto& end : {flown.front(), flown.back()}) {
+    EXPECT_EQ(end[0], home[0]);
+    EXPECT_EQ(end[1], home[1]);
+    EXPECT_EQ(end[2], home[2]);
+  }
+  // The takeoff is vertical, to the height it was planned at above home.
+  EXPECT_EQ(flown[1][0], home[0]);
+  EXPECT_EQ(flown[1][1], home[1]);
+  EXPECT_NEAR(flown[1][2] - home[2], stats["takeoff_height_m"].get<double>(), 1e-9);
+  // The mission's own items (QGC WPL: the header, home, then a line per item).
+  std::istringstream items(testkit::read_file(mission));
+  size_t lines = 0;
+  for (std::string line; std::getline(items, line);) lines += !line.empty();
+  EXPECT_EQ(lines - 2, stats["mission_items"].get<size_t>());  // the header line, home, then the items
+  // The KML draws the same flown path: as many coordinates in its LineString.
+  const std::string text = testkit::read_file(kml);
+  const size_t a = text.find("<coordinates>", text.find("<LineString>")), b = text.find("</coordinates>", a);
+  std::istringstream coordinates(text.substr(a + 13, b - a - 13));
+  size_t points = 0;
+  for (std::string token; coordinates >> token;) ++points;
+  EXPECT_EQ(points, flown.size());
+}
+
 TEST(CliPlan, MissionsAndKmlCarryTheWaypointsInLatLonAndMeanSeaLevelHeights) {
   MissionFixture f;
   const auto waypoints = f.corners();

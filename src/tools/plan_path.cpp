@@ -55,35 +55,66 @@ struct OutputKind {
   bool mission = false;  ///< missions take off from home and end (MissionJobOptions)
 };
 
-// The output's format and the options that belong to it, checked before anything is read.
-OutputKind output_kind(const PlanJobOptions& options) {
+// One output's format: --of, else its extension.
+OutputKind output_kind(const std::string& output, const std::string& format) {
   OutputKind kind;
-  kind.ext = lower_case(options.format.empty() ? lower_extension(options.output) : options.format);
+  kind.ext = lower_case(format.empty() ? lower_extension(output) : format);
   if (kind.ext == "json") kind.ext = "geojson";
   kind.geojson = kind.ext == "geojson";
   kind.mission = kind.ext == "plan" || kind.ext == "waypoints" || kind.ext == "kmz";
   kind.msl = kind.mission || kind.ext == "kml";
-  if (!options.format.empty() && kind.ext != "csv" && !kind.geojson && !kind.msl)
-    throw ArgumentError("--of",
-                        "unknown path format '" + options.format + "' (use csv, geojson, plan, waypoints, kmz or kml)");
+  if (!format.empty() && kind.ext != "csv" && !kind.geojson && !kind.msl)
+    throw ArgumentError("--of", "unknown path format '" + format + "' (use csv, geojson, plan, waypoints, kmz or kml)");
   if (kind.ext != "csv" && !kind.geojson && !kind.msl)
     throw ArgumentError("-o",
                         "the path is written as .csv (x,y,z in the mesh's CRS), .geojson (WGS 84), .plan "
                         "(QGroundControl), .waypoints (QGC WPL 110), .kmz (DJI WPML) or .kml, got '" +
-                            options.output + "'");
+                            output + "'");
+  return kind;
+}
+
+// Every output of the run (-o, repeated) with its format, and the options that belong to them,
+// checked before anything is read. One of them a mission: the flight is planned as one, and the
+// others show it as flown, home legs included (as_flown()).
+struct Outputs {
+  std::vector<std::pair<std::string, OutputKind>> files;
+  bool mission = false, geojson = false, msl = false, kml = false;
+};
+
+Outputs plan_outputs(const PlanJobOptions& options) {
+  Outputs out;
+  if (!options.format.empty() && !options.more_outputs.empty())
+    throw ArgumentError("--of", "names the format of one output; with several -o, each says its own by its extension");
+  out.files.push_back({options.output, output_kind(options.output, options.format)});
+  for (const std::string& more : options.more_outputs) out.files.push_back({more, output_kind(more, "")});
+  for (const auto& [file, kind] : out.files)
+    out.mission |= kind.mission, out.geojson |= kind.geojson, out.msl |= kind.msl, out.kml |= kind.ext == "kml";
+  const std::string& first = out.files.front().second.ext;
   const MissionJobOptions& mission = options.mission;
-  if (!kind.mission && (!std::isnan(mission.home[0]) || !std::isnan(mission.home[1])))
-    throw ArgumentError("--home", "applies to missions (.plan, .waypoints, .kmz), not to a ." + kind.ext + " path");
-  if (mission.format.extrude && kind.ext != "kml")
-    throw ArgumentError("--extrude", "applies to .kml paths, not to a ." + kind.ext + " path");
-  if (!kind.mission && mission.end)
-    throw ArgumentError("--end", "applies to missions (.plan, .waypoints, .kmz), not to a ." + kind.ext + " path");
-  if (kind.mission)
+  if (!out.mission && (!std::isnan(mission.home[0]) || !std::isnan(mission.home[1])))
+    throw ArgumentError("--home", "applies to missions (.plan, .waypoints, .kmz), not to a ." + first + " path");
+  if (mission.format.extrude && !out.kml)
+    throw ArgumentError("--extrude", "applies to .kml paths, not to a ." + first + " path");
+  if (!out.mission && mission.end)
+    throw ArgumentError("--end", "applies to missions (.plan, .waypoints, .kmz), not to a ." + first + " path");
+  if (out.mission)
     for (const auto& [flag, speed] :
          {std::pair{"--speed", mission.format.speed}, std::pair{"--hover-speed", mission.format.hover_speed}})
       if (!(speed > 0 && speed <= 100))
         throw ArgumentError(flag, "must lie in (0, 100] m/s, got " + two_decimals(speed));
-  return kind;
+  return out;
+}
+
+// A mission's path as the drone flies it: from home on the ground, up to the route, along it,
+// and down (at the landing, or at home after the leg back above it).
+std::vector<Point3> as_flown(const FlightPlan& flight) {
+  if (!flight.site) return flight.path;
+  const MissionSite& site = *flight.site;
+  std::vector<Point3> path{site.home};
+  path.insert(path.end(), flight.path.begin(), flight.path.end());
+  if (site.end == MissionEnd::rtl) path.push_back(site.home);
+  if (site.end == MissionEnd::land) path.push_back(site.land);
+  return path;
 }
 
 // The index kept in `path` when it exists and was built from `input_hash`; std::nullopt when the
@@ -103,13 +134,13 @@ struct Transforms {
   std::optional<Wgs84Transform> to_msl;  ///< missions and KML: heights above mean sea level
 };
 
-void make_transforms(Transforms& t, const Crs& crs, bool geo_in, const OutputKind& kind,
+void make_transforms(Transforms& t, const Crs& crs, bool geo_in, const Outputs& outputs,
                      const VerticalOptions& vertical, std::string& description) {
-  if (geo_in || kind.geojson) {
+  if (geo_in || outputs.geojson) {
     t.wgs84.emplace(crs, HeightReference::Ellipsoid, vertical);
     description = t.wgs84->description();
   }
-  if (kind.msl) {
+  if (outputs.msl) {
     t.to_msl.emplace(crs, HeightReference::MeanSeaLevel, vertical);
     description += (description.empty() ? "" : "; path by: ") + t.to_msl->description();
   }
@@ -292,10 +323,12 @@ FlightStore file_store(const PlanJobOptions& options, uint64_t index_key) {
 }
 
 // Writes the path (or the mission) in the output's format, in WGS 84 where the format asks.
-void write_flight_as(const PlanJobOptions& options, const OutputKind& kind, const FlightPlan& flight,
-                     const std::vector<Point3>& waypoints, const Crs& crs, const Transforms& t, PlanReport& report) {
-  const std::vector<Point3>& path = flight.path;
-  if (kind.ext == "csv") return write_text_file(options.output, path_to_csv(path));
+void write_flight_as(const PlanJobOptions& options, const std::string& output, const OutputKind& kind,
+                     const FlightPlan& flight, const std::vector<Point3>& waypoints, const Crs& crs,
+                     const Transforms& t, PlanReport& report) {
+  // A mission is its items; every other format shows the flight as flown, home legs included.
+  const std::vector<Point3> path = kind.mission ? flight.path : as_flown(flight);
+  if (kind.ext == "csv") return write_text_file(output, path_to_csv(path));
   if (kind.geojson) {
     std::vector<Point3> lonlath;
     lonlath.reserve(path.size());
@@ -306,7 +339,7 @@ void write_flight_as(const PlanJobOptions& options, const OutputKind& kind, cons
                     {"safety_m", options.plan.safety},
                     {"path_length_m", report.path_length_m},
                     {"min_clearance_m", report.min_clearance_m}};
-    return write_text_file(options.output, path_to_geojson(lonlath, properties.dump()));
+    return write_text_file(output, path_to_geojson(lonlath, properties.dump()));
   }
   std::vector<Point3> lonlatamsl, marks;
   for (const Point3& p : path) lonlatamsl.push_back(t.to_msl->to_wgs84(p));
@@ -315,7 +348,7 @@ void write_flight_as(const PlanJobOptions& options, const OutputKind& kind, cons
     MissionOptions kml = options.mission.format;
     kml.description =
         "dsmplan path from " + crs.name + "; heights above mean sea level (EGM96) by: " + t.to_msl->description();
-    return write_text_file(options.output, path_to_kml(lonlatamsl, marks, kml));
+    return write_text_file(output, path_to_kml(lonlatamsl, marks, kml));
   }
   const MissionSite& site = *flight.site;
   Mission mission;
@@ -325,17 +358,18 @@ void write_flight_as(const PlanJobOptions& options, const OutputKind& kind, cons
   mission.end = site.end;
   if (site.end == MissionEnd::land) mission.land = t.to_msl->to_wgs84(site.land);
   report.mission_items = 2 + (mission.route.size() - 1) + (site.end == MissionEnd::none ? 0 : 1);
-  if (kind.ext == "kmz") return write_wpml_kmz(mission, options.mission.format, options.output);
-  write_text_file(options.output, kind.ext == "plan" ? mission_to_qgc_plan(mission, options.mission.format)
-                                                     : mission_to_qgc_wpl(mission, options.mission.format));
+  if (kind.ext == "kmz") return write_wpml_kmz(mission, options.mission.format, output);
+  write_text_file(output, kind.ext == "plan" ? mission_to_qgc_plan(mission, options.mission.format)
+                                             : mission_to_qgc_wpl(mission, options.mission.format));
 }
 
 }  // namespace
 
 PlanReport plan_job(const PlanJobOptions& options, const Progress& progress) {
-  const OutputKind kind = output_kind(options);
+  const Outputs outputs = plan_outputs(options);
   check_plan_options(options.plan);
-  check_writable(options.output);  // a missing folder is known now, not after the planning
+  for (const auto& [output, kind] : outputs.files)
+    check_writable(output);  // a missing folder is known now, not after the planning
   if (!options.roadmap.empty() && options.plan.planner != PlannerKind::prm)
     throw ArgumentError("--roadmap", "only the prm planner keeps a roadmap; rrtconnect grows its trees per query");
   // A DSM (raster, VRT mosaic) instead of a mesh: planned along a corridor, window by window.
@@ -362,11 +396,11 @@ PlanReport plan_job(const PlanJobOptions& options, const Progress& progress) {
     std::unique_ptr<GridSource> city = open_raster(options.mesh);
     crs = city->frame().crs;
     require_projected(crs, options.mesh, centre_of(city->frame()));
-    make_transforms(t, crs, geo_in, kind, options.vertical, report.transformation);
+    make_transforms(t, crs, geo_in, outputs, options.vertical, report.transformation);
     if (geo_in)
       for (Point3& p : waypoints) p = t.wgs84->from_wgs84(p);
     const double opened = clock.lap();
-    flight = plan_along_corridor(*city, waypoints, options, t, kind.mission, progress);
+    flight = plan_along_corridor(*city, waypoints, options, t, outputs.mission, progress);
     flight.report.seconds_load += opened;
   } else {
     ReadRequest read = read_flight_request(options, waypoints, progress);
@@ -375,11 +409,11 @@ PlanReport plan_job(const PlanJobOptions& options, const Progress& progress) {
     // A kept index was saved only after this very mesh passed the check (its CRS comments are in
     // the bytes that name the index): not asked again, which would cost PROJ's database (5-7 ms).
     if (!request.index || request.dsm) require_projected(crs, options.mesh, centre_of(*request.mesh));
-    make_transforms(t, crs, geo_in, kind, options.vertical, report.transformation);
+    make_transforms(t, crs, geo_in, outputs, options.vertical, report.transformation);
     if (geo_in)
       for (Point3& p : request.waypoints) p = t.wgs84->from_wgs84(p);
     waypoints = request.waypoints;
-    if (kind.mission) request.mission = mission_ends(options.mission, t);
+    if (outputs.mission) request.mission = mission_ends(options.mission, t);
     request.store = file_store(options, read.index_key);
     const double before = clock.lap();
     flight = plan_flight(request, sub_progress(progress, 0.2, 0.95));
@@ -391,7 +425,8 @@ PlanReport plan_job(const PlanJobOptions& options, const Progress& progress) {
   report.waypoints = options.waypoints;
   report.output = options.output;
   dsmplan::report(progress, 0.95);
-  write_flight_as(options, kind, flight, waypoints, crs, t, report);
+  for (const auto& [output, kind] : outputs.files)
+    write_flight_as(options, output, kind, flight, waypoints, crs, t, report);
   dsmplan::report(progress, 1);
   return report;
 }
@@ -434,14 +469,17 @@ AltitudeFrame parse_altitude_frame(const std::string& name) {
 
 void write_flight(const FlightPlan& flight, const std::vector<Point3>& waypoints, const Crs& crs,
                   const PlanJobOptions& options, PlanReport& report) {
-  const OutputKind kind = output_kind(options);
-  if (kind.mission && !flight.site)
-    throw ArgumentError(
-        "mission", "a ." + kind.ext + " file is a mission: plan the flight as one (a home and an end) to write it");
-  check_writable(options.output);
+  const Outputs outputs = plan_outputs(options);
+  for (const auto& [output, kind] : outputs.files) {
+    if (kind.mission && !flight.site)
+      throw ArgumentError(
+          "mission", "a ." + kind.ext + " file is a mission: plan the flight as one (a home and an end) to write it");
+    check_writable(output);
+  }
   Transforms t;
-  make_transforms(t, crs, false, kind, options.vertical, report.transformation);
-  write_flight_as(options, kind, flight, waypoints, crs, t, report);
+  make_transforms(t, crs, false, outputs, options.vertical, report.transformation);
+  for (const auto& [output, kind] : outputs.files)
+    write_flight_as(options, output, kind, flight, waypoints, crs, t, report);
 }
 
 Json to_json(const PlanReport& r) {

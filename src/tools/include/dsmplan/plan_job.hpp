@@ -45,7 +45,11 @@ struct PlanJobOptions {
   /// with altitudeMode absolute and the waypoints as Points (path_to_kml), every path point.
   std::string output;
   std::string format;  ///< csv, geojson, plan, waypoints or kml; empty: from the output's extension
-  PlanOptions plan;    ///< planner (prm, rrt_connect), seed, safety, spacing, max_edge, max_agl, threads
+  /// More outputs of the same flight (-o repeated), each in the format of its extension. When one
+  /// of the outputs is a mission, the flight is planned as one, and the others (.csv, .geojson,
+  /// .kml) show it as flown: from home on the ground up, and down at the end (home legs included).
+  std::vector<std::string> more_outputs;
+  PlanOptions plan;  ///< planner (prm, rrt_connect), seed, safety, spacing, max_edge, max_agl, threads
   /// Roadmap file (PRM): read when it exists (read_roadmap(): refused when made for another mesh
   /// or other options), else built and written there for the next query.
   std::string roadmap;
