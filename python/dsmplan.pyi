@@ -1,6 +1,7 @@
 # Type stubs of the module `dsmplan` (python/dsmplan_module.cpp), installed beside it: the
 # reference of the Python face. tests/python/test_stubs.py checks that every public name of the
 # module and of its classes is here with the same parameters, and has a docstring.
+import os
 from collections.abc import Sequence
 from typing import Any
 
@@ -158,3 +159,21 @@ def profile(
 ) -> dict[str, Any]:
     """A path's height profile as `dsmplan profile`, to a PNG; returns the report of `--json`
     (length_m, min_above_dsm_m, max_above_ground_m, ground, max_agl_m, ...)."""
+
+def stereo(
+    images: str | Sequence[str] | None = None,
+    *,
+    cameras: str | os.PathLike[str] | dict[str, Any] | None = None,
+    res: float,
+    output: str | None = None,
+    pairs: str = "auto",
+    bounds: tuple[float, float, float, float] | None = None,
+    crs: str = "",
+    allow_approximate_vertical: bool = False,
+    fusion_memory: float = 1024.0,
+    band_memory: float = 1024.0,
+) -> Dsm | dict[str, Any]:
+    """A DSM from satellite images with RPCs (`images`) or frame cameras (`cameras`: a
+    CAMERAS.json path or a dict in its schema, a dict's relative image paths taken from the
+    current directory), as `dsmplan stereo`. Returns the Dsm when `output` is None, else writes
+    the GeoTIFF and returns the report of `--stats` as a dict."""

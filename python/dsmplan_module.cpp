@@ -16,6 +16,10 @@
 //                                       grid_point_files() of `dsmplan grid`; dsm.write(path): write_dsm()
 //   dsmplan.render(dsm, output, ...), dsmplan.profile(dsm, path, output, ...)   PNGs by render_job()
 //                                       and profile_job(), returning the report of `--json` as a dict
+//   dsm = dsmplan.stereo(images, res=1) or dsmplan.stereo(cameras=path_or_dict, res=0.5)   `dsmplan
+//                                       stereo`: stereo_job_for()'s rules, then stereo_job() or
+//                                       satellite_stereo_job(); a Dsm, or with output= the file and
+//                                       the report of --stats as a dict
 // Keyword arguments mirror the CLI's flags; an ArgumentError names the keyword argument where
 // the CLI names the flag (keyword_for()). Every public name is in dsmplan.pyi beside the module,
 // with the same parameters (tests/python/test_stubs.py).
@@ -24,8 +28,14 @@
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
+#include <stdlib.h>  // mkdtemp
 
 #include <algorithm>
+#include <cerrno>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
 #include <map>
 #include <memory>
 #include <optional>
@@ -40,8 +50,10 @@
 #include "dsmplan/plan_job.hpp"
 #include "dsmplan/raster.hpp"
 #include "dsmplan/raster_io.hpp"
+#include "dsmplan/satellite_stereo_job.hpp"
 #include "dsmplan/simplify.hpp"
 #include "dsmplan/simplify_streamed.hpp"
+#include "dsmplan/stereo_job.hpp"
 #include "dsmplan/tools.hpp"
 #include "dsmplan/wgs84.hpp"
 
@@ -307,6 +319,138 @@ py::object profile(const std::string& dsm, const std::string& path, const std::s
   });
 }
 
+// A private folder (mode 0700) in $TMPDIR or /tmp, removed with what is in it when done.
+class TempFolder {
+public:
+  TempFolder() {
+    std::string pattern = (std::filesystem::temp_directory_path() / "dsmplan-stereo-XXXXXX").string();
+    if (!mkdtemp(pattern.data()))
+      throw OutputError(pattern, std::string("cannot make a temporary folder: ") + std::strerror(errno));
+    folder_ = pattern;
+  }
+  TempFolder(const TempFolder&) = delete;
+  TempFolder& operator=(const TempFolder&) = delete;
+  ~TempFolder() {
+    std::error_code ignored;
+    std::filesystem::remove_all(folder_, ignored);
+  }
+  std::string path(const char* name) const { return (folder_ / name).string(); }
+
+private:
+  std::filesystem::path folder_;
+};
+
+// CAMERAS.json from a dict in its schema: serialised by Python's json (NaN and infinity refused:
+// JSON has none) into `path`, for the library's own reader and its checks. A relative image path
+// is made absolute against the current directory (a file's are relative to its folder; a dict has
+// none). The caller's dict is left as it was.
+void write_cameras_dict(const py::dict& cameras, const std::string& path) {
+  py::module_ json = py::module_::import("json");
+  py::object copy;
+  try {
+    copy = json.attr("loads")(json.attr("dumps")(cameras, py::arg("allow_nan") = false));
+  } catch (py::error_already_set& error) {
+    throw ArgumentError("cameras", std::string("is not a dict JSON can hold: ") + error.what());
+  }
+  if (py::isinstance<py::dict>(copy) && copy.contains("cameras") && py::isinstance<py::list>(copy["cameras"])) {
+    for (py::handle camera : copy["cameras"]) {
+      if (!py::isinstance<py::dict>(camera) || !camera.contains("image") || !py::isinstance<py::str>(camera["image"]))
+        continue;  // the reader names what is wrong with it
+      const std::filesystem::path image = camera["image"].cast<std::string>();
+      if (image.is_relative()) camera["image"] = std::filesystem::absolute(image).lexically_normal().string();
+    }
+  }
+  const std::string text = json.attr("dumps")(copy).cast<std::string>();
+  std::ofstream out(path, std::ios::binary);
+  out << text;
+  out.close();
+  if (!out) throw OutputError(path, "cannot be written");
+}
+
+std::string without(std::string text, const std::string& file, const std::string& name) {
+  for (size_t at = text.find(file); !file.empty() && at != std::string::npos; at = text.find(file, at + name.size()))
+    text.replace(at, file.size(), name);
+  return text;
+}
+
+// Errors that name the temporary CAMERAS.json of a dict name the keyword argument instead.
+template <class Call>
+auto naming_file(const std::string& file, const std::string& name, Call&& call) {
+  if (file.empty()) return call();
+  try {
+    return call();
+  } catch (const ArgumentError& error) {
+    throw ArgumentError(error.field(), without(error.problem(), file, name));
+  } catch (const InputError& error) {
+    throw InputError("", "", without(error.what(), file, name));
+  } catch (const OutputError& error) {
+    throw OutputError("", without(error.what(), file, name));
+  }
+}
+
+py::object stereo(const py::object& images, const py::object& cameras, double res, std::optional<std::string> output,
+                  const std::string& pairs, std::optional<std::array<double, 4>> bounds, const std::string& crs,
+                  bool allow_approximate_vertical, double fusion_memory, double band_memory) {
+  static const std::map<std::string, std::string> names = {{"-o", "output"}};
+  return naming_keywords(names, [&]() -> py::object {
+    std::optional<TempFolder> temp;  // the dict's CAMERAS.json, the DSM returned in memory
+    auto temporary = [&](const char* name) {
+      if (!temp) temp.emplace();
+      return temp->path(name);
+    };
+    StereoRequest request;
+    request.images = paths_of(images, "images");
+    std::string cameras_file;  // the temporary CAMERAS.json of a dict
+    if (py::isinstance<py::dict>(cameras)) {
+      request.cameras = cameras_file = temporary("cameras.json");
+      write_cameras_dict(cameras, cameras_file);
+    } else if (py::isinstance<py::str>(cameras) || py::hasattr(cameras, "__fspath__")) {
+      request.cameras = py::module_::import("os").attr("fspath")(cameras).cast<std::string>();
+    } else if (!cameras.is_none()) {
+      throw ArgumentError("cameras", "must be a path to CAMERAS.json or a dict in its schema");
+    }
+    request.output = output ? *output : temporary("dsm.tif");
+    request.resolution = res;
+    request.pairs = pairs;
+    if (bounds) {  // as --bounds takes them; %.17g: every double as it is
+      char text[128];
+      std::snprintf(text, sizeof text, "%.17g,%.17g,%.17g,%.17g", (*bounds)[0], (*bounds)[1], (*bounds)[2],
+                    (*bounds)[3]);
+      request.bounds = text;
+    }
+    request.crs = crs;
+    request.allow_approximate_vertical = allow_approximate_vertical;
+    request.fusion_memory_mb = fusion_memory;
+    request.band_memory_mb = band_memory;
+    Json report;
+    Grid dsm;
+    {
+      py::gil_scoped_release release;
+      naming_file(cameras_file, "cameras", [&] {
+        const StereoJob job = stereo_job_for(request);  // the rules of the flags, as the CLI's
+        if (job.frame) {
+          if (output) refuse_overwrites(stereo_job_inputs(*job.frame), {{"output", *output}});
+          report = to_json(stereo_job(*job.frame));
+        } else {
+          if (output) refuse_overwrites(satellite_stereo_inputs(*job.satellite), {{"output", *output}});
+          report = to_json(satellite_stereo_job(*job.satellite));
+        }
+        // The file the CLI writes, read back by the library's reader: the Dsm is what
+        // read_dsm() gives of it (a satellite DSM's ellipsoidal heights included).
+        if (!output) dsm = read_raster(request.output);
+        return 0;
+      });
+    }
+    if (!output) {
+      auto out = std::make_shared<PyDsm>();
+      out->grid = std::move(dsm);
+      return py::cast(out);
+    }
+    if (!cameras_file.empty()) report["cameras"] = nullptr;  // a dict, not a file
+    return json_dict(report);
+  });
+}
+
 }  // namespace
 
 PYBIND11_MODULE(dsmplan, m) {
@@ -558,4 +702,32 @@ PYBIND11_MODULE(dsmplan, m) {
         "title: the title (default: the path's and the DSM's file names).\n"
         "width: the picture's width, pixels (240 to 30000).\n"
         "height: the picture's height, pixels (160 to 30000).");
+  m.def("stereo", &stereo, py::arg("images") = py::none(), py::kw_only(), py::arg("cameras") = py::none(),
+        py::arg("res"), py::arg("output") = py::none(), py::arg("pairs") = "auto", py::arg("bounds") = py::none(),
+        py::arg("crs") = "", py::arg("allow_approximate_vertical") = false, py::arg("fusion_memory") = 1024.0,
+        py::arg("band_memory") = 1024.0,
+        "A DSM from images, as `dsmplan stereo` (the same library functions: stereo_job_for()'s rules of the "
+        "flags, then stereo_job() for frame cameras or satellite_stereo_job() for satellite images): "
+        "rectification, SGM, triangulation, the median per cell. Give either `images` or `cameras`. Returns "
+        "the Dsm (holes NaN) when `output` is None, else writes the GeoTIFF and returns the report of "
+        "`dsmplan stereo --stats` as a dict.\n\n"
+        "images: satellite images with RPC cameras (TIFF tags, _RPC.TXT, .RPB or an OSSIM .geom beside them), "
+        "two or more (IMAGES).\n"
+        "cameras: frame cameras with known poses: the path of a CAMERAS.json, or a dict in its schema "
+        "({\"crs\": ..., \"height_range\": [lo, hi], \"cameras\": [{\"image\", \"width\", \"height\", \"fx\", "
+        "\"fy\", \"cx\", \"cy\", \"distortion\", \"rotation\", \"center\"}, ...]}), checked by the same reader. "
+        "A file's relative image paths are relative to its folder, a dict's to the current directory; errors "
+        "in a dict name `cameras`, and the report's \"cameras\" is None.\n"
+        "res: cell size, metres (--res).\n"
+        "output: the GeoTIFF to write (.tif), atomically; None: the DSM is returned in memory (written to a "
+        "private temporary folder, read back and removed).\n"
+        "pairs: frame cameras: \"auto\" (overlap and base-to-height ratio) or pairs like \"0-1,1-2\".\n"
+        "bounds: (x0, y0, x1, y1) of the DSM in its CRS (default: the pairs' overlap).\n"
+        "crs: satellite images: the output CRS, projected in metres (default: WGS 84 / UTM of the scene, "
+        "heights above the WGS 84 ellipsoid).\n"
+        "allow_approximate_vertical: satellite images with a compound `crs` whose geoid grid PROJ lacks: "
+        "heights through EGM96 (about 1 m off) instead of refusing.\n"
+        "fusion_memory: MB for the points before the fusion spills sorted runs to $TMPDIR (or /tmp), "
+        "[0.0625, 1e9).\n"
+        "band_memory: frame cameras: MB for one band of a pair's rectified images and matching, [1, 1e9).");
 }
