@@ -23,6 +23,7 @@
 #include "core/text.hpp"
 #include "dsmplan/raster.hpp"
 #include "dsmplan/raster_io.hpp"
+#include "heights_statement.hpp"
 #include "raster_inputs.hpp"
 
 namespace dsmplan {
@@ -664,6 +665,13 @@ void write_geotiff(const Grid& grid, const std::string& path, const Progress& pr
         OGRSpatialReference by_code;
         if (by_code.importFromEPSG(std::atoi(code)) == OGRERR_NONE) srs = by_code;
       }
+      // A projected CRS made 3D (a satellite DSM's: heights above its datum's ellipsoid) has no
+      // GeoTIFF keys: the 2D CRS goes to the keys and the heights to the metadata, or a DSM
+      // written from memory (Python's Dsm.write()) would lose what its heights are.
+      if (srs.IsProjected() && !srs.IsCompound() && srs.GetAxesCount() == 3) {
+        dataset->SetMetadataItem(kEllipsoidalHeightsKey, ellipsoid_statement(srs).c_str());
+        srs.DemoteTo2D(nullptr);
+      }
       dataset->SetSpatialRef(&srs);
     }
   }
@@ -711,6 +719,14 @@ void fill_holes(Grid& grid, double max_distance, const Progress& progress) {
                      0) != CE_None) {
     throw Error("fill holes: cannot read back" + gdal_message());
   }
+}
+
+std::string ellipsoid_statement(const OGRSpatialReference& srs) {
+  OGRSpatialReference geographic;
+  geographic.CopyGeogCSFrom(&srs);
+  const std::string datum = geographic.GetName() ? geographic.GetName() : "";
+  return datum == "WGS 84" ? "EPSG:4979 (heights above the WGS 84 ellipsoid)"
+                           : "heights above the " + datum + " ellipsoid";
 }
 
 }  // namespace dsmplan

@@ -13,11 +13,10 @@
 #include "dsmplan/raster_io.hpp"
 #include "dsmplan/stereo_io.hpp"
 #include "dsmplan/wgs84.hpp"
+#include "heights_statement.hpp"
 
 namespace dsmplan {
 namespace {
-
-const char* const kWgs84Heights = "EPSG:4979 (heights above the WGS 84 ellipsoid)";
 
 struct DatasetCloser {
   void operator()(GDALDataset* d) const { GDALClose(d); }
@@ -48,12 +47,6 @@ std::string wkt2_of(const OGRSpatialReference& srs) {
 }
 
 // What a 2D CRS's DSM says of its heights: above the ellipsoid of its datum.
-std::string ellipsoid_statement(const OGRSpatialReference& srs) {
-  OGRSpatialReference geographic;
-  geographic.CopyGeogCSFrom(&srs);
-  const std::string datum = geographic.GetName() ? geographic.GetName() : "";
-  return datum == "WGS 84" ? kWgs84Heights : "heights above the " + datum + " ellipsoid";
-}
 
 }  // namespace
 

@@ -183,6 +183,12 @@ def test_satellite_stereo_gives_the_dsm_of_the_command_line(tmp_path):
     dsm = dsmplan.stereo(PLEIADES, res=1)
     assert_same_dsm(dsm, expected)
     assert "ellipsoid" in dsm.crs.lower()  # the heights as the file states them (VERTICAL_CRS)
+    # Written from memory, the DSM still says its heights are ellipsoidal (as the CLI's file does,
+    # by GDAL's metadata), and reads back as the same DSM in the same CRS.
+    written = str(tmp_path / "written.tif")
+    dsm.write(written)
+    assert gdal.Open(written).GetMetadataItem("VERTICAL_CRS") == gdal.Open(cli).GetMetadataItem("VERTICAL_CRS")
+    assert_same_dsm(dsmplan.read_dsm(written), expected)
     py = str(tmp_path / "py.tif")
     report = dsmplan.stereo(PLEIADES, res=1, output=py)
     assert open(py, "rb").read() == open(cli, "rb").read()
