@@ -44,7 +44,7 @@ Command stereo_command(CLI::App& app, Session& session) {
                       "Satellite images with RPC cameras (TIFF tags, _RPC.TXT, .RPB or an OSSIM .geom beside "
                       "them), two or more: every overlapping pair is matched");
   command->add_option("--cameras", stereo.cameras,
-                      "CAMERAS.json: CRS, cameras and images, optionally the height range (README)");
+                      "CAMERAS.json: CRS, cameras and images, optionally the height range (docs/stereo.md)");
   command->add_option("--crs", stereo.crs,
                       "With satellite images: output CRS (default: WGS 84 / UTM of the scene; heights above the "
                       "WGS 84 ellipsoid)");

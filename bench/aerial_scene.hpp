@@ -208,7 +208,7 @@ inline Grid crop(const Grid& dsm, int col0, int row0, int n) {
   return out;
 }
 
-/// A camera as its entry in CAMERAS.json (the README's contract), reading `image`.
+/// A camera as its entry in CAMERAS.json (the contract in docs/stereo.md), reading `image`.
 inline nlohmann::json camera_json(const dsmplan::FrameCamera& c, const std::string& image) {
   nlohmann::json rotation = nlohmann::json::array();
   for (const auto& row : c.rotation) rotation.push_back({row[0], row[1], row[2]});

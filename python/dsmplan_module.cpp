@@ -1,5 +1,5 @@
 // The Python module `dsmplan` (pybind11): the library's stages on numpy arrays, for GIS people
-// who script. A contract (issue 18), documented in the README's "Python" section:
+// who script. A contract (issue 18), documented in docs/python.md and python/dsmplan.pyi:
 //   dsm = dsmplan.read_dsm(path)        .heights (rows x columns float32, nodata NaN; a read-only view of the DSM's
 //                                       own memory), .transform (GDAL geotransform), .crs (WKT)
 //   mesh = dsmplan.simplify(dsm, max_error=0.4, conservative=True)   the bounded mode;

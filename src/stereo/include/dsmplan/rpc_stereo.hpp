@@ -171,7 +171,7 @@ std::vector<RpcStereoPoint> disparity_to_points(const RpcCamera& left, const Rpc
 
 // ---- a tile through the whole chain (src/stereo/rpc_tile_stereo.cpp) ------------------------
 //
-// What the satellite job (include/dsmplan/satellite_stereo_job.hpp) runs per tile of a pair, on
+// What the satellite stage (satellite_dsm(), satellite_dsm.hpp) runs per tile of a pair, on
 // image windows: the cameras passed are those of the windows (RpcCamera::crop), the tile is in
 // the left window's pixels, and its height range is the heights searched (metres above the
 // WGS 84 ellipsoid). Pure C++ and TBB (no GDAL).

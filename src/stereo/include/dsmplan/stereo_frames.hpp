@@ -29,7 +29,7 @@
 // both rectified cameras (tested < 0.01 px; about 1e-13 px in double) and triangulate() returns it
 // (< 1 mm; about 1e-13 m). The result does not depend on the number of threads (SGM's guarantee;
 // triangulation keeps row order; the fusion sorts). Accuracy on rendered views of the real NRW DSM:
-// README, "Stereo from frame cameras".
+// docs/stereo.md, "Stereo from frame cameras".
 //
 // Memory. Per pair: the two rectified images (5 bytes a pixel each, float + mask) and SGM's
 // (stereo.hpp, in bands under its memory bound); for all pairs: 24 bytes per triangulated point,
@@ -158,7 +158,7 @@ bool triangulate(const RectifiedPair& pair, double u, double v, double d, Vec3& 
 std::vector<Vec3> triangulate(const RectifiedPair& pair, const Disparity& disparity, int row_begin = 0,
                               int row_end = std::numeric_limits<int>::max());
 
-// ---- CAMERAS.json: the cameras of `dsmplan stereo --cameras` (README, "Stereo from frame cameras")
+// ---- CAMERAS.json: the cameras of `dsmplan stereo --cameras` (docs/stereo.md, "Stereo from frame cameras")
 
 struct CameraFile {
   std::string path;  ///< the file read (the one the pipeline's errors name)

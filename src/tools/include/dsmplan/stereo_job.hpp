@@ -20,7 +20,7 @@ namespace dsmplan {
 
 /// `dsmplan stereo`: a DSM from frame-camera images with known poses (stereo_frames.hpp).
 ///
-/// CAMERAS.json (a contract; README, "Stereo from frame cameras"):
+/// CAMERAS.json (a contract; docs/stereo.md, "Stereo from frame cameras"):
 ///   {"crs": "EPSG:25832", "height_range": [100, 180] (optional),
 ///    "cameras": [{"image": "img_0.png", "width": 1200, "height": 900, "fx": 2400.0, "fy": 2400.0,
 ///                 "cx": 599.5, "cy": 449.5, "distortion": [k1, k2, p1, p2, k3],
