@@ -144,15 +144,6 @@ std::shared_ptr<PyDsm> dsm_from_array(py::array_t<float, py::array::c_style | py
   return out;
 }
 
-// What every face checks of a mesh before planning on it: metres on the ground (metric_problem()).
-void require_metric(const Mesh& mesh) {
-  double x0 = INFINITY, y0 = INFINITY, x1 = -INFINITY, y1 = -INFINITY;
-  for (const Vertex& v : mesh.vertices)
-    x0 = std::min(x0, v.x), x1 = std::max(x1, v.x), y0 = std::min(y0, v.y), y1 = std::max(y1, v.y);
-  const std::string problem = metric_problem(mesh.crs, "mesh", (x0 + x1) / 2, (y0 + y1) / 2);
-  if (!problem.empty()) throw InputError("mesh", "", problem);
-}
-
 std::shared_ptr<PyFlight> plan(const std::shared_ptr<PyMesh>& mesh,
                                py::array_t<double, py::array::c_style | py::array::forcecast> waypoints,
                                const std::shared_ptr<PyDsm>& dsm, const std::shared_ptr<PyDsm>& dtm, double safety,
@@ -175,7 +166,7 @@ std::shared_ptr<PyFlight> plan(const std::shared_ptr<PyMesh>& mesh,
   out->crs = mesh->mesh.crs;
   {
     py::gil_scoped_release release;
-    require_metric(mesh->mesh);
+    require_projected(mesh->mesh.crs, "mesh", centre_of(mesh->mesh));  // as `dsmplan plan` does
     std::optional<Wgs84Transform> to_msl;
     if (mission) {
       MissionEnds ends;

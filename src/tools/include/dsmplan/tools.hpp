@@ -8,7 +8,9 @@
 // Errors: as in core.hpp. Every option is checked before any long work starts.
 #pragma once
 
+#include <algorithm>
 #include <array>
+#include <cmath>
 #include <functional>
 #include <nlohmann/json.hpp>
 #include <optional>
@@ -32,6 +34,37 @@
 #include "dsmplan/wgs84.hpp"
 
 namespace dsmplan {
+
+// ---- the CRS rule every face applies to a DSM or a mesh before working on it ------------------
+
+/// The centre of a raster's or a mesh's x,y extent, in its CRS: where require_projected() takes
+/// the UTM zone of its example.
+struct XY {
+  double x = 0, y = 0;
+};
+inline XY centre_of(const Grid& grid) {
+  return {grid.x0 + grid.width * grid.cell_x / 2, grid.y0 - grid.height * grid.cell_y / 2};
+}
+inline XY centre_of(const Mesh& mesh) {
+  if (mesh.vertices.empty()) return {};
+  double x0 = INFINITY, y0 = INFINITY, x1 = -INFINITY, y1 = -INFINITY;
+  for (const Vertex& v : mesh.vertices) {
+    x0 = std::min(x0, v.x), x1 = std::max(x1, v.x);
+    y0 = std::min(y0, v.y), y1 = std::max(y1, v.y);
+  }
+  return {(x0 + x1) / 2, (y0 + y1) / 2};
+}
+
+/// Delaunay on degrees with heights in metres means nothing, nor does a metric safety distance,
+/// nor do feet taken as metres: InputError naming `path` unless `crs` (of a DSM or a mesh) is
+/// projected with x, y in metres and heights in metres or of unknown unit (metric_problem():
+/// the one line names the unit and suggests reprojecting to the WGS 84 / UTM zone of `centre`,
+/// e.g. "gdalwarp -t_srs EPSG:32617" for a raster in Virginia). A mesh's CRS (name, EPSG, WKT
+/// from its header) has its units read from the WKT here.
+inline void require_projected(const Crs& crs, const std::string& path, XY centre) {
+  const std::string problem = metric_problem(crs, path, centre.x, centre.y);
+  if (!problem.empty()) throw InputError(path, "", problem);
+}
 
 using Json = nlohmann::ordered_json;
 
