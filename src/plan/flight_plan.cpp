@@ -4,6 +4,7 @@
 // verification of the path against the data.
 #include <algorithm>
 #include <cmath>
+#include <optional>
 
 #include "core/stopwatch.hpp"
 #include "core/text.hpp"
@@ -193,19 +194,14 @@ Obstacles hold_to_dsm(const FlightRequest& request, const Extent& extent, PlanOp
 // Why the planner found no path, every invalid waypoint named as the user numbers them.
 [[noreturn]] void refuse_no_path(const PlanResult& result, const MissionSite* site, const FlightRequest& request,
                                  const FlightReport& report, double half_diagonal) {
-  const size_t count = request.waypoints.size();
-  const auto place = [&](const PlanResult& r) { return site ? mission_place(r, *site, count) : r.place(); };
-  std::string why = result.problems([&](size_t k) {
-    PlanResult other = result;
-    other.waypoint = k;
-    return place(other);
-  });
+  FailureInWords words = failure_in_words(result, site, request.waypoints.size());
+  std::string& why = words.why;
   // Worth a word only when the mesh does not fit its DSM (more than a conservative mesh needs).
   if (report.safety_margin_m > half_diagonal + 1e-9)
     why += " (on the mesh the safety distance is --safety " + two_decimals(request.options.safety) + " widened by " +
            two_decimals(report.safety_margin_m) + " m, as far as the DSM's columns may lie inside this mesh; a " +
            "conservative mesh of the DSM itself needs half a cell diagonal)";
-  throw InputError(request.names.waypoints, place(result), why);
+  throw InputError(request.names.waypoints, words.place, why);
 }
 
 // The figures measured on the path on their own, not taken from the planner (the numbers a user
@@ -280,8 +276,10 @@ FlightPlan plan_flight(const FlightRequest& request, const Progress& progress) {
   out.index = request.index ? request.index : std::make_shared<const ClearanceIndex>(*obstacles.mesh);
   // Kept files are named by the obstacles (the mesh and the DSM's holes' columns); a kept index holds it.
   const FlightStore& store = request.store;
+  std::optional<uint64_t> fingerprint;  // O(mesh): computed once, when a kept file asks for it
   const auto obstacles_key = [&] {
-    return request.index ? request.index_fingerprint : mesh_fingerprint(*obstacles.mesh);
+    if (!fingerprint) fingerprint = request.index ? request.index_fingerprint : mesh_fingerprint(*obstacles.mesh);
+    return *fingerprint;
   };
   if (!request.index && store.keep_index) store.keep_index(*out.index, obstacles_key());
   const ClearanceIndex& index = *out.index;

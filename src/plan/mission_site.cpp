@@ -160,6 +160,15 @@ std::string mission_place(const PlanResult& result, const MissionSite& site, siz
   return {};
 }
 
+FailureInWords failure_in_words(const PlanResult& result, const MissionSite* site, size_t user_waypoints) {
+  const auto place = [&](const PlanResult& r) { return site ? mission_place(r, *site, user_waypoints) : r.place(); };
+  return {place(result), result.problems([&](size_t k) {
+            PlanResult other = result;
+            other.waypoint = k;
+            return place(other);
+          })};
+}
+
 void check_vertical_legs_in(GridSource& dsm, const MissionSite& site, const std::vector<Point3>& waypoints,
                             double safety) {
   const Grid& frame = dsm.frame();

@@ -227,14 +227,8 @@ FlightPlan plan_along_corridor(GridSource& city, const std::vector<Point3>& wayp
   report.corridor_windows = planned.windows;
   report.corridor_largest_window_cells = planned.largest_window_cells;
   if (result.status != PlanStatus::Solved) {
-    const auto place = [&](const PlanResult& r) {
-      return site ? mission_place(r, *site, waypoints.size()) : r.place();
-    };
-    throw InputError(options.waypoints, place(result), result.problems([&](size_t k) {
-      PlanResult other = result;
-      other.waypoint = k;
-      return place(other);
-    }));
+    const FailureInWords words = failure_in_words(result, site, waypoints.size());
+    throw InputError(options.waypoints, words.place, words.why);
   }
   out.path = result.path;
   report.min_clearance_m = planned.min_clearance_m;

@@ -270,6 +270,13 @@ void check_vertical_legs_in(GridSource& dsm, const MissionSite& site, const std:
 /// takeoff above --home, or the leg back above home (--end rtl).
 std::string mission_place(const PlanResult& result, const MissionSite& site, size_t user_waypoints);
 
+/// A failed plan in the user's words: where (mission_place() for a mission, `site` given, else
+/// PlanResult::place()) and why, every invalid waypoint named the same way (PlanResult::problems()).
+struct FailureInWords {
+  std::string place, why;
+};
+FailureInWords failure_in_words(const PlanResult& result, const MissionSite* site, size_t user_waypoints);
+
 /// InputError(terrain_name, place, problem) when the terrain stands above the surface it should
 /// lie under (terrain_above_surface()): at home, a waypoint ("waypoint N", 1-based), the landing
 /// (those of `site` when given), or over the cells. `surface_z(x, y)` as terrain_above_surface()
