@@ -23,18 +23,14 @@ using detail::format_number;
 namespace {
 
 struct Window {
-  Grid dsm;  // the window's cells, with the margin for obstacles, holes filled from their rim
-  Mesh mesh;
-  std::unique_ptr<ClearanceIndex> index;
-  VerticalError error;
-  double margin = 0;  // the safety distance's widening on the mesh (column_margin())
-  PlanOptions plan;   // the run's, the safety widened by `margin`, the window's ground
+  std::unique_ptr<FlightArea> area;  // the window's DSM (holes left), its mesh and index
+  VerticalError error;               // the mesh against the DSM, certified by simplify_bounded()
 };
 
 // The flight area (x,y box of the piece's ends, widened by margin, clipped to the DSM's cell
 // centres) and its mesh, made of the area widened by `pad` more.
 std::unique_ptr<Window> make_window(GridSource& source, const Point3& a, const Point3& b, double margin, double pad,
-                                    const PlanOptions& plan, const CorridorOptions& options) {
+                                    const CorridorOptions& options, const FlightNames& names) {
   const Grid& frame = source.frame();
   const double left = frame.center_x(0), right = frame.center_x(frame.width - 1);
   const double top = frame.center_y(0), bottom = frame.center_y(frame.height - 1);
@@ -50,31 +46,35 @@ std::unique_ptr<Window> make_window(GridSource& source, const Point3& a, const P
   const int c0 = clamp_col(area[0] - pad), c1 = clamp_col(area[2] + pad);
   const int r0 = clamp_row(area[3] + pad), r1 = clamp_row(area[1] - pad);
   auto window = std::make_unique<Window>();
-  window->dsm = read_window(source, c0, r0, c1 - c0 + 1, r1 - r0 + 1);
-  window->plan = plan;
-  window->plan.ground = options.terrain ? options.terrain : std::make_shared<GroundGrid>(window->dsm);
+  FlightData data;
+  data.dsm = std::make_shared<const Grid>(read_window(source, c0, r0, c1 - c0 + 1, r1 - r0 + 1));
   // Holes are unknown space, as high as their rim (as far as the window shows it), meshed as
   // columns like any other; the mesh is conservative (never below a cell centre).
-  fill_holes_from_rim(window->dsm, RimHeight::highest);
+  Grid filled = *data.dsm;
+  fill_holes_from_rim(filled, RimHeight::highest);
+  data.mesh_fills_holes = true;
   BoundedSimplifyOptions mesh_options = options.mesh;
   mesh_options.conservative = true;
-  GridView view(window->dsm);
-  window->mesh.crs = frame.crs;
-  MeshCollector collector(window->mesh);
+  GridView view(filled);
+  auto mesh = std::make_shared<Mesh>();
+  mesh->crs = frame.crs;
+  MeshCollector collector(*mesh);
   window->error = simplify_bounded(view, mesh_options, collector).error;
-  // Clearance to this mesh, widened so, bounds clearance to the columns (column_margin()).
-  window->margin = column_margin(window->mesh, window->dsm);
-  window->plan.safety += window->margin;
+  // The index covers the flight area only: nothing flies outside it.
   ClearanceOptions clearance;
   clearance.flight_area = area;
-  window->index = std::make_unique<ClearanceIndex>(window->mesh, clearance);
+  data.index = std::make_shared<const ClearanceIndex>(*mesh, clearance);
+  data.mesh = std::move(mesh);
+  data.terrain = options.terrain;
+  data.names = names;
+  window->area = std::make_unique<FlightArea>(std::move(data));
   return window;
 }
 
 }  // namespace
 
 CorridorResult plan_corridor(GridSource& dsm, const std::vector<Point3>& waypoints, const PlanOptions& plan,
-                             const CorridorOptions& options, const Progress& progress) {
+                             const CorridorOptions& options, const Progress& progress, const FlightNames& names) {
   if (!(options.chunk > 0) || !std::isfinite(options.chunk))
     throw ArgumentError("chunk", "must be a positive length, got " + format_number(options.chunk));
   if (!(options.margin > 0) || !std::isfinite(options.margin))
@@ -123,7 +123,7 @@ CorridorResult plan_corridor(GridSource& dsm, const std::vector<Point3>& waypoin
   const double pad = plan.safety + 2 * std::max(frame.cell_x, frame.cell_y);
   auto window_for = [&](size_t k) {
     const auto start = std::chrono::steady_clock::now();
-    auto window = make_window(dsm, stops[k], stops[k + 1], options.margin, pad, plan, options);
+    auto window = make_window(dsm, stops[k], stops[k + 1], options.margin, pad, options, names);
     out.seconds_windows += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     return window;
   };
@@ -134,9 +134,11 @@ CorridorResult plan_corridor(GridSource& dsm, const std::vector<Point3>& waypoin
     if (via[k + 1]) {
       // The lowest whole-metre height above safety over both surfaces that both windows allow.
       Point3& p = stops[k + 1];
-      const double g0 = current->index->ground(p[0], p[1]), g1 = next->index->ground(p[0], p[1]);
-      const FlightSpace here = detail::flight_space(*current->index, current->plan),
-                        there = detail::flight_space(*next->index, next->plan);
+      const FlightArea &here_area = *current->area, &there_area = *next->area;
+      const double g0 = here_area.index().ground(p[0], p[1]), g1 = there_area.index().ground(p[0], p[1]);
+      const PlanOptions here_plan = here_area.planner_options(plan), there_plan = there_area.planner_options(plan);
+      const FlightSpace here = detail::flight_space(here_area.index(), here_plan),
+                        there = detail::flight_space(there_area.index(), there_plan);
       const double ceiling = std::min(here.ceiling_at(p[0], p[1]), there.ceiling_at(p[0], p[1]));
       bool placed = false;
       for (double z = std::max(g0, g1) + plan.safety; !placed && z <= ceiling; z += 1) {
@@ -151,41 +153,41 @@ CorridorResult plan_corridor(GridSource& dsm, const std::vector<Point3>& waypoin
         return out;
       }
     }
-    PlanResult piece = plan_path(*current->index, {stops[k], stops[k + 1]}, current->plan,
-                                 sub_progress(progress, double(k) / pieces, double(k + 1) / pieces));
-    result.roadmap_nodes += piece.roadmap_nodes;
-    result.roadmap_edges += piece.roadmap_edges;
-    result.seconds_roadmap += piece.seconds_roadmap;
-    result.seconds_query += piece.seconds_query;
-    result.seconds_smooth += piece.seconds_smooth;
-    result.refined_samples += piece.refined_samples;
-    result.refine_rounds += piece.refine_rounds;
-    if (piece.status != PlanStatus::Solved) {
-      result.status = piece.status;
-      const bool end = piece.status == PlanStatus::InvalidWaypoint && piece.waypoint == 1;
-      const bool at_via = piece.status == PlanStatus::InvalidWaypoint && via[k + end];
-      result.waypoint = piece.status == PlanStatus::InvalidWaypoint && !at_via ? leg + end : leg;
+    // The piece is a flight of its own over its window: held to every rule and verified there.
+    FlightQuery piece_query;
+    piece_query.waypoints = {stops[k], stops[k + 1]};
+    piece_query.options = plan;
+    piece_query.straight_legs = options.straight_legs;
+    const FlightAttempt piece =
+        attempt_flight(*current->area, piece_query, sub_progress(progress, double(k) / pieces, double(k + 1) / pieces));
+    const FlightReport& figures = piece.plan.report;
+    result.roadmap_nodes += figures.roadmap_nodes;
+    result.roadmap_edges += figures.roadmap_edges;
+    result.seconds_roadmap += figures.seconds_roadmap;
+    result.seconds_query += figures.seconds_query;
+    result.seconds_smooth += figures.seconds_smooth;
+    result.refined_samples += figures.refined_samples;
+    if (!piece.solved) {
+      const PlanResult& failed = piece.failure;
+      result.status = failed.status;
+      const bool end = failed.status == PlanStatus::InvalidWaypoint && failed.waypoint == 1;
+      const bool at_via = failed.status == PlanStatus::InvalidWaypoint && via[k + end];
+      result.waypoint = failed.status == PlanStatus::InvalidWaypoint && !at_via ? leg + end : leg;
       if (at_via) result.status = PlanStatus::NoPath;
       result.reason =
-          (at_via ? "via point of the leg: " : "") + piece.reason +
-          (piece.status == PlanStatus::NoPath ? " (piece " + std::to_string(k + 1) + " of the corridor)" : "");
+          (at_via ? "via point of the leg: " : "") + failed.reason +
+          (failed.status == PlanStatus::NoPath ? " (piece " + std::to_string(k + 1) + " of the corridor)" : "");
       return out;
     }
-    if (options.finish_piece) piece.path = options.finish_piece(piece.path);
-    for (size_t s = 1; s < piece.path.size(); ++s)
-      out.min_clearance_m =
-          std::min(out.min_clearance_m, current->index->clearance(piece.path[s - 1], piece.path[s], cap));
-    // The plan stage's measures (measure_path()), as a mesh plan is verified by.
-    const PathMeasures measured = measure_path(piece.path, *current->plan.ground, &current->dsm, cap);
-    out.min_clearance_dsm_m = std::min(out.min_clearance_dsm_m, measured.min_clearance_dsm_m);
-    out.max_agl_m = std::max(out.max_agl_m, measured.max_agl_m);
+    const std::vector<Point3>& path = piece.plan.path;
+    out.min_clearance_m = std::min(out.min_clearance_m, figures.min_clearance_m);
+    out.min_clearance_dsm_m = std::min(out.min_clearance_dsm_m, figures.min_clearance_dsm_m);
+    out.max_agl_m = std::max(out.max_agl_m, figures.max_agl_m);
     const size_t skip = result.path.empty() ? 0 : 1;  // the joint is the previous piece's end
-    result.path.insert(result.path.end(), piece.path.begin() + skip, piece.path.end());
-    result.raw_path.insert(result.raw_path.end(), piece.raw_path.begin() + (result.raw_path.empty() ? 0 : 1),
-                           piece.raw_path.end());
+    result.path.insert(result.path.end(), path.begin() + skip, path.end());
     out.mesh_error.merge(current->error);
-    out.safety_margin_m = std::max(out.safety_margin_m, current->margin);
-    out.largest_window_cells = std::max(out.largest_window_cells, current->dsm.cells());
+    out.safety_margin_m = std::max(out.safety_margin_m, current->area->safety_margin());
+    out.largest_window_cells = std::max(out.largest_window_cells, current->area->data().dsm->cells());
     ++out.windows;
     current = std::move(next);
   }

@@ -4,6 +4,7 @@
 // verification of the path against the data.
 #include <algorithm>
 #include <cmath>
+#include <mutex>
 #include <optional>
 
 #include "core/stopwatch.hpp"
@@ -50,9 +51,9 @@ void require_beside(const Grid& grid, const std::string& name, const char* what,
 namespace {
 
 // Every waypoint closer than the safety distance to the DSM's columns, with the column that
-// stands nearest, refused before any work on the mesh.
-void refuse_near_columns(const std::vector<Point3>& waypoints, const Grid& columns, double safety,
-                         const std::string& file) {
+// stands nearest.
+std::vector<PlanResult::Invalid> near_columns(const std::vector<Point3>& waypoints, const Grid& columns,
+                                              double safety) {
   std::vector<PlanResult::Invalid> problems;
   for (size_t i = 0; i < waypoints.size(); ++i) {
     const NearestColumn c = nearest_column(columns, waypoints[i], safety);
@@ -63,12 +64,12 @@ void refuse_near_columns(const std::vector<Point3>& waypoints, const Grid& colum
                                            : "closer than the safety distance to the DSM: " + two_decimals(c.distance) +
                                                  " m from " + where + ", --safety " + two_decimals(safety)});
   }
-  refuse_waypoints(file, problems);
+  return problems;
 }
 
-// Every waypoint above the ceiling, in the planner's words, before any work.
-void refuse_above_ceiling(const std::vector<Point3>& waypoints, const GroundGrid& ground, double max_agl,
-                          const std::string& file) {
+// Every waypoint above the ceiling, in the planner's words.
+std::vector<PlanResult::Invalid> above_ceiling(const std::vector<Point3>& waypoints, const GroundGrid& ground,
+                                               double max_agl) {
   std::vector<PlanResult::Invalid> problems;
   for (size_t i = 0; i < waypoints.size(); ++i) {
     const double above = ground.height_above(waypoints[i]);
@@ -78,7 +79,7 @@ void refuse_above_ceiling(const std::vector<Point3>& waypoints, const GroundGrid
                                : "above the ceiling: " + two_decimals(above) + " m above the ground, --max-agl " +
                                      two_decimals(max_agl)});
   }
-  refuse_waypoints(file, problems);
+  return problems;
 }
 
 // The path held to both limits once more, measured on its own (measure_path()): clearance to the
@@ -106,22 +107,12 @@ void verify(const std::vector<Point3>& path, const Grid* columns, const GroundGr
                          ": a bug, please report it; nothing written");
 }
 
-Extent extent_of(const FlightRequest& request) {
-  Extent e;
-  if (request.index && !request.dsm) {  // the mesh was not read: the extent of its triangles
-    const ClearanceIndex::Footprint& f = request.index->footprint();
-    return {f.xmin, f.ymin, f.xmax, f.ymax};
-  }
-  for (const Vertex& v : request.mesh->vertices)
-    e.xmin = std::min(e.xmin, v.x), e.ymin = std::min(e.ymin, v.y), e.xmax = std::max(e.xmax, v.x),
-    e.ymax = std::max(e.ymax, v.y);
-  return e;
-}
-
 // The mesh with the DSM's holes' columns joined to it: a mesh has voids there.
-std::shared_ptr<const Mesh> with_hole_columns(const Mesh& mesh, const Grid& dsm, const Grid& columns) {
-  auto joined = std::make_shared<Mesh>(mesh);
+std::shared_ptr<const Mesh> with_hole_columns(const std::shared_ptr<const Mesh>& mesh, const Grid& dsm,
+                                              const Grid& columns) {
   const Mesh holes = hole_columns(dsm, columns);
+  if (holes.triangles.empty()) return mesh;
+  auto joined = std::make_shared<Mesh>(*mesh);
   const uint32_t offset = static_cast<uint32_t>(joined->vertices.size());
   joined->vertices.insert(joined->vertices.end(), holes.vertices.begin(), holes.vertices.end());
   for (Triangle t : holes.triangles) joined->triangles.push_back({t[0] + offset, t[1] + offset, t[2] + offset});
@@ -143,90 +134,261 @@ PlanResult run_planner(const ClearanceIndex& index, const std::vector<Point3>& r
                        const FlightStore& store, uint64_t key, FlightReport& report, Stopwatch& clock,
                        const Progress& progress) {
   if (!store.kept_roadmap) return plan_path(index, route, plan, sub_progress(progress, 0, 0.95));
-  Roadmap map;
-  if (std::optional<Roadmap> kept = store.kept_roadmap(key, plan)) {
-    map = std::move(*kept);
-    report.roadmap_reused = true;
-  } else {
-    map = build_roadmap(index, plan, sub_progress(progress, 0, 0.95));
-    if (store.keep_roadmap) store.keep_roadmap(map, key, plan);
+  std::shared_ptr<const Roadmap> map = store.kept_roadmap(key, plan);
+  report.roadmap_reused = map != nullptr;
+  if (!map) {
+    map = std::make_shared<const Roadmap>(build_roadmap(index, plan, sub_progress(progress, 0, 0.95)));
+    if (store.keep_roadmap) store.keep_roadmap(*map, key, plan);
   }
   const double seconds_roadmap = clock.lap();
-  PlanResult result = query_roadmap(map, index, route, plan);
+  PlanResult result = query_roadmap(*map, index, route, plan);
   result.seconds_roadmap = report.roadmap_reused ? 0 : seconds_roadmap;
   if (report.roadmap_reused) report.seconds_load += seconds_roadmap, report.seconds_read += seconds_roadmap;
   return result;
 }
 
-// The DSM's columns, holes as high as their rim (what the path must keep `safety` from), and the
-// mesh the planner runs on: the request's, with the holes' columns joined.
-struct Obstacles {
-  Grid columns;
-  std::shared_ptr<const Mesh> mesh;
-  double half_diagonal = INFINITY;  ///< of the DSM's cells
-};
-
-// With a DSM: waypoints above the ceiling or near a column refused now, before the work on the
-// mesh; the safety distance widened on the mesh by as far as the columns may lie inside it.
-Obstacles hold_to_dsm(const FlightRequest& request, const Extent& extent, PlanOptions& plan, FlightReport& report) {
-  Obstacles out;
-  out.mesh = request.mesh;
-  if (!request.dsm) return out;
-  const Grid& dsm = *request.dsm;
-  const FlightNames& names = request.names;
-  require_beside(dsm, names.dsm, "DSM", request.mesh->crs, extent.xmin, extent.ymin, extent.xmax, extent.ymax);
-  out.columns = dsm;
-  fill_holes_from_rim(out.columns, RimHeight::highest);
-  plan.ground = std::make_shared<GroundGrid>(dsm);
-  if (!request.dtm) refuse_above_ceiling(request.waypoints, *plan.ground, plan.max_agl, names.waypoints);
-  refuse_near_columns(request.waypoints, out.columns, plan.safety, names.waypoints);
-  ColumnError above;
-  VerticalError below;
-  report.safety_margin_m = column_margin(*request.mesh, dsm, &above, &below);
-  report.mesh_max_below_dsm_m = below.max_below;
-  report.column_max_above_mesh_m = above.max_below;
-  out.half_diagonal = std::hypot(dsm.cell_x, dsm.cell_y) / 2;
-  plan.safety += report.safety_margin_m;
-  if (!request.index) out.mesh = with_hole_columns(*request.mesh, dsm, out.columns);
-  return out;
+void check_query(const FlightQuery& query, const FlightNames& names) {
+  check_plan_options(query.options);
+  if (query.waypoints.size() < 2)
+    throw InputError(names.waypoints, "",
+                     "a path needs at least two waypoints, the file has " + std::to_string(query.waypoints.size()));
 }
 
-// Why the planner found no path, every invalid waypoint named as the user numbers them.
-[[noreturn]] void refuse_no_path(const PlanResult& result, const MissionSite* site, const FlightRequest& request,
-                                 const FlightReport& report, double half_diagonal) {
-  FailureInWords words = failure_in_words(result, site, request.waypoints.size());
-  std::string& why = words.why;
-  // Worth a word only when the mesh does not fit its DSM (more than a conservative mesh needs).
-  if (report.safety_margin_m > half_diagonal + 1e-9)
-    why += " (on the mesh the safety distance is --safety " + two_decimals(request.options.safety) + " widened by " +
-           two_decimals(report.safety_margin_m) + " m, as far as the DSM's columns may lie inside this mesh; a " +
-           "conservative mesh of the DSM itself needs half a cell diagonal)";
-  throw InputError(request.names.waypoints, words.place, why);
+// Every waypoint above the ceiling or near a column, refused before the work on the mesh, in
+// the order the user has always been told them: the ceiling over the DSM, the columns, the
+// ceiling over the terrain.
+std::vector<PlanResult::Invalid> refused_before_planning(const FlightArea& area, const FlightQuery& query) {
+  const double max_agl = query.options.max_agl;
+  std::vector<PlanResult::Invalid> refused;
+  if (area.columns() && !area.terrain()) refused = above_ceiling(query.waypoints, area.ground(), max_agl);
+  if (refused.empty() && area.columns()) refused = near_columns(query.waypoints, *area.columns(), query.options.safety);
+  if (refused.empty() && area.terrain()) refused = above_ceiling(query.waypoints, *area.terrain(), max_agl);
+  return refused;
+}
+
+PlanResult refused(std::vector<PlanResult::Invalid> invalid) {
+  PlanResult result;
+  result.status = PlanStatus::InvalidWaypoint;
+  result.waypoint = invalid.front().waypoint;
+  result.reason = invalid.front().reason;
+  result.invalid = std::move(invalid);
+  return result;
 }
 
 // The figures measured on the path on their own, not taken from the planner (the numbers a user
 // checks the path by), and the verification against the data.
-void measure_flight(FlightPlan& out, const FlightRequest& request, const Grid& columns, const GroundGrid& ground,
-                    double max_agl) {
+void measure_flight(FlightPlan& out, const FlightArea& area, const FlightQuery& query) {
   FlightReport& report = out.report;
   const std::vector<Point3>& path = out.path;
   report.path_points = path.size();
   report.path_length_m = path_length(path);
-  const double cap = request.options.safety + max_agl;
+  const double cap = query.options.safety + query.options.max_agl;
   report.min_clearance_m = cap;
   for (size_t k = 1; k < path.size(); ++k)
     // Up to the least so far: the same minimum, without searching 100 m around every segment.
     report.min_clearance_m = out.index->clearance(path[k - 1], path[k], report.min_clearance_m);
-  verify(path, request.dsm ? &columns : nullptr, ground, request.options, cap, report,
-         request.dsm ? request.names.dsm : request.names.mesh);
-  if (const MissionSite* site = out.site ? &*out.site : nullptr) {
-    report.home = site->home;
-    report.takeoff_height_m = site->takeoff_top[2] - site->home[2];
-    report.mission_end = site->end == MissionEnd::rtl ? "rtl" : site->end == MissionEnd::land ? "land" : "none";
-  }
+  const FlightNames& names = area.data().names;
+  verify(path, area.columns(), area.ground(), query.options, cap, report, area.columns() ? names.dsm : names.mesh);
+  if (out.site) report_site(*out.site, report);
 }
 
 }  // namespace
+
+void report_site(const MissionSite& site, FlightReport& report) {
+  report.home = site.home;
+  report.takeoff_height_m = site.takeoff_top[2] - site.home[2];
+  report.mission_end = site.end == MissionEnd::rtl ? "rtl" : site.end == MissionEnd::land ? "land" : "none";
+}
+
+// ---- the area ----------------------------------------------------------------------------------
+
+struct FlightArea::Lazy {
+  std::once_flag built, keyed;
+  std::shared_ptr<const Mesh> obstacles;  // the mesh with the holes' columns joined
+  std::shared_ptr<const ClearanceIndex> index;
+  uint64_t key = 0;
+  // O(mesh), once: after the index is built (it makes `obstacles`).
+  uint64_t obstacles_key() {
+    std::call_once(keyed, [&] { key = mesh_fingerprint(*obstacles); });
+    return key;
+  }
+};
+
+FlightArea::FlightArea(FlightData data) : data_(std::move(data)), lazy_(std::make_unique<Lazy>()) {
+  const FlightNames& names = data_.names;
+  if (!data_.mesh) throw ArgumentError("mesh", "a flight needs the mesh (with a kept index, at least its CRS)");
+  const bool indexed = data_.index && !data_.dsm;  // the mesh's triangles are in the index
+  if (!indexed && data_.mesh->triangles.empty()) throw InputError(names.mesh, "", "the mesh has no triangles");
+  Extent e;
+  if (indexed) {  // the mesh was not read: the extent of its triangles
+    const ClearanceIndex::Footprint& f = data_.index->footprint();
+    e = {f.xmin, f.ymin, f.xmax, f.ymax};
+  } else {
+    for (const Vertex& v : data_.mesh->vertices)
+      e.xmin = std::min(e.xmin, v.x), e.ymin = std::min(e.ymin, v.y), e.xmax = std::max(e.xmax, v.x),
+      e.ymax = std::max(e.ymax, v.y);
+  }
+  if (const Grid* dsm = data_.dsm.get()) {
+    require_beside(*dsm, names.dsm, "DSM", crs(), e.xmin, e.ymin, e.xmax, e.ymax);
+    columns_ = *dsm;
+    fill_holes_from_rim(columns_, RimHeight::highest);
+    dsm_ground_ = std::make_shared<GroundGrid>(*dsm);
+    ColumnError above;
+    VerticalError below;
+    // A mesh of the filled DSM covers the holes: measured over every column. Else over the
+    // valid cells, the holes' columns joining the mesh exactly.
+    margin_ = column_margin(*data_.mesh, data_.mesh_fills_holes ? columns_ : *dsm, &above, &below);
+    mesh_max_below_ = below.max_below;
+    column_max_above_ = above.max_below;
+  }
+  if (data_.terrain) {
+    terrain_ = data_.terrain;
+  } else if (data_.dtm) {
+    require_beside(*data_.dtm, names.dtm, "DTM", crs(), e.xmin, e.ymin, e.xmax, e.ymax);
+    terrain_ = std::make_shared<GroundGrid>(*data_.dtm);
+  }
+}
+
+FlightArea::~FlightArea() = default;
+
+const ClearanceIndex& FlightArea::index() const { return *shared_index(); }
+
+std::shared_ptr<const ClearanceIndex> FlightArea::shared_index() const {
+  std::call_once(lazy_->built, [&] {
+    if (data_.index) {
+      lazy_->index = data_.index;
+      return;
+    }
+    lazy_->obstacles =
+        data_.dsm && !data_.mesh_fills_holes ? with_hole_columns(data_.mesh, *data_.dsm, columns_) : data_.mesh;
+    lazy_->index = std::make_shared<const ClearanceIndex>(*lazy_->obstacles);
+    if (data_.keep_index) data_.keep_index(*lazy_->index, lazy_->obstacles_key());
+  });
+  return lazy_->index;
+}
+
+uint64_t FlightArea::obstacles_key() const {
+  if (data_.index) return data_.index_fingerprint;
+  shared_index();
+  return lazy_->obstacles_key();
+}
+
+const GroundGrid& FlightArea::ground() const {
+  return terrain_ ? *terrain_ : dsm_ground_ ? *dsm_ground_ : index().floor();
+}
+
+const char* FlightArea::ground_name() const { return terrain_ ? "dtm" : dsm_ground_ ? "dsm" : "mesh floor"; }
+
+PlanOptions FlightArea::planner_options(const PlanOptions& options) const {
+  PlanOptions plan = options;
+  plan.ground = terrain_ ? terrain_ : dsm_ground_;
+  plan.safety += margin_;
+  return plan;
+}
+
+// ---- a flight ----------------------------------------------------------------------------------
+
+FlightAttempt attempt_flight(const FlightArea& area, const FlightQuery& query, const Progress& progress) {
+  const FlightData& data = area.data();
+  const FlightNames& names = data.names;
+  check_query(query, names);
+  const std::vector<Point3>& waypoints = query.waypoints;
+  Stopwatch clock;
+  FlightAttempt attempt;
+  FlightPlan& out = attempt.plan;
+  FlightReport& report = out.report;
+  report.planner = query.options.planner == PlannerKind::prm ? "prm" : "rrtconnect";
+  report.waypoint_count = waypoints.size();
+  report.ground = area.ground_name();
+  report.safety_margin_m = data.dsm ? area.safety_margin() : NAN;
+  report.mesh_max_below_dsm_m = area.mesh_max_below_dsm();
+  report.column_max_above_mesh_m = area.column_max_above_mesh();
+  if (std::vector<PlanResult::Invalid> invalid = refused_before_planning(area, query); !invalid.empty()) {
+    attempt.failure = refused(std::move(invalid));
+    return attempt;
+  }
+  report.index_reused = data.index != nullptr;
+  out.index = area.shared_index();
+  report.seconds_index = clock.lap();
+  const ClearanceIndex& index = *out.index;
+  const PlanOptions plan = area.planner_options(query.options);
+  // What a mission's straight items and vertical legs are held to: the DSM's columns when known,
+  // else the mesh; the ceiling over the ground in use.
+  const GroundGrid& ground = area.ground();
+  const double safety = query.options.safety;
+  const std::unique_ptr<ObstacleClearance> clearance =
+      area.columns() ? std::unique_ptr<ObstacleClearance>(std::make_unique<ColumnsClearance>(*area.columns(), safety))
+                     : std::make_unique<MeshClearance>(index, safety);
+  const FlightRules rules{clearance.get(), &ground, plan.max_agl};
+
+  std::vector<Point3> route = waypoints;
+  if (query.mission) {
+    const auto ground_z = [&](double x, double y) { return -ground.height_above({x, y, 0}); };
+    out.site = mission_site(*query.mission, waypoints, ground_z);
+    report.home_ground = report.ground;
+    report.home_ground_uncertainty_m = ground.spread_at(out.site->home[0], out.site->home[1]);
+  }
+  const MissionSite* site = out.site ? &*out.site : nullptr;
+  if (area.terrain()) {
+    const auto surface_z = [&](double x, double y) {
+      return area.columns() ? double(area.columns()->height_at(x, y)) : index.ground(x, y);
+    };
+    refuse_terrain_above(*area.terrain(), surface_z, waypoints, site, names.dtm,
+                         area.columns() ? "the DSM " + names.dsm : "the mesh " + names.mesh);
+  }
+  if (site) {
+    const auto dsm_z = [&](double x, double y) {
+      return area.columns() ? double(area.columns()->height_at(x, y)) : NAN;
+    };
+    check_vertical_legs(*site, waypoints, rules, dsm_z);
+    route = route_waypoints(waypoints, *site);
+  }
+  report.seconds_load = report.seconds_index + clock.lap();
+
+  const FlightStore& store = query.store;
+  const uint64_t roadmap_key =
+      store.kept_roadmap ? area.obstacles_key() ^ (plan.ground ? plan.ground->fingerprint() : 0) : 0;
+  PlanResult result = run_planner(index, route, plan, store, roadmap_key, report, clock, progress);
+  take_planner_figures(result, report);
+  if (result.status != PlanStatus::Solved) {
+    attempt.failure = std::move(result);
+    return attempt;
+  }
+  // A mission flies straight from item to item: as few items as keep the limits on those lines
+  // (before the clearance below is measured on them).
+  if (site || query.straight_legs) result.path = merge_straight_legs(result.path, route, rules);
+  out.path = std::move(result.path);
+  measure_flight(out, area, query);
+  attempt.solved = true;
+  return attempt;
+}
+
+FlightPlan plan_flight(const FlightArea& area, const FlightQuery& query, const Progress& progress) {
+  FlightAttempt attempt = attempt_flight(area, query, progress);
+  if (attempt.solved) return std::move(attempt.plan);
+  const FlightPlan& out = attempt.plan;
+  const MissionSite* site = out.site ? &*out.site : nullptr;
+  FailureInWords words = failure_in_words(attempt.failure, site, query.waypoints.size());
+  // Worth a word only when the mesh does not fit its DSM (more than a conservative mesh needs).
+  const Grid* columns = area.columns();
+  const double half_diagonal = columns ? std::hypot(columns->cell_x, columns->cell_y) / 2 : INFINITY;
+  if (out.report.safety_margin_m > half_diagonal + 1e-9)
+    words.why += " (on the mesh the safety distance is --safety " + two_decimals(query.options.safety) +
+                 " widened by " + two_decimals(out.report.safety_margin_m) +
+                 " m, as far as the DSM's columns may lie inside this mesh; a " +
+                 "conservative mesh of the DSM itself needs half a cell diagonal)";
+  throw InputError(area.data().names.waypoints, words.place, words.why);
+}
+
+FlightPlan plan_flight(const FlightRequest& request, const Progress& progress) {
+  check_query(request, request.names);  // before the data are read through
+  Stopwatch clock;
+  const FlightArea area(request);
+  const double prepared = clock.lap();
+  FlightPlan out = plan_flight(area, request, progress);
+  out.report.seconds_load += prepared;
+  return out;
+}
 
 void refuse_terrain_above(const GroundGrid& terrain, const std::function<double(double, double)>& surface_z,
                           const std::vector<Point3>& waypoints, const MissionSite* site,
@@ -238,95 +400,6 @@ void refuse_terrain_above(const GroundGrid& terrain, const std::function<double(
   if (site && site->end == MissionEnd::land) places.push_back({"the landing", site->land[0], site->land[1]});
   if (const auto problem = terrain_above_surface(terrain, surface_z, places, surface_name))
     throw InputError(terrain_name, problem->place, problem->problem);
-}
-
-void refuse_waypoints(const std::string& file, const std::vector<PlanResult::Invalid>& invalid) {
-  if (invalid.empty()) return;
-  throw InputError(file, "waypoint " + std::to_string(invalid.front().waypoint + 1), waypoint_problems(invalid));
-}
-
-FlightPlan plan_flight(const FlightRequest& request, const Progress& progress) {
-  const FlightNames& names = request.names;
-  const std::vector<Point3>& waypoints = request.waypoints;
-  check_plan_options(request.options);
-  if (!request.mesh) throw ArgumentError("mesh", "a flight needs the mesh (with a kept index, at least its CRS)");
-  if (waypoints.size() < 2)
-    throw InputError(names.waypoints, "",
-                     "a path needs at least two waypoints, the file has " + std::to_string(waypoints.size()));
-  const bool indexed = request.index && !request.dsm;  // the mesh's triangles are in the index
-  if (!indexed && request.mesh->triangles.empty()) throw InputError(names.mesh, "", "the mesh has no triangles");
-  Stopwatch clock;
-  FlightPlan out;
-  FlightReport& report = out.report;
-  report.planner = request.options.planner == PlannerKind::prm ? "prm" : "rrtconnect";
-  report.waypoint_count = waypoints.size();
-  const Crs& crs = request.mesh->crs;
-  PlanOptions plan = request.options;
-  plan.ground = nullptr;
-  const Extent extent = extent_of(request);
-
-  const Obstacles obstacles = hold_to_dsm(request, extent, plan, report);
-  const Grid& columns = obstacles.columns;
-  if (request.dtm) {
-    require_beside(*request.dtm, names.dtm, "DTM", crs, extent.xmin, extent.ymin, extent.xmax, extent.ymax);
-    plan.ground = std::make_shared<GroundGrid>(*request.dtm);
-    refuse_above_ceiling(waypoints, *plan.ground, plan.max_agl, names.waypoints);
-  }
-  report.index_reused = request.index != nullptr;
-  out.index = request.index ? request.index : std::make_shared<const ClearanceIndex>(*obstacles.mesh);
-  // Kept files are named by the obstacles (the mesh and the DSM's holes' columns); a kept index holds it.
-  const FlightStore& store = request.store;
-  std::optional<uint64_t> fingerprint;  // O(mesh): computed once, when a kept file asks for it
-  const auto obstacles_key = [&] {
-    if (!fingerprint) fingerprint = request.index ? request.index_fingerprint : mesh_fingerprint(*obstacles.mesh);
-    return *fingerprint;
-  };
-  if (!request.index && store.keep_index) store.keep_index(*out.index, obstacles_key());
-  const ClearanceIndex& index = *out.index;
-  report.ground = request.dtm ? "dtm" : request.dsm ? "dsm" : "mesh floor";
-  // What a mission's straight items and vertical legs are held to: the DSM's columns when known,
-  // else the mesh; the ceiling over the ground in use.
-  const GroundGrid& ground = plan.ground ? *plan.ground : index.floor();
-  const double safety = request.options.safety;
-  const std::unique_ptr<ObstacleClearance> clearance =
-      request.dsm ? std::unique_ptr<ObstacleClearance>(std::make_unique<ColumnsClearance>(columns, safety))
-                  : std::make_unique<MeshClearance>(index, safety);
-  const FlightRules rules{clearance.get(), &ground, plan.max_agl};
-
-  std::vector<Point3> route = waypoints;
-  if (request.mission) {
-    const auto ground_z = [&](double x, double y) { return -ground.height_above({x, y, 0}); };
-    out.site = mission_site(*request.mission, waypoints, ground_z);
-    report.home_ground = report.ground;
-    report.home_ground_uncertainty_m = ground.spread_at(out.site->home[0], out.site->home[1]);
-  }
-  const MissionSite* site = out.site ? &*out.site : nullptr;
-  if (request.dtm) {
-    const auto surface_z = [&](double x, double y) {
-      return request.dsm ? double(columns.height_at(x, y)) : index.ground(x, y);
-    };
-    refuse_terrain_above(*plan.ground, surface_z, waypoints, site, names.dtm,
-                         request.dsm ? "the DSM " + names.dsm : "the mesh " + names.mesh);
-  }
-  if (site) {
-    const auto dsm_z = [&](double x, double y) { return request.dsm ? double(columns.height_at(x, y)) : NAN; };
-    check_vertical_legs(*site, waypoints, rules, dsm_z);
-    route = route_waypoints(waypoints, *site);
-  }
-  report.seconds_load = clock.lap();
-
-  const uint64_t roadmap_key =
-      store.kept_roadmap ? obstacles_key() ^ (plan.ground ? plan.ground->fingerprint() : 0) : 0;
-  PlanResult result = run_planner(index, route, plan, store, roadmap_key, report, clock, progress);
-  take_planner_figures(result, report);
-  if (result.status != PlanStatus::Solved) refuse_no_path(result, site, request, report, obstacles.half_diagonal);
-  // A mission flies straight from item to item: as few items as keep the limits on those lines
-  // (before the clearance below is measured on them).
-  if (site) result.path = merge_straight_legs(result.path, route, rules);
-  out.path = std::move(result.path);
-
-  measure_flight(out, request, columns, ground, plan.max_agl);
-  return out;
 }
 
 }  // namespace dsmplan

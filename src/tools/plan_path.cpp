@@ -152,101 +152,17 @@ MissionEnds mission_ends(const MissionJobOptions& options, const Transforms& t) 
   return ends;
 }
 
-// The corridor's ground under home, for a mission: the DTM, else the DSM read a cell at a time.
-double corridor_ground(GridSource& city, const GroundGrid* terrain, double x, double y) {
-  if (terrain) return -terrain->height_above({x, y, 0});
-  int col = 0, row = 0;
-  if (!city.frame().cell_at(x, y, col, row)) return NAN;
-  return read_window(city, col, row, 1, 1).z[0];
-}
-
-// The DSM's 3 x 3 cells around home: how uncertain its ground is (GroundGrid::spread_at()).
-double corridor_home_spread(GridSource& city, const GroundGrid* terrain, const Point3& home) {
-  if (terrain) return terrain->spread_at(home[0], home[1]);
-  const Grid& frame = city.frame();
-  int col = 0, row = 0;
-  frame.cell_at(home[0], home[1], col, row);
-  const int c0 = std::max(0, col - 1), r0 = std::max(0, row - 1);
-  const GroundGrid around(
-      read_window(city, c0, r0, std::min(frame.width, col + 2) - c0, std::min(frame.height, row + 2) - r0));
-  return around.spread_at(home[0], home[1]);
-}
-
-// The DTM against the DSM a row at a time: the comparison walks its lattice row by row.
-void check_corridor_terrain(GridSource& city, const GroundGrid& terrain, const std::vector<Point3>& waypoints,
-                            const MissionSite* site, const PlanJobOptions& options) {
-  const Grid& frame = city.frame();
-  std::vector<float> heights(frame.width);
-  int row_read = -1;
-  const auto surface_z = [&](double x, double y) {
-    int col = 0, row = 0;
-    if (!frame.cell_at(x, y, col, row)) return double(NAN);
-    if (row != row_read) city.read(0, row, frame.width, 1, heights.data()), row_read = row;
-    return double(heights[col]);
-  };
-  refuse_terrain_above(terrain, surface_z, waypoints, site, options.dtm, "the DSM " + options.mesh);
-}
-
 // A DSM (raster, VRT mosaic) instead of a mesh: planned along a corridor, window by window.
 FlightPlan plan_along_corridor(GridSource& city, const std::vector<Point3>& waypoints, const PlanJobOptions& options,
                                const Transforms& t, bool mission, const Progress& progress) {
-  Stopwatch clock;
-  FlightPlan out;
-  FlightReport& report = out.report;
-  CorridorOptions along = options.corridor;
-  const Grid& frame = city.frame();
-  if (!options.dtm.empty()) {
-    const Grid dtm = read_raster(options.dtm);
-    require_beside(dtm, options.dtm, "DTM", frame.crs, frame.x0, frame.y1(), frame.x1(), frame.y0);
-    along.terrain = std::make_shared<GroundGrid>(dtm);
-  }
-  report.ground = options.dtm.empty() ? "dsm" : "dtm";
-  std::vector<Point3> route = waypoints;
-  if (mission) {
-    // A mission flies straight from item to item: dropped before measuring.
-    along.finish_piece = [](const std::vector<Point3>& path) { return drop_straight_points(path, 0.01); };
-    const GroundGrid* terrain = along.terrain.get();
-    out.site = mission_site(mission_ends(options.mission, t), waypoints,
-                            [&](double x, double y) { return corridor_ground(city, terrain, x, y); });
-    report.home_ground = report.ground;
-    report.home_ground_uncertainty_m = corridor_home_spread(city, terrain, out.site->home);
-  }
-  const MissionSite* site = out.site ? &*out.site : nullptr;
-  if (along.terrain) check_corridor_terrain(city, *along.terrain, waypoints, site, options);
-  if (site) {
-    check_vertical_legs_in(city, *site, waypoints, options.plan.safety);
-    route = route_waypoints(waypoints, *site);
-  }
-  report.seconds_load = clock.lap();
-  const CorridorResult planned = plan_corridor(city, route, options.plan, along, sub_progress(progress, 0, 0.95));
-  const PlanResult& result = planned.plan;
-  report.seconds_load += planned.seconds_windows;
-  report.roadmap_nodes = result.roadmap_nodes, report.roadmap_edges = result.roadmap_edges;
-  report.seconds_roadmap = result.seconds_roadmap, report.seconds_query = result.seconds_query;
-  report.seconds_smooth = result.seconds_smooth, report.refined_samples = result.refined_samples;
-  report.corridor_windows = planned.windows;
-  report.corridor_largest_window_cells = planned.largest_window_cells;
-  if (result.status != PlanStatus::Solved) {
-    const FailureInWords words = failure_in_words(result, site, waypoints.size());
-    throw InputError(options.waypoints, words.place, words.why);
-  }
-  out.path = result.path;
-  report.min_clearance_m = planned.min_clearance_m;
-  // The windows' meshes enclose the columns (plan_corridor()): held to the same limits as --dsm.
-  report.min_clearance_dsm_m = planned.min_clearance_dsm_m;
-  report.mesh_max_below_dsm_m = planned.mesh_error.max_below;
-  report.safety_margin_m = planned.safety_margin_m;
-  report.dsm_tolerance_m = 0.01;
-  report.max_agl_m = planned.max_agl_m;
-  if (!(report.min_clearance_dsm_m >= options.plan.safety - report.dsm_tolerance_m))
-    throw InputError(options.mesh, "",
-                     "the path comes within " + two_decimals(report.min_clearance_dsm_m) +
-                         " m of the DSM's columns, less than --safety; a bug, please report it; nothing written");
-  if (!(report.max_agl_m <= options.plan.max_agl + 0.05))
-    throw InputError(options.mesh, "",
-                     "the path rises " + two_decimals(report.max_agl_m) +
-                         " m above the ground, above --max-agl; a bug, please report it; nothing written");
-  return out;
+  CorridorRequest request;
+  request.waypoints = waypoints;
+  request.options = options.plan;
+  if (mission) request.mission = mission_ends(options.mission, t);
+  if (!options.dtm.empty()) request.dtm = std::make_shared<const Grid>(read_raster(options.dtm));
+  request.corridor = options.corridor;
+  request.names = {options.mesh, options.waypoints, options.mesh, options.dtm};
+  return plan_flight_along(city, request, progress);
 }
 
 // The files of a mesh plan read into the stage's request, and what names a kept index.
@@ -292,23 +208,25 @@ ReadRequest read_flight_request(const PlanJobOptions& options, std::vector<Point
   if (!options.dtm.empty()) request.dtm = std::make_shared<const Grid>(read_raster(options.dtm));
   read.index_key = obstacle_key(mesh_file_hash, request.dsm.get());
   if (!options.index.empty() && request.dsm) open_kept(read.index_key);
+  if (!options.index.empty())  // written as soon as it is built
+    request.keep_index = [path = options.index, key = read.index_key](const ClearanceIndex& index,
+                                                                      uint64_t fingerprint) {
+      index.save(path, {key, fingerprint});
+    };
   read.seconds = clock.lap();
   return read;
 }
 
-// The kept files: the index written as soon as it is built, the roadmap read when it exists
-// (and fits this mesh, ground and options), else built and written there.
-FlightStore file_store(const PlanJobOptions& options, uint64_t index_key) {
+// The kept roadmap: read when its file exists (and fits this mesh, ground and options), else
+// built and written there.
+FlightStore file_store(const PlanJobOptions& options) {
   FlightStore store;
-  if (!options.index.empty())
-    store.keep_index = [path = options.index, index_key](const ClearanceIndex& index, uint64_t fingerprint) {
-      index.save(path, {index_key, fingerprint});
-    };
   if (options.roadmap.empty()) return store;
-  store.kept_roadmap = [path = options.roadmap](uint64_t key, const PlanOptions& plan) -> std::optional<Roadmap> {
+  store.kept_roadmap = [path = options.roadmap](uint64_t key,
+                                                const PlanOptions& plan) -> std::shared_ptr<const Roadmap> {
     require_input_file(path);  // before asking whether it can be opened: a FIFO would wait
-    if (!std::ifstream(path).good()) return std::nullopt;
-    return read_roadmap(path, key, plan);
+    if (!std::ifstream(path).good()) return nullptr;
+    return std::make_shared<const Roadmap>(read_roadmap(path, key, plan));
   };
   store.keep_roadmap = [path = options.roadmap](const Roadmap& map, uint64_t key, const PlanOptions& plan) {
     write_roadmap(path, map, key, plan);
@@ -408,7 +326,7 @@ PlanReport plan_job(const PlanJobOptions& options, const Progress& progress) {
       for (Point3& p : request.waypoints) p = t.wgs84->from_wgs84(p);
     waypoints = request.waypoints;
     if (outputs.mission) request.mission = mission_ends(options.mission, t);
-    request.store = file_store(options, read.index_key);
+    request.store = file_store(options);
     const double before = clock.lap();
     flight = plan_flight(request, sub_progress(progress, 0.2, 0.95));
     flight.report.seconds_load += before;

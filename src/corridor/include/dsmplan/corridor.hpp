@@ -12,6 +12,7 @@
 #include <string>
 #include <vector>
 
+#include "dsmplan/flight.hpp"
 #include "dsmplan/plan.hpp"
 #include "dsmplan/raster.hpp"
 #include "dsmplan/simplify.hpp"
@@ -28,18 +29,19 @@ namespace dsmplan {
 // the window. The point where two pieces meet (a "via" point, on the straight line of the leg)
 // is put at the lowest height, in whole metres above safety over the higher of the two
 // windows' surfaces, that keeps the safety distance from both windows' meshes and stays under
-// max_agl; the path passes through it. Each piece is planned by plan_path() on its window and
-// measured there: clearance to the window's mesh, and to the window's DSM columns
-// (column_clearance()). Rectangular windows keep every straight segment of a piece over known
-// ground. Memory: two windows, O((chunk + 2 margin)^2 cells) whatever the city's size.
+// max_agl; the path passes through it. Each piece is a flight of its own over its window
+// (attempt_flight() on a FlightArea of the window's DSM and mesh): held to every rule of the plan
+// stage and verified against the window's DSM columns. Rectangular windows keep every straight
+// segment of a piece over known ground. Memory: two windows, O((chunk + 2 margin)^2 cells)
+// whatever the city's size.
 
 struct CorridorOptions {
   BoundedSimplifyOptions mesh;  ///< the windows' meshes; conservative is forced on
   double chunk = 1000;          ///< longest piece of a leg planned in one window (x,y), CRS units
   double margin = 150;          ///< flight area around a piece's x,y box, CRS units
-  /// Applied to each piece's path before it is measured and joined (the tool drops the points
-  /// on straight runs for missions); empty: none.
-  std::function<std::vector<Point3>(const std::vector<Point3>&)> finish_piece;
+  /// Each piece flown as the fewest straight legs that keep every limit (FlightQuery::straight_legs),
+  /// as a mission flies.
+  bool straight_legs = false;
   /// The ground --max-agl counts from (a DTM); null: each window's DSM cells.
   std::shared_ptr<const GroundGrid> terrain;
 };
@@ -60,7 +62,21 @@ struct CorridorResult {
 /// ArgumentError for bad options (chunk or margin <= 0) and what simplify_bounded() throws for
 /// a window; a waypoint outside the DSM or no safe via point gives status InvalidWaypoint/NoPath
 /// with the place and the reason, like plan_path().
+/// `names` name the inputs in the messages of a piece's flight (names.mesh: the DSM's file).
 CorridorResult plan_corridor(GridSource& dsm, const std::vector<Point3>& waypoints, const PlanOptions& plan,
-                             const CorridorOptions& options, const Progress& progress = {});
+                             const CorridorOptions& options, const Progress& progress = {},
+                             const FlightNames& names = {});
+
+/// plan_flight() for a DSM too large to mesh whole: one flight along a corridor of `dsm`, with the
+/// same rules and the same answer (FlightPlan, its report's corridor figures set). The DTM is
+/// checked beside and below the DSM (read a row at a time), a mission's home and landing against
+/// the DSM read around them; each piece is verified on its window. Errors as plan_flight(), and
+/// ArgumentError for bad corridor options. `dtm`: optional.
+struct CorridorRequest : FlightQuery {
+  std::shared_ptr<const Grid> dtm;
+  CorridorOptions corridor;
+  FlightNames names;  ///< names.mesh: the DSM
+};
+FlightPlan plan_flight_along(GridSource& dsm, const CorridorRequest& request, const Progress& progress = {});
 
 }  // namespace dsmplan

@@ -71,19 +71,15 @@ struct MissionSite {
 
 // ---- the request -------------------------------------------------------------------------------
 
-/// Where a face keeps what a plan builds, for the next run (files for the command line, memory
-/// for a service). Each member may be empty. `key` names what a thing was built from: a roadmap
-/// by the obstacles' mesh_fingerprint() and the ground's GroundGrid::fingerprint() (xor), an index
-/// by the obstacles' mesh_fingerprint().
+/// Where a face keeps the roadmaps a plan builds, for the next run (a file for the command line,
+/// memory for a service). Both members may be empty. `key` names what a roadmap was built from:
+/// the obstacles (FlightArea::obstacles_key()) xor the ground (GroundGrid::fingerprint()).
 struct FlightStore {
-  /// A roadmap kept for `key` and these options, or std::nullopt to build one. When this member is
+  /// A roadmap kept for `key` and these options, or null to build one. When this member is
   /// empty no roadmap is kept, and the planner builds its own (plan_path()).
-  std::function<std::optional<Roadmap>(uint64_t key, const PlanOptions& options)> kept_roadmap;
+  std::function<std::shared_ptr<const Roadmap>(uint64_t key, const PlanOptions& options)> kept_roadmap;
   /// Given the roadmap built when kept_roadmap() had none.
   std::function<void(const Roadmap& map, uint64_t key, const PlanOptions& options)> keep_roadmap;
-  /// Given the clearance index as soon as it is built (before planning: it depends on the mesh
-  /// and the DSM only).
-  std::function<void(const ClearanceIndex& index, uint64_t key)> keep_index;
 };
 
 /// Names of the inputs, for the messages that refuse them (file names on the command line).
@@ -91,31 +87,97 @@ struct FlightNames {
   std::string mesh = "the mesh", waypoints = "the waypoints", dsm = "the DSM", dtm = "the DTM";
 };
 
-struct FlightRequest {
+/// The data flights are planned over.
+struct FlightData {
   /// The obstacles: a 2.5D mesh in a projected CRS. With `index` given and no DSM, only its CRS
   /// is used (the triangles may be left unread: read_mesh_crs()).
   std::shared_ptr<const Mesh> mesh;
-  /// A clearance index kept from an earlier plan_flight() over this very mesh (and DSM:
-  /// obstacle_key() names it), and the fingerprint FlightStore::keep_index was given with it;
-  /// null: built from the mesh.
+  /// A clearance index kept from an earlier plan over this very mesh (and DSM: obstacle_key()
+  /// names it), and the fingerprint `keep_index` was given with it; null: built from the mesh.
   std::shared_ptr<const ClearanceIndex> index;
   uint64_t index_fingerprint = 0;
   /// The raw DSM (the mesh's CRS, covering the mesh): every point of the path keeps `safety` from
   /// its columns (columns.hpp), planned with the safety widened by how far the mesh lies inside
   /// them (column_margin()). Optional.
   std::shared_ptr<const Grid> dsm;
+  /// The mesh was made of `dsm` with its holes filled (fill_holes_from_rim(), RimHeight::highest),
+  /// as a corridor's windows are: the safety's widening is measured over every column, and no
+  /// hole's column is joined to the mesh. False: the mesh leaves the holes void, and their columns
+  /// join it (hole_columns()).
+  bool mesh_fills_holes = false;
   /// The terrain (the mesh's CRS, any resolution): the ground max_agl counts from. Optional:
   /// without it the DSM's cells, else the mesh's floor.
   std::shared_ptr<const Grid> dtm;
+  /// The terrain already made a GroundGrid, instead of `dtm` (built once for many areas: a
+  /// corridor's windows).
+  std::shared_ptr<const GroundGrid> terrain;
+  FlightNames names;
+  /// Given the clearance index as soon as it is built, with the obstacles' key.
+  std::function<void(const ClearanceIndex& index, uint64_t key)> keep_index;
+};
+
+/// One flight over the data: the waypoints and the limits.
+struct FlightQuery {
   std::vector<Point3> waypoints;  ///< x, y, z in the mesh's CRS, at least two
-  /// Planner, safety, ceiling, constraints (no-fly zones). `ground` is set by plan_flight() from
-  /// the DTM or DSM.
+  /// Planner, safety, ceiling, constraints (no-fly zones). `ground` is set from the data.
   PlanOptions options;
   /// A mission: a takeoff from home, the end, and the fewest straight legs that keep every
   /// limit (merge_straight_legs()). Unset: the path alone.
   std::optional<MissionEnds> mission;
+  /// Fly straight from item to item without a mission of its own (a corridor's pieces of one).
+  bool straight_legs = false;
   FlightStore store;
-  FlightNames names;
+};
+
+/// Everything one flight needs: the data and the query.
+struct FlightRequest : FlightData, FlightQuery {};
+
+/// FlightData checked against itself and made ready for many flights: the DSM's columns (holes
+/// as high as their rim), the ground, how far the safety is widened on the mesh, and the
+/// clearance index (built on first use, then given to FlightData::keep_index). Immutable but for
+/// that first build, which is done once under a lock: one area answers many plan_flight() calls
+/// from many threads. Errors: InputError(names.mesh/dsm/dtm) for data that disagree: a DTM or DSM
+/// in another CRS than the mesh, one that does not overlap it, a DSM that does not cover it, a
+/// mesh without triangles.
+class FlightArea {
+public:
+  explicit FlightArea(FlightData data);
+  ~FlightArea();
+  FlightArea(const FlightArea&) = delete;
+  FlightArea& operator=(const FlightArea&) = delete;
+
+  const FlightData& data() const { return data_; }
+  const Crs& crs() const { return data_.mesh->crs; }
+  /// The DSM's columns, holes as high as their rim; null without a DSM.
+  const Grid* columns() const { return data_.dsm ? &columns_ : nullptr; }
+  /// The terrain (the DTM) max_agl counts from; null without one.
+  const GroundGrid* terrain() const { return terrain_.get(); }
+  /// The ground max_agl counts from: the terrain, the DSM's cells, or the mesh's floor; and its name
+  /// ("dtm", "dsm", "mesh floor").
+  const GroundGrid& ground() const;
+  const char* ground_name() const;
+  /// Added to the safety distance on the mesh so that it holds against the columns (0 without a DSM).
+  double safety_margin() const { return margin_; }
+  /// The clearance index: the data's, or built now (the first call) from the mesh and the holes' columns.
+  const ClearanceIndex& index() const;
+  std::shared_ptr<const ClearanceIndex> shared_index() const;
+  /// What kept files are named by: mesh_fingerprint() of the obstacles (O(mesh), once), or the
+  /// kept index's.
+  uint64_t obstacles_key() const;
+  /// The options the planner runs with: `options` with the ground set and the safety widened.
+  PlanOptions planner_options(const PlanOptions& options) const;
+  /// With a DSM: the mesh's certified depth below it, and the most a column rises above the mesh
+  /// (column_margin()'s two measures); NaN without.
+  double mesh_max_below_dsm() const { return mesh_max_below_; }
+  double column_max_above_mesh() const { return column_max_above_; }
+
+private:
+  FlightData data_;
+  Grid columns_;
+  std::shared_ptr<const GroundGrid> terrain_, dsm_ground_;
+  double margin_ = 0, mesh_max_below_ = NAN, column_max_above_ = NAN;
+  struct Lazy;
+  std::unique_ptr<Lazy> lazy_;
 };
 
 /// The key a kept index is named by: the mesh's own key (e.g. a hash of its file) and, when there
@@ -154,7 +216,7 @@ struct FlightReport {
   std::string ground;
   size_t roadmap_nodes = 0, roadmap_edges = 0;
   bool roadmap_reused = false;  ///< the roadmap came from FlightStore::kept_roadmap
-  bool index_reused = false;    ///< the clearance index came with the request
+  bool index_reused = false;    ///< the clearance index came with the data
   size_t refined_samples = 0;   ///< samples the query added where the roadmap failed a leg (plan.hpp)
   std::string planner = "prm";
   size_t corridor_windows = 0;               ///< planned along a corridor: windows (0: a mesh)
@@ -173,22 +235,41 @@ struct FlightReport {
   std::string mission_end;  ///< rtl, land or none (missions only)
 };
 
+/// A mission's site in its report: home, the takeoff's height, the end.
+void report_site(const MissionSite& site, FlightReport& report);
+
 struct FlightPlan {
   /// The path through every waypoint, in order; a mission's from the top of the takeoff above
   /// home (or the first waypoint) with the fewest straight legs that keep every limit.
   std::vector<Point3> path;
   std::optional<MissionSite> site;  ///< missions: home, takeoff, landing
   FlightReport report;
-  /// The clearance index planned on (the request's, or built: FlightStore::keep_index had it).
+  /// The clearance index planned on (the data's, or built: FlightData::keep_index had it).
   std::shared_ptr<const ClearanceIndex> index;
 };
 
-/// Plans the request and verifies the path against the data, as the top of this header says.
+/// Plans the request and verifies the path against the data, as the top of this header says:
+/// FlightArea(request) then plan_flight(area, request).
 /// Errors: ArgumentError for options out of range (check_plan_options()) or a home or landing
 /// that cannot be flown ("--home", "--end"); InputError(names.waypoints, "waypoint N" or
 /// "waypoints N to M", why) for waypoints that cannot be flown to or legs without a path;
 /// InputError(names.dsm / names.dtm / names.mesh, ...) for data that disagree. Deterministic.
 FlightPlan plan_flight(const FlightRequest& request, const Progress& progress = {});
+
+/// One flight over a prepared area (many may run at once over one area). Errors as above.
+FlightPlan plan_flight(const FlightArea& area, const FlightQuery& query, const Progress& progress = {});
+
+/// A flight whose failure is a value, for a caller that words it itself (a corridor numbers its
+/// windows' ends as the user's legs): waypoints refused and legs without a path come back in
+/// `failure` (InvalidWaypoint, every refused waypoint listed, or NoPath), numbered along the
+/// route the planner flew: failure_in_words(failure, plan.site ? &*plan.site : nullptr, count of
+/// the query's waypoints) says it in the user's words. Other errors throw as plan_flight().
+struct FlightAttempt {
+  bool solved = false;
+  FlightPlan plan;     ///< solved: the flight; else its site when a mission's was made, and the figures so far
+  PlanResult failure;  ///< not solved: why
+};
+FlightAttempt attempt_flight(const FlightArea& area, const FlightQuery& query, const Progress& progress = {});
 
 // ---- the rules, one implementation each ------------------------------------------------------
 
@@ -284,10 +365,6 @@ FailureInWords failure_in_words(const PlanResult& result, const MissionSite* sit
 void refuse_terrain_above(const GroundGrid& terrain, const std::function<double(double, double)>& surface_z,
                           const std::vector<Point3>& waypoints, const MissionSite* site,
                           const std::string& terrain_name, const std::string& surface_name);
-
-/// InputError(file, place, problem) naming every waypoint of `invalid` in one line (the first is
-/// the place), when any.
-void refuse_waypoints(const std::string& file, const std::vector<PlanResult::Invalid>& invalid);
 
 /// The measures of a path, each defined once: the greatest height above `ground` (exact, per
 /// segment: GroundGrid::max_height_above()) with the segment where it is reached (1-based), and,
