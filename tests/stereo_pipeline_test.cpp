@@ -471,6 +471,115 @@ TEST(StereoPipeline, ReversedPairAndThreeViewsFusedByTheMedian) {
   EXPECT_LT(e.over3, 0.05);
 }
 
+// No pair sinks the job (issue 34, point 1). A pair whose search is wider than one SGM pass is
+// matched in disparity windows: forced here with a height range 50 m too low and 25 m too high
+// (an estimate gone wide) and windows of 64 disparities, the DSM must be as good against the
+// truth as with the true range (the thresholds above) and agree with the whole search's in nearly
+// every cell. With no windows allowed, the pair that needs more is left out with its problem, the
+// other matched; when every pair is over, one error names them all.
+TEST(StereoPipeline, PairOverTheBudgetSearchedInWindowsOrLeftOut) {
+  RenderedScene& scene = rendered_scene();
+  const std::vector<GreyImage> images = scene.views(3);
+  const std::array<double, 4> bounds{scene.truth.x0, scene.truth.y1(), scene.truth.x1(), scene.truth.y0};
+  FrameStereoOptions options;
+  options.rectify.min_height = scene.lo - 50;
+  options.rectify.max_height = scene.hi + 25;
+  const int wide = rectify_cameras(scene.cameras[0], scene.cameras[1], options.rectify).num_disparities;
+  const int narrow = rectify_cameras(scene.cameras[0], scene.cameras[2], options.rectify).num_disparities;
+  ASSERT_GT(wide, 96) << "the pair must need three windows of 64 or more";
+  ASSERT_LT(narrow, wide);
+
+  Grid whole = dsm_grid(bounds, 1.0);
+  const FrameStereoStats whole_stats = stereo_dsm(scene.cameras, images, {{0, 1}}, whole, options);
+  ASSERT_EQ(whole_stats.pair_stats.size(), 1u);
+  EXPECT_EQ(whole_stats.pair_stats[0].windows, 1);
+  options.rectify.max_disparities = 64;
+  Grid split = dsm_grid(bounds, 1.0);
+  const FrameStereoStats split_stats = stereo_dsm(scene.cameras, images, {{0, 1}}, split, options);
+  const FramePairStats& pair = split_stats.pair_stats.at(0);
+  EXPECT_TRUE(pair.used);
+  EXPECT_EQ(pair.windows, static_cast<int>(disparity_windows(wide, 64).size()));
+  EXPECT_GE(pair.windows, 3);
+  EXPECT_EQ(pair.num_disparities, wide);
+  EXPECT_GT(pair.pixels, pair.matched_pixels);
+  const DsmErrors w = dsm_errors(whole, scene.truth), e = dsm_errors(split, scene.truth);
+  size_t both = 0, close = 0;
+  for (size_t i = 0; i < whole.z.size(); ++i)
+    if (!std::isnan(whole.z[i]) && !std::isnan(split.z[i])) ++both, close += std::abs(whole.z[i] - split.z[i]) <= 0.5;
+  std::printf(
+      "pair 0-1, %d disparities: whole search vs %d windows of 64: completeness %.1f / %.1f %%, median |error| "
+      "%.3f / %.3f m, > 1 m %.1f / %.1f %%, > 3 m %.1f / %.1f %%; matched %.1f / %.1f %% of the pixels, %zu "
+      "conflicts; %.1f %% of the cells valid in both within 0.5 m\n",
+      wide, pair.windows, 100 * w.completeness, 100 * e.completeness, w.median, e.median, 100 * w.over1, 100 * e.over1,
+      100 * w.over3, 100 * e.over3, 100.0 * whole_stats.pair_stats[0].matched_pixels / whole_stats.pair_stats[0].pixels,
+      100.0 * pair.matched_pixels / pair.pixels, pair.window_conflicts, 100.0 * close / both);
+  EXPECT_GT(e.completeness, 0.85);
+  EXPECT_LT(e.median, 0.3);
+  EXPECT_LT(e.over1, 0.15);
+  EXPECT_LT(e.over3, 0.05);
+  EXPECT_GT(double(close) / double(both), 0.95);
+
+  // No windows, a budget between the two pairs' needs: 0-1 left out, 0-2 matched.
+  options.rectify.max_windows = 1;
+  options.rectify.max_disparities = (narrow + 15) / 16 * 16;
+  ASSERT_LT(options.rectify.max_disparities, wide);
+  Grid one = dsm_grid(bounds, 1.0);
+  const FrameStereoStats one_stats = stereo_dsm(scene.cameras, images, {{0, 1}, {0, 2}}, one, options);
+  ASSERT_EQ(one_stats.pair_stats.size(), 2u);
+  EXPECT_EQ(one_stats.pairs, 1u);
+  EXPECT_FALSE(one_stats.pair_stats[0].used);
+  EXPECT_NE(one_stats.pair_stats[0].problem.find("needs " + std::to_string(wide) + " disparities"), std::string::npos)
+      << one_stats.pair_stats[0].problem;
+  EXPECT_TRUE(one_stats.pair_stats[1].used);
+  EXPECT_EQ(one_stats.matched_pixels, one_stats.pair_stats[1].matched_pixels);
+  EXPECT_GT(dsm_errors(one, scene.truth).completeness, 0.8);
+  options.rectify.max_disparities = 32;
+  try {
+    stereo_dsm(scene.cameras, images, {{0, 1}, {0, 2}}, one, options);
+    ADD_FAILURE() << "no error";
+  } catch (const InputError& error) {
+    const std::string message = error.what();
+    EXPECT_NE(message.find("no pair left to match (cameras 0 and 1: the height range needs"), std::string::npos)
+        << message;
+    EXPECT_NE(message.find("; cameras 0 and 2: "), std::string::npos) << message;
+  }
+}
+
+// The windows' split and merge, against their definitions counted by hand.
+TEST(StereoPipeline, DisparityWindowsTileTheRangeAndDropConflicts) {
+  EXPECT_EQ(disparity_windows(100, 512).size(), 1u);
+  for (const int total : {513, 912, 2048, 1000}) {
+    const auto windows = disparity_windows(total, 512);
+    EXPECT_EQ(windows.size(), static_cast<size_t>((total + 479) / 480)) << total;
+    // Every whole disparity of the range is in exactly one core, and searched by its window with
+    // at least kWindowMargin on either side (but at the range's ends).
+    for (int d = 0; d < total; ++d) {
+      int cores = 0;
+      for (const DisparityWindow& w : windows) {
+        EXPECT_LE(w.num_disparities, 512);
+        if (d >= w.keep_begin && d < w.keep_end) {
+          ++cores;
+          EXPECT_GE(d - w.min_disparity, std::min(d, kWindowMargin)) << d;
+          EXPECT_GE(w.min_disparity + w.num_disparities - 1 - d, std::min(total - 1 - d, kWindowMargin)) << d;
+        }
+      }
+      EXPECT_EQ(cores, 1) << "disparity " << d << " of " << total;
+    }
+  }
+  EXPECT_THROW(disparity_windows(200, 60), ArgumentError);
+  // Merge: window 1 answers for [.., 10), window 2 for [10, ..): a pixel both answer for is dropped.
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  const DisparityWindow low{0, 26, -INFINITY, 10}, high{0, 40, 10, INFINITY};
+  std::vector<float> merged(4, nan);
+  std::vector<unsigned char> claimed(4, 0);
+  EXPECT_EQ(merge_window({3, 12, nan, 4}, low, merged, claimed), 0u);     // 12: outside its core
+  EXPECT_EQ(merge_window({20, 11, 15, nan}, high, merged, claimed), 1u);  // pixel 0: both
+  EXPECT_TRUE(std::isnan(merged[0]));
+  EXPECT_EQ(merged[1], 11);
+  EXPECT_EQ(merged[2], 15);
+  EXPECT_EQ(merged[3], 4);
+}
+
 // Without a height range: estimate_height_range() finds it from the views alone (a coarse pass
 // over every depth), against the oracle of the truth's own heights, and the DSM made with the
 // estimate is as good as with the true range (the thresholds of the test above).
@@ -642,6 +751,68 @@ TEST(StereoCli, WritesTheDsmAndItsStats) {
     for (const char* name : {"img_0.png", "img_1.png", "cameras.json", "dsm.tif", "whole.tif", "stats.json"})
       std::filesystem::copy_file(dir.path(name), std::filesystem::path(keep) / name,
                                  std::filesystem::copy_options::overwrite_existing);
+}
+
+// A pair that cannot be matched (camera 2 straight above camera 0: the baseline along the
+// viewing direction) is left out with one warning line naming it and why; --stats lists every
+// pair, used or not, with its search and share of matched pixels; the job fails, in one line,
+// only when no pair is left.
+TEST(StereoCli, PairLeftOutWarnsOnceAndStatsListEveryPair) {
+  testkit::TempDir dir;
+  nlohmann::json json = write_pair_files(dir);
+  RenderedScene& scene = rendered_scene();
+  FrameCamera above = scene.cameras[0];
+  above.center[2] += 30;
+  write_png(scene.view(0), dir.path("img_2.png"), 1);
+  json["cameras"].push_back(camera_json(above, "img_2.png"));
+  write_json(json, dir.path("cameras.json"));
+  const std::vector<std::string> args{
+      "stereo", "--cameras", dir.path("cameras.json"), "-o",      dir.path("dsm.tif"),    "--res",
+      "1",      "--bounds",  bounds_of(scene.truth),   "--stats", dir.path("stats.json"), "-q",
+      "--pairs"};
+  std::vector<std::string> both = args;
+  both.push_back("0-1,0-2");
+  const auto result = testkit::run_cli(both);
+  ASSERT_EQ(result.exit_code, 0) << result.err;
+  EXPECT_EQ(std::count(result.err.begin(), result.err.end(), '\n'), 1) << result.err;
+  EXPECT_EQ(result.err.rfind("dsmplan: warning: " + dir.path("cameras.json") + ": cameras 0 and 2: left out, ", 0), 0u)
+      << result.err;
+  EXPECT_NE(result.err.find("viewing direction"), std::string::npos) << result.err;
+  const auto stats = nlohmann::json::parse(testkit::read_file(dir.path("stats.json")));
+  EXPECT_EQ(stats["pairs"], nlohmann::json::parse("[[0,1]]"));
+  EXPECT_EQ(stats["pairs_left_out"], 1);
+  const auto& details = stats["pair_details"];
+  ASSERT_EQ(details.size(), 2u) << details.dump();
+  EXPECT_EQ(details[0]["cameras"], nlohmann::json::parse("[0,1]"));
+  EXPECT_EQ(details[0]["used"], true);
+  EXPECT_EQ(details[0]["problem"], "");
+  EXPECT_EQ(details[0]["windows"], 1);
+  EXPECT_EQ(details[0]["matched_pixels"], stats["matched_pixels"]);
+  EXPECT_EQ(details[0]["share_of_all_matched"], 1.0);
+  const double share = details[0]["matched_share"];
+  EXPECT_NEAR(share, details[0]["matched_pixels"].get<double>() / details[0]["pixels"].get<double>(), 1e-12);
+  EXPECT_GT(share, 0.5);
+  EXPECT_LE(share, 1.0);
+  EXPECT_GT(details[0]["disparity_offset"].get<double>(), 0);
+  EXPECT_EQ(details[0]["height_range"], stats["height_range"]);
+  EXPECT_EQ(details[1]["cameras"], nlohmann::json::parse("[0,2]"));
+  EXPECT_EQ(details[1]["used"], false);
+  EXPECT_NE(details[1]["problem"].get<std::string>().find("viewing direction"), std::string::npos);
+  EXPECT_EQ(details[1]["matched_pixels"], 0);
+  const DsmErrors e = dsm_errors(read_raster(dir.path("dsm.tif")), scene.truth);
+  EXPECT_GT(e.completeness, 0.85);
+  EXPECT_LT(e.median, 0.3);
+
+  std::filesystem::remove(dir.path("dsm.tif"));
+  std::filesystem::remove(dir.path("stats.json"));
+  std::vector<std::string> none = args;
+  none.push_back("0-2");
+  const auto failed = testkit::run_cli(none);
+  EXPECT_EQ(failed.exit_code, 1);
+  EXPECT_EQ(std::count(failed.err.begin(), failed.err.end(), '\n'), 1) << failed.err;
+  EXPECT_NE(failed.err.find("cameras: no pair left to match (cameras 0 and 2: "), std::string::npos) << failed.err;
+  EXPECT_FALSE(std::filesystem::exists(dir.path("dsm.tif")));
+  EXPECT_FALSE(std::filesystem::exists(dir.path("stats.json")));
 }
 
 TEST(StereoCli, BadInputOneLineNoOutput) {
