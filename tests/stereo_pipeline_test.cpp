@@ -815,6 +815,44 @@ TEST(StereoCli, PairLeftOutWarnsOnceAndStatsListEveryPair) {
   EXPECT_FALSE(std::filesystem::exists(dir.path("stats.json")));
 }
 
+// Two views with 30 % side overlap on the ground share nothing on a plane high above it (the
+// footprints shrink with the distance to the cameras): such a pair is matched over the ground
+// they share, not refused as seeing nothing in common; its heights match the truth.
+TEST(StereoCli, PairSharingOnlyLowGroundIsMatched) {
+  testkit::TempDir dir;
+  RenderedScene& scene = rendered_scene();
+  FrameCamera side = scene.cameras[0];
+  side.center[0] += 48;  // the footprint is 69 m wide on the lowest cell, 38 m on the top plane
+  write_png(scene.view(0), dir.path("img_0.png"), 1);
+  write_png(render(ColumnScene{scene.truth, scene.lo, scene.hi}, side, 9), dir.path("img_1.png"), 1);
+  const double top = scene.lo + 50;
+  const nlohmann::json json{
+      {"crs", "EPSG:25832"},
+      {"height_range", {scene.lo, top}},
+      {"cameras", {camera_json(scene.cameras[0], "img_0.png"), camera_json(side, "img_1.png")}}};
+  write_json(json, dir.path("cameras.json"));
+  std::array<double, 4> box;
+  ASSERT_TRUE(footprint_box(scene.cameras[0], side, scene.lo, box));
+  ASSERT_FALSE(footprint_box(scene.cameras[0], side, top, box)) << "the pair must share nothing on the top plane";
+  StereoJobOptions options;
+  options.cameras = dir.path("cameras.json");
+  options.output = dir.path("dsm.tif");
+  options.resolution = 1;
+  options.bounds = std::array<double, 4>{scene.truth.x0, scene.truth.y1(), scene.truth.x1(), scene.truth.y0};
+  const StereoReport report = stereo_job(options);
+  ASSERT_EQ(report.pair_stats.size(), 1u);
+  EXPECT_TRUE(report.pair_stats[0].used) << report.pair_stats[0].problem;
+  EXPECT_TRUE(report.warnings.empty());
+  const Grid dsm = read_raster(dir.path("dsm.tif"));
+  const DsmErrors e = dsm_errors(dsm, scene.truth);
+  std::printf("pair with 30 %% side overlap, nothing shared at %.1f m: %.1f %% of the crop filled, median |error| "
+              "%.3f m, > 1 m %.1f %%\n",
+              top, 100 * e.completeness, e.median, 100 * e.over1);
+  EXPECT_GT(e.completeness, 0.2);  // the overlap covers part of the crop only
+  EXPECT_LT(e.median, 0.3);
+  EXPECT_LT(e.over1, 0.15);
+}
+
 TEST(StereoCli, BadInputOneLineNoOutput) {
   testkit::TempDir dir;
   const nlohmann::json good = write_pair_files(dir, /*rendered=*/false);  // every error comes before matching

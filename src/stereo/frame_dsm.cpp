@@ -109,7 +109,7 @@ FrameStereoOptions stereo_options(const FrameDsmOptions& options, const StereoRe
 }
 
 // The pairs chosen, screened before any image is read: a pair whose cameras see nothing in common
-// on the scene's lowest or highest plane, or that cannot be rectified over its heights
+// on the scene's lowest nor on its highest plane, or that cannot be rectified over its heights
 // (pair_problem()), is left out (out.pair_stats: its problem); out.pairs gets the others. Returns
 // their common footprint on those planes. InputError when no pair is left.
 std::array<double, 4> screen_pairs(const CameraFile& file, const std::vector<std::pair<int, int>>& chosen,
@@ -119,9 +119,12 @@ std::array<double, 4> screen_pairs(const CameraFile& file, const std::vector<std
   for (const auto& [a, b] : chosen) {
     FramePairStats& pair = out.pair_stats.emplace_back();
     pair.left = a, pair.right = b;
+    // The pair's common footprint on the lowest and on the highest plane of the scene; one may be
+    // empty (strips with little side overlap share nothing high above the ground), not both.
     std::array<double, 4> box, high;
-    if (!footprint_box(file.cameras[a], file.cameras[b], out.min_height, box) ||
-        !footprint_box(file.cameras[a], file.cameras[b], out.max_height, high))
+    const bool low_seen = footprint_box(file.cameras[a], file.cameras[b], out.min_height, box);
+    const bool high_seen = footprint_box(file.cameras[a], file.cameras[b], out.max_height, high);
+    if (!low_seen && !high_seen)
       pair.problem = "see nothing in common";
     else
       pair.problem = pair_problem(file.cameras[a], file.cameras[b], rectify);
@@ -129,7 +132,10 @@ std::array<double, 4> screen_pairs(const CameraFile& file, const std::vector<std
       problems += (problems.empty() ? "" : "; ") + pair_name(pair) + ": " + pair.problem;
       continue;
     }
-    box = {std::min(box[0], high[0]), std::min(box[1], high[1]), std::max(box[2], high[2]), std::max(box[3], high[3])};
+    if (!low_seen) box = high;
+    if (low_seen && high_seen)
+      box = {std::min(box[0], high[0]), std::min(box[1], high[1]), std::max(box[2], high[2]),
+             std::max(box[3], high[3])};
     footprint = out.pairs.empty()
                     ? box
                     : std::array<double, 4>{std::min(footprint[0], box[0]), std::min(footprint[1], box[1]),
