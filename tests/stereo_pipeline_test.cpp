@@ -303,6 +303,131 @@ TEST(StereoPairs, AutoGrowsWithTheViewsAndKeepsEachCamerasBest) {
 
 namespace {
 
+// The oracle of `auto`, the rule written out over every pair: B/H within the bounds, both
+// footprints' overlap at least min_overlap, score overlap x min(1, B/H / 0.3), each camera's
+// max_partners best (ties to the lower index), a pair kept by either camera.
+std::vector<std::pair<int, int>> brute_force_pairs(const std::vector<FrameCamera>& cameras,
+                                                   const PairSelectionOptions& options) {
+  const int n = static_cast<int>(cameras.size());
+  std::vector<std::vector<std::pair<double, int>>> valid(n);
+  for (int i = 0; i < n; ++i)
+    for (int j = i + 1; j < n; ++j) {
+      const double ratio = base_to_height(cameras[i], cameras[j], options.ground_height);
+      const double overlap = std::min(footprint_overlap(cameras[i], cameras[j], options.ground_height),
+                                      footprint_overlap(cameras[j], cameras[i], options.ground_height));
+      if (ratio < options.min_base_to_height || ratio > options.max_base_to_height || overlap < options.min_overlap)
+        continue;
+      const double score = overlap * std::min(1.0, ratio / 0.3);
+      valid[i].emplace_back(score, j), valid[j].emplace_back(score, i);
+    }
+  std::vector<std::pair<int, int>> pairs;
+  for (int i = 0; i < n; ++i) {
+    std::sort(valid[i].begin(), valid[i].end(), [](const auto& a, const auto& b) {
+      return a.first > b.first || (a.first == b.first && a.second < b.second);
+    });
+    for (int k = 0; k < std::min<int>(options.max_partners, valid[i].size()); ++k)
+      pairs.emplace_back(std::min(i, valid[i][k].second), std::max(i, valid[i][k].second));
+  }
+  std::sort(pairs.begin(), pairs.end());
+  pairs.erase(std::unique(pairs.begin(), pairs.end()), pairs.end());
+  return pairs;
+}
+
+// A block of strips x views nadir cameras, 200 px, footprint 60 m from 100 m, with `forward` and
+// `side` overlap, jittered (seeded) by up to 2 m, 3 degrees and a little lens distortion.
+std::vector<FrameCamera> camera_block(int strips, int views, double forward, double side, unsigned seed) {
+  std::mt19937 random(seed);
+  std::uniform_real_distribution<double> unit(-1, 1);
+  std::vector<FrameCamera> cameras;
+  for (int s = 0; s < strips; ++s)
+    for (int i = 0; i < views; ++i)
+      cameras.push_back(nadir_camera(
+          200, 200 * 100 / 60.0,
+          {60 * (1 - forward) * i + 2 * unit(random), 60 * (1 - side) * s + 2 * unit(random), 100 + 2 * unit(random)},
+          0.05 * unit(random), 0.05 * unit(random), 0.02 * unit(random)));
+  return cameras;
+}
+
+}  // namespace
+
+// Where no camera has more than 12 candidates (kCutPerPartner x max_partners), the boxes'
+// prefilter must change nothing: small random blocks (2-13 views scattered over 150 m, 70-130 m
+// up, tilted up to 15 degrees, with lens distortion; in every fifth one a view tilted 80 degrees,
+// seeing the horizon), the choice equals brute force's exactly.
+TEST(StereoPairs, PrefilteredSelectionEqualsBruteForceOnSmallBlocks) {
+  std::mt19937 random(34);
+  std::uniform_real_distribution<double> unit(-1, 1);
+  size_t compared = 0, chosen_total = 0;
+  for (int trial = 0; trial < 40; ++trial) {
+    const int n = 2 + trial % 12;
+    std::vector<FrameCamera> cameras;
+    for (int i = 0; i < n; ++i)
+      cameras.push_back(
+          nadir_camera(160 + 8 * (i % 3), 220, {75 * unit(random), 75 * unit(random), 100 + 30 * unit(random)},
+                       0.26 * unit(random), 0.26 * unit(random), 0.05 * unit(random), 0.001 * unit(random)));
+    if (trial % 5 == 4)  // an oblique view whose upper rays miss the ground: an unbounded box
+      cameras.back() = nadir_camera(160, 220, cameras.back().center, 1.4, 0.1);
+    PairSelectionOptions options;
+    options.ground_height = 5 * unit(random);
+    PairSelectionStats stats;
+    if (trial % 5 == 4) EXPECT_TRUE(std::isinf(ground_box(cameras.back(), options.ground_height)[2]));
+    const auto chosen = select_pairs_auto(cameras, options, &stats);
+    EXPECT_EQ(chosen, brute_force_pairs(cameras, options)) << "trial " << trial << ", " << n << " views";
+    EXPECT_LE(stats.footprints_cut, stats.boxes_met);
+    compared += n * (n - 1) / 2, chosen_total += chosen.size();
+  }
+  std::printf("40 small blocks: %zu pairs compared, %zu chosen, the same as brute force\n", compared, chosen_total);
+}
+
+// A block of 100 views (10 strips of 10, 60 % forward and 30 % side overlap) and of 400 (20 x 20):
+// the pairs and the footprints cut grow with the views (at most 4 n pairs, each camera choosing at
+// most 4; at most 12 n footprints cut), and every camera keeps the best partner brute force finds.
+TEST(StereoPairs, BlocksOf100And400ViewsMakeLinearlyManyPairs) {
+  for (const int side : {10, 20}) {
+    const std::vector<FrameCamera> cameras = camera_block(side, side, 0.6, 0.3, side);
+    const int n = static_cast<int>(cameras.size());
+    PairSelectionOptions options;
+    PairSelectionStats stats;
+    const auto start = std::chrono::steady_clock::now();
+    const auto chosen = select_pairs_auto(cameras, options, &stats);
+    const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    EXPECT_LE(chosen.size(), static_cast<size_t>(options.max_partners * n));
+    EXPECT_LE(stats.footprints_cut, static_cast<size_t>(kCutPerPartner * options.max_partners * n));
+    EXPECT_GE(chosen.size(), static_cast<size_t>(n));  // a block of overlapping views: every camera paired
+    std::vector<int> degree(n, 0);
+    for (const auto& [a, b] : chosen) ++degree[a], ++degree[b];
+    EXPECT_GT(*std::min_element(degree.begin(), degree.end()), 0);
+    std::printf(
+        "%d views: %zu pairs (%.2f a view, most partners of one camera %d), %zu boxes met, %zu footprints "
+        "cut, %.3f s\n",
+        n, chosen.size(), double(chosen.size()) / n, *std::max_element(degree.begin(), degree.end()), stats.boxes_met,
+        stats.footprints_cut, seconds);
+    if (n > 100) continue;  // brute force: n^2 / 2 footprint pairs
+    const auto oracle = brute_force_pairs(cameras, options);
+    for (int i = 0; i < n; ++i) {  // the oracle's pairs of camera i include its best; it must be chosen too
+      std::pair<int, int> best{-1, -1};
+      double best_score = -1;
+      for (const auto& [a, b] : oracle) {
+        if (a != i && b != i) continue;
+        const int j = a == i ? b : a;
+        const double score =
+            std::min(footprint_overlap(cameras[i], cameras[j], 0), footprint_overlap(cameras[j], cameras[i], 0)) *
+            std::min(1.0, base_to_height(cameras[i], cameras[j], 0) / 0.3);
+        if (score > best_score) best_score = score, best = {a, b};
+      }
+      if (best.first < 0) continue;
+      EXPECT_TRUE(std::find(chosen.begin(), chosen.end(), best) != chosen.end()) << "camera " << i << "'s best";
+    }
+    size_t same = 0;
+    for (const auto& p : chosen) same += std::find(oracle.begin(), oracle.end(), p) != oracle.end();
+    std::printf("%d views: %zu of the %zu pairs chosen are brute force's (%zu)\n", n, same, chosen.size(),
+                oracle.size());
+    EXPECT_GE(same, chosen.size() * 9 / 10);
+  }
+}
+
+namespace {
+
 // 40 m x 40 m of the real DSM (1 m cells) in the middle of the 500 m crop, seen by two cameras:
 // base 24 m at 110 m over the lowest cell (B/H 0.22), 240 x 240 pixels, 0.3 m on the ground; the
 // right camera tilted and with lens distortion; a third camera 14 m across. Each view is
@@ -826,10 +951,9 @@ TEST(StereoCli, PairSharingOnlyLowGroundIsMatched) {
   write_png(scene.view(0), dir.path("img_0.png"), 1);
   write_png(render(ColumnScene{scene.truth, scene.lo, scene.hi}, side, 9), dir.path("img_1.png"), 1);
   const double top = scene.lo + 50;
-  const nlohmann::json json{
-      {"crs", "EPSG:25832"},
-      {"height_range", {scene.lo, top}},
-      {"cameras", {camera_json(scene.cameras[0], "img_0.png"), camera_json(side, "img_1.png")}}};
+  const nlohmann::json json{{"crs", "EPSG:25832"},
+                            {"height_range", {scene.lo, top}},
+                            {"cameras", {camera_json(scene.cameras[0], "img_0.png"), camera_json(side, "img_1.png")}}};
   write_json(json, dir.path("cameras.json"));
   std::array<double, 4> box;
   ASSERT_TRUE(footprint_box(scene.cameras[0], side, scene.lo, box));
@@ -845,9 +969,10 @@ TEST(StereoCli, PairSharingOnlyLowGroundIsMatched) {
   EXPECT_TRUE(report.warnings.empty());
   const Grid dsm = read_raster(dir.path("dsm.tif"));
   const DsmErrors e = dsm_errors(dsm, scene.truth);
-  std::printf("pair with 30 %% side overlap, nothing shared at %.1f m: %.1f %% of the crop filled, median |error| "
-              "%.3f m, > 1 m %.1f %%\n",
-              top, 100 * e.completeness, e.median, 100 * e.over1);
+  std::printf(
+      "pair with 30 %% side overlap, nothing shared at %.1f m: %.1f %% of the crop filled, median |error| "
+      "%.3f m, > 1 m %.1f %%\n",
+      top, 100 * e.completeness, e.median, 100 * e.over1);
   EXPECT_GT(e.completeness, 0.2);  // the overlap covers part of the crop only
   EXPECT_LT(e.median, 0.3);
   EXPECT_LT(e.over1, 0.15);

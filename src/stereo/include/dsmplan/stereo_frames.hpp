@@ -242,7 +242,7 @@ std::size_t fuse_median(Grid& grid, const std::vector<std::vector<Vec3>>& point_
 /// What pair selection needs of the scene.
 struct PairSelectionOptions {
   double ground_height = 0;  ///< the plane footprints are cut with (e.g. mid of the height range)
-  double min_overlap = 0.3;  ///< share of the left footprint seen by the right camera
+  double min_overlap = 0.3;  ///< share of the left footprint seen by the right camera, (0, 1]
   double min_base_to_height = 0.1, max_base_to_height = 1.2;
   /// Each camera's best partners kept (by overlap, a B/H under 0.3 counting less): at most
   /// max_partners x cameras pairs, so the matching grows with the views, not their square.
@@ -262,11 +262,31 @@ double footprint_overlap(const FrameCamera& left, const FrameCamera& right, doub
 bool footprint_box(const FrameCamera& left, const FrameCamera& right, double ground_height, std::array<double, 4>& box);
 /// Base-to-height ratio: |C_l - C_r| / (mean camera height above ground_height).
 double base_to_height(const FrameCamera& left, const FrameCamera& right, double ground_height);
+/// The box (xmin, ymin, xmax, ymax) on the plane Z = ground_height holding what the camera sees
+/// within its image's area: the rays of 16 points a side of the area's border, widened by 5 %
+/// a side (a distorted edge bows between them); infinite when a border ray misses the plane.
+std::array<double, 4> ground_box(const FrameCamera& camera, double ground_height);
+/// Each camera's candidates, ranked by how much their ground boxes share, whose footprints
+/// select_pairs_auto() cuts exactly: kCutPerPartner x max_partners.
+constexpr int kCutPerPartner = 3;
+/// What select_pairs_auto() did: pairs whose ground boxes met, pairs whose footprints it cut.
+struct PairSelectionStats {
+  std::size_t boxes_met = 0, footprints_cut = 0;
+};
 /// `auto`: the pairs (i < j) with overlap >= min_overlap both ways and a ratio within the
-/// bounds, each camera keeping its max_partners best (a pair kept by either camera is kept).
-/// The B/H test (a distance) comes first, so footprints are cut only for pairs within it.
+/// bounds, each camera keeping its max_partners best (a pair kept by either camera is kept): at
+/// most max_partners x cameras pairs, each camera choosing at most max_partners.
+/// Cost, n cameras: the ground boxes (O(n)) met by a sweep along x (O(n log n + m) for the m
+/// pairs whose boxes meet: a few comparisons each, and the B/H test), then the footprints cut
+/// (footprint_overlap(), both ways) of each camera's kCutPerPartner x max_partners candidates
+/// sharing the most of their boxes: at most 12 n pairs cut by default, whatever n. Pairs whose
+/// boxes do not meet cannot overlap, so the choice is the one of comparing every pair whenever no
+/// camera has more than 12 candidates within the B/H bounds (checked against brute force in
+/// tests/stereo_pipeline_test.cpp); beyond, a partner ranked below them by its box is not cut.
+/// ArgumentError for max_partners < 1 or min_overlap outside (0, 1].
 std::vector<std::pair<int, int>> select_pairs_auto(const std::vector<FrameCamera>& cameras,
-                                                   const PairSelectionOptions& options);
+                                                   const PairSelectionOptions& options,
+                                                   PairSelectionStats* stats = nullptr);
 /// ArgumentError("pairs") naming the first of `pairs` whose base-to-height ratio over
 /// `ground_height` is under kMinPairBaseToHeight (its base and height in the message).
 void check_pair_baselines(const std::vector<FrameCamera>& cameras, const std::vector<std::pair<int, int>>& pairs,
