@@ -1,5 +1,6 @@
 // dsmplan stereo: stereo_job() for frame cameras (--cameras), satellite_stereo_job() for images
 // with RPCs; the flags' rules are the library's (stereo_job_for()).
+#include <cstdio>
 #include <memory>
 
 #include "command.hpp"
@@ -22,6 +23,7 @@ void run(const Request& request, bool quiet) {
     refuse_overwrites(stereo_job_inputs(*job.frame), {{"-o", output}, {"--stats", request.stats}});
     if (!request.stats.empty()) check_writable(request.stats);
     const StereoReport report = stereo_job(*job.frame, terminal_progress(quiet));
+    for (const std::string& warning : report.warnings) std::fprintf(stderr, "dsmplan: warning: %s\n", warning.c_str());
     write_stats(request.stats, to_json(report), {output});
   } else {
     refuse_overwrites(satellite_stereo_inputs(*job.satellite), {{"-o", output}, {"--stats", request.stats}});

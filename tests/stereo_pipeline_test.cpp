@@ -303,6 +303,131 @@ TEST(StereoPairs, AutoGrowsWithTheViewsAndKeepsEachCamerasBest) {
 
 namespace {
 
+// The oracle of `auto`, the rule written out over every pair: B/H within the bounds, both
+// footprints' overlap at least min_overlap, score overlap x min(1, B/H / 0.3), each camera's
+// max_partners best (ties to the lower index), a pair kept by either camera.
+std::vector<std::pair<int, int>> brute_force_pairs(const std::vector<FrameCamera>& cameras,
+                                                   const PairSelectionOptions& options) {
+  const int n = static_cast<int>(cameras.size());
+  std::vector<std::vector<std::pair<double, int>>> valid(n);
+  for (int i = 0; i < n; ++i)
+    for (int j = i + 1; j < n; ++j) {
+      const double ratio = base_to_height(cameras[i], cameras[j], options.ground_height);
+      const double overlap = std::min(footprint_overlap(cameras[i], cameras[j], options.ground_height),
+                                      footprint_overlap(cameras[j], cameras[i], options.ground_height));
+      if (ratio < options.min_base_to_height || ratio > options.max_base_to_height || overlap < options.min_overlap)
+        continue;
+      const double score = overlap * std::min(1.0, ratio / 0.3);
+      valid[i].emplace_back(score, j), valid[j].emplace_back(score, i);
+    }
+  std::vector<std::pair<int, int>> pairs;
+  for (int i = 0; i < n; ++i) {
+    std::sort(valid[i].begin(), valid[i].end(), [](const auto& a, const auto& b) {
+      return a.first > b.first || (a.first == b.first && a.second < b.second);
+    });
+    for (int k = 0; k < std::min<int>(options.max_partners, valid[i].size()); ++k)
+      pairs.emplace_back(std::min(i, valid[i][k].second), std::max(i, valid[i][k].second));
+  }
+  std::sort(pairs.begin(), pairs.end());
+  pairs.erase(std::unique(pairs.begin(), pairs.end()), pairs.end());
+  return pairs;
+}
+
+// A block of strips x views nadir cameras, 200 px, footprint 60 m from 100 m, with `forward` and
+// `side` overlap, jittered (seeded) by up to 2 m, 3 degrees and a little lens distortion.
+std::vector<FrameCamera> camera_block(int strips, int views, double forward, double side, unsigned seed) {
+  std::mt19937 random(seed);
+  std::uniform_real_distribution<double> unit(-1, 1);
+  std::vector<FrameCamera> cameras;
+  for (int s = 0; s < strips; ++s)
+    for (int i = 0; i < views; ++i)
+      cameras.push_back(nadir_camera(
+          200, 200 * 100 / 60.0,
+          {60 * (1 - forward) * i + 2 * unit(random), 60 * (1 - side) * s + 2 * unit(random), 100 + 2 * unit(random)},
+          0.05 * unit(random), 0.05 * unit(random), 0.02 * unit(random)));
+  return cameras;
+}
+
+}  // namespace
+
+// Where no camera has more than 12 candidates (kCutPerPartner x max_partners), the boxes'
+// prefilter must change nothing: small random blocks (2-13 views scattered over 150 m, 70-130 m
+// up, tilted up to 15 degrees, with lens distortion; in every fifth one a view tilted 80 degrees,
+// seeing the horizon), the choice equals brute force's exactly.
+TEST(StereoPairs, PrefilteredSelectionEqualsBruteForceOnSmallBlocks) {
+  std::mt19937 random(34);
+  std::uniform_real_distribution<double> unit(-1, 1);
+  size_t compared = 0, chosen_total = 0;
+  for (int trial = 0; trial < 40; ++trial) {
+    const int n = 2 + trial % 12;
+    std::vector<FrameCamera> cameras;
+    for (int i = 0; i < n; ++i)
+      cameras.push_back(
+          nadir_camera(160 + 8 * (i % 3), 220, {75 * unit(random), 75 * unit(random), 100 + 30 * unit(random)},
+                       0.26 * unit(random), 0.26 * unit(random), 0.05 * unit(random), 0.001 * unit(random)));
+    if (trial % 5 == 4)  // an oblique view whose upper rays miss the ground: an unbounded box
+      cameras.back() = nadir_camera(160, 220, cameras.back().center, 1.4, 0.1);
+    PairSelectionOptions options;
+    options.ground_height = 5 * unit(random);
+    PairSelectionStats stats;
+    if (trial % 5 == 4) EXPECT_TRUE(std::isinf(ground_box(cameras.back(), options.ground_height)[2]));
+    const auto chosen = select_pairs_auto(cameras, options, &stats);
+    EXPECT_EQ(chosen, brute_force_pairs(cameras, options)) << "trial " << trial << ", " << n << " views";
+    EXPECT_LE(stats.footprints_cut, stats.boxes_met);
+    compared += n * (n - 1) / 2, chosen_total += chosen.size();
+  }
+  std::printf("40 small blocks: %zu pairs compared, %zu chosen, the same as brute force\n", compared, chosen_total);
+}
+
+// A block of 100 views (10 strips of 10, 60 % forward and 30 % side overlap) and of 400 (20 x 20):
+// the pairs and the footprints cut grow with the views (at most 4 n pairs, each camera choosing at
+// most 4; at most 12 n footprints cut), and every camera keeps the best partner brute force finds.
+TEST(StereoPairs, BlocksOf100And400ViewsMakeLinearlyManyPairs) {
+  for (const int side : {10, 20}) {
+    const std::vector<FrameCamera> cameras = camera_block(side, side, 0.6, 0.3, side);
+    const int n = static_cast<int>(cameras.size());
+    PairSelectionOptions options;
+    PairSelectionStats stats;
+    const auto start = std::chrono::steady_clock::now();
+    const auto chosen = select_pairs_auto(cameras, options, &stats);
+    const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    EXPECT_LE(chosen.size(), static_cast<size_t>(options.max_partners * n));
+    EXPECT_LE(stats.footprints_cut, static_cast<size_t>(kCutPerPartner * options.max_partners * n));
+    EXPECT_GE(chosen.size(), static_cast<size_t>(n));  // a block of overlapping views: every camera paired
+    std::vector<int> degree(n, 0);
+    for (const auto& [a, b] : chosen) ++degree[a], ++degree[b];
+    EXPECT_GT(*std::min_element(degree.begin(), degree.end()), 0);
+    std::printf(
+        "%d views: %zu pairs (%.2f a view, most partners of one camera %d), %zu boxes met, %zu footprints "
+        "cut, %.3f s\n",
+        n, chosen.size(), double(chosen.size()) / n, *std::max_element(degree.begin(), degree.end()), stats.boxes_met,
+        stats.footprints_cut, seconds);
+    if (n > 100) continue;  // brute force: n^2 / 2 footprint pairs
+    const auto oracle = brute_force_pairs(cameras, options);
+    for (int i = 0; i < n; ++i) {  // the oracle's pairs of camera i include its best; it must be chosen too
+      std::pair<int, int> best{-1, -1};
+      double best_score = -1;
+      for (const auto& [a, b] : oracle) {
+        if (a != i && b != i) continue;
+        const int j = a == i ? b : a;
+        const double score =
+            std::min(footprint_overlap(cameras[i], cameras[j], 0), footprint_overlap(cameras[j], cameras[i], 0)) *
+            std::min(1.0, base_to_height(cameras[i], cameras[j], 0) / 0.3);
+        if (score > best_score) best_score = score, best = {a, b};
+      }
+      if (best.first < 0) continue;
+      EXPECT_TRUE(std::find(chosen.begin(), chosen.end(), best) != chosen.end()) << "camera " << i << "'s best";
+    }
+    size_t same = 0;
+    for (const auto& p : chosen) same += std::find(oracle.begin(), oracle.end(), p) != oracle.end();
+    std::printf("%d views: %zu of the %zu pairs chosen are brute force's (%zu)\n", n, same, chosen.size(),
+                oracle.size());
+    EXPECT_GE(same, chosen.size() * 9 / 10);
+  }
+}
+
+namespace {
+
 // 40 m x 40 m of the real DSM (1 m cells) in the middle of the 500 m crop, seen by two cameras:
 // base 24 m at 110 m over the lowest cell (B/H 0.22), 240 x 240 pixels, 0.3 m on the ground; the
 // right camera tilted and with lens distortion; a third camera 14 m across. Each view is
@@ -469,6 +594,115 @@ TEST(StereoPipeline, ReversedPairAndThreeViewsFusedByTheMedian) {
   EXPECT_LT(e.median, 0.3);
   EXPECT_LT(e.over1, 0.15);
   EXPECT_LT(e.over3, 0.05);
+}
+
+// No pair sinks the job (issue 34, point 1). A pair whose search is wider than one SGM pass is
+// matched in disparity windows: forced here with a height range 50 m too low and 25 m too high
+// (an estimate gone wide) and windows of 64 disparities, the DSM must be as good against the
+// truth as with the true range (the thresholds above) and agree with the whole search's in nearly
+// every cell. With no windows allowed, the pair that needs more is left out with its problem, the
+// other matched; when every pair is over, one error names them all.
+TEST(StereoPipeline, PairOverTheBudgetSearchedInWindowsOrLeftOut) {
+  RenderedScene& scene = rendered_scene();
+  const std::vector<GreyImage> images = scene.views(3);
+  const std::array<double, 4> bounds{scene.truth.x0, scene.truth.y1(), scene.truth.x1(), scene.truth.y0};
+  FrameStereoOptions options;
+  options.rectify.min_height = scene.lo - 50;
+  options.rectify.max_height = scene.hi + 25;
+  const int wide = rectify_cameras(scene.cameras[0], scene.cameras[1], options.rectify).num_disparities;
+  const int narrow = rectify_cameras(scene.cameras[0], scene.cameras[2], options.rectify).num_disparities;
+  ASSERT_GT(wide, 96) << "the pair must need three windows of 64 or more";
+  ASSERT_LT(narrow, wide);
+
+  Grid whole = dsm_grid(bounds, 1.0);
+  const FrameStereoStats whole_stats = stereo_dsm(scene.cameras, images, {{0, 1}}, whole, options);
+  ASSERT_EQ(whole_stats.pair_stats.size(), 1u);
+  EXPECT_EQ(whole_stats.pair_stats[0].windows, 1);
+  options.rectify.max_disparities = 64;
+  Grid split = dsm_grid(bounds, 1.0);
+  const FrameStereoStats split_stats = stereo_dsm(scene.cameras, images, {{0, 1}}, split, options);
+  const FramePairStats& pair = split_stats.pair_stats.at(0);
+  EXPECT_TRUE(pair.used);
+  EXPECT_EQ(pair.windows, static_cast<int>(disparity_windows(wide, 64).size()));
+  EXPECT_GE(pair.windows, 3);
+  EXPECT_EQ(pair.num_disparities, wide);
+  EXPECT_GT(pair.pixels, pair.matched_pixels);
+  const DsmErrors w = dsm_errors(whole, scene.truth), e = dsm_errors(split, scene.truth);
+  size_t both = 0, close = 0;
+  for (size_t i = 0; i < whole.z.size(); ++i)
+    if (!std::isnan(whole.z[i]) && !std::isnan(split.z[i])) ++both, close += std::abs(whole.z[i] - split.z[i]) <= 0.5;
+  std::printf(
+      "pair 0-1, %d disparities: whole search vs %d windows of 64: completeness %.1f / %.1f %%, median |error| "
+      "%.3f / %.3f m, > 1 m %.1f / %.1f %%, > 3 m %.1f / %.1f %%; matched %.1f / %.1f %% of the pixels, %zu "
+      "conflicts; %.1f %% of the cells valid in both within 0.5 m\n",
+      wide, pair.windows, 100 * w.completeness, 100 * e.completeness, w.median, e.median, 100 * w.over1, 100 * e.over1,
+      100 * w.over3, 100 * e.over3, 100.0 * whole_stats.pair_stats[0].matched_pixels / whole_stats.pair_stats[0].pixels,
+      100.0 * pair.matched_pixels / pair.pixels, pair.window_conflicts, 100.0 * close / both);
+  EXPECT_GT(e.completeness, 0.85);
+  EXPECT_LT(e.median, 0.3);
+  EXPECT_LT(e.over1, 0.15);
+  EXPECT_LT(e.over3, 0.05);
+  EXPECT_GT(double(close) / double(both), 0.95);
+
+  // No windows, a budget between the two pairs' needs: 0-1 left out, 0-2 matched.
+  options.rectify.max_windows = 1;
+  options.rectify.max_disparities = (narrow + 15) / 16 * 16;
+  ASSERT_LT(options.rectify.max_disparities, wide);
+  Grid one = dsm_grid(bounds, 1.0);
+  const FrameStereoStats one_stats = stereo_dsm(scene.cameras, images, {{0, 1}, {0, 2}}, one, options);
+  ASSERT_EQ(one_stats.pair_stats.size(), 2u);
+  EXPECT_EQ(one_stats.pairs, 1u);
+  EXPECT_FALSE(one_stats.pair_stats[0].used);
+  EXPECT_NE(one_stats.pair_stats[0].problem.find("needs " + std::to_string(wide) + " disparities"), std::string::npos)
+      << one_stats.pair_stats[0].problem;
+  EXPECT_TRUE(one_stats.pair_stats[1].used);
+  EXPECT_EQ(one_stats.matched_pixels, one_stats.pair_stats[1].matched_pixels);
+  EXPECT_GT(dsm_errors(one, scene.truth).completeness, 0.8);
+  options.rectify.max_disparities = 32;
+  try {
+    stereo_dsm(scene.cameras, images, {{0, 1}, {0, 2}}, one, options);
+    ADD_FAILURE() << "no error";
+  } catch (const InputError& error) {
+    const std::string message = error.what();
+    EXPECT_NE(message.find("no pair left to match (cameras 0 and 1: the height range needs"), std::string::npos)
+        << message;
+    EXPECT_NE(message.find("; cameras 0 and 2: "), std::string::npos) << message;
+  }
+}
+
+// The windows' split and merge, against their definitions counted by hand.
+TEST(StereoPipeline, DisparityWindowsTileTheRangeAndDropConflicts) {
+  EXPECT_EQ(disparity_windows(100, 512).size(), 1u);
+  for (const int total : {513, 912, 2048, 1000}) {
+    const auto windows = disparity_windows(total, 512);
+    EXPECT_EQ(windows.size(), static_cast<size_t>((total + 479) / 480)) << total;
+    // Every whole disparity of the range is in exactly one core, and searched by its window with
+    // at least kWindowMargin on either side (but at the range's ends).
+    for (int d = 0; d < total; ++d) {
+      int cores = 0;
+      for (const DisparityWindow& w : windows) {
+        EXPECT_LE(w.num_disparities, 512);
+        if (d >= w.keep_begin && d < w.keep_end) {
+          ++cores;
+          EXPECT_GE(d - w.min_disparity, std::min(d, kWindowMargin)) << d;
+          EXPECT_GE(w.min_disparity + w.num_disparities - 1 - d, std::min(total - 1 - d, kWindowMargin)) << d;
+        }
+      }
+      EXPECT_EQ(cores, 1) << "disparity " << d << " of " << total;
+    }
+  }
+  EXPECT_THROW(disparity_windows(200, 60), ArgumentError);
+  // Merge: window 1 answers for [.., 10), window 2 for [10, ..): a pixel both answer for is dropped.
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  const DisparityWindow low{0, 26, -INFINITY, 10}, high{0, 40, 10, INFINITY};
+  std::vector<float> merged(4, nan);
+  std::vector<unsigned char> claimed(4, 0);
+  EXPECT_EQ(merge_window({3, 12, nan, 4}, low, merged, claimed), 0u);     // 12: outside its core
+  EXPECT_EQ(merge_window({20, 11, 15, nan}, high, merged, claimed), 1u);  // pixel 0: both
+  EXPECT_TRUE(std::isnan(merged[0]));
+  EXPECT_EQ(merged[1], 11);
+  EXPECT_EQ(merged[2], 15);
+  EXPECT_EQ(merged[3], 4);
 }
 
 // Without a height range: estimate_height_range() finds it from the views alone (a coarse pass
@@ -642,6 +876,106 @@ TEST(StereoCli, WritesTheDsmAndItsStats) {
     for (const char* name : {"img_0.png", "img_1.png", "cameras.json", "dsm.tif", "whole.tif", "stats.json"})
       std::filesystem::copy_file(dir.path(name), std::filesystem::path(keep) / name,
                                  std::filesystem::copy_options::overwrite_existing);
+}
+
+// A pair that cannot be matched (camera 2 straight above camera 0: the baseline along the
+// viewing direction) is left out with one warning line naming it and why; --stats lists every
+// pair, used or not, with its search and share of matched pixels; the job fails, in one line,
+// only when no pair is left.
+TEST(StereoCli, PairLeftOutWarnsOnceAndStatsListEveryPair) {
+  testkit::TempDir dir;
+  nlohmann::json json = write_pair_files(dir);
+  RenderedScene& scene = rendered_scene();
+  FrameCamera above = scene.cameras[0];
+  above.center[2] += 30;
+  write_png(scene.view(0), dir.path("img_2.png"), 1);
+  json["cameras"].push_back(camera_json(above, "img_2.png"));
+  write_json(json, dir.path("cameras.json"));
+  const std::vector<std::string> args{
+      "stereo", "--cameras", dir.path("cameras.json"), "-o",      dir.path("dsm.tif"),    "--res",
+      "1",      "--bounds",  bounds_of(scene.truth),   "--stats", dir.path("stats.json"), "-q",
+      "--pairs"};
+  std::vector<std::string> both = args;
+  both.push_back("0-1,0-2");
+  const auto result = testkit::run_cli(both);
+  ASSERT_EQ(result.exit_code, 0) << result.err;
+  EXPECT_EQ(std::count(result.err.begin(), result.err.end(), '\n'), 1) << result.err;
+  EXPECT_EQ(result.err.rfind("dsmplan: warning: " + dir.path("cameras.json") + ": cameras 0 and 2: left out, ", 0), 0u)
+      << result.err;
+  EXPECT_NE(result.err.find("viewing direction"), std::string::npos) << result.err;
+  const auto stats = nlohmann::json::parse(testkit::read_file(dir.path("stats.json")));
+  EXPECT_EQ(stats["pairs"], nlohmann::json::parse("[[0,1]]"));
+  EXPECT_EQ(stats["pairs_left_out"], 1);
+  const auto& details = stats["pair_details"];
+  ASSERT_EQ(details.size(), 2u) << details.dump();
+  EXPECT_EQ(details[0]["cameras"], nlohmann::json::parse("[0,1]"));
+  EXPECT_EQ(details[0]["used"], true);
+  EXPECT_EQ(details[0]["problem"], "");
+  EXPECT_EQ(details[0]["windows"], 1);
+  EXPECT_EQ(details[0]["matched_pixels"], stats["matched_pixels"]);
+  EXPECT_EQ(details[0]["share_of_all_matched"], 1.0);
+  const double share = details[0]["matched_share"];
+  EXPECT_NEAR(share, details[0]["matched_pixels"].get<double>() / details[0]["pixels"].get<double>(), 1e-12);
+  EXPECT_GT(share, 0.5);
+  EXPECT_LE(share, 1.0);
+  EXPECT_GT(details[0]["disparity_offset"].get<double>(), 0);
+  EXPECT_EQ(details[0]["height_range"], stats["height_range"]);
+  EXPECT_EQ(details[1]["cameras"], nlohmann::json::parse("[0,2]"));
+  EXPECT_EQ(details[1]["used"], false);
+  EXPECT_NE(details[1]["problem"].get<std::string>().find("viewing direction"), std::string::npos);
+  EXPECT_EQ(details[1]["matched_pixels"], 0);
+  const DsmErrors e = dsm_errors(read_raster(dir.path("dsm.tif")), scene.truth);
+  EXPECT_GT(e.completeness, 0.85);
+  EXPECT_LT(e.median, 0.3);
+
+  std::filesystem::remove(dir.path("dsm.tif"));
+  std::filesystem::remove(dir.path("stats.json"));
+  std::vector<std::string> none = args;
+  none.push_back("0-2");
+  const auto failed = testkit::run_cli(none);
+  EXPECT_EQ(failed.exit_code, 1);
+  EXPECT_EQ(std::count(failed.err.begin(), failed.err.end(), '\n'), 1) << failed.err;
+  EXPECT_NE(failed.err.find("cameras: no pair left to match (cameras 0 and 2: "), std::string::npos) << failed.err;
+  EXPECT_FALSE(std::filesystem::exists(dir.path("dsm.tif")));
+  EXPECT_FALSE(std::filesystem::exists(dir.path("stats.json")));
+}
+
+// Two views with 30 % side overlap on the ground share nothing on a plane high above it (the
+// footprints shrink with the distance to the cameras): such a pair is matched over the ground
+// they share, not refused as seeing nothing in common; its heights match the truth.
+TEST(StereoCli, PairSharingOnlyLowGroundIsMatched) {
+  testkit::TempDir dir;
+  RenderedScene& scene = rendered_scene();
+  FrameCamera side = scene.cameras[0];
+  side.center[0] += 48;  // the footprint is 69 m wide on the lowest cell, 38 m on the top plane
+  write_png(scene.view(0), dir.path("img_0.png"), 1);
+  write_png(render(ColumnScene{scene.truth, scene.lo, scene.hi}, side, 9), dir.path("img_1.png"), 1);
+  const double top = scene.lo + 50;
+  const nlohmann::json json{{"crs", "EPSG:25832"},
+                            {"height_range", {scene.lo, top}},
+                            {"cameras", {camera_json(scene.cameras[0], "img_0.png"), camera_json(side, "img_1.png")}}};
+  write_json(json, dir.path("cameras.json"));
+  std::array<double, 4> box;
+  ASSERT_TRUE(footprint_box(scene.cameras[0], side, scene.lo, box));
+  ASSERT_FALSE(footprint_box(scene.cameras[0], side, top, box)) << "the pair must share nothing on the top plane";
+  StereoJobOptions options;
+  options.cameras = dir.path("cameras.json");
+  options.output = dir.path("dsm.tif");
+  options.resolution = 1;
+  options.bounds = std::array<double, 4>{scene.truth.x0, scene.truth.y1(), scene.truth.x1(), scene.truth.y0};
+  const StereoReport report = stereo_job(options);
+  ASSERT_EQ(report.pair_stats.size(), 1u);
+  EXPECT_TRUE(report.pair_stats[0].used) << report.pair_stats[0].problem;
+  EXPECT_TRUE(report.warnings.empty());
+  const Grid dsm = read_raster(dir.path("dsm.tif"));
+  const DsmErrors e = dsm_errors(dsm, scene.truth);
+  std::printf(
+      "pair with 30 %% side overlap, nothing shared at %.1f m: %.1f %% of the crop filled, median |error| "
+      "%.3f m, > 1 m %.1f %%\n",
+      top, 100 * e.completeness, e.median, 100 * e.over1);
+  EXPECT_GT(e.completeness, 0.2);  // the overlap covers part of the crop only
+  EXPECT_LT(e.median, 0.3);
+  EXPECT_LT(e.over1, 0.15);
 }
 
 TEST(StereoCli, BadInputOneLineNoOutput) {

@@ -18,6 +18,9 @@ using Clock = std::chrono::steady_clock;
 double seconds_since(Clock::time_point start) { return std::chrono::duration<double>(Clock::now() - start).count(); }
 
 std::string camera_name(int i) { return "camera " + std::to_string(i); }
+std::string pair_name(const FramePairStats& p) {
+  return "cameras " + std::to_string(p.left) + " and " + std::to_string(p.right);
+}
 
 // Camera i's image opened and checked (a raster, 8 or 16 bit, the camera's size), not read.
 std::unique_ptr<ImageReader> open_checked(const CameraFile& file, int i, const ImageOpener& open) {
@@ -95,22 +98,51 @@ std::vector<std::pair<int, int>> choose_pairs(const CameraFile& file, const std:
   return chosen;
 }
 
-// The pairs' common footprint on the lowest and the highest plane of the scene.
-std::array<double, 4> pairs_footprint(const CameraFile& file, const StereoReport& out) {
+// What stereo_dsm() is asked: the scene's heights, the memory bounds.
+FrameStereoOptions stereo_options(const FrameDsmOptions& options, const StereoReport& out) {
+  FrameStereoOptions stereo;
+  stereo.rectify.min_height = out.min_height;
+  stereo.rectify.max_height = out.max_height;
+  stereo.fusion.memory_bytes = options.fusion_memory_bytes;
+  stereo.band_bytes = options.band_memory_bytes;
+  return stereo;
+}
+
+// The pairs chosen, screened before any image is read: a pair whose cameras see nothing in common
+// on the scene's lowest nor on its highest plane, or that cannot be rectified over its heights
+// (pair_problem()), is left out (out.pair_stats: its problem); out.pairs gets the others. Returns
+// their common footprint on those planes. InputError when no pair is left.
+std::array<double, 4> screen_pairs(const CameraFile& file, const std::vector<std::pair<int, int>>& chosen,
+                                   const RectifyOptions& rectify, StereoReport& out) {
   std::array<double, 4> footprint{};
-  bool any = false;
-  for (const auto& [a, b] : out.pairs) {
+  std::string problems;
+  for (const auto& [a, b] : chosen) {
+    FramePairStats& pair = out.pair_stats.emplace_back();
+    pair.left = a, pair.right = b;
+    // The pair's common footprint on the lowest and on the highest plane of the scene; one may be
+    // empty (strips with little side overlap share nothing high above the ground), not both.
     std::array<double, 4> box, high;
-    if (!footprint_box(file.cameras[a], file.cameras[b], out.min_height, box) ||
-        !footprint_box(file.cameras[a], file.cameras[b], out.max_height, high))
-      throw InputError(file.path, "cameras " + std::to_string(a) + " and " + std::to_string(b),
-                       "see nothing in common");
-    box = {std::min(box[0], high[0]), std::min(box[1], high[1]), std::max(box[2], high[2]), std::max(box[3], high[3])};
-    footprint = any ? std::array<double, 4>{std::min(footprint[0], box[0]), std::min(footprint[1], box[1]),
-                                            std::max(footprint[2], box[2]), std::max(footprint[3], box[3])}
-                    : box;
-    any = true;
+    const bool low_seen = footprint_box(file.cameras[a], file.cameras[b], out.min_height, box);
+    const bool high_seen = footprint_box(file.cameras[a], file.cameras[b], out.max_height, high);
+    if (!low_seen && !high_seen)
+      pair.problem = "see nothing in common";
+    else
+      pair.problem = pair_problem(file.cameras[a], file.cameras[b], rectify);
+    if (!pair.problem.empty()) {
+      problems += (problems.empty() ? "" : "; ") + pair_name(pair) + ": " + pair.problem;
+      continue;
+    }
+    if (!low_seen) box = high;
+    if (low_seen && high_seen)
+      box = {std::min(box[0], high[0]), std::min(box[1], high[1]), std::max(box[2], high[2]),
+             std::max(box[3], high[3])};
+    footprint = out.pairs.empty()
+                    ? box
+                    : std::array<double, 4>{std::min(footprint[0], box[0]), std::min(footprint[1], box[1]),
+                                            std::max(footprint[2], box[2]), std::max(footprint[3], box[3])};
+    out.pairs.emplace_back(a, b);
   }
+  if (out.pairs.empty()) throw InputError(file.path, "cameras", "no pair left to match (" + problems + ")");
   return footprint;
 }
 
@@ -124,11 +156,7 @@ void match_pairs(const CameraFile& file, const ImageOpener& open, const FrameDsm
     out.seconds_read += seconds_since(read_start);
     return image;
   };
-  FrameStereoOptions stereo;
-  stereo.rectify.min_height = out.min_height;
-  stereo.rectify.max_height = out.max_height;
-  stereo.fusion.memory_bytes = options.fusion_memory_bytes;
-  stereo.band_bytes = options.band_memory_bytes;
+  const FrameStereoOptions stereo = stereo_options(options, out);
   const FrameStereoStats stats = [&] {
     try {
       return stereo_dsm(file.cameras, source, out.pairs, dsm, stereo, progress);
@@ -146,6 +174,17 @@ void match_pairs(const CameraFile& file, const ImageOpener& open, const FrameDsm
   out.seconds_match = stats.seconds_match;
   out.seconds_triangulate = stats.seconds_triangulate;
   out.seconds_fuse = stats.seconds_fuse;
+  // The screened pairs' entries, the matched ones' replaced by their figures (in order).
+  size_t next = 0;
+  for (FramePairStats& pair : out.pair_stats)
+    if (pair.problem.empty() && next < stats.pair_stats.size()) pair = stats.pair_stats[next++];
+  out.pairs.clear();
+  for (const FramePairStats& pair : out.pair_stats) {
+    if (pair.used)
+      out.pairs.emplace_back(pair.left, pair.right);
+    else
+      out.warnings.push_back(file.path + ": " + pair_name(pair) + ": left out, " + pair.problem);
+  }
 }
 
 }  // namespace
@@ -168,9 +207,9 @@ StereoReport frame_dsm(const CameraFile& file, const Crs& crs, const ImageOpener
   if (options.pairs != "auto") parse_pairs(options.pairs, n, "--pairs");  // a bad --pairs fails fast
   find_height_range(file, open, out);
   report(progress, 0.03 / 0.9);
-  out.pairs = choose_pairs(file, options.pairs, out.min_height);
-  const DsmExtent extent =
-      dsm_extent(pairs_footprint(file, out), options.bounds, options.resolution, file.path, "common footprint");
+  const auto chosen = choose_pairs(file, options.pairs, out.min_height);
+  const std::array<double, 4> footprint = screen_pairs(file, chosen, stereo_options(options, out).rectify, out);
+  const DsmExtent extent = dsm_extent(footprint, options.bounds, options.resolution, file.path, "common footprint");
   out.bounds = extent.bounds;
   dsm = extent.grid;
   dsm.crs = crs;

@@ -9,6 +9,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <limits>
 #include <memory>
 #include <string>
 
@@ -52,11 +53,23 @@ FrameStereoStats stereo_dsm(const std::vector<FrameCamera>& cameras, const Image
   FrameStereoStats stats;
   MedianFusion fusion(grid, options.fusion);
   SgmMatcher matcher;
+  bool matcher_made = false;
   std::vector<std::pair<int, std::shared_ptr<const GreyImage>>> held;
   for (std::size_t k = 0; k < pairs.size(); ++k) {
     const int a = pairs[k].first, b = pairs[k].second;  // not a structured binding: lambdas take these (clang 14)
     if (a < 0 || b < 0 || a >= static_cast<int>(cameras.size()) || b >= static_cast<int>(cameras.size()) || a == b)
       throw ArgumentError("pairs", "pair " + std::to_string(a) + "-" + std::to_string(b) + " is not two cameras");
+    FramePairStats& pair_stats = stats.pair_stats.emplace_back();
+    pair_stats.left = a, pair_stats.right = b;
+    // The geometry first (O(1)): a pair that cannot be rectified is left out before its images are read.
+    auto start = std::chrono::steady_clock::now();
+    pair_stats.problem = pair_problem(cameras[a], cameras[b], options.rectify);
+    if (!pair_stats.problem.empty()) {
+      report(progress, 0.95 * (k + 1) / pairs.size());
+      continue;
+    }
+    const RectifiedPair geometry = rectify_cameras(cameras[a], cameras[b], options.rectify);
+    stats.seconds_rectify += seconds_since(start);
     // The pair's two images: kept from the previous pair when it shares them, read otherwise.
     std::erase_if(held, [&](const auto& entry) { return entry.first != a && entry.first != b; });
     const auto image = [&](int i) -> const GreyImage& {
@@ -70,25 +83,20 @@ FrameStereoStats stereo_dsm(const std::vector<FrameCamera>& cameras, const Image
       return *held.back().second;
     };
     const GreyImage &image_a = image(a), &image_b = image(b);
-    auto start = std::chrono::steady_clock::now();
-    RectifiedPair geometry;
-    try {
-      geometry = rectify_cameras(cameras[a], cameras[b], options.rectify);
-    } catch (const InputError& error) {
-      std::string problem = error.what();  // "cameras: ..." from rectify_cameras
-      if (problem.rfind("cameras: ", 0) == 0) problem = problem.substr(9);
-      throw InputError("", "cameras " + std::to_string(a) + " and " + std::to_string(b), problem);
-    }
-    stats.seconds_rectify += seconds_since(start);
-    SgmOptions sgm = options.sgm;
-    sgm.min_disparity = 0;
-    sgm.num_disparities = geometry.num_disparities;
+    const std::vector<DisparityWindow> windows =
+        disparity_windows(geometry.num_disparities, options.rectify.max_disparities);
+    int widest = 0;
+    for (const DisparityWindow& w : windows) widest = std::max(widest, w.num_disparities);
+    pair_stats.used = true;
+    pair_stats.shift = geometry.shift;
+    pair_stats.num_disparities = geometry.num_disparities;
+    pair_stats.windows = static_cast<int>(windows.size());
     const double margin_m = 0.1 * (options.rectify.max_height - options.rectify.min_height);
 
     // Band by band: rows [row, row + band_rows) of the rectified pair, matched with band_margin
     // rows more on each side (cut at the images' edges) and their disparities dropped.
     const int H = geometry.left.height;
-    const double row_bytes = double(geometry.left.width) * (2.0 * geometry.num_disparities + 24);
+    const double row_bytes = double(geometry.left.width) * (2.0 * widest + 24);
     const double fits = double(options.band_bytes) / row_bytes;  // rows, margins included
     const int wanted = options.band_rows > 0 ? options.band_rows
                        : fits >= H           ? H
@@ -106,20 +114,42 @@ FrameStereoStats stereo_dsm(const std::vector<FrameCamera>& cameras, const Image
       const ImageView left_view(left.data(), pair.left.width, pair.left.height),
           right_view(right.data(), pair.right.width, pair.right.height);
       Disparity disparity;
-      if (options.matcher) {
-        disparity = options.matcher(left_view, right_view, sgm);
-        if (disparity.width != pair.left.width || disparity.height != pair.left.height ||
-            disparity.left.size() != static_cast<std::size_t>(pair.left.width) * pair.left.height)
-          throw ArgumentError("matcher", "returned a disparity image of another size than the rectified pair's");
-      } else {
-        if (!(matcher.options().num_disparities == sgm.num_disparities)) matcher = SgmMatcher(sgm);
-        disparity = matcher.match(left_view, right_view);
+      std::vector<unsigned char> claimed;
+      for (const DisparityWindow& w : windows) {
+        SgmOptions sgm = options.sgm;
+        sgm.min_disparity = w.min_disparity;
+        sgm.num_disparities = w.num_disparities;
+        Disparity found;
+        if (options.matcher) {
+          found = options.matcher(left_view, right_view, sgm);
+          if (found.width != pair.left.width || found.height != pair.left.height ||
+              found.left.size() != static_cast<std::size_t>(pair.left.width) * pair.left.height)
+            throw ArgumentError("matcher", "returned a disparity image of another size than the rectified pair's");
+        } else {
+          // Made anew for another range (and once at first: options.sgm's other fields are the caller's).
+          if (!matcher_made || !(matcher.options().num_disparities == sgm.num_disparities &&
+                                 matcher.options().min_disparity == sgm.min_disparity))
+            matcher = SgmMatcher(sgm), matcher_made = true;
+          found = matcher.match(left_view, right_view);
+        }
+        if (windows.size() == 1) {
+          disparity = std::move(found);
+          break;
+        }
+        if (disparity.left.empty()) {
+          disparity.width = found.width, disparity.height = found.height;
+          disparity.left.assign(found.left.size(), std::numeric_limits<float>::quiet_NaN());
+          claimed.assign(found.left.size(), 0);
+        }
+        pair_stats.window_conflicts += merge_window(found.left, w, disparity.left, claimed);
       }
       stats.seconds_match += seconds_since(start);
       const int core0 = row - top, core1 = std::min(row + band, H) - top;  // the band's own rows
       for (std::size_t i = static_cast<std::size_t>(core0) * disparity.width;
-           i < static_cast<std::size_t>(core1) * disparity.width; ++i)
-        stats.matched_pixels += !std::isnan(disparity.left[i]);
+           i < static_cast<std::size_t>(core1) * disparity.width; ++i) {
+        pair_stats.matched_pixels += !std::isnan(disparity.left[i]);
+        pair_stats.pixels += pair.left_mask[i] != 0;
+      }
 
       // Triangulated and fused 256 rows at a time: a pair's points are never all held (24
       // bytes a pixel against the disparity's 4).
@@ -135,7 +165,7 @@ FrameStereoStats stereo_dsm(const std::vector<FrameCamera>& cameras, const Image
           return !(p[2] >= options.rectify.min_height - margin_m && p[2] <= options.rectify.max_height + margin_m);
         });
         stats.points_outside_range += before - set.size();
-        stats.points += set.size();
+        pair_stats.points += set.size();
         stats.seconds_triangulate += seconds_since(start);
         start = std::chrono::steady_clock::now();
         fusion.add(set);
@@ -143,8 +173,17 @@ FrameStereoStats stereo_dsm(const std::vector<FrameCamera>& cameras, const Image
       }
       ++stats.bands;
     }
+    stats.matched_pixels += pair_stats.matched_pixels;
+    stats.points += pair_stats.points;
     ++stats.pairs;
     report(progress, 0.95 * (k + 1) / pairs.size());
+  }
+  if (stats.pairs == 0) {
+    std::string problems;
+    for (const FramePairStats& p : stats.pair_stats)
+      problems += (problems.empty() ? "" : "; ") +
+                  ("cameras " + std::to_string(p.left) + " and " + std::to_string(p.right) + ": " + p.problem);
+    throw InputError("", "cameras", "no pair left to match (" + problems + ")");
   }
   const auto start = std::chrono::steady_clock::now();
   stats.points_in_grid = fusion.finish(grid);

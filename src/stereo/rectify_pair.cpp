@@ -15,6 +15,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <string>
 
 #include "dsmplan/stereo_frames.hpp"
 
@@ -174,12 +175,30 @@ RectifiedPair rectify_cameras(const FrameCamera& left, const FrameCamera& right,
           "the rectified images are too narrow (" + std::to_string(rect.width) + " px) for a search of 16 disparities");
   }
   pair.right.cx = rect.cx + pair.shift;
-  if (pair.num_disparities > options.max_disparities || pair.num_disparities >= rect.width)
+  // The search may be split into max_windows windows of max_disparities (disparity_windows()),
+  // but never wider than the image: no column could then be matched over the whole range.
+  const long budget = static_cast<long>(options.max_disparities) * std::max(1, options.max_windows);
+  if (pair.num_disparities > budget || pair.num_disparities >= rect.width) {
+    std::string limit = std::to_string(std::min<long>(budget, rect.width - 1));
+    if (options.max_windows > 1 && budget < rect.width)
+      limit +=
+          " (" + std::to_string(options.max_windows) + " windows of " + std::to_string(options.max_disparities) + ")";
     throw InputError("", "cameras",
                      "the height range needs " + std::to_string(pair.num_disparities) + " disparities, more than " +
-                         std::to_string(std::min(options.max_disparities, rect.width - 1)) +
-                         ": narrow the height range");
+                         limit + ": narrow the height range");
+  }
   return pair;
+}
+
+std::string pair_problem(const FrameCamera& left, const FrameCamera& right, const RectifyOptions& options) {
+  try {
+    rectify_cameras(left, right, options);
+    return {};
+  } catch (const InputError& error) {
+    std::string problem = error.what();  // "cameras: ..."
+    if (problem.rfind("cameras: ", 0) == 0) problem = problem.substr(9);
+    return problem;
+  }
 }
 
 RectifiedPair rectify_rows(const RectifiedPair& cameras, const FrameCamera& left, const GreyImage& left_image,

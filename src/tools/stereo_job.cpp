@@ -77,6 +77,23 @@ void check_common(const StereoRequest& request) {
     }
 }
 
+// --stats' entry of one pair chosen: matched or left out, its search and its share of matched pixels.
+Json pair_json(const FramePairStats& p, const StereoReport& r) {
+  return {{"cameras", {p.left, p.right}},
+          {"used", p.used},
+          {"problem", p.problem},
+          {"height_range", {r.min_height, r.max_height}},
+          {"disparity_offset", p.shift},
+          {"disparities", p.num_disparities},
+          {"windows", p.windows},
+          {"pixels", p.pixels},
+          {"matched_pixels", p.matched_pixels},
+          {"matched_share", p.pixels ? double(p.matched_pixels) / double(p.pixels) : 0.0},
+          {"share_of_all_matched", r.matched_pixels ? double(p.matched_pixels) / double(r.matched_pixels) : 0.0},
+          {"window_conflicts", p.window_conflicts},
+          {"points", p.points}};
+}
+
 }  // namespace
 
 std::vector<NamedFile> stereo_job_inputs(const StereoJobOptions& options) {
@@ -136,12 +153,16 @@ StereoJob stereo_job_for(const StereoRequest& request) {
 Json to_json(const StereoReport& r) {
   Json pairs = Json::array();
   for (const auto& [a, b] : r.pairs) pairs.push_back({a, b});
+  Json details = Json::array();
+  for (const FramePairStats& p : r.pair_stats) details.push_back(pair_json(p, r));
   const double total = r.seconds_read + r.seconds_height_range + r.seconds_rectify + r.seconds_match +
                        r.seconds_triangulate + r.seconds_fuse + r.seconds_write;
   return {{"cameras", r.cameras},
           {"output", r.output},
           {"camera_count", r.camera_count},
           {"pairs", pairs},
+          {"pair_details", details},
+          {"pairs_left_out", r.pair_stats.size() - r.pairs.size()},
           {"height_range", {r.min_height, r.max_height}},
           {"height_range_estimated", r.height_range_estimated},
           {"bounds", {r.bounds[0], r.bounds[1], r.bounds[2], r.bounds[3]}},

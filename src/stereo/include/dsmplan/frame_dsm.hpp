@@ -8,6 +8,10 @@
 // base-to-height ratio of at least kMinPairBaseToHeight); the DSM's extent (the bounds given, or
 // every pair's common footprint on the lowest and highest plane of the scene, footprint_box());
 // every pair rectified, matched, triangulated and fused by the median per cell (stereo_dsm()).
+// No pair sinks the job: each is searched from its own smallest disparity, in up to 4 windows of
+// 512 disparities when wider (FrameStereoOptions); a pair that needs more, cannot be rectified or
+// whose cameras see nothing in common is left out before any image is read, with one line in
+// StereoReport::warnings; the job fails only when no pair is left.
 // Images are opened when first needed: a bad image of a pair is refused before the long work,
 // and only a pair's two images are held while it is matched.
 //
@@ -50,7 +54,13 @@ struct StereoReport {
   std::string cameras;  ///< CAMERAS.json (CameraFile::path)
   std::string output;   ///< the file the job wrote (set by the job)
   size_t camera_count = 0;
-  std::vector<std::pair<int, int>> pairs;
+  std::vector<std::pair<int, int>> pairs;  ///< the pairs matched
+  /// Every pair chosen (--pairs or `auto`), in order: matched (its disparity offset, windows and
+  /// matched pixels) or left out with its problem; pairs = the matched ones.
+  std::vector<FramePairStats> pair_stats;
+  /// One line a pair left out, "CAMERAS.json: cameras 0 and 2: left out, <problem>": for the
+  /// caller to show (the CLI prints each as "dsmplan: warning: ...").
+  std::vector<std::string> warnings;
   double min_height = 0, max_height = 0;  ///< the height range used
   bool height_range_estimated = false;    ///< not in CAMERAS.json: estimated (seconds_height_range)
   std::array<double, 4> bounds{};
@@ -73,9 +83,10 @@ struct StereoReport {
 /// Errors (one line each, naming cameras.path and the camera or key): ArgumentError as check(),
 /// and "--pairs" for a bad list or a pair too short for depth; InputError "height_range" when it
 /// is not given and cannot be estimated, "cameras" when no two cameras overlap enough ("auto"),
-/// "cameras i and j" seeing nothing in common, "--bounds" outside every pair's common footprint,
-/// an image missing, unreadable, not 8- or 16-bit or not of its camera's size, nothing matched
-/// into the grid.
+/// "cameras" when no pair is left to match (each pair's problem named: "cameras i and j: see
+/// nothing in common", "...: the height range needs N disparities, more than M ..."), "--bounds" outside every pair's
+/// common footprint, an image missing, unreadable, not 8- or 16-bit or not of its camera's size, nothing matched into
+/// the grid.
 StereoReport frame_dsm(const CameraFile& cameras, const Crs& crs, const ImageOpener& open_image,
                        const FrameDsmOptions& options, Grid& dsm, const GridCheck& grid_check = {},
                        const Progress& progress = {});

@@ -19,6 +19,7 @@
 // Parts (each its own source file in src/stereo, pure C++ and TBB; no GDAL):
 //   frame_camera.cpp   project(), undistort(), pixel rays;
 //   rectify_pair.cpp   epipolar rectification (Fusiello, Trucco & Verri 2000) and resampling;
+//   disparity_windows.cpp a search wider than one SGM pass, split into windows and merged;
 //   triangulate.cpp    disparities to world points through the rectified cameras;
 //   fuse_median.cpp    ortho-projection and the median per cell (MedianFusion, median_fusion.hpp);
 //   select_pairs.cpp   `auto` and explicit pairs, overlap and base-to-height ratio;
@@ -108,7 +109,11 @@ struct RectifyOptions {
   int unbounded_depth_disparities = 0;
   /// Bound on the rectified images' sides, as a multiple of the larger original side.
   double max_size_factor = 2.0;
-  int max_disparities = 512;  ///< InputError when the height range needs more
+  int max_disparities = 512;  ///< one SGM search's disparities at most (a window's)
+  /// The search may be split into at most this many windows of max_disparities each
+  /// (disparity_windows()); InputError when the height range needs more than their product
+  /// (stereo_dsm() then leaves the pair out), or more than the rectified width.
+  int max_windows = 1;
 };
 
 /// A rectified pair (Fusiello, Trucco & Verri 2000): two cameras with the same orientation
@@ -145,6 +150,31 @@ RectifiedPair rectify_pair(const FrameCamera& left, const GreyImage& left_image,
 RectifiedPair rectify_cameras(const FrameCamera& left, const FrameCamera& right, const RectifyOptions& options);
 RectifiedPair rectify_rows(const RectifiedPair& cameras, const FrameCamera& left, const GreyImage& left_image,
                            const FrameCamera& right, const GreyImage& right_image, int row0, int rows);
+
+/// Why the pair (left, right) cannot be rectified with `options` (rectify_cameras()'s InputError,
+/// without its "cameras: "), or empty when it can: stereo_dsm() leaves such a pair out. O(1).
+std::string pair_problem(const FrameCamera& left, const FrameCamera& right, const RectifyOptions& options);
+
+/// One window of a disparity search split by disparity_windows(): SGM searches
+/// [min_disparity, min_disparity + num_disparities) and answers for disparities in [keep_begin,
+/// keep_end) only (its core; infinite at the range's own ends).
+struct DisparityWindow {
+  int min_disparity = 0, num_disparities = 0;
+  double keep_begin = 0, keep_end = 0;
+};
+/// Disparities a window searches beyond its core on either side.
+constexpr int kWindowMargin = 16;
+/// The search [0, num_disparities): one window when it fits `budget`, else the fewest windows of
+/// at most `budget` disparities whose cores tile the range, each searching kWindowMargin more on
+/// either side (within the range). ArgumentError for num_disparities < 1, or a split asked of a
+/// budget under 4 kWindowMargin.
+std::vector<DisparityWindow> disparity_windows(int num_disparities, int budget);
+/// Folds one window's left disparities into `merged` (NaN where nothing yet; same size): a valid
+/// disparity inside the window's core is taken where no other window answered (claimed 0 -> 1),
+/// and a pixel two windows answer for is made NaN (claimed 2: one of them is wrong). Returns the
+/// pixels newly made NaN so.
+std::size_t merge_window(const std::vector<float>& window, const DisparityWindow& w, std::vector<float>& merged,
+                         std::vector<unsigned char>& claimed);
 
 /// An image as an SGM input: 16-bit, values rounded and clamped to 0..65535 (8-bit images keep
 /// their 0..255, which sgm_match's automatic intensity_unit treats as 8-bit).
@@ -212,7 +242,7 @@ std::size_t fuse_median(Grid& grid, const std::vector<std::vector<Vec3>>& point_
 /// What pair selection needs of the scene.
 struct PairSelectionOptions {
   double ground_height = 0;  ///< the plane footprints are cut with (e.g. mid of the height range)
-  double min_overlap = 0.3;  ///< share of the left footprint seen by the right camera
+  double min_overlap = 0.3;  ///< share of the left footprint seen by the right camera, (0, 1]
   double min_base_to_height = 0.1, max_base_to_height = 1.2;
   /// Each camera's best partners kept (by overlap, a B/H under 0.3 counting less): at most
   /// max_partners x cameras pairs, so the matching grows with the views, not their square.
@@ -232,11 +262,31 @@ double footprint_overlap(const FrameCamera& left, const FrameCamera& right, doub
 bool footprint_box(const FrameCamera& left, const FrameCamera& right, double ground_height, std::array<double, 4>& box);
 /// Base-to-height ratio: |C_l - C_r| / (mean camera height above ground_height).
 double base_to_height(const FrameCamera& left, const FrameCamera& right, double ground_height);
+/// The box (xmin, ymin, xmax, ymax) on the plane Z = ground_height holding what the camera sees
+/// within its image's area: the rays of 16 points a side of the area's border, widened by 5 %
+/// a side (a distorted edge bows between them); infinite when a border ray misses the plane.
+std::array<double, 4> ground_box(const FrameCamera& camera, double ground_height);
+/// Each camera's candidates, ranked by how much their ground boxes share, whose footprints
+/// select_pairs_auto() cuts exactly: kCutPerPartner x max_partners.
+constexpr int kCutPerPartner = 3;
+/// What select_pairs_auto() did: pairs whose ground boxes met, pairs whose footprints it cut.
+struct PairSelectionStats {
+  std::size_t boxes_met = 0, footprints_cut = 0;
+};
 /// `auto`: the pairs (i < j) with overlap >= min_overlap both ways and a ratio within the
-/// bounds, each camera keeping its max_partners best (a pair kept by either camera is kept).
-/// The B/H test (a distance) comes first, so footprints are cut only for pairs within it.
+/// bounds, each camera keeping its max_partners best (a pair kept by either camera is kept): at
+/// most max_partners x cameras pairs, each camera choosing at most max_partners.
+/// Cost, n cameras: the ground boxes (O(n)) met by a sweep along x (O(n log n + m) for the m
+/// pairs whose boxes meet: a few comparisons each, and the B/H test), then the footprints cut
+/// (footprint_overlap(), both ways) of each camera's kCutPerPartner x max_partners candidates
+/// sharing the most of their boxes: at most 12 n pairs cut by default, whatever n. Pairs whose
+/// boxes do not meet cannot overlap, so the choice is the one of comparing every pair whenever no
+/// camera has more than 12 candidates within the B/H bounds (checked against brute force in
+/// tests/stereo_pipeline_test.cpp); beyond, a partner ranked below them by its box is not cut.
+/// ArgumentError for max_partners < 1 or min_overlap outside (0, 1].
 std::vector<std::pair<int, int>> select_pairs_auto(const std::vector<FrameCamera>& cameras,
-                                                   const PairSelectionOptions& options);
+                                                   const PairSelectionOptions& options,
+                                                   PairSelectionStats* stats = nullptr);
 /// ArgumentError("pairs") naming the first of `pairs` whose base-to-height ratio over
 /// `ground_height` is under kMinPairBaseToHeight (its base and height in the message).
 void check_pair_baselines(const std::vector<FrameCamera>& cameras, const std::vector<std::pair<int, int>>& pairs,
@@ -295,7 +345,11 @@ HeightRangeEstimate estimate_height_range(const std::vector<FrameCamera>& camera
 using DenseMatcher = std::function<Disparity(const ImageView& left, const ImageView& right, const SgmOptions& options)>;
 
 struct FrameStereoOptions {
-  RectifyOptions rectify;      ///< min_height, max_height: the scene's heights
+  /// min_height, max_height: the scene's heights. Each pair is searched from its own smallest
+  /// disparity (RectifiedPair::shift); a search wider than max_disparities (512) is split into at
+  /// most max_windows (here 4) windows (disparity_windows(): time grows with the windows, memory
+  /// stays one window's); a pair that needs more, or cannot be rectified, is left out.
+  RectifyOptions rectify{.max_windows = 4};
   SgmOptions sgm;              ///< num_disparities and min_disparity are set per pair
   DenseMatcher matcher;        ///< empty: dsmplan's SGM (SgmMatcher, its buffer kept between pairs)
   MedianFusionOptions fusion;  ///< the points' memory budget (median_fusion.hpp)
@@ -310,22 +364,39 @@ struct FrameStereoOptions {
   int band_margin = 64;
 };
 
+/// One pair of a stereo_dsm() run: matched, or left out and why.
+struct FramePairStats {
+  int left = 0, right = 0;  ///< the cameras
+  bool used = false;        ///< matched; false: left out (`problem`)
+  std::string problem;      ///< why it was left out, e.g. "the height range needs 2400 disparities, ..."
+  double shift = 0;         ///< the pair's disparity offset, px: disparities shift + [0, num_disparities)
+  int num_disparities = 0;  ///< its whole search
+  int windows = 0;          ///< SGM passes the search was split into (1: not split)
+  std::size_t pixels = 0;   ///< left rectified pixels taken from the original image: what could match
+  std::size_t matched_pixels = 0, points = 0;
+  std::size_t window_conflicts = 0;  ///< pixels two windows answered for, dropped (disparity_windows.cpp)
+};
+
 struct FrameStereoStats {
   std::size_t pairs = 0, matched_pixels = 0, points = 0, points_in_grid = 0, valid_cells = 0;
   std::size_t points_outside_range = 0;  ///< more than 10 % of the height range outside it: dropped
   std::size_t bands = 0;  ///< rectified bands matched, all pairs (one a pair when none is taller than band_rows)
   std::size_t fusion_runs_spilled = 0;  ///< runs the fusion wrote to disk (0: all points fitted in memory)
   double seconds_rectify = 0, seconds_match = 0, seconds_triangulate = 0, seconds_fuse = 0;
+  std::vector<FramePairStats> pair_stats;  ///< one per pair given, in order; `pairs` counts the used
 };
 
-/// Every pair rectified, matched (sgm_match), triangulated, its points more than 10 % of the
+/// Every pair rectified, matched (sgm_match; in disparity windows when its search is wider than
+/// options.rectify.max_disparities), triangulated, its points more than 10 % of the
 /// height range outside that range dropped (options.rectify: the scene is stated to lie within
 /// it), each pair's points handed to a MedianFusion as they are made, then fused into `grid`
 /// (its geometry as given). A pair whose rectified images are taller than options.band_rows is
 /// rectified and matched in bands of rows (FrameStereoOptions). images[i] belongs to cameras[i]
 /// and must have its size (InputError "camera i: image is W x H, the camera says ..."). Progress
 /// per pair. Memory: the images given, one band (rectified images, SGM, disparities) and the
-/// fusion's budget.
+/// fusion's budget. A pair that cannot be rectified (pair_problem()) is left out and listed in
+/// pair_stats with its problem; InputError ("cameras: no pair left to match (...)", each pair's
+/// problem) when every pair is.
 FrameStereoStats stereo_dsm(const std::vector<FrameCamera>& cameras, const std::vector<GreyImage>& images,
                             const std::vector<std::pair<int, int>>& pairs, Grid& grid,
                             const FrameStereoOptions& options, const Progress& progress = {});
