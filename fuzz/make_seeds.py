@@ -154,6 +154,16 @@ def waypoint_seeds():
     hostile("waypoints_geojson", "wp_*.geojson")
 
 
+def airspace_seeds():
+    os.makedirs(os.path.join(CORPUS, "airspace"), exist_ok=True)
+    for name in ("nrw_zones_ed269.json", "delft_zones.geojson"):
+        shutil.copy(os.path.join(REPO, "tests", "data", "airspace", name), os.path.join(CORPUS, "airspace"))
+    put("airspace", "circle_feet.json",
+        '{"features":[{"identifier":"C","restriction":"PROHIBITED","geometry":[{"uomDimensions":"FT",'
+        '"lowerLimit":0,"lowerVerticalReference":"AMSL","upperLimit":400,"upperVerticalReference":"WGS84",'
+        '"horizontalProjection":{"type":"Circle","center":[6.9371,51.4289],"radius":300}}]}]}\n')
+
+
 def roadmap_seeds():
     os.makedirs(os.path.join(CORPUS, "roadmap"), exist_ok=True)
     hostile("roadmap", "*.roadmap")
@@ -248,3 +258,4 @@ if __name__ == "__main__":
     index_seeds()
     camera_seeds()
     rpc_seeds()
+    airspace_seeds()
