@@ -59,8 +59,10 @@ void run(Request& request, bool quiet) {
   std::vector<NamedFile> outputs{{"--stats", request.stats}, {"--roadmap", plan.roadmap}, {"--index", plan.index}};
   for (auto it = request.outputs.rbegin(); it != request.outputs.rend(); ++it)
     outputs.insert(outputs.begin(), {"-o", *it});
-  refuse_overwrites({{"MESH", plan.mesh}, {"--waypoints", plan.waypoints}, {"--dsm", plan.dsm}, {"--dtm", plan.dtm}},
-                    outputs);
+  std::vector<NamedFile> inputs{
+      {"MESH", plan.mesh}, {"--waypoints", plan.waypoints}, {"--dsm", plan.dsm}, {"--dtm", plan.dtm}};
+  for (const std::string& zones : plan.no_fly) inputs.push_back({"--no-fly", zones});
+  refuse_overwrites(inputs, outputs);
   if (!request.stats.empty()) check_writable(request.stats);
   const PlanReport report = plan_job(plan, terminal_progress(quiet));
   write_stats(request.stats, to_json(report), request.outputs);
@@ -133,6 +135,13 @@ Command plan_command(CLI::App& app, Session& session) {
                       "and saved; later runs skip building it");
   command->add_option("--dsm", plan.dsm,
                       "Raw DSM: the path keeps --safety from its cells as solid columns (holes as high as their rim)");
+  command->add_option("--no-fly", plan.no_fly,
+                      "No-fly zones (EUROCAE ED-269 JSON or GeoJSON; repeatable): kept out of by --safety, "
+                      "AGL limits over the DTM, else the DSM");
+  command
+      ->add_option("--no-fly-blocking", plan.no_fly_blocking,
+                   "Restrictions that block (default PROHIBITED,REQ_AUTHORISATION); the others are shown")
+      ->delimiter(',');
   command->add_option("--dtm", plan.dtm,
                       "Terrain raster (the mesh's CRS, any resolution): the ground --max-agl counts from");
   command->add_option("--vertical-crs", plan.vertical.vertical_crs,

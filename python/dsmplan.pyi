@@ -122,6 +122,9 @@ def plan(
     home: tuple[float, float] | None = None,
     end: str | None = None,
     vertical_crs: str = "",
+    no_fly: Sequence[str] = [],
+    no_fly_blocking: Sequence[str] | None = None,
+    allow_approximate_vertical: bool = False,
 ) -> Flight:
     """A collision-free path through the waypoints with every check of `dsmplan plan`."""
 

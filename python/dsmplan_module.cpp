@@ -42,6 +42,7 @@
 #include <string>
 #include <vector>
 
+#include "dsmplan/airspace_io.hpp"
 #include "dsmplan/export.hpp"
 #include "dsmplan/flight.hpp"
 #include "dsmplan/mesh.hpp"
@@ -149,7 +150,9 @@ std::shared_ptr<PyFlight> plan(const std::shared_ptr<PyMesh>& mesh,
                                const std::shared_ptr<PyDsm>& dsm, const std::shared_ptr<PyDsm>& dtm, double safety,
                                double max_agl, double spacing, const std::string& planner, bool mission,
                                std::optional<std::array<double, 2>> home, std::optional<std::string> end,
-                               const std::string& vertical_crs) {
+                               const std::string& vertical_crs, const std::vector<std::string>& no_fly,
+                               std::optional<std::vector<std::string>> no_fly_blocking,
+                               bool allow_approximate_vertical) {
   FlightRequest request;
   request.waypoints = points_of(waypoints);
   request.names = {"mesh", "waypoints", "dsm", "dtm"};
@@ -167,6 +170,12 @@ std::shared_ptr<PyFlight> plan(const std::shared_ptr<PyMesh>& mesh,
   {
     py::gil_scoped_release release;
     require_projected(mesh->mesh.crs, "mesh", centre_of(mesh->mesh));  // as `dsmplan plan` does
+    for (const std::string& file : no_fly) {
+      const std::vector<AirspaceZone> zones =
+          read_airspace(file, mesh->mesh.crs, VerticalOptions{vertical_crs, allow_approximate_vertical});
+      request.no_fly.insert(request.no_fly.end(), zones.begin(), zones.end());
+    }
+    if (no_fly_blocking) request.airspace.blocking = *no_fly_blocking;
     std::optional<Wgs84Transform> to_msl;
     if (mission) {
       MissionEnds ends;
@@ -640,7 +649,8 @@ PYBIND11_MODULE(dsmplan, m) {
   m.def("plan", &plan, py::arg("mesh"), py::arg("waypoints"), py::arg("dsm") = nullptr, py::arg("dtm") = nullptr,
         py::arg("safety") = 2.0, py::arg("max_agl") = 120.0, py::arg("spacing") = 20.0, py::arg("planner") = "prm",
         py::arg("mission") = false, py::arg("home") = py::none(), py::arg("end") = py::none(),
-        py::arg("vertical_crs") = "",
+        py::arg("vertical_crs") = "", py::arg("no_fly") = std::vector<std::string>{},
+        py::arg("no_fly_blocking") = py::none(), py::arg("allow_approximate_vertical") = false,
         "A collision-free path through the waypoints by the plan stage's plan_flight(), with every check of "
         "`dsmplan plan`; returns a Flight. Raises InputError when there is no path, naming the waypoint.\n\n"
         "mesh: the obstacle Mesh (simplify(..., conservative=True)), in metres.\n"
@@ -655,7 +665,13 @@ PYBIND11_MODULE(dsmplan, m) {
         "mission: plan a mission: a takeoff from `home` and the `end`, written as .plan, .waypoints, .kmz.\n"
         "home: missions: x, y in the CRS or lon, lat in degrees (default: under the first waypoint).\n"
         "end: missions: \"rtl\", \"land\" or \"none\".\n"
-        "vertical_crs: the heights' vertical CRS when the mesh's CRS has none, for a home given in lon, lat.");
+        "vertical_crs: the heights' vertical CRS when the mesh's CRS has none, for a home given in lon, lat "
+        "and the zones' AMSL and WGS 84 limits.\n"
+        "no_fly: files of no-fly zones (EUROCAE ED-269 JSON or GeoJSON), kept `safety` away from; a waypoint, "
+        "home or landing inside one is refused.\n"
+        "no_fly_blocking: the restrictions that block (default PROHIBITED and REQ_AUTHORISATION).\n"
+        "allow_approximate_vertical: take heights of an unknown or grid-less vertical datum as EGM96 (about "
+        "1 m off) for the zones' limits.");
   m.def("render", &render, py::arg("dsm"), py::arg("output"), py::kw_only(), py::arg("meshes") = py::none(),
         py::arg("titles") = py::none(), py::arg("paths") = py::none(), py::arg("waypoints") = py::none(),
         py::arg("roadmap") = py::none(), py::arg("window") = py::none(), py::arg("zoom") = 4.0, py::arg("edges") = true,

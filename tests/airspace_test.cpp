@@ -409,13 +409,16 @@ TEST(AirspaceConstraint, ZoneDistanceIsALowerBoundWithinRootTwo) {
       });
     const double d = zone_distance(zone, path, nullptr);
     EXPECT_LE(d, sampled + 1e-6) << i;
-    EXPECT_GE(d * std::sqrt(2.0) + 0.01 + 0.025, sampled) << i;
+    // Failing at the bisection's upper end proves no more than that end times sqrt(2); the end
+    // lies within 1 cm or 1 % of the distance above it (airspace_distance.cpp).
+    const double upper_end = d + 0.01 * std::max(1.0, d);
+    EXPECT_GE(upper_end * std::sqrt(2.0) + 0.025, sampled) << i;
     if (sampled == 0) {
       EXPECT_EQ(d, 0) << i;
     }
   }
   EXPECT_EQ(zone_distance(zone, {}, nullptr), INFINITY);
-  EXPECT_NEAR(zone_distance(zone, {{15, 15, 20}}, nullptr), 5, 0.011);  // in the hole, 5 m from its walls
+  EXPECT_NEAR(zone_distance(zone, {{15, 15, 20}}, nullptr), 5, 0.051);  // in the hole, 5 m from its walls (1 %)
 }
 
 TEST(AirspaceConstraint, RefusesBadZonesNamingThem) {

@@ -2634,3 +2634,130 @@ TEST(CliInterrupted, SigintAndSigtermLeaveNothingBehindAndExit130And143) {
     }
   }
 }
+
+// ---- dsmplan plan --no-fly ---------------------------------------------------------------------
+//
+// A square zone (from the ground up, no top) put where the path without it runs: the path with
+// it keeps --safety from the square, measured every 5 cm on the written path; a waypoint in a
+// zone, and a floor under every waypoint, are refused in one line naming the zone and its file.
+
+namespace {
+
+// Distance of (x, y) to the axis-aligned square of half side `h` around `c` (0 inside).
+double square_distance(double x, double y, const std::array<double, 2>& c, double h) {
+  const double dx = std::max(0.0, std::abs(x - c[0]) - h), dy = std::max(0.0, std::abs(y - c[1]) - h);
+  return std::hypot(dx, dy);
+}
+
+// A GeoJSON zone file: the square of half side `h` around `c` (EPSG:25832), in WGS 84.
+void write_square_zone(const std::string& file, const std::string& name, const std::array<double, 2>& c, double h,
+                       const std::string& limits = "") {
+  const GdalTransform to_wgs84("EPSG:25832", "EPSG:4326");
+  std::ostringstream ring;
+  ring.precision(12);
+  const double corners[5][2] = {{-h, -h}, {h, -h}, {h, h}, {-h, h}, {-h, -h}};
+  for (int k = 0; k < 5; ++k) {
+    double x = c[0] + corners[k][0], y = c[1] + corners[k][1];
+    EXPECT_TRUE(to_wgs84(x, y));
+    ring << (k ? "," : "") << "[" << x << "," << y << "]";
+  }
+  testkit::write_file(file, R"({"type":"FeatureCollection","features":[{"type":"Feature","properties":{"name":")" +
+                                name + "\"" + limits + R"(},"geometry":{"type":"Polygon","coordinates":[[)" +
+                                ring.str() + "]]}}]}");
+}
+
+// Least distance of the path, sampled every 5 cm, to the square (the zone has no floor or top).
+double sampled_square_distance(const std::vector<std::array<double, 3>>& path, const std::array<double, 2>& c,
+                               double h) {
+  double least = INFINITY;
+  for (size_t k = 1; k < path.size(); ++k) {
+    const auto &a = path[k - 1], &b = path[k];
+    const int n = std::max(1, int(std::ceil(std::hypot(b[0] - a[0], b[1] - a[1], b[2] - a[2]) / 0.05)));
+    for (int i = 0; i <= n; ++i) {
+      const double t = double(i) / n;
+      least = std::min(least, square_distance(a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1]), c, h));
+    }
+  }
+  return least;
+}
+
+// The fixture with its mesh replaced by a conservative one (the DSM's columns fit it).
+struct NoFlyFixture : PlanFixture {
+  NoFlyFixture() {
+    mesh = in.path("safe.ply");
+    const auto made =
+        run_cli({"simplify", testkit::data_path(kSample), "--max-error", "0.4", "--conservative", "-o", mesh, "-q"});
+    if (made.exit_code != 0) throw std::runtime_error("simplify failed: " + made.err);
+  }
+};
+
+}  // namespace
+
+TEST(CliNoFly, ZoneOnThePathIsFlownAroundOnAMeshAndAlongACorridor) {
+  NoFlyFixture f;
+  f.write_waypoints(f.corners());
+  TempDir out;
+  const std::string dsm = testkit::data_path(kSample);
+  ASSERT_EQ(
+      run_cli({"plan", f.mesh, "--waypoints", f.waypoints, "--dsm", dsm, "-o", out.path("free.csv"), "-q"}).exit_code,
+      0);
+  const auto free = read_path_csv(out.path("free.csv"));
+  // The square on the free path's point a quarter along, away from the waypoints: the path
+  // without the zone runs through it.
+  double length = 0;
+  for (size_t k = 1; k < free.size(); ++k)
+    length += std::hypot(free[k][0] - free[k - 1][0], free[k][1] - free[k - 1][1]);
+  std::array<double, 2> centre{};
+  double walked = 0;
+  for (size_t k = 1; k < free.size(); ++k) {
+    const double step = std::hypot(free[k][0] - free[k - 1][0], free[k][1] - free[k - 1][1]);
+    if (walked + step >= length / 4) {
+      const double t = (length / 4 - walked) / step;
+      centre = {free[k - 1][0] + t * (free[k][0] - free[k - 1][0]), free[k - 1][1] + t * (free[k][1] - free[k - 1][1])};
+      break;
+    }
+    walked += step;
+  }
+  const double half = 15;
+  for (const auto& w : f.corners()) ASSERT_GT(square_distance(w[0], w[1], centre, half), 20);
+  ASSERT_EQ(sampled_square_distance(free, centre, half), 0);
+  const std::string zones = f.in.path("zones.geojson");
+  write_square_zone(zones, "test block", centre, half);
+  for (const std::string& input : {f.mesh, dsm}) {  // a mesh, and a DSM planned along a corridor
+    std::vector<std::string> args{"plan", input, "--waypoints",          f.waypoints, "--no-fly",
+                                  zones,  "-o",  out.path("around.csv"), "--stats",   out.path("around.json"),
+                                  "-q"};
+    if (input == f.mesh) args.insert(args.end(), {"--dsm", dsm});
+    const auto run = run_cli(args);
+    ASSERT_EQ(run.exit_code, 0) << input << ": " << run.err;
+    const double sampled = sampled_square_distance(read_path_csv(out.path("around.csv")), centre, half);
+    EXPECT_GE(sampled, 2 - 0.01) << input;
+    const json stats = json::parse(testkit::read_file(out.path("around.json")));
+    ASSERT_EQ(stats["no_fly_zones"].size(), 1u) << input;
+    const double reported = stats["no_fly_zones"][0]["min_distance_m"];
+    EXPECT_TRUE(stats["no_fly_zones"][0]["blocks"]);
+    EXPECT_GE(reported, 2 - 0.01) << input;
+    EXPECT_LE(reported, sampled + 0.05) << input;  // a lower bound of the true distance
+  }
+}
+
+TEST(CliNoFly, WaypointInAZoneAndAFloorUnderEveryWaypointAreRefused) {
+  NoFlyFixture f;
+  const auto waypoints = f.corners();
+  f.write_waypoints(waypoints);
+  const std::string dsm = testkit::data_path(kSample), zones = f.in.path("zones.geojson");
+  write_square_zone(zones, "around waypoint 2", {waypoints[1][0], waypoints[1][1]}, 5);
+  TempDir out;
+  auto run = run_cli(
+      {"plan", f.mesh, "--waypoints", f.waypoints, "--dsm", dsm, "--no-fly", zones, "-o", out.path("p.csv"), "-q"});
+  expect_clean_failure(run, out, f.waypoints, {"waypoint 2: inside no-fly zone 'around waypoint 2' of " + zones});
+  // A zone over the whole crop from 5 m above the ground up: every waypoint stands in it.
+  write_square_zone(zones, "everywhere", {356550, 5699500}, 400, R"(,"lower":5,"lower_ref":"AGL")");
+  run = run_cli(
+      {"plan", f.mesh, "--waypoints", f.waypoints, "--dsm", dsm, "--no-fly", zones, "-o", out.path("p.csv"), "-q"});
+  expect_clean_failure(run, out, f.waypoints, {"waypoint 1: inside no-fly zone 'everywhere'"});
+  // Not blocking when its restriction is not one of --no-fly-blocking: planned through.
+  run = run_cli({"plan", f.mesh, "--waypoints", f.waypoints, "--dsm", dsm, "--no-fly", zones, "--no-fly-blocking",
+                 "PROHIBITED_ONLY_BY_NAME", "-o", out.path("p.csv"), "-q"});
+  EXPECT_EQ(run.exit_code, 0) << run.err;
+}

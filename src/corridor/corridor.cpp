@@ -29,8 +29,9 @@ struct Window {
 
 // The flight area (x,y box of the piece's ends, widened by margin, clipped to the DSM's cell
 // centres) and its mesh, made of the area widened by `pad` more.
+// `common`: what every window's data shares (the names, the terrain, the zones).
 std::unique_ptr<Window> make_window(GridSource& source, const Point3& a, const Point3& b, double margin, double pad,
-                                    const CorridorOptions& options, const FlightNames& names) {
+                                    const BoundedSimplifyOptions& simplify, const FlightData& common) {
   const Grid& frame = source.frame();
   const double left = frame.center_x(0), right = frame.center_x(frame.width - 1);
   const double top = frame.center_y(0), bottom = frame.center_y(frame.height - 1);
@@ -46,14 +47,14 @@ std::unique_ptr<Window> make_window(GridSource& source, const Point3& a, const P
   const int c0 = clamp_col(area[0] - pad), c1 = clamp_col(area[2] + pad);
   const int r0 = clamp_row(area[3] + pad), r1 = clamp_row(area[1] - pad);
   auto window = std::make_unique<Window>();
-  FlightData data;
+  FlightData data = common;
   data.dsm = std::make_shared<const Grid>(read_window(source, c0, r0, c1 - c0 + 1, r1 - r0 + 1));
   // Holes are unknown space, as high as their rim (as far as the window shows it), meshed as
   // columns like any other; the mesh is conservative (never below a cell centre).
   Grid filled = *data.dsm;
   fill_holes_from_rim(filled, RimHeight::highest);
   data.mesh_fills_holes = true;
-  BoundedSimplifyOptions mesh_options = options.mesh;
+  BoundedSimplifyOptions mesh_options = simplify;
   mesh_options.conservative = true;
   GridView view(filled);
   auto mesh = std::make_shared<Mesh>();
@@ -65,8 +66,6 @@ std::unique_ptr<Window> make_window(GridSource& source, const Point3& a, const P
   clearance.flight_area = area;
   data.index = std::make_shared<const ClearanceIndex>(*mesh, clearance);
   data.mesh = std::move(mesh);
-  data.terrain = options.terrain;
-  data.names = names;
   window->area = std::make_unique<FlightArea>(std::move(data));
   return window;
 }
@@ -74,7 +73,8 @@ std::unique_ptr<Window> make_window(GridSource& source, const Point3& a, const P
 }  // namespace
 
 CorridorResult plan_corridor(GridSource& dsm, const std::vector<Point3>& waypoints, const PlanOptions& plan,
-                             const CorridorOptions& options, const Progress& progress, const FlightNames& names) {
+                             const CorridorOptions& options, const Progress& progress, const FlightNames& names,
+                             const std::vector<AirspaceZone>& zones, const AirspaceOptions& airspace) {
   if (!(options.chunk > 0) || !std::isfinite(options.chunk))
     throw ArgumentError("chunk", "must be a positive length, got " + format_number(options.chunk));
   if (!(options.margin > 0) || !std::isfinite(options.margin))
@@ -121,9 +121,14 @@ CorridorResult plan_corridor(GridSource& dsm, const std::vector<Point3>& waypoin
   const size_t pieces = stops.size() - 1;
 
   const double pad = plan.safety + 2 * std::max(frame.cell_x, frame.cell_y);
+  FlightData common;
+  common.terrain = options.terrain;
+  common.names = names;
+  common.no_fly = zones;
+  common.airspace = airspace;
   auto window_for = [&](size_t k) {
     const auto start = std::chrono::steady_clock::now();
-    auto window = make_window(dsm, stops[k], stops[k + 1], options.margin, pad, options, names);
+    auto window = make_window(dsm, stops[k], stops[k + 1], options.margin, pad, options.mesh, common);
     out.seconds_windows += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     return window;
   };
@@ -183,6 +188,10 @@ CorridorResult plan_corridor(GridSource& dsm, const std::vector<Point3>& waypoin
     out.min_clearance_m = std::min(out.min_clearance_m, figures.min_clearance_m);
     out.min_clearance_dsm_m = std::min(out.min_clearance_dsm_m, figures.min_clearance_dsm_m);
     out.max_agl_m = std::max(out.max_agl_m, figures.max_agl_m);
+    if (out.no_fly_zones.empty()) out.no_fly_zones = figures.no_fly_zones;
+    for (size_t z = 0; z < out.no_fly_zones.size(); ++z)
+      out.no_fly_zones[z].min_distance_m =
+          std::min(out.no_fly_zones[z].min_distance_m, figures.no_fly_zones[z].min_distance_m);
     const size_t skip = result.path.empty() ? 0 : 1;  // the joint is the previous piece's end
     result.path.insert(result.path.end(), path.begin() + skip, path.end());
     out.mesh_error.merge(current->error);

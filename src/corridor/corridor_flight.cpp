@@ -63,6 +63,7 @@ void take_corridor_figures(const CorridorResult& planned, FlightReport& report) 
   report.safety_margin_m = planned.safety_margin_m;
   report.dsm_tolerance_m = 0.01;
   report.max_agl_m = planned.max_agl_m;
+  report.no_fly_zones = planned.no_fly_zones;
 }
 
 }  // namespace
@@ -94,12 +95,13 @@ FlightPlan plan_flight_along(GridSource& city, const CorridorRequest& request, c
   const MissionSite* site = out.site ? &*out.site : nullptr;
   if (along.terrain) check_corridor_terrain(city, *along.terrain, waypoints, site, names);
   if (site) {
-    check_vertical_legs_in(city, *site, waypoints, request.options.safety);
+    check_vertical_legs_in(city, *site, waypoints, request.options.safety,
+                           {&request.no_fly, request.airspace, along.terrain});
     route = route_waypoints(waypoints, *site);
   }
   report.seconds_load = clock.lap();
-  const CorridorResult planned =
-      plan_corridor(city, route, request.options, along, sub_progress(progress, 0, 0.95), names);
+  const CorridorResult planned = plan_corridor(city, route, request.options, along, sub_progress(progress, 0, 0.95),
+                                               names, request.no_fly, request.airspace);
   take_corridor_figures(planned, report);
   if (planned.plan.status != PlanStatus::Solved) {
     const FailureInWords words = failure_in_words(planned.plan, site, waypoints.size());

@@ -166,6 +166,34 @@ std::vector<PlanResult::Invalid> refused_before_planning(const FlightArea& area,
   return refused;
 }
 
+// Every waypoint inside a no-fly zone that blocks, naming the zone and its file.
+std::vector<PlanResult::Invalid> inside_zones(const std::vector<Point3>& waypoints, const FlightData& data,
+                                              const GroundGrid* ground) {
+  std::vector<PlanResult::Invalid> refused;
+  for (size_t i = 0; i < waypoints.size(); ++i)
+    for (const AirspaceZone& zone : data.no_fly)
+      if (zone_blocks(zone, data.airspace) && zone_contains(zone, waypoints[i], ground)) {
+        refused.push_back({i, "inside no-fly " + zone_label(zone)});
+        break;
+      }
+  return refused;
+}
+
+// The path's distance to each zone (for --stats and the summary), and its segments checked once
+// more against the zones that block, as the DSM's columns are: failing is a bug.
+void measure_zones(FlightPlan& out, const FlightData& data, const FlightRules& rules, const GroundGrid& ground) {
+  const std::vector<Point3>& path = out.path;
+  for (size_t k = 1; k < path.size(); ++k)
+    for (const FlightConstraint* zone : rules.constraints)
+      if (!zone->motion_valid(path[k - 1], path[k]))
+        throw InputError(data.names.mesh, "",
+                         "the path enters " + zone->name() + " or comes closer to it than --safety (segment " +
+                             std::to_string(k) + "): a bug, please report it; nothing written");
+  for (const AirspaceZone& zone : data.no_fly)
+    out.report.no_fly_zones.push_back({zone_label(zone), zone.id, zone.name, zone.source_file,
+                                       zone_blocks(zone, data.airspace), zone_distance(zone, path, &ground)});
+}
+
 PlanResult refused(std::vector<PlanResult::Invalid> invalid) {
   PlanResult result;
   result.status = PlanStatus::InvalidWaypoint;
@@ -277,6 +305,13 @@ const GroundGrid& FlightArea::ground() const {
   return terrain_ ? *terrain_ : dsm_ground_ ? *dsm_ground_ : index().floor();
 }
 
+std::shared_ptr<const GroundGrid> FlightArea::shared_ground() const {
+  if (terrain_) return terrain_;
+  if (dsm_ground_) return dsm_ground_;
+  const std::shared_ptr<const ClearanceIndex> index = shared_index();
+  return std::shared_ptr<const GroundGrid>(index, &index->floor());
+}
+
 const char* FlightArea::ground_name() const { return terrain_ ? "dtm" : dsm_ground_ ? "dsm" : "mesh floor"; }
 
 PlanOptions FlightArea::planner_options(const PlanOptions& options) const {
@@ -311,15 +346,25 @@ FlightAttempt attempt_flight(const FlightArea& area, const FlightQuery& query, c
   out.index = area.shared_index();
   report.seconds_index = clock.lap();
   const ClearanceIndex& index = *out.index;
-  const PlanOptions plan = area.planner_options(query.options);
+  PlanOptions plan = area.planner_options(query.options);
   // What a mission's straight items and vertical legs are held to: the DSM's columns when known,
-  // else the mesh; the ceiling over the ground in use.
-  const GroundGrid& ground = area.ground();
+  // else the mesh; the ceiling over the ground in use; the zones that block, at the safety distance.
+  const std::shared_ptr<const GroundGrid> ground_held = area.shared_ground();
+  const GroundGrid& ground = *ground_held;
+  if (std::vector<PlanResult::Invalid> invalid = inside_zones(waypoints, data, &ground); !invalid.empty()) {
+    attempt.failure = refused(std::move(invalid));
+    return attempt;
+  }
   const double safety = query.options.safety;
   const std::unique_ptr<ObstacleClearance> clearance =
       area.columns() ? std::unique_ptr<ObstacleClearance>(std::make_unique<ColumnsClearance>(*area.columns(), safety))
                      : std::make_unique<MeshClearance>(index, safety);
-  const FlightRules rules{clearance.get(), &ground, plan.max_agl};
+  FlightRules rules{clearance.get(), &ground, plan.max_agl, {}};
+  for (std::shared_ptr<const FlightConstraint>& zone :
+       airspace_constraints(data.no_fly, safety, ground_held, data.airspace)) {
+    rules.constraints.push_back(zone.get());
+    plan.constraints.push_back(std::move(zone));
+  }
 
   std::vector<Point3> route = waypoints;
   if (query.mission) {
@@ -359,6 +404,7 @@ FlightAttempt attempt_flight(const FlightArea& area, const FlightQuery& query, c
   if (site || query.straight_legs) result.path = merge_straight_legs(result.path, route, rules);
   out.path = std::move(result.path);
   measure_flight(out, area, query);
+  measure_zones(out, data, rules, ground);
   attempt.solved = true;
   return attempt;
 }

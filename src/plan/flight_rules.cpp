@@ -15,6 +15,8 @@ double MeshClearance::clearance(const Point3& p, const Point3& q) const { return
 
 bool FlightRules::keeps(const Point3& p, const Point3& q) const {
   if (ground && std::isfinite(max_agl) && !ground->below_ceiling(p, q, max_agl)) return false;
+  for (const FlightConstraint* constraint : constraints)
+    if (!constraint->motion_valid(p, q)) return false;
   return obstacles->motion_valid(p, q);
 }
 

@@ -81,6 +81,13 @@ void check_vertical(const Point3& top, double ground, const FlightRules& limits,
     if (limits.ground && std::isfinite(limits.max_agl) &&
         !limits.ground->below_ceiling(bottom, top, limits.max_agl + 0.05))
       throw ArgumentError(flag, std::string("the ") + what + " rises above --max-agl " + two_decimals(limits.max_agl));
+    // A zone holds from the ground up: a drone on the ground is in it too.
+    const Point3 foot{top[0], top[1], std::min(top[2], ground)};
+    for (const FlightConstraint* zone : limits.constraints)
+      if (!zone->motion_valid(foot, top))
+        throw ArgumentError(flag, std::string("the ") + what + " at x " + two_decimals(top[0]) + ", y " +
+                                      two_decimals(top[1]) + " enters " + zone->name() +
+                                      " or comes closer to it than --safety " + two_decimals(safety));
     return;
   }
   const double surface = dsm_z ? dsm_z(top[0], top[1]) : NAN;
@@ -170,7 +177,7 @@ FailureInWords failure_in_words(const PlanResult& result, const MissionSite* sit
 }
 
 void check_vertical_legs_in(GridSource& dsm, const MissionSite& site, const std::vector<Point3>& waypoints,
-                            double safety) {
+                            double safety, const ZonesAround& zones) {
   const Grid& frame = dsm.frame();
   const auto check = [&](const Point3& top, double ground, const char* flag, const char* what) {
     const double r = safety + 2 * std::max(frame.cell_x, frame.cell_y);
@@ -180,9 +187,15 @@ void check_vertical_legs_in(GridSource& dsm, const MissionSite& site, const std:
     const int r1 = std::min(frame.height, static_cast<int>(std::ceil((frame.y0 - top[1] + r) / frame.cell_y)));
     if (c1 <= c0 || r1 <= r0) throw ArgumentError(flag, "lies outside the DSM");
     Grid columns = read_window(dsm, c0, r0, c1 - c0, r1 - r0);
+    // The zones' AGL limits count from the terrain, else from the DSM read here.
+    const std::shared_ptr<const GroundGrid> zone_ground =
+        zones.terrain ? zones.terrain : std::make_shared<const GroundGrid>(columns);
     fill_holes_from_rim(columns, RimHeight::highest);
     const ColumnsClearance obstacles(columns, safety);
-    const FlightRules limits{&obstacles, nullptr, INFINITY};
+    FlightRules limits{&obstacles, nullptr, INFINITY, {}};
+    const auto held = zones.zones ? airspace_constraints(*zones.zones, safety, zone_ground, zones.airspace)
+                                  : std::vector<std::shared_ptr<const FlightConstraint>>{};
+    for (const auto& zone : held) limits.constraints.push_back(zone.get());
     check_vertical(
         top, ground, limits, [&](double x, double y) { return columns.height_at(x, y); }, flag, what);
   };

@@ -14,6 +14,7 @@
 #include "core/mapped_file.hpp"
 #include "core/stopwatch.hpp"
 #include "core/text.hpp"
+#include "dsmplan/airspace_io.hpp"
 #include "dsmplan/columns.hpp"
 #include "dsmplan/corridor.hpp"
 #include "dsmplan/export.hpp"
@@ -152,6 +153,15 @@ MissionEnds mission_ends(const MissionJobOptions& options, const Transforms& t) 
   return ends;
 }
 
+// The no-fly zones' files, in the mesh's CRS, and which restrictions block.
+void read_no_fly(const PlanJobOptions& options, const Crs& crs, FlightData& data) {
+  for (const std::string& file : options.no_fly) {
+    std::vector<AirspaceZone> zones = read_airspace(file, crs, options.vertical);
+    data.no_fly.insert(data.no_fly.end(), zones.begin(), zones.end());
+  }
+  if (!options.no_fly_blocking.empty()) data.airspace.blocking = options.no_fly_blocking;
+}
+
 // A DSM (raster, VRT mosaic) instead of a mesh: planned along a corridor, window by window.
 FlightPlan plan_along_corridor(GridSource& city, const std::vector<Point3>& waypoints, const PlanJobOptions& options,
                                const Transforms& t, bool mission, const Progress& progress) {
@@ -162,6 +172,10 @@ FlightPlan plan_along_corridor(GridSource& city, const std::vector<Point3>& wayp
   if (!options.dtm.empty()) request.dtm = std::make_shared<const Grid>(read_raster(options.dtm));
   request.corridor = options.corridor;
   request.names = {options.mesh, options.waypoints, options.mesh, options.dtm};
+  FlightData zones;
+  read_no_fly(options, city.frame().crs, zones);
+  request.no_fly = std::move(zones.no_fly);
+  request.airspace = zones.airspace;
   return plan_flight_along(city, request, progress);
 }
 
@@ -206,6 +220,7 @@ ReadRequest read_flight_request(const PlanJobOptions& options, std::vector<Point
   request.mesh = mesh;
   if (!options.dsm.empty()) request.dsm = std::make_shared<const Grid>(read_raster(options.dsm));
   if (!options.dtm.empty()) request.dtm = std::make_shared<const Grid>(read_raster(options.dtm));
+  read_no_fly(options, mesh->crs, request);
   read.index_key = obstacle_key(mesh_file_hash, request.dsm.get());
   if (!options.index.empty() && request.dsm) open_kept(read.index_key);
   if (!options.index.empty())  // written as soon as it is built
@@ -430,12 +445,35 @@ Json to_json(const PlanReport& r) {
     j["takeoff_height_m"] = r.takeoff_height_m;
     j["mission_end"] = r.mission_end;
   }
+  if (!r.no_fly_zones.empty()) {
+    Json zones = Json::array();
+    for (const FlightReport::ZoneFigure& z : r.no_fly_zones)
+      zones.push_back({{"zone", z.label},
+                       {"id", z.id},
+                       {"name", z.name},
+                       {"file", z.file},
+                       {"blocks", z.blocks},
+                       {"min_distance_m", z.min_distance_m}});
+    j["no_fly_zones"] = zones;
+  }
   if (r.corridor_windows) {
     j["corridor_windows"] = r.corridor_windows;
     j["corridor_largest_window_cells"] = r.corridor_largest_window_cells;
   }
   return j;
 }
+
+namespace {
+
+// The zone the path passes nearest (at least this far: zone_distance() is a lower bound).
+const FlightReport::ZoneFigure* nearest_zone(const FlightReport& r) {
+  const FlightReport::ZoneFigure* nearest = nullptr;
+  for (const FlightReport::ZoneFigure& z : r.no_fly_zones)
+    if (!nearest || z.min_distance_m < nearest->min_distance_m) nearest = &z;
+  return nearest;
+}
+
+}  // namespace
 
 std::string to_text(const PlanReport& r) {
   char buffer[512];
@@ -471,6 +509,11 @@ std::string to_text(const PlanReport& r) {
                                       : "DSM",
         r.home_ground_uncertainty_m, r.takeoff_height_m, r.path_points - 1, r.mission_end.c_str());
     text += mission;
+  }
+  if (const FlightReport::ZoneFigure* nearest = nearest_zone(r)) {
+    char zone[64];
+    std::snprintf(zone, sizeof zone, " %.2f m from the path", nearest->min_distance_m);
+    text += "nearest no-fly zone: " + nearest->label + zone + (nearest->blocks ? "" : " (not blocking)") + "\n";
   }
   if (!r.transformation.empty()) text += "heights and coordinates to WGS 84 by: " + r.transformation + "\n";
   return text;

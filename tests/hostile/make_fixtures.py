@@ -409,6 +409,34 @@ def laz_fixtures():
     out("laz_chunk_count_lies.laz", bytes(h))
 
 
+def zone_fixtures():
+    """No-fly zones over the block (GeoJSON and ED-269, longitude and latitude by GDAL's OSR)."""
+    from osgeo import osr
+    utm, wgs84 = osr.SpatialReference(), osr.SpatialReference()
+    utm.ImportFromEPSG(25832)
+    wgs84.ImportFromEPSG(4326)
+    wgs84.SetAxisMappingStrategy(osr.OAMS_TRADITIONAL_GIS_ORDER)
+    to_wgs84 = osr.CoordinateTransformation(utm, wgs84)
+
+    def square(x, y, h):
+        ring = [to_wgs84.TransformPoint(x + dx, y + dy)[:2] for dx, dy in ((-h, -h), (h, -h), (h, h), (-h, h), (-h, -h))]
+        return [[round(lon, 9), round(lat, 9)] for lon, lat in ring]
+
+    def geojson(name, ring, extra=None):
+        properties = {"name": name, **(extra or {})}
+        return json.dumps({"type": "FeatureCollection", "features": [
+            {"type": "Feature", "properties": properties, "geometry": {"type": "Polygon", "coordinates": [ring]}}]})
+
+    out("zones_on_waypoint.geojson", geojson("school yard", square(356303, 5699787, 2)).encode())  # wp_good's first
+    out("zones_on_home.geojson", geojson("helipad", square(356305, 5699755, 2)).encode())
+    ed269 = {"features": [{"identifier": "ZONE-1", "name": "yards", "restriction": "PROHIBITED",
+                           "geometry": [{"uomDimensions": "YD", "lowerLimit": 0, "lowerVerticalReference": "AGL",
+                                         "upperLimit": 100, "upperVerticalReference": "AGL",
+                                         "horizontalProjection": {"type": "Polygon",
+                                                                  "coordinates": [square(356320, 5699770, 5)]}}]}]}
+    out("zones_bad_uom.json", json.dumps(ed269).encode())
+
+
 def main():
     if len(sys.argv) != 2:
         sys.exit(__doc__)
@@ -418,6 +446,7 @@ def main():
     raster_fixtures()
     disagreement_fixtures()
     waypoint_fixtures()
+    zone_fixtures()
     plan_fixtures(os.path.abspath(sys.argv[1]))
     unit_fixtures(os.path.abspath(sys.argv[1]))
 

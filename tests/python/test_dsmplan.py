@@ -2,6 +2,7 @@
 # NRW DSM. Oracles: GDAL's own Python bindings for the raster, brute force in numpy for the
 # certified error (every valid cell centre against the triangle above it) and for the path's
 # clearance (every 0.25 m of it against every triangle), a numpy reader of the PLY written.
+import json
 import os
 import subprocess
 import re
@@ -308,3 +309,42 @@ def test_a_waypoint_under_a_roof_is_refused_in_the_same_words(sample_plan, tmp_p
         dsmplan.plan(mesh, waypoints, dsm=dsm)
     assert str(caught.value).split("waypoint 2: ", 1)[1] == cli_words
     assert "inside the DSM" in cli_words
+
+
+NRW_ZONES = os.path.join(os.path.dirname(__file__), "..", "data", "airspace", "nrw_zones_ed269.json")
+
+
+def test_no_fly_zones_give_the_command_lines_path_and_refusal(sample_plan, tmp_path):
+    """The hand-made ED-269 zones over the sample: the same path bytes and figures from both faces;
+    a waypoint moved into the 40 m circle is refused in the same words."""
+    folder, mesh_file, _, _ = sample_plan
+    vertical = ["--vertical-crs", "EPSG:7837", "--allow-approximate-vertical"]
+    cli_csv = str(tmp_path / "cli.csv")
+    common = ["--waypoints", LOW_WAYPOINTS, "--dsm", SAMPLE, "--max-agl", "30", "--spacing", "10"]
+    result = run_cli("plan", mesh_file, *common, "--no-fly", NRW_ZONES, *vertical, "-o", cli_csv, "--json", "-q")
+    assert result.returncode == 0, result.stderr
+    cli_zones = json.loads(result.stdout)["no_fly_zones"]
+    dsm = dsmplan.read_dsm(SAMPLE)
+    mesh = dsmplan.simplify(dsm, max_error=0.4, conservative=True)
+    waypoints = read_waypoints(LOW_WAYPOINTS)
+    flight = dsmplan.plan(mesh, waypoints, dsm=dsm, max_agl=30, spacing=10, no_fly=[NRW_ZONES],
+                          vertical_crs="EPSG:7837", allow_approximate_vertical=True)
+    py_csv = str(tmp_path / "py.csv")
+    flight.write(py_csv)
+    assert open(py_csv, "rb").read() == open(cli_csv, "rb").read()
+    assert flight.report["no_fly_zones"] == cli_zones
+    assert all(z["min_distance_m"] >= 2.0 - 0.01 for z in cli_zones if z["blocks"])
+
+    inside = waypoints.copy()
+    inside[1] = (356550.0, 5699500.0, 160.0)  # the centre of the 40 m circle, 30 m above the roofs
+    moved = str(tmp_path / "inside.csv")
+    np.savetxt(moved, inside, delimiter=",", header="x,y,z", comments="", fmt="%.3f")
+    result = run_cli("plan", mesh_file, "--waypoints", moved, "--dsm", SAMPLE, "--no-fly", NRW_ZONES, *vertical,
+                     "-o", str(tmp_path / "p.csv"), "-q")
+    assert result.returncode == 1
+    cli_words = result.stderr.strip().split("waypoint 2: ", 1)[1]
+    assert "inside no-fly zone 'Centre circle'" in cli_words
+    with pytest.raises(dsmplan.InputError) as caught:
+        dsmplan.plan(mesh, inside, dsm=dsm, no_fly=[NRW_ZONES], vertical_crs="EPSG:7837",
+                     allow_approximate_vertical=True)
+    assert str(caught.value).split("waypoint 2: ", 1)[1] == cli_words

@@ -56,16 +56,20 @@ struct CorridorResult {
   double max_agl_m = -INFINITY;    ///< greatest height of the path above the ground (exact)
   double safety_margin_m = 0;      ///< the largest widening of the safety distance on a window's mesh (column_margin())
   double seconds_windows = 0;      ///< reading and meshing the windows
+  /// Each no-fly zone with the least distance of any piece to it (FlightReport::no_fly_zones).
+  std::vector<FlightReport::ZoneFigure> no_fly_zones;
 };
 
 /// Plans through `waypoints` (CRS coordinates) over `dsm` along a corridor (see above). Throws
 /// ArgumentError for bad options (chunk or margin <= 0) and what simplify_bounded() throws for
 /// a window; a waypoint outside the DSM or no safe via point gives status InvalidWaypoint/NoPath
 /// with the place and the reason, like plan_path().
-/// `names` name the inputs in the messages of a piece's flight (names.mesh: the DSM's file).
+/// `names` name the inputs in the messages of a piece's flight (names.mesh: the DSM's file);
+/// `zones`, the no-fly zones every piece keeps out of (FlightData::no_fly, `airspace` which block).
 CorridorResult plan_corridor(GridSource& dsm, const std::vector<Point3>& waypoints, const PlanOptions& plan,
                              const CorridorOptions& options, const Progress& progress = {},
-                             const FlightNames& names = {});
+                             const FlightNames& names = {}, const std::vector<AirspaceZone>& zones = {},
+                             const AirspaceOptions& airspace = {});
 
 /// plan_flight() for a DSM too large to mesh whole: one flight along a corridor of `dsm`, with the
 /// same rules and the same answer (FlightPlan, its report's corridor figures set). The DTM is
@@ -74,6 +78,8 @@ CorridorResult plan_corridor(GridSource& dsm, const std::vector<Point3>& waypoin
 /// ArgumentError for bad corridor options. `dtm`: optional.
 struct CorridorRequest : FlightQuery {
   std::shared_ptr<const Grid> dtm;
+  std::vector<AirspaceZone> no_fly;  ///< as FlightData::no_fly
+  AirspaceOptions airspace;
   CorridorOptions corridor;
   FlightNames names;  ///< names.mesh: the DSM
 };

@@ -118,9 +118,9 @@ std::vector<std::shared_ptr<const FlightConstraint>> airspace_constraints(const 
 
 /// The least distance from the path (its straight segments, CRS) to the zone's volume, metres:
 /// 0 when the path enters it; for --stats. A guaranteed lower bound, found by bisection to 1 cm
-/// on AirspaceConstraint's motion_valid(): the largest distance d such that the constraint at
-/// safety d lets every segment pass, so the true 3D distance is at least the result, and at
-/// most sqrt(2) times it (+1 cm) where the nearest approach is diagonal to an edge of the
+/// or 1 % of the distance on AirspaceConstraint's motion_valid(): the largest distance d such
+/// that the constraint at safety d lets every segment pass, so the true 3D distance is at least
+/// the result, and at most sqrt(2) times it (+1 cm or 1 %) where the nearest approach is diagonal to an edge of the
 /// volume (exact when it is straight beside or above it). +infinity for an empty path; capped
 /// at 100 km. O(bisection steps x (the zone's envelope + path x corners)).
 double zone_distance(const AirspaceZone& zone, const std::vector<Point3>& path, const GroundGrid* ground);

@@ -28,6 +28,7 @@
 #include <string>
 #include <vector>
 
+#include "dsmplan/airspace.hpp"
 #include "dsmplan/clearance.hpp"
 #include "dsmplan/core.hpp"
 #include "dsmplan/flight_space.hpp"
@@ -111,6 +112,11 @@ struct FlightData {
   /// The terrain already made a GroundGrid, instead of `dtm` (built once for many areas: a
   /// corridor's windows).
   std::shared_ptr<const GroundGrid> terrain;
+  /// No-fly zones (airspace.hpp, read_airspace()): the blocking ones (`airspace`) kept at the
+  /// query's safety distance like the obstacles, AGL limits counted from the ground in use; a
+  /// waypoint, home or landing inside one refused, naming it and its file.
+  std::vector<AirspaceZone> no_fly;
+  AirspaceOptions airspace;
   FlightNames names;
   /// Given the clearance index as soon as it is built, with the obstacles' key.
   std::function<void(const ClearanceIndex& index, uint64_t key)> keep_index;
@@ -155,6 +161,7 @@ public:
   /// The ground max_agl counts from: the terrain, the DSM's cells, or the mesh's floor; and its name
   /// ("dtm", "dsm", "mesh floor").
   const GroundGrid& ground() const;
+  std::shared_ptr<const GroundGrid> shared_ground() const;
   const char* ground_name() const;
   /// Added to the safety distance on the mesh so that it holds against the columns (0 without a DSM).
   double safety_margin() const { return margin_; }
@@ -233,6 +240,14 @@ struct FlightReport {
   double home_ground_uncertainty_m = NAN;
   double takeoff_height_m = NAN;
   std::string mission_end;  ///< rtl, land or none (missions only)
+  /// Each no-fly zone of the data, in order, with whether it blocks and the least distance of the
+  /// path to it (zone_distance(): a lower bound, 0 when the path enters a zone that does not block).
+  struct ZoneFigure {
+    std::string label, id, name, file;
+    bool blocks = false;
+    double min_distance_m = NAN;
+  };
+  std::vector<ZoneFigure> no_fly_zones;
 };
 
 /// A mission's site in its report: home, the takeoff's height, the end.
@@ -309,11 +324,13 @@ private:
   const ClearanceIndex& index_;
 };
 
-/// What a straight motion of a flight is held to: the obstacles, the ceiling over `ground`.
+/// What a straight motion of a flight is held to: the obstacles, the ceiling over `ground`, the
+/// constraints (no-fly zones).
 struct FlightRules {
   const ObstacleClearance* obstacles = nullptr;
   const GroundGrid* ground = nullptr;  ///< null: no ceiling
   double max_agl = INFINITY;
+  std::vector<const FlightConstraint*> constraints;
   bool keeps(const Point3& p, const Point3& q) const;
 };
 
@@ -335,17 +352,26 @@ std::vector<Point3> route_waypoints(const std::vector<Point3>& waypoints, const 
 
 /// ArgumentError("--home") or ArgumentError("--end") when the vertical climb at home or the
 /// descent at the landing passes nearer the obstacles than the safety distance (less 1 cm) from
-/// 1 m plus `safety` above the ground up, or rises above the ceiling; `dsm_z`, when given, also
+/// 1 m plus `safety` above the ground up, rises above the ceiling, or breaks a constraint from
+/// the ground up (a no-fly zone over home); `dsm_z`, when given, also
 /// refuses a home or landing under a roof or tree (DSM more than 1 m above the ground). A home
 /// that fails is answered with the nearest clear spot within 50 m.
 void check_vertical_legs(const MissionSite& site, const std::vector<Point3>& waypoints, const FlightRules& rules,
                          const std::function<double(double, double)>& dsm_z);
 
+/// The no-fly zones a vertical leg keeps out of, where the ground is read piece by piece: their
+/// AGL limits count from `terrain`, else from the DSM read around the leg.
+struct ZonesAround {
+  const std::vector<AirspaceZone>* zones = nullptr;
+  AirspaceOptions airspace;
+  std::shared_ptr<const GroundGrid> terrain;
+};
+
 /// check_vertical_legs() for a DSM read window by window (along a corridor): the columns around
-/// each vertical leg read from `dsm` (holes as high as their rim); no ceiling check (the takeoff
-/// top is as high above the ground as the first waypoint, which is checked).
+/// each vertical leg read from `dsm` (holes as high as their rim), and the zones; no ceiling
+/// check (the takeoff top is as high above the ground as the first waypoint, which is checked).
 void check_vertical_legs_in(GridSource& dsm, const MissionSite& site, const std::vector<Point3>& waypoints,
-                            double safety);
+                            double safety, const ZonesAround& zones = {});
 
 /// The planner's place of a failure in the user's words: "waypoint k" of the user's list, or the
 /// takeoff above --home, or the leg back above home (--end rtl).

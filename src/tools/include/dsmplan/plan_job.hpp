@@ -67,6 +67,9 @@ struct PlanJobOptions {
   /// from. Without it: the DSM's cells, else the mesh's floor (ground.hpp).
   std::string dtm;
   VerticalOptions vertical;  ///< heights for GeoJSON, missions, KML: --vertical-crs, --allow-approximate-vertical
+  /// No-fly zones (ED-269 JSON or GeoJSON: read_airspace()), and which restrictions block
+  /// (empty: PROHIBITED and REQ_AUTHORISATION).
+  std::vector<std::string> no_fly, no_fly_blocking;
   /// When `mesh` is a DSM (a raster or VRT mosaic, not a mesh file): planned along a corridor,
   /// window by window (plan_corridor()), on conservative bounded meshes made on the fly.
   CorridorOptions corridor;
