@@ -21,6 +21,7 @@ namespace dsmplan::cli {
 struct Session {
   const MpiFarm& farm;
   bool quiet = false;
+  int exit_code = 0;  ///< when the command ran but not all of it succeeded (plan --routes: 4)
 };
 
 /// One subcommand, registered on the app; `run` does its job when `*app` was chosen.

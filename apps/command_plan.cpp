@@ -42,7 +42,19 @@ struct Request {
   double hover_speed = NAN;
 };
 
-void run(Request& request, bool quiet) {
+// --routes: many routes in one run; a route without a path is reported and exits 4.
+void run_routes(const Request& request, Session& session) {
+  const RoutesReport report = plan_routes_job(request.options, terminal_progress(session.quiet));
+  write_stats(request.stats, to_json(report), request.outputs);
+  if (request.json)
+    print_json(to_json(report));
+  else if (!session.quiet || !report.failed.empty())
+    std::fputs(to_text(report).c_str(), stdout);
+  if (!report.failed.empty()) session.exit_code = 4;
+}
+
+void run(Request& request, Session& session) {
+  const bool quiet = session.quiet;
   PlanJobOptions& plan = request.options;
   plan.output = request.outputs.front();
   plan.more_outputs.assign(request.outputs.begin() + 1, request.outputs.end());
@@ -59,11 +71,15 @@ void run(Request& request, bool quiet) {
   std::vector<NamedFile> outputs{{"--stats", request.stats}, {"--roadmap", plan.roadmap}, {"--index", plan.index}};
   for (auto it = request.outputs.rbegin(); it != request.outputs.rend(); ++it)
     outputs.insert(outputs.begin(), {"-o", *it});
-  std::vector<NamedFile> inputs{
-      {"MESH", plan.mesh}, {"--waypoints", plan.waypoints}, {"--dsm", plan.dsm}, {"--dtm", plan.dtm}};
+  std::vector<NamedFile> inputs{{"MESH", plan.mesh},
+                                {"--waypoints", plan.waypoints},
+                                {"--routes", plan.routes},
+                                {"--dsm", plan.dsm},
+                                {"--dtm", plan.dtm}};
   for (const std::string& zones : plan.no_fly) inputs.push_back({"--no-fly", zones});
   refuse_overwrites(inputs, outputs);
   if (!request.stats.empty()) check_writable(request.stats);
+  if (!plan.routes.empty()) return run_routes(request, session);
   const PlanReport report = plan_job(plan, terminal_progress(quiet));
   write_stats(request.stats, to_json(report), request.outputs);
   if (request.json)
@@ -93,10 +109,11 @@ Command plan_command(CLI::App& app, Session& session) {
       ->add_option("--max-error", plan.corridor.mesh.max_error,
                    "DSM input: the windows' conservative bounded meshes' error bound (m)")
       ->capture_default_str();
-  command
-      ->add_option("--waypoints", plan.waypoints,
-                   "Waypoints: .csv (x,y,z in the mesh's CRS) or .geojson (WGS 84 lon, lat, ellipsoidal height)")
-      ->required();
+  command->add_option("--waypoints", plan.waypoints,
+                      "Waypoints: .csv (x,y,z in the mesh's CRS) or .geojson (WGS 84 lon, lat, ellipsoidal height)");
+  command->add_option("--routes", plan.routes,
+                      "Many routes instead of --waypoints, over one roadmap: .csv (route,x,y,z) or .geojson "
+                      "(LineStrings with an id); -o a .geojson FeatureCollection or a folder/ (exit 4: some failed)");
   command
       ->add_option("-o,--output", request->outputs,
                    "Path: .csv (x,y,z in the mesh's CRS), .geojson (WGS 84, ellipsoidal heights), or with heights "
@@ -169,7 +186,7 @@ Command plan_command(CLI::App& app, Session& session) {
                     "KML: a wall from the path and the waypoints down to the ground");
   command->add_option("--hover-speed", request->hover_speed,
                       "Missions: the .plan's hoverSpeed (m/s, (0, 100]); default --speed");
-  return {command, [request, &session] { run(*request, session.quiet); }};
+  return {command, [request, &session] { run(*request, session); }};
 }
 
 }  // namespace dsmplan::cli

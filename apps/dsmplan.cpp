@@ -22,5 +22,6 @@ int main(int argc, char** argv) {
       cli::mesh_command(app, session),    cli::simplify_command(app, session), cli::render_command(app, session),
       cli::profile_command(app, session), cli::plan_command(app, session),     cli::view_command(app, session),
   };
-  return cli::run_command(app, commands, farm, argc, argv);
+  const int failed = cli::run_command(app, commands, farm, argc, argv);
+  return failed ? failed : session.exit_code;
 }

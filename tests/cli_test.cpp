@@ -2761,3 +2761,66 @@ TEST(CliNoFly, WaypointInAZoneAndAFloorUnderEveryWaypointAreRefused) {
                  "PROHIBITED_ONLY_BY_NAME", "-o", out.path("p.csv"), "-q"});
   EXPECT_EQ(run.exit_code, 0) << run.err;
 }
+
+// ---- dsmplan plan --routes ---------------------------------------------------------------------
+//
+// Many routes over one roadmap: each route's path is, byte for byte, the path `dsmplan plan`
+// writes for that route alone with the same roadmap kept (--roadmap), and a route without a path
+// gets the one-line reason the single run gives, without stopping the others (exit 4).
+
+TEST(CliRoutes, EachRouteIsTheSingleRunsPathAndAFailedRouteStopsNoOther) {
+  NoFlyFixture f;
+  const auto corners = f.corners();
+  std::ostringstream routes;
+  routes.precision(17);
+  routes << "route,x,y,z\n";
+  const std::vector<std::pair<std::string, std::vector<size_t>>> legs{{"a", {0, 1}}, {"b", {1, 2}}, {"c", {2, 0, 1}}};
+  for (const auto& [id, which] : legs)
+    for (const size_t k : which)
+      routes << id << "," << corners[k][0] << "," << corners[k][1] << "," << corners[k][2] << "\n";
+  routes << "under," << corners[0][0] << "," << corners[0][1] << ",0\n"
+         << "under," << corners[1][0] << "," << corners[1][1] << "," << corners[1][2] << "\n";
+  const std::string routes_file = f.in.path("routes.csv"), dsm = testkit::data_path(kSample);
+  testkit::write_file(routes_file, routes.str());
+  TempDir out;
+  const std::string folder = out.path("paths") + "/", roadmap = f.in.path("kept.roadmap");
+  const auto run =
+      run_cli({"plan", f.mesh, "--routes", routes_file, "--dsm", dsm, "--roadmap", roadmap, "-o", folder, "-q"});
+  EXPECT_EQ(run.exit_code, 4) << run.err;
+  EXPECT_NE(run.out.find("no path: under: waypoint 1: "), std::string::npos) << run.out;
+  for (const auto& [id, which] : legs) {
+    std::vector<std::array<double, 3>> waypoints;
+    for (const size_t k : which) waypoints.push_back(corners[k]);
+    f.write_waypoints(waypoints);
+    const std::string alone = out.path(id + "_alone.csv");
+    const auto single =
+        run_cli({"plan", f.mesh, "--waypoints", f.waypoints, "--dsm", dsm, "--roadmap", roadmap, "-o", alone, "-q"});
+    ASSERT_EQ(single.exit_code, 0) << single.err;
+    EXPECT_EQ(testkit::read_file(folder + id + ".csv"), testkit::read_file(alone)) << id;
+  }
+  f.write_waypoints({{corners[0][0], corners[0][1], 0}, corners[1]});
+  const auto refused =
+      run_cli({"plan", f.mesh, "--waypoints", f.waypoints, "--dsm", dsm, "-o", out.path("under.csv"), "-q"});
+  ASSERT_EQ(refused.exit_code, 1);
+  const json listed = json::parse(testkit::read_file(folder + "routes.json"));
+  ASSERT_EQ(listed.size(), 4u);
+  EXPECT_FALSE(listed[3]["solved"]);
+  const std::string reason = listed[3]["reason"];
+  EXPECT_NE(refused.err.find(reason), std::string::npos) << refused.err << " vs " << reason;
+  EXPECT_FALSE(std::filesystem::exists(folder + "under.csv"));
+
+  // As one GeoJSON FeatureCollection: a feature a route, the failed one with a null geometry.
+  const auto collected =
+      run_cli({"plan", f.mesh, "--routes", routes_file, "--dsm", dsm, "-o", out.path("routes.geojson"),
+               "--vertical-crs", "EPSG:7837", "--allow-approximate-vertical", "-q"});
+  EXPECT_EQ(collected.exit_code, 4) << collected.err;
+  const json doc = json::parse(testkit::read_file(out.path("routes.geojson")));
+  ASSERT_EQ(doc["features"].size(), 4u);
+  EXPECT_EQ(doc["features"][0]["properties"]["id"], "a");
+  EXPECT_EQ(doc["features"][0]["geometry"]["type"], "LineString");
+  EXPECT_TRUE(doc["features"][3]["geometry"].is_null());
+  // --routes with --waypoints, or over a raster, is refused before anything is read.
+  const auto both = run_cli({"plan", f.mesh, "--routes", routes_file, "--waypoints", f.waypoints, "-o", folder, "-q"});
+  EXPECT_EQ(both.exit_code, 2);
+  EXPECT_NE(both.err.find("--routes"), std::string::npos) << both.err;
+}

@@ -5,6 +5,7 @@
 #include <charconv>
 #include <cmath>
 #include <fstream>
+#include <map>
 #include <nlohmann/json.hpp>
 #include <sstream>
 #include <string>
@@ -166,6 +167,92 @@ std::vector<Point3> read_waypoints_geojson(const std::string& path) {
   }
   check_count(path, points.size());
   return points;
+}
+
+// ---- routes: many flights in one file --------------------------------------------------------
+
+namespace {
+
+// The route named `id`, made at its first row: routes keep the order of their first rows.
+std::vector<Point3>& route_named(std::vector<Route>& routes, std::map<std::string, size_t>& index,
+                                 const std::string& id) {
+  const auto [it, added] = index.emplace(id, routes.size());
+  if (added) routes.push_back({id, {}});
+  return routes[it->second].waypoints;
+}
+
+}  // namespace
+
+std::vector<Route> read_routes_csv(const std::string& path) {
+  std::istringstream in(read_waypoint_bytes(path));
+  std::vector<Route> routes;
+  std::map<std::string, size_t> index;
+  std::string line;
+  bool first = true;
+  for (size_t number = 1; std::getline(in, line); ++number) {
+    const std::string text = trim(line);
+    if (text.empty() || text[0] == '#') continue;
+    const size_t comma = text.find(',');
+    const std::string id = trim(text.substr(0, comma));
+    Point3 p;
+    if (comma != std::string::npos && !id.empty() && parse_point(text.substr(comma + 1), p)) {
+      std::vector<Point3>& waypoints = route_named(routes, index, id);
+      waypoints.push_back(p);
+      check_count(path, waypoints.size());
+    } else if (!first) {
+      throw InputError(path, "line " + std::to_string(number),
+                       "expected 'route,x,y,z' (an id and three numbers), got '" + text.substr(0, 60) + "'");
+    }
+    first = false;
+  }
+  if (routes.empty()) throw InputError(path, "", "no route: expected lines of 'route,x,y,z'");
+  return routes;
+}
+
+std::vector<Route> read_routes_geojson(const std::string& path) {
+  const std::string bytes = read_waypoint_bytes(path);
+  Json doc;
+  try {
+    doc = Json::parse(bytes);
+  } catch (const Json::parse_error& e) {
+    throw InputError(path, "byte " + std::to_string(e.byte), "not JSON");
+  } catch (const Json::out_of_range&) {
+    throw InputError(path, "", "a number beyond the range of a double");
+  }
+  if (!doc.is_object() || doc.value("type", Json()) != "FeatureCollection" || !doc.contains("features") ||
+      !doc["features"].is_array())
+    throw InputError(path, "", "routes are a GeoJSON FeatureCollection of LineString features");
+  std::vector<Route> routes;
+  std::map<std::string, size_t> index;
+  for (size_t i = 0; i < doc["features"].size(); ++i) {
+    const Json& f = doc["features"][i];
+    const std::string place = "feature " + std::to_string(i + 1);
+    const Json* geometry = f.is_object() && f.contains("geometry") ? &f["geometry"] : nullptr;
+    if (!geometry || !geometry->is_object() || !geometry->contains("coordinates") ||
+        !(geometry->value("type", Json()) == "LineString" || geometry->value("type", Json()) == "MultiPoint") ||
+        !(*geometry)["coordinates"].is_array())
+      throw InputError(path, place, "a route is a LineString (or MultiPoint) geometry");
+    // Its id: properties.id, else the feature's id, else its number.
+    const Json* id = f.contains("properties") && f["properties"].is_object() && f["properties"].contains("id")
+                         ? &f["properties"]["id"]
+                     : f.contains("id") ? &f["id"]
+                                        : nullptr;
+    const std::string name = !id               ? "route " + std::to_string(i + 1)
+                             : id->is_string() ? id->get<std::string>()
+                                               : brief(*id);
+    if (index.count(name)) throw InputError(path, place, "a second route with the id '" + name + "'");
+    std::vector<Point3>& waypoints = route_named(routes, index, name);
+    const Json& c = (*geometry)["coordinates"];
+    for (size_t k = 0; k < c.size(); ++k) {
+      Point3 p;
+      const std::string problem = position(c[k], p);
+      if (!problem.empty()) throw InputError(path, place + ", position " + std::to_string(k + 1), problem);
+      waypoints.push_back(p);
+    }
+    check_count(path, waypoints.size());
+  }
+  if (routes.empty()) throw InputError(path, "", "no route: the FeatureCollection has no feature");
+  return routes;
 }
 
 }  // namespace dsmplan

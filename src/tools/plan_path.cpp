@@ -179,12 +179,7 @@ FlightPlan plan_along_corridor(GridSource& city, const std::vector<Point3>& wayp
   return plan_flight_along(city, request, progress);
 }
 
-// The files of a mesh plan read into the stage's request, and what names a kept index.
-struct ReadRequest {
-  FlightRequest request;
-  uint64_t index_key = 0;  ///< the index file's input hash: the mesh file's, and the DSM's (obstacle_key())
-  double seconds = 0;      ///< spent reading
-};
+}  // namespace
 
 // A kept index (--index) that fits the mesh file: without --dsm nothing joins the mesh, so the
 // file's hash names the index and only the mesh's header (its CRS) is read; the vertices and
@@ -249,6 +244,8 @@ FlightStore file_store(const PlanJobOptions& options) {
   return store;
 }
 
+namespace {
+
 // Writes the path (or the mission) in the output's format, in WGS 84 where the format asks.
 void write_flight_as(const PlanJobOptions& options, const std::string& output, const OutputKind& kind,
                      const FlightPlan& flight, const std::vector<Point3>& waypoints, const Crs& crs,
@@ -293,6 +290,9 @@ void write_flight_as(const PlanJobOptions& options, const std::string& output, c
 }  // namespace
 
 PlanReport plan_job(const PlanJobOptions& options, const Progress& progress) {
+  if (options.waypoints.empty())
+    throw ArgumentError("--waypoints", "is required: the waypoints to fly through (or --routes, many routes)");
+  if (!options.routes.empty()) throw ArgumentError("--routes", "is planned by plan_routes_job(), not plan_job()");
   const Outputs outputs = plan_outputs(options);
   check_plan_options(options.plan);
   for (const auto& [output, kind] : outputs.files)

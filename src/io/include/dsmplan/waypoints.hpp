@@ -21,4 +21,22 @@ std::vector<Point3> read_waypoints_csv(const std::string& path);
 /// is required. InputError(path, "feature N[, position K]" or "byte N", why) otherwise.
 std::vector<Point3> read_waypoints_geojson(const std::string& path);
 
+/// A route of a routes file (`dsmplan plan --routes`): its id and its waypoints, in order.
+struct Route {
+  std::string id;
+  std::vector<Point3> waypoints;
+};
+
+/// Routes from CSV: "route,x,y,z" lines, the id any text without a comma, x, y, z in the mesh's
+/// CRS; a first line that is not such (e.g. "route,x,y,z") is a header, '#' lines and empty ones
+/// are skipped. A route's rows are its waypoints in order; routes come in the order of their first
+/// row. InputError(path, "line N", ...) for another line, InputError(path) for no route.
+std::vector<Route> read_routes_csv(const std::string& path);
+
+/// Routes from GeoJSON (RFC 7946): a FeatureCollection of LineString (or MultiPoint) features, one
+/// route each, its id the feature's properties.id, else its id member, else "route N"; positions
+/// [longitude, latitude, height] in WGS 84 as read_waypoints_geojson(). InputError(path, "feature
+/// N[, position K]" or "byte N", why) otherwise, and for two routes with one id.
+std::vector<Route> read_routes_geojson(const std::string& path);
+
 }  // namespace dsmplan

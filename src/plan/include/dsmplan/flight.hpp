@@ -286,6 +286,32 @@ struct FlightAttempt {
 };
 FlightAttempt attempt_flight(const FlightArea& area, const FlightQuery& query, const Progress& progress = {});
 
+/// One route of plan_routes(): its flight, or why there is none in the user's words (`place`
+/// as "waypoint 2" or "waypoints 1 to 2", empty when the refusal was not a waypoint's: then `why`
+/// is the whole line, e.g. "--home: ...").
+struct RouteResult {
+  bool solved = false;
+  FlightPlan plan;
+  std::string place, why;
+};
+
+struct RoutesPlan {
+  std::vector<RouteResult> routes;  ///< in the order given
+  size_t roadmap_nodes = 0, roadmap_edges = 0;
+  bool roadmap_reused = false;                                 ///< from FlightStore::kept_roadmap
+  double seconds_index = 0, seconds_roadmap = 0, seconds = 0;  ///< seconds: the whole call
+};
+
+/// Many flights over one area: the paper's multi-query planner. One roadmap (the store's, else
+/// built once for `common`'s options and given to FlightStore::keep_roadmap), every route a
+/// query against it with `common`'s options and mission, in parallel (TBB), each held to every
+/// rule and verified as plan_flight() does. A route that fails does not stop the others: its
+/// RouteResult says why. With the rrtconnect planner every route grows its own trees.
+/// Deterministic: the same routes give the same paths whatever the number of threads.
+/// Errors: ArgumentError for options out of range; everything else is a route's.
+RoutesPlan plan_routes(const FlightArea& area, const std::vector<std::vector<Point3>>& routes,
+                       const FlightQuery& common, const Progress& progress = {});
+
 // ---- the rules, one implementation each ------------------------------------------------------
 
 /// Keeps `safety` from obstacles, and says how far they are: the DSM's columns or the mesh.

@@ -67,6 +67,8 @@ struct PlanJobOptions {
   /// from. Without it: the DSM's cells, else the mesh's floor (ground.hpp).
   std::string dtm;
   VerticalOptions vertical;  ///< heights for GeoJSON, missions, KML: --vertical-crs, --allow-approximate-vertical
+  /// Many routes instead of `waypoints` (plan_routes_job()): CSV "route,x,y,z" or GeoJSON LineStrings.
+  std::string routes;
   /// No-fly zones (ED-269 JSON or GeoJSON: read_airspace()), and which restrictions block
   /// (empty: PROHIBITED and REQ_AUTHORISATION).
   std::vector<std::string> no_fly, no_fly_blocking;
@@ -120,5 +122,30 @@ void write_flight(const FlightPlan& flight, const std::vector<Point3>& waypoints
 Json to_json(const PlanReport& report);
 /// One summary line for people.
 std::string to_text(const PlanReport& report);
+
+// ---- many routes in one run: dsmplan plan --routes -------------------------------------------
+
+struct RoutesReport {
+  std::string output;
+  size_t routes = 0, solved = 0;
+  std::vector<std::string> failed;  ///< "ID: why", one line each, in the routes' order
+  size_t roadmap_nodes = 0, roadmap_edges = 0;
+  bool roadmap_reused = false;
+  double seconds_read = 0, seconds_index = 0, seconds_roadmap = 0, seconds_plan = 0, seconds_write = 0;
+};
+
+/// plan_routes() over options.mesh for every route of options.routes (read_routes_csv(), or
+/// read_routes_geojson() for .geojson/.json), with plan_job()'s options and checks. Writes
+/// options.output: a .geojson FeatureCollection, one feature per route (its id, its figures, the
+/// path as flown in WGS 84, or for a route without a path a null geometry and its one-line
+/// reason), or a folder (a name ending in '/', or an existing directory) with one file per
+/// route (its id, made safe as a file name, then the extension of options.format, default csv;
+/// any path or mission format) and routes.json beside them (every route's id, status, reason or
+/// figures). A route that fails stops no other: the report lists it (the CLI exits 4 then).
+/// Errors as plan_job() for the inputs and options; ArgumentError("--routes") with --waypoints or
+/// a DSM input (routes are planned over a mesh).
+RoutesReport plan_routes_job(const PlanJobOptions& options, const Progress& progress = {});
+Json to_json(const RoutesReport& report);
+std::string to_text(const RoutesReport& report);
 
 }  // namespace dsmplan

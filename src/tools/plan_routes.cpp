@@ -1,0 +1,215 @@
+// dsmplan plan --routes: many routes in one run over one mesh, the paper's multi-query planner
+// (plan_routes(): one roadmap, every route a query against it), written as one GeoJSON
+// FeatureCollection or a folder of files, a route without a path reported, not fatal.
+#include <filesystem>
+#include <map>
+#include <optional>
+
+#include "core/stopwatch.hpp"
+#include "core/text.hpp"
+#include "dsmplan/export.hpp"
+#include "dsmplan/mission.hpp"
+#include "dsmplan/plan_job.hpp"
+#include "dsmplan/tools.hpp"
+#include "dsmplan/waypoints.hpp"
+#include "dsmplan/wgs84.hpp"
+#include "tools/job_parts.hpp"
+
+namespace dsmplan {
+
+namespace {
+
+bool is_geojson_name(const std::string& path) {
+  const std::string name = lower_case(path);
+  const auto ends = [&](const std::string& tail) {
+    return name.size() >= tail.size() && name.compare(name.size() - tail.size(), tail.size(), tail) == 0;
+  };
+  return ends(".geojson") || ends(".json");
+}
+
+bool is_folder(const std::string& output) {
+  std::error_code ec;
+  return (!output.empty() && output.back() == '/') || std::filesystem::is_directory(output, ec);
+}
+
+void check_routes_options(const PlanJobOptions& options) {
+  if (!options.waypoints.empty()) throw ArgumentError("--routes", "replaces --waypoints: give one or the other");
+  if (!is_mesh_file(options.mesh))
+    throw ArgumentError("--routes", "routes are planned over a mesh (" + options.mesh +
+                                        " is a raster): mesh it first (dsmplan simplify --conservative) and pass "
+                                        "the raster as --dsm");
+  if (!options.more_outputs.empty()) throw ArgumentError("-o", "--routes writes one output: a .geojson or a folder");
+  if (!is_folder(options.output) && !is_geojson_name(options.output))
+    throw ArgumentError("-o", "--routes writes a .geojson FeatureCollection or a folder (a name ending in '/'), got '" +
+                                  options.output + "'");
+  if (!options.roadmap.empty() && options.plan.planner != PlannerKind::prm)
+    throw ArgumentError("--roadmap", "only the prm planner keeps a roadmap; rrtconnect grows its trees per query");
+  check_plan_options(options.plan);
+}
+
+// A route's id made a file name: letters, digits, '.', '-' and '_' kept, the rest '_'.
+std::string file_name_of(const std::string& id) {
+  std::string name;
+  for (const char c : id)
+    name += std::isalnum(static_cast<unsigned char>(c)) || c == '-' || c == '_' || c == '.' ? c : '_';
+  return name.empty() || name[0] == '.' ? "_" + name : name;
+}
+
+Json route_figures(const Route& route, const RouteResult& result) {
+  Json p{{"id", route.id}, {"solved", result.solved}, {"waypoints", route.waypoints.size()}};
+  if (!result.solved) {
+    p["reason"] = result.place.empty() ? result.why : result.place + ": " + result.why;
+    return p;
+  }
+  const FlightReport& r = result.plan.report;
+  p["points"] = r.path_points;
+  p["path_length_m"] = r.path_length_m;
+  p["min_clearance_m"] = r.min_clearance_m;
+  if (std::isfinite(r.min_clearance_dsm_m)) p["min_clearance_dsm_m"] = r.min_clearance_dsm_m;
+  p["max_agl_m"] = r.max_agl_m;
+  return p;
+}
+
+// The FeatureCollection: each route's path in WGS 84 (ellipsoidal heights), its figures or reason.
+std::string routes_geojson(const std::vector<Route>& routes, const RoutesPlan& planned, const Crs& crs,
+                           const Wgs84Transform& wgs84) {
+  Json features = Json::array();
+  for (size_t i = 0; i < routes.size(); ++i) {
+    const RouteResult& result = planned.routes[i];
+    Json geometry;  // null for a route without a path
+    if (result.solved) {
+      Json line = Json::array();
+      for (const Point3& p : result.plan.path) {
+        const Point3 g = wgs84.to_wgs84(p);
+        line.push_back({g[0], g[1], g[2]});
+      }
+      geometry = {{"type", "LineString"}, {"coordinates", line}};
+    }
+    features.push_back({{"type", "Feature"}, {"properties", route_figures(routes[i], result)}, {"geometry", geometry}});
+  }
+  const Json doc{{"type", "FeatureCollection"},
+                 {"crs_source", crs.name},
+                 {"height", "metres above the WGS 84 ellipsoid"},
+                 {"transformation", wgs84.description()},
+                 {"features", features}};
+  return doc.dump() + "\n";
+}
+
+// One file a solved route, and routes.json with every route's figures or reason.
+void write_routes_folder(const std::vector<Route>& routes, const RoutesPlan& planned, const Crs& crs,
+                         const PlanJobOptions& options) {
+  const std::filesystem::path folder(options.output);
+  std::filesystem::create_directories(folder);
+  const std::string ext = options.format.empty() ? "csv" : lower_case(options.format);
+  std::map<std::string, std::string> taken;  // file name -> id: two ids may make one name
+  Json all = Json::array();
+  for (size_t i = 0; i < routes.size(); ++i) {
+    const RouteResult& result = planned.routes[i];
+    all.push_back(route_figures(routes[i], result));
+    if (!result.solved) continue;
+    const std::string name = file_name_of(routes[i].id);
+    if (const auto [it, added] = taken.emplace(name, routes[i].id); !added)
+      throw ArgumentError("--routes", "the ids '" + it->second + "' and '" + routes[i].id + "' make one file name");
+    const std::string file = (folder / (name + "." + ext)).string();
+    if (ext == "csv") {
+      write_text_file(file, path_to_csv(result.plan.path));
+      continue;
+    }
+    PlanJobOptions one = options;
+    one.output = file;
+    PlanReport report;
+    write_flight(result.plan, routes[i].waypoints, crs, one, report);
+  }
+  write_text_file((folder / "routes.json").string(), all.dump(2) + "\n");
+}
+
+}  // namespace
+
+RoutesReport plan_routes_job(const PlanJobOptions& options, const Progress& progress) {
+  check_routes_options(options);
+  Stopwatch clock;
+  std::vector<Route> routes =
+      is_geojson_name(options.routes) ? read_routes_geojson(options.routes) : read_routes_csv(options.routes);
+  ReadRequest read = read_flight_request(options, {}, sub_progress(progress, 0, 0.1));
+  FlightRequest& request = read.request;
+  const Crs crs = request.mesh->crs;
+  if (!request.index || request.dsm) require_projected(crs, options.mesh, centre_of(*request.mesh));
+  // WGS 84 only where GeoJSON is read or written: a folder of CSV needs no vertical reference.
+  std::optional<Wgs84Transform> wgs84;
+  if (is_geojson_name(options.routes) || !is_folder(options.output))
+    wgs84.emplace(crs, HeightReference::Ellipsoid, options.vertical);
+  if (is_geojson_name(options.routes))
+    for (Route& route : routes)
+      for (Point3& p : route.waypoints) p = wgs84->from_wgs84(p);
+  RoutesReport report;
+  report.output = options.output;
+  report.routes = routes.size();
+  report.seconds_read = clock.lap();
+
+  const FlightArea area(request);
+  FlightQuery common;
+  common.options = options.plan;
+  common.store = file_store(options);
+  if (options.format == "plan" || options.format == "waypoints" || options.format == "kmz") {
+    MissionEnds ends{options.mission.home, options.mission.end, {}};
+    ends.from_lonlat = [&](double lon, double lat) {
+      return Wgs84Transform(crs, HeightReference::MeanSeaLevel, options.vertical).from_wgs84({lon, lat, 0});
+    };
+    common.mission = ends;
+  }
+  std::vector<std::vector<Point3>> waypoints;
+  for (const Route& route : routes) waypoints.push_back(route.waypoints);
+  const RoutesPlan planned = plan_routes(area, waypoints, common, sub_progress(progress, 0.1, 0.95));
+  report.seconds_index = planned.seconds_index;
+  report.seconds_roadmap = planned.seconds_roadmap;
+  report.seconds_plan = planned.seconds - planned.seconds_index - planned.seconds_roadmap;
+  report.roadmap_nodes = planned.roadmap_nodes, report.roadmap_edges = planned.roadmap_edges;
+  report.roadmap_reused = planned.roadmap_reused;
+  for (size_t i = 0; i < routes.size(); ++i) {
+    const RouteResult& r = planned.routes[i];
+    if (r.solved)
+      ++report.solved;
+    else
+      report.failed.push_back(routes[i].id + ": " + (r.place.empty() ? r.why : r.place + ": " + r.why));
+  }
+  clock.lap();
+  if (is_folder(options.output))
+    write_routes_folder(routes, planned, crs, options);
+  else
+    write_text_file(options.output, routes_geojson(routes, planned, crs, *wgs84));
+  report.seconds_write = clock.lap();
+  dsmplan::report(progress, 1);
+  return report;
+}
+
+Json to_json(const RoutesReport& r) {
+  const double seconds = r.seconds_roadmap + r.seconds_plan;
+  return Json{{"routes", r.routes},
+              {"solved", r.solved},
+              {"failed", r.failed},
+              {"roadmap_nodes", r.roadmap_nodes},
+              {"roadmap_edges", r.roadmap_edges},
+              {"roadmap_reused", r.roadmap_reused},
+              {"seconds_read", r.seconds_read},
+              {"seconds_index", r.seconds_index},
+              {"seconds_roadmap", r.seconds_roadmap},
+              {"seconds_plan", r.seconds_plan},
+              {"seconds_write", r.seconds_write},
+              {"routes_per_second", seconds > 0 ? double(r.routes) / seconds : 0.0}};
+}
+
+std::string to_text(const RoutesReport& r) {
+  char line[400];
+  std::snprintf(line, sizeof line,
+                "%s: %zu of %zu routes planned; roadmap %zu nodes, %zu edges (%.2f s%s), routes %.2f s (%.0f a "
+                "second)\n",
+                r.output.c_str(), r.solved, r.routes, r.roadmap_nodes, r.roadmap_edges, r.seconds_roadmap,
+                r.roadmap_reused ? ", reused" : "", r.seconds_plan,
+                r.seconds_plan > 0 ? double(r.routes) / r.seconds_plan : 0.0);
+  std::string text = line;
+  for (size_t i = 0; i < r.failed.size() && i < 10; ++i) text += "no path: " + r.failed[i] + "\n";
+  if (r.failed.size() > 10) text += "and " + std::to_string(r.failed.size() - 10) + " more without a path\n";
+  return text;
+}
+
+}  // namespace dsmplan
