@@ -79,14 +79,14 @@ std::vector<std::string> make_requests(int port, const Grid& dsm, double height,
       y(dsm.y0 - dsm.height * dsm.cell_y + 20, dsm.y0 - 20);
   httplib::Client client("127.0.0.1", port);
   std::vector<std::string> bodies;
-  while (bodies.size() < count) {
+  for (size_t drawn = 0; bodies.size() < count && drawn < 100 * count; ++drawn) {
     const double ax = x(random), ay = y(random), bx = x(random), by = y(random);
     const double d = std::hypot(bx - ax, by - ay);
     const float az = dsm.height_at(ax, ay), bz = dsm.height_at(bx, by);
     if (d < 200 || d > 1500 || !std::isfinite(az) || !std::isfinite(bz)) continue;
     char body[256];
-    std::snprintf(body, sizeof body, "{\"waypoints\":[[%.2f,%.2f,%.2f],[%.2f,%.2f,%.2f]],\"format\":\"geojson\"}", ax,
-                  ay, az + height, bx, by, bz + height);
+    std::snprintf(body, sizeof body, "{\"waypoints\":[[%.2f,%.2f,%.2f],[%.2f,%.2f,%.2f]],\"format\":\"csv\"}", ax, ay,
+                  az + height, bx, by, bz + height);
     const auto r = client.Post("/v1/plan", body, "application/json");
     if (r && r->status == 200)
       bodies.push_back(body);
@@ -128,6 +128,7 @@ int main(int argc, char** argv) {
     pool.emplace_back([&, c] {
       httplib::Client client("127.0.0.1", port);
       client.set_keep_alive(true);
+      client.set_tcp_nodelay(true);
       for (size_t i = c; !stop; i += clients) {
         const auto t0 = Clock::now();
         const auto r = client.Post("/v1/plan", bodies[i % bodies.size()], "application/json");
