@@ -43,6 +43,7 @@ Command render_command(CLI::App& app, Session& session);
 Command profile_command(CLI::App& app, Session& session);
 Command plan_command(CLI::App& app, Session& session);
 Command view_command(CLI::App& app, Session& session);
+Command serve_command(CLI::App& app, Session& session);
 
 /// Parses argv and runs the chosen command (on an MPI worker rank: its `serve`, if any), turning
 /// every error into one line on stderr and the exit code: 2 a usage error (ArgumentError

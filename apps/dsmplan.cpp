@@ -21,6 +21,7 @@ int main(int argc, char** argv) {
       cli::info_command(app, session),    cli::grid_command(app, session),     cli::stereo_command(app, session),
       cli::mesh_command(app, session),    cli::simplify_command(app, session), cli::render_command(app, session),
       cli::profile_command(app, session), cli::plan_command(app, session),     cli::view_command(app, session),
+      cli::serve_command(app, session),
   };
   const int failed = cli::run_command(app, commands, farm, argc, argv);
   return failed ? failed : session.exit_code;

@@ -114,7 +114,12 @@ std::vector<Point3> read_waypoints_csv(const std::string& path) {
 }
 
 std::vector<Point3> read_waypoints_geojson(const std::string& path) {
-  const std::string bytes = read_waypoint_bytes(path);
+  return parse_waypoints_geojson(read_waypoint_bytes(path), path);
+}
+
+std::vector<Point3> parse_waypoints_geojson(const std::string& bytes, const std::string& path) {
+  if (bytes.size() > kMaxWaypointBytes)
+    throw InputError(path, "", "more than 64 MB: not a waypoint list (at most 100000 waypoints a mission)");
   Json doc;
   try {
     doc = Json::parse(bytes);

@@ -18,6 +18,8 @@
 #include <string>
 #include <thread>
 
+#include "dsmplan/core.hpp"
+
 namespace dsmplan {
 
 namespace {
@@ -241,6 +243,49 @@ void ConnectionThreads::enqueue(std::function<void()> fn) {
 void ConnectionThreads::shutdown() {  // the requests in flight finish, then the server stops
   std::unique_lock<std::mutex> lock(state_->mutex);
   state_->done.wait(lock, [&] { return state_->running == 0 && state_->waiting.empty(); });
+}
+
+namespace {
+
+// Whether a socket can be bound to `host` (on a port the system picks): false for a name that
+// does not resolve or an address of another machine.
+bool can_listen_on(const std::string& host) {
+  addrinfo hints{};
+  hints.ai_socktype = SOCK_STREAM;
+  hints.ai_flags = AI_PASSIVE;
+  addrinfo* found = nullptr;
+  if (::getaddrinfo(host.c_str(), "0", &hints, &found) != 0) return false;
+  bool bound = false;
+  for (const addrinfo* a = found; a && !bound; a = a->ai_next) {
+    const int probe = ::socket(a->ai_family, a->ai_socktype, a->ai_protocol);
+    if (probe < 0) continue;
+    bound = ::bind(probe, a->ai_addr, a->ai_addrlen) == 0;
+    ::close(probe);
+  }
+  ::freeaddrinfo(found);
+  return bound;
+}
+
+}  // namespace
+
+int bind_listening(DeadlineServer& server, const std::string& host, int port_asked) {
+  // httplib's default also sets SO_REUSEPORT, with which a second server binds a port in use
+  // and the two share the requests; SO_REUSEADDR alone still allows a restart at once.
+  server.set_socket_options([](socket_t sock) {
+    int yes = 1;
+    setsockopt(sock, SOL_SOCKET, SO_REUSEADDR, &yes, sizeof yes);
+  });
+  // The host first, so that a port in use and an address not of this machine are told apart.
+  if (!can_listen_on(host)) throw Error("--host: cannot listen on " + host + ": not an address of this machine");
+  int port = port_asked;
+  if (port == 0) {
+    port = server.bind_to_any_port(host);
+    // Not a usage error (exit 2) but the machine's state: an Error (exit 1).
+    if (port < 0) throw Error("--host: cannot listen on " + host);
+  } else if (!server.bind_to_port(host, port)) {
+    throw Error("--port: cannot listen on " + host + ":" + std::to_string(port) + " (in use)");
+  }
+  return port;
 }
 
 }  // namespace dsmplan

@@ -63,4 +63,9 @@ private:
   std::shared_ptr<State> state_;  // shared with the threads, which may outlive the queue
 };
 
+/// Binds `server` to host:port (0: any free port) and returns the port. Error("--host") for an
+/// address not of this machine, Error("--port") for a port in use; SO_REUSEADDR, not SO_REUSEPORT
+/// (with which a second server would share the port).
+int bind_listening(DeadlineServer& server, const std::string& host, int port);
+
 }  // namespace dsmplan

@@ -14,8 +14,6 @@
 #include "core/text.hpp"
 #include "dsmplan/core.hpp"
 #include "dsmplan/export.hpp"
-#include "dsmplan/flight.hpp"
-#include "dsmplan/plan_job.hpp"
 #include "dsmplan/tools.hpp"
 #include "dsmplan/wgs84.hpp"
 
@@ -77,19 +75,5 @@ std::optional<Wgs84Transform> tileset_heights(bool tileset, const Crs& crs, cons
 size_t write_mesh_output(const Mesh& mesh, const std::string& output, MeshFormat format,
                          const std::optional<Wgs84Transform>& heights, std::optional<TilesetReport>& report,
                          const Progress& progress);
-
-// ---- dsmplan plan over a mesh (plan_path.cpp), for plan_routes.cpp ----
-
-/// The files of a mesh plan read into the stage's request (`waypoints` moved in; the index kept
-/// with --index, and a kept roadmap's store with --roadmap, set), and what names a kept index.
-struct ReadRequest {
-  FlightRequest request;
-  uint64_t index_key = 0;  ///< the index file's input hash: the mesh file's, and the DSM's (obstacle_key())
-  double seconds = 0;      ///< spent reading
-};
-ReadRequest read_flight_request(const PlanJobOptions& options, std::vector<Point3> waypoints, const Progress& progress);
-
-/// The kept roadmap of --roadmap: read when its file exists (and fits), else built and written.
-FlightStore file_store(const PlanJobOptions& options);
 
 }  // namespace dsmplan

@@ -29,6 +29,7 @@
 #include "dsmplan/wgs84.hpp"
 #include "dsmplan/wpml.hpp"
 #include "tools/job_parts.hpp"
+#include "tools/plan_parts.hpp"
 #include "tools/report_json.hpp"
 
 namespace dsmplan {
@@ -47,16 +48,8 @@ bool is_geojson(const std::string& path) {
   return ext == "geojson" || ext == "json";
 }
 
-// What the output is: its format (--of, else the extension, as GDAL's newer command line
-// chooses), and the heights it states.
-struct OutputKind {
-  std::string ext;
-  bool geojson = false;  ///< WGS 84, ellipsoidal heights
-  bool msl = false;      ///< missions and KML: heights above mean sea level (EGM96)
-  bool mission = false;  ///< missions take off from home and end (MissionJobOptions)
-};
+}  // namespace
 
-// One output's format: --of, else its extension.
 OutputKind output_kind(const std::string& output, const std::string& format) {
   OutputKind kind;
   kind.ext = lower_case(format.empty() ? lower_extension(output) : format);
@@ -73,14 +66,6 @@ OutputKind output_kind(const std::string& output, const std::string& format) {
                             output + "'");
   return kind;
 }
-
-// Every output of the run (-o, repeated) with its format, and the options that belong to them,
-// checked before anything is read. One of them a mission: the flight is planned as one, and the
-// others show it as flown, home legs included (as_flown()).
-struct Outputs {
-  std::vector<std::pair<std::string, OutputKind>> files;
-  bool mission = false, geojson = false, msl = false, kml = false;
-};
 
 Outputs plan_outputs(const PlanJobOptions& options) {
   Outputs out;
@@ -106,6 +91,8 @@ Outputs plan_outputs(const PlanJobOptions& options) {
   return out;
 }
 
+namespace {
+
 // A mission's path as the drone flies it: from home on the ground, up to the route, along it,
 // and down (at the landing, or at home after the leg back above it).
 std::vector<Point3> as_flown(const FlightPlan& flight) {
@@ -128,24 +115,21 @@ std::optional<ClearanceIndex> open_kept_index(const std::string& path, uint64_t 
   return ClearanceIndex::open(path, input_hash, {}, source);
 }
 
-// The transformations to WGS 84 the waypoints and the output need, made before planning, so that
-// an unknown or approximate vertical reference stops the run early.
-struct Transforms {
-  std::optional<Wgs84Transform> wgs84;   ///< GeoJSON in or out: ellipsoidal heights
-  std::optional<Wgs84Transform> to_msl;  ///< missions and KML: heights above mean sea level
-};
+}  // namespace
 
 void make_transforms(Transforms& t, const Crs& crs, bool geo_in, const Outputs& outputs,
                      const VerticalOptions& vertical, std::string& description) {
   if (geo_in || outputs.geojson) {
-    t.wgs84.emplace(crs, HeightReference::Ellipsoid, vertical);
+    if (!t.wgs84) t.wgs84.emplace(crs, HeightReference::Ellipsoid, vertical);
     description = t.wgs84->description();
   }
   if (outputs.msl) {
-    t.to_msl.emplace(crs, HeightReference::MeanSeaLevel, vertical);
+    if (!t.to_msl) t.to_msl.emplace(crs, HeightReference::MeanSeaLevel, vertical);
     description += (description.empty() ? "" : "; path by: ") + t.to_msl->description();
   }
 }
+
+namespace {
 
 MissionEnds mission_ends(const MissionJobOptions& options, const Transforms& t) {
   MissionEnds ends{options.home, options.end, {}};
@@ -181,10 +165,6 @@ FlightPlan plan_along_corridor(GridSource& city, const std::vector<Point3>& wayp
 
 }  // namespace
 
-// A kept index (--index) that fits the mesh file: without --dsm nothing joins the mesh, so the
-// file's hash names the index and only the mesh's header (its CRS) is read; the vertices and
-// triangles are in the index already. With --dsm the index is named by the mesh file and the DSM
-// together (their holes' columns join the mesh in it).
 ReadRequest read_flight_request(const PlanJobOptions& options, std::vector<Point3> waypoints,
                                 const Progress& progress) {
   Stopwatch clock;
@@ -244,15 +224,11 @@ FlightStore file_store(const PlanJobOptions& options) {
   return store;
 }
 
-namespace {
-
-// Writes the path (or the mission) in the output's format, in WGS 84 where the format asks.
-void write_flight_as(const PlanJobOptions& options, const std::string& output, const OutputKind& kind,
-                     const FlightPlan& flight, const std::vector<Point3>& waypoints, const Crs& crs,
-                     const Transforms& t, PlanReport& report) {
+std::string flight_text(const PlanJobOptions& options, const OutputKind& kind, const FlightPlan& flight,
+                        const std::vector<Point3>& waypoints, const Crs& crs, const Transforms& t, PlanReport& report) {
   // A mission is its items; every other format shows the flight as flown, home legs included.
   const std::vector<Point3> path = kind.mission ? flight.path : as_flown(flight);
-  if (kind.ext == "csv") return write_text_file(output, path_to_csv(path));
+  if (kind.ext == "csv") return path_to_csv(path);
   if (kind.geojson) {
     std::vector<Point3> lonlath;
     lonlath.reserve(path.size());
@@ -263,7 +239,7 @@ void write_flight_as(const PlanJobOptions& options, const std::string& output, c
                     {"safety_m", options.plan.safety},
                     {"path_length_m", report.path_length_m},
                     {"min_clearance_m", report.min_clearance_m}};
-    return write_text_file(output, path_to_geojson(lonlath, properties.dump()));
+    return path_to_geojson(lonlath, properties.dump());
   }
   std::vector<Point3> lonlatamsl, marks;
   for (const Point3& p : path) lonlatamsl.push_back(t.to_msl->to_wgs84(p));
@@ -272,8 +248,15 @@ void write_flight_as(const PlanJobOptions& options, const std::string& output, c
     MissionOptions kml = options.mission.format;
     kml.description =
         "dsmplan path from " + crs.name + "; heights above mean sea level (EGM96) by: " + t.to_msl->description();
-    return write_text_file(output, path_to_kml(lonlatamsl, marks, kml));
+    return path_to_kml(lonlatamsl, marks, kml);
   }
+  const Mission mission = flight_mission(flight, lonlatamsl, t, report);
+  return kind.ext == "plan" ? mission_to_qgc_plan(mission, options.mission.format)
+                            : mission_to_qgc_wpl(mission, options.mission.format);
+}
+
+Mission flight_mission(const FlightPlan& flight, const std::vector<Point3>& lonlatamsl, const Transforms& t,
+                       PlanReport& report) {
   const MissionSite& site = *flight.site;
   Mission mission;
   mission.home = t.to_msl->to_wgs84(site.home);
@@ -282,12 +265,17 @@ void write_flight_as(const PlanJobOptions& options, const std::string& output, c
   mission.end = site.end;
   if (site.end == MissionEnd::land) mission.land = t.to_msl->to_wgs84(site.land);
   report.mission_items = 2 + (mission.route.size() - 1) + (site.end == MissionEnd::none ? 0 : 1);
-  if (kind.ext == "kmz") return write_wpml_kmz(mission, options.mission.format, output);
-  write_text_file(output, kind.ext == "plan" ? mission_to_qgc_plan(mission, options.mission.format)
-                                             : mission_to_qgc_wpl(mission, options.mission.format));
+  return mission;
 }
 
-}  // namespace
+void write_flight_as(const PlanJobOptions& options, const std::string& output, const OutputKind& kind,
+                     const FlightPlan& flight, const std::vector<Point3>& waypoints, const Crs& crs,
+                     const Transforms& t, PlanReport& report) {
+  if (kind.ext != "kmz") return write_text_file(output, flight_text(options, kind, flight, waypoints, crs, t, report));
+  std::vector<Point3> lonlatamsl;
+  for (const Point3& p : flight.path) lonlatamsl.push_back(t.to_msl->to_wgs84(p));
+  write_wpml_kmz(flight_mission(flight, lonlatamsl, t, report), options.mission.format, output);
+}
 
 PlanReport plan_job(const PlanJobOptions& options, const Progress& progress) {
   if (options.waypoints.empty())

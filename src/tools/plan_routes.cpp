@@ -14,6 +14,7 @@
 #include "dsmplan/waypoints.hpp"
 #include "dsmplan/wgs84.hpp"
 #include "tools/job_parts.hpp"
+#include "tools/plan_parts.hpp"
 
 namespace dsmplan {
 

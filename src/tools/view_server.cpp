@@ -65,25 +65,6 @@ void check_csv(const std::string& path, const char* what) {
   if (read_waypoints_csv(path).empty()) throw InputError(path, "", std::string("no points in the ") + what);
 }
 
-// Whether a socket can be bound to `host` (on a port the system picks): false for a name that
-// does not resolve or an address of another machine.
-bool can_listen_on(const std::string& host) {
-  addrinfo hints{};
-  hints.ai_socktype = SOCK_STREAM;
-  hints.ai_flags = AI_PASSIVE;
-  addrinfo* found = nullptr;
-  if (::getaddrinfo(host.c_str(), "0", &hints, &found) != 0) return false;
-  bool bound = false;
-  for (const addrinfo* a = found; a && !bound; a = a->ai_next) {
-    const int probe = ::socket(a->ai_family, a->ai_socktype, a->ai_protocol);
-    if (probe < 0) continue;
-    bound = ::bind(probe, a->ai_addr, a->ai_addrlen) == 0;
-    ::close(probe);
-  }
-  ::freeaddrinfo(found);
-  return bound;
-}
-
 // True for "ADDRESS:PORT" with our port and an IP address or "localhost" before it: a name
 // of any other site (DNS rebinding) is refused, an address a user typed is not.
 bool host_is_ours(const std::string& host, const std::string& port) {
@@ -178,28 +159,6 @@ struct ViewFiles {
   }
 };
 
-// Binds the host and port (0: any free one) and returns the port.
-int bind_view(DeadlineServer& server, const ViewOptions& options) {
-  // httplib's default also sets SO_REUSEPORT, with which a second server binds a port in use
-  // and the two share the requests; SO_REUSEADDR alone still allows a restart at once.
-  server.set_socket_options([](socket_t sock) {
-    int yes = 1;
-    setsockopt(sock, SOL_SOCKET, SO_REUSEADDR, &yes, sizeof yes);
-  });
-  // The host first, so that a port in use and an address not of this machine are told apart.
-  if (!can_listen_on(options.host))
-    throw Error("--host: cannot listen on " + options.host + ": not an address of this machine");
-  int port = options.port;
-  if (port == 0) {
-    port = server.bind_to_any_port(options.host);
-    // Not a usage error (exit 2) but the machine's state: an Error (exit 1).
-    if (port < 0) throw Error("--host: cannot listen on " + options.host);
-  } else if (!server.bind_to_port(options.host, port)) {
-    throw Error("--port: cannot listen on " + options.host + ":" + std::to_string(port) + " (in use)");
-  }
-  return port;
-}
-
 }  // namespace
 
 void serve_view(const ViewOptions& options, const std::function<void(const std::string& url)>& listening) {
@@ -225,7 +184,7 @@ void serve_view(const ViewOptions& options, const std::function<void(const std::
   server.Get(R"(/.*)", [&files](const httplib::Request& request, httplib::Response& response) {
     files.answer(request, response);
   });
-  const int port = bind_view(server, options);
+  const int port = bind_listening(server, options.host, options.port);
   const std::string authority =
       (options.host.find(':') != std::string::npos ? "[" + options.host + "]" : options.host) + ":" +
       std::to_string(port);

@@ -21,6 +21,10 @@ std::vector<Point3> read_waypoints_csv(const std::string& path);
 /// is required. InputError(path, "feature N[, position K]" or "byte N", why) otherwise.
 std::vector<Point3> read_waypoints_geojson(const std::string& path);
 
+/// read_waypoints_geojson() of bytes already in memory (a request's body), `name` standing for
+/// the file in the errors: InputError(name, ...).
+std::vector<Point3> parse_waypoints_geojson(const std::string& bytes, const std::string& name);
+
 /// A route of a routes file (`dsmplan plan --routes`): its id and its waypoints, in order.
 struct Route {
   std::string id;

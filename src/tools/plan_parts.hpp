@@ -1,0 +1,89 @@
+// The pieces of `dsmplan plan` (plan_path.cpp) that `dsmplan serve` (serve_*.cpp) shares, so that
+// both read the same files the same way and give the same bytes for the same flight.
+#pragma once
+
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "dsmplan/flight.hpp"
+#include "dsmplan/mission.hpp"
+#include "dsmplan/plan_job.hpp"
+#include "dsmplan/wgs84.hpp"
+
+namespace dsmplan {
+
+/// What an output is: its format (--of, else the extension, as GDAL's newer command line
+/// chooses), and the heights it states.
+struct OutputKind {
+  std::string ext;
+  bool geojson = false;  ///< WGS 84, ellipsoidal heights
+  bool msl = false;      ///< missions and KML: heights above mean sea level (EGM96)
+  bool mission = false;  ///< missions take off from home and end (MissionJobOptions)
+};
+
+/// One output's format: `format` (--of), else its extension. ArgumentError("--of" or "-o").
+OutputKind output_kind(const std::string& output, const std::string& format);
+
+/// Every output of the run (-o, repeated) with its format, and the options that belong to them,
+/// checked before anything is read. One of them a mission: the flight is planned as one, and the
+/// others show it as flown, home legs included.
+struct Outputs {
+  std::vector<std::pair<std::string, OutputKind>> files;
+  bool mission = false, geojson = false, msl = false, kml = false;
+};
+
+/// options.output and more_outputs with their kinds; ArgumentError for options that do not
+/// belong to them ("--home", "--end", "--extrude", "--speed", "--hover-speed", "--of").
+Outputs plan_outputs(const PlanJobOptions& options);
+
+/// The transformations to WGS 84 the waypoints and the outputs need, made before planning, so
+/// that an unknown or approximate vertical reference stops the run early. Each holds a PROJ
+/// context of its own: one thread at a time.
+struct Transforms {
+  std::optional<Wgs84Transform> wgs84;   ///< GeoJSON in or out: ellipsoidal heights
+  std::optional<Wgs84Transform> to_msl;  ///< missions and KML: heights above mean sea level
+};
+
+/// Makes those of `t` that GeoJSON waypoints (`geo_in`) and `outputs` need and `t` lacks (a
+/// service keeps them from request to request); `description` says which were used.
+void make_transforms(Transforms& t, const Crs& crs, bool geo_in, const Outputs& outputs,
+                     const VerticalOptions& vertical, std::string& description);
+
+/// The files of a mesh plan read into the stage's request, and what names a kept index.
+struct ReadRequest {
+  FlightRequest request;
+  uint64_t index_key = 0;  ///< the index file's input hash: the mesh file's, and the DSM's (obstacle_key())
+  double seconds = 0;      ///< spent reading
+};
+
+/// options.mesh, dsm, dtm and a kept index (--index) that fits the mesh file: without --dsm
+/// nothing joins the mesh, so the file's hash names the index and only the mesh's header (its CRS)
+/// is read; the vertices and triangles are in the index already. With --dsm the index is named by
+/// the mesh file and the DSM together (their holes' columns join the mesh in it). An index built
+/// later is written to options.index.
+ReadRequest read_flight_request(const PlanJobOptions& options, std::vector<Point3> waypoints, const Progress& progress);
+
+/// The kept roadmap of --roadmap: read when its file exists (and fits this mesh, ground and
+/// options), else built and written there; nothing without --roadmap.
+FlightStore file_store(const PlanJobOptions& options);
+
+/// The bytes of one output of every format but .kmz (a ZIP written through GDAL: write_flight_as()),
+/// in WGS 84 where the format asks (through `t`, made by make_transforms()). Missions fill
+/// report.mission_items.
+std::string flight_text(const PlanJobOptions& options, const OutputKind& kind, const FlightPlan& flight,
+                        const std::vector<Point3>& waypoints, const Crs& crs, const Transforms& t, PlanReport& report);
+
+/// A flight's mission in WGS 84, heights above mean sea level (`lonlatamsl`: its path so);
+/// fills report.mission_items.
+Mission flight_mission(const FlightPlan& flight, const std::vector<Point3>& lonlatamsl, const Transforms& t,
+                       PlanReport& report);
+
+/// flight_text() written atomically to `output`, or the .kmz.
+void write_flight_as(const PlanJobOptions& options, const std::string& output, const OutputKind& kind,
+                     const FlightPlan& flight, const std::vector<Point3>& waypoints, const Crs& crs,
+                     const Transforms& t, PlanReport& report);
+
+}  // namespace dsmplan
