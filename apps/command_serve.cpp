@@ -45,6 +45,12 @@ Command serve_command(CLI::App& app, Session& session) {
   command->add_option("MESH", serve.mesh, "Obstacle mesh (.ply, .obj, .off) in a projected CRS")->required();
   command->add_option("--dsm", serve.dsm, "Raw DSM: every path keeps --safety from its cells as solid columns");
   command->add_option("--dtm", serve.dtm, "Terrain raster: the ground --max-agl counts from");
+  command->add_option("--no-fly", serve.no_fly,
+                      "No-fly zones (ED-269 JSON or GeoJSON; repeatable) every request keeps out of");
+  command
+      ->add_option("--no-fly-blocking", serve.no_fly_blocking,
+                   "Restrictions that block (default PROHIBITED,REQ_AUTHORISATION)")
+      ->delimiter(',');
   command->add_option("--index", serve.index, "Index file of the mesh: opened when it fits, else built and saved");
   command->add_option("--roadmap", serve.roadmap,
                       "Roadmap file of the server's options: read when it fits, else built and saved");

@@ -406,3 +406,32 @@ TEST(Serve, ResidentMemoryStaysFlat) {
 }
 
 }  // namespace
+
+// With the hand-made ED-269 zones over the crop: the same path bytes as `dsmplan plan --no-fly`,
+// the zones in the figures, and a waypoint inside a zone answered 422 with the CLI's words.
+TEST(Serve, KeepsOutOfTheNoFlyZonesAsThePlanCommandDoes) {
+  const std::string zones = std::string(DSMPLAN_TESTS_DIR) + "/data/airspace/nrw_zones_ed269.json";
+  Server server({"--no-fly", zones});
+  testkit::TempDir dir;
+  // The first and last of the sample's waypoints: the straight line between them crosses the
+  // circle, which stands on the second.
+  const std::vector<std::array<double, 3>> ends{kPoints.front(), kPoints.back()};
+  const std::string ends_file = dir.path("ends.csv");
+  testkit::write_file(ends_file, "x,y,z\n356320,5699270,130\n356780,5699730,135\n");
+  const Reply reply = post(server.port(), Json{{"waypoints", waypoints_json(ends)}, {"format", "csv"}}.dump());
+  ASSERT_EQ(reply.status, 200) << reply.body;
+  EXPECT_EQ(reply.json()["path"].get<std::string>(), cli_path(dir, ends_file, "csv", {"--no-fly", zones}));
+  const Json figures = reply.json()["stats"]["no_fly_zones"];
+  ASSERT_EQ(figures.size(), 6u);
+  for (const Json& zone : figures)
+    if (zone["blocks"]) EXPECT_GE(zone["min_distance_m"].get<double>(), 2 - 0.01) << zone["zone"];
+  // The sample's second waypoint stands in the file's 40 m circle; the server names the file by
+  // its name only.
+  const Reply refused = post(server.port(), Json{{"waypoints", waypoints_json(kPoints)}}.dump());
+  EXPECT_EQ(refused.status, 422) << refused.body;
+  const std::string error = refused.json()["error"];
+  EXPECT_NE(error.find("waypoint 2: inside no-fly zone 'Centre circle' (DSM-T-CIRCLE) of nrw_zones_ed269.json"),
+            std::string::npos)
+      << error;
+  EXPECT_EQ(error.find(DSMPLAN_TESTS_DIR), std::string::npos) << error;
+}

@@ -4,6 +4,7 @@
 // verification of the path against the data.
 #include <algorithm>
 #include <cmath>
+#include <map>
 #include <mutex>
 #include <optional>
 
@@ -235,6 +236,12 @@ struct FlightArea::Lazy {
   std::shared_ptr<const Mesh> obstacles;  // the mesh with the holes' columns joined
   std::shared_ptr<const ClearanceIndex> index;
   uint64_t key = 0;
+  std::once_flag roadmap_keyed;
+  uint64_t roadmap_key = 0;
+  // The zones kept at a safety distance, one set per distance asked (few: a service bounds them),
+  // so that every query at that distance holds the same constraints (and shares a roadmap).
+  std::mutex zones_mutex;
+  std::map<double, std::vector<std::shared_ptr<const FlightConstraint>>> zones_at;
   // O(mesh), once: after the index is built (it makes `obstacles`).
   uint64_t obstacles_key() {
     std::call_once(keyed, [&] { key = mesh_fingerprint(*obstacles); });
@@ -314,11 +321,44 @@ std::shared_ptr<const GroundGrid> FlightArea::shared_ground() const {
 
 const char* FlightArea::ground_name() const { return terrain_ ? "dtm" : dsm_ground_ ? "dsm" : "mesh floor"; }
 
+std::vector<std::shared_ptr<const FlightConstraint>> FlightArea::zone_constraints(double safety) const {
+  if (data_.no_fly.empty()) return {};
+  constexpr size_t kKept = 16;  // distances whose constraints are kept
+  {
+    const std::lock_guard<std::mutex> lock(lazy_->zones_mutex);
+    if (const auto found = lazy_->zones_at.find(safety); found != lazy_->zones_at.end()) return found->second;
+  }
+  auto made = airspace_constraints(data_.no_fly, safety, shared_ground(), data_.airspace);
+  const std::lock_guard<std::mutex> lock(lazy_->zones_mutex);
+  if (lazy_->zones_at.size() >= kKept) return made;
+  return lazy_->zones_at.emplace(safety, std::move(made)).first->second;  // the first made, if two raced
+}
+
 PlanOptions FlightArea::planner_options(const PlanOptions& options) const {
   PlanOptions plan = options;
   plan.ground = terrain_ ? terrain_ : dsm_ground_;
   plan.safety += margin_;
+  for (std::shared_ptr<const FlightConstraint>& zone : zone_constraints(options.safety))
+    plan.constraints.push_back(std::move(zone));
   return plan;
+}
+
+uint64_t FlightArea::roadmap_key() const {
+  std::call_once(lazy_->roadmap_keyed, [&] {
+    const GroundGrid* ground = terrain_ ? terrain_.get() : dsm_ground_.get();
+    uint64_t zones = 0;  // FNV-1a over what makes the zones that block
+    const auto mix = [&zones](const void* bytes, size_t size) {
+      for (size_t i = 0; i < size; ++i) zones = (zones ^ static_cast<const unsigned char*>(bytes)[i]) * 1099511628211u;
+    };
+    for (const AirspaceZone& zone : data_.no_fly) {
+      if (!zone_blocks(zone, data_.airspace)) continue;
+      for (const auto& ring : zone.rings) mix(ring.data(), ring.size() * sizeof ring[0]), mix("|", 1);
+      for (const ZoneLimit& limit : {zone.lower, zone.upper})
+        mix(&limit.reference, sizeof limit.reference), mix(&limit.height, sizeof limit.height);
+    }
+    lazy_->roadmap_key = obstacles_key() ^ (ground ? ground->fingerprint() : 0) ^ zones;
+  });
+  return lazy_->roadmap_key;
 }
 
 // ---- a flight ----------------------------------------------------------------------------------
@@ -360,11 +400,8 @@ FlightAttempt attempt_flight(const FlightArea& area, const FlightQuery& query, c
       area.columns() ? std::unique_ptr<ObstacleClearance>(std::make_unique<ColumnsClearance>(*area.columns(), safety))
                      : std::make_unique<MeshClearance>(index, safety);
   FlightRules rules{clearance.get(), &ground, plan.max_agl, {}};
-  for (std::shared_ptr<const FlightConstraint>& zone :
-       airspace_constraints(data.no_fly, safety, ground_held, data.airspace)) {
-    rules.constraints.push_back(zone.get());
-    plan.constraints.push_back(std::move(zone));
-  }
+  for (const std::shared_ptr<const FlightConstraint>& constraint : plan.constraints)
+    rules.constraints.push_back(constraint.get());
 
   std::vector<Point3> route = waypoints;
   if (query.mission) {
@@ -391,8 +428,7 @@ FlightAttempt attempt_flight(const FlightArea& area, const FlightQuery& query, c
   report.seconds_load = report.seconds_index + clock.lap();
 
   const FlightStore& store = query.store;
-  const uint64_t roadmap_key =
-      store.kept_roadmap ? area.obstacles_key() ^ (plan.ground ? plan.ground->fingerprint() : 0) : 0;
+  const uint64_t roadmap_key = store.kept_roadmap ? area.roadmap_key() : 0;
   PlanResult result = run_planner(index, route, plan, store, roadmap_key, report, clock, progress);
   take_planner_figures(result, report);
   if (result.status != PlanStatus::Solved) {

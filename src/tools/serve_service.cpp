@@ -99,8 +99,7 @@ void prepare(PlanService::State& state, FlightData data, const Progress& progres
   state.vertical_msl = transformation_name(area.crs(), HeightReference::MeanSeaLevel, options.vertical);
   if (options.plan.planner != PlannerKind::prm) return;
   const PlanOptions plan = area.planner_options(options.plan);
-  // The key plan_flight() gives FlightStore::kept_roadmap (flight.hpp): the obstacles and the ground.
-  const uint64_t key = area.obstacles_key() ^ (plan.ground ? plan.ground->fingerprint() : 0);
+  const uint64_t key = area.roadmap_key();  // as plan_flight() asks FlightStore::kept_roadmap
   std::shared_ptr<const Roadmap> map;
   bool from_file = false;
   if (!options.roadmap.empty()) {
@@ -168,14 +167,21 @@ PlanService::PlanService(const ServeOptions& options, const Progress& progress) 
   PlanJobOptions job;
   job.mesh = options.mesh, job.dsm = options.dsm, job.dtm = options.dtm, job.index = options.index;
   job.plan = options.plan;
+  job.no_fly = options.no_fly, job.no_fly_blocking = options.no_fly_blocking, job.vertical = options.vertical;
   ReadRequest read = read_flight_request(job, {}, sub_progress(progress, 0, 0.3));
   const FlightRequest& request = read.request;
   if (!request.index || request.dsm) require_projected(request.mesh->crs, options.mesh, centre_of(*request.mesh));
   FlightData data = request;
   data.names = {shown_name(options.mesh), "waypoints", shown_name(options.dsm), shown_name(options.dtm)};
-  state_->loaded = {{"mesh", shown_name(options.mesh)},         {"dsm", shown_name(options.dsm)},
-                    {"dtm", shown_name(options.dtm)},           {"index_file", shown_name(options.index)},
-                    {"index_reused", request.index != nullptr}, {"seconds_read", read.seconds}};
+  for (AirspaceZone& zone : data.no_fly) zone.source_file = shown_name(zone.source_file);  // no server paths
+  state_->loaded = {{"mesh", shown_name(options.mesh)},
+                    {"dsm", shown_name(options.dsm)},
+                    {"dtm", shown_name(options.dtm)},
+                    {"index_file", shown_name(options.index)},
+                    {"index_reused", request.index != nullptr},
+                    {"seconds_read", read.seconds},
+                    {"no_fly", options.no_fly},
+                    {"no_fly_zones", request.no_fly.size()}};
   prepare(*state_, std::move(data), progress);
 }
 

@@ -74,7 +74,7 @@ struct MissionSite {
 
 /// Where a face keeps the roadmaps a plan builds, for the next run (a file for the command line,
 /// memory for a service). Both members may be empty. `key` names what a roadmap was built from:
-/// the obstacles (FlightArea::obstacles_key()) xor the ground (GroundGrid::fingerprint()).
+/// the obstacles, the ground and the zones (FlightArea::roadmap_key()).
 struct FlightStore {
   /// A roadmap kept for `key` and these options, or null to build one. When this member is
   /// empty no roadmap is kept, and the planner builds its own (plan_path()).
@@ -171,8 +171,15 @@ public:
   /// What kept files are named by: mesh_fingerprint() of the obstacles (O(mesh), once), or the
   /// kept index's.
   uint64_t obstacles_key() const;
-  /// The options the planner runs with: `options` with the ground set and the safety widened.
+  /// The options the planner runs with: `options` with the ground set, the safety widened, and
+  /// the zones that block (zone_constraints()) added to its constraints.
   PlanOptions planner_options(const PlanOptions& options) const;
+  /// The no-fly zones that block, kept at `safety` (airspace_constraints()); the same objects for
+  /// the same distance (16 distances kept), so that queries share a roadmap.
+  std::vector<std::shared_ptr<const FlightConstraint>> zone_constraints(double safety) const;
+  /// The key a roadmap over this area is kept by (FlightStore): the obstacles, the ground and
+  /// the zones that block. O(ground cells + zones) once.
+  uint64_t roadmap_key() const;
   /// With a DSM: the mesh's certified depth below it, and the most a column rises above the mesh
   /// (column_margin()'s two measures); NaN without.
   double mesh_max_below_dsm() const { return mesh_max_below_; }

@@ -8,6 +8,7 @@
 #include <functional>
 #include <memory>
 #include <string>
+#include <vector>
 
 #include "dsmplan/flight.hpp"
 #include "dsmplan/plan.hpp"
@@ -38,6 +39,8 @@ struct ServeOptions {
   /// the server's alone (they shape the roadmap).
   PlanOptions plan;
   VerticalOptions vertical;  ///< heights of GeoJSON, missions and KML, as `dsmplan plan` takes them
+  /// No-fly zones every request keeps out of, and which restrictions block (`dsmplan plan --no-fly`).
+  std::vector<std::string> no_fly, no_fly_blocking;
 
   /// ArgumentError naming the flag ("--threads", "--queue", "--budget", "--max-body", "--port",
   /// "--safety", ...) for a value out of the ranges above; InputError for a token file that cannot
