@@ -275,7 +275,10 @@ void write_flight_as(const PlanJobOptions& options, const std::string& output, c
     MissionOptions kml = options.mission.format;
     kml.description =
         "dsmplan path from " + crs.name + "; heights above mean sea level (EGM96) by: " + t.to_msl->description();
-    return write_text_file(output, path_to_kml(lonlatamsl, marks, kml));
+    // The zones it was planned around, drawn with it (kml_zones.cpp).
+    const std::vector<KmlZone> zones =
+        kml_zones_of({options.no_fly, options.no_fly_blocking, options.vertical}, crs, *t.to_msl);
+    return write_text_file(output, path_to_kml(lonlatamsl, marks, kml, zones));
   }
   const MissionSite& site = *flight.site;
   Mission mission;
