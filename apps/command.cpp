@@ -86,4 +86,23 @@ void add_tileset_options(CLI::App* command, bool& tileset, VerticalOptions& vert
       "With --3dtiles: heights of an unknown or grid-less vertical datum taken as EGM96 heights (about 1 m off)");
 }
 
+void add_zone_options(CLI::App* command, ZoneFiles& zones) {
+  command->add_option("--no-fly", zones.files,
+                      "No-fly zones to draw (EUROCAE ED-269 JSON or GeoJSON, as dsmplan plan reads them; repeatable)");
+  command
+      ->add_option("--no-fly-blocking", zones.blocking,
+                   "Restrictions drawn as blocking (default PROHIBITED,REQ_AUTHORISATION); the others in amber")
+      ->delimiter(',');
+  command->add_option("--vertical-crs", zones.vertical.vertical_crs,
+                      "With --no-fly: vertical CRS of the DSM's heights when the file does not say (e.g. EPSG:7837), "
+                      "for AMSL and WGS 84 limits");
+  command->add_flag("--allow-approximate-vertical", zones.vertical.allow_approximate_vertical,
+                    "With --no-fly: heights of an unknown or grid-less vertical datum taken as EGM96 heights (about "
+                    "1 m off)");
+}
+
+void add_zone_inputs(const ZoneFiles& zones, std::vector<NamedFile>& inputs) {
+  for (const std::string& file : zones.files) inputs.push_back({"--no-fly", file});
+}
+
 }  // namespace dsmplan::cli

@@ -13,6 +13,7 @@
 
 #include "dsmplan/core.hpp"
 #include "dsmplan/mpi_farm.hpp"
+#include "dsmplan/picture_job.hpp"
 #include "dsmplan/tools.hpp"
 
 namespace dsmplan::cli {
@@ -67,5 +68,11 @@ void print_json(const Json& report);
 
 /// --3dtiles and the heights it needs, on `dsmplan mesh` and `simplify`.
 void add_tileset_options(CLI::App* command, bool& tileset, VerticalOptions& vertical);
+
+/// --no-fly, --no-fly-blocking and the heights they need, on `dsmplan render` and `profile`.
+void add_zone_options(CLI::App* command, ZoneFiles& zones);
+
+/// The zone files as inputs refuse_overwrites() checks.
+void add_zone_inputs(const ZoneFiles& zones, std::vector<NamedFile>& inputs);
 
 }  // namespace dsmplan::cli

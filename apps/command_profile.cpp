@@ -18,9 +18,10 @@ struct Request {
 
 void run(const Request& request, bool quiet) {
   const ProfileJobOptions& profile = request.options;
-  refuse_overwrites(
-      {{"DSM", profile.dsm}, {"--path", profile.path}, {"--dtm", profile.dtm}, {"--waypoints", profile.waypoints}},
-      {{"-o", profile.output}});
+  std::vector<NamedFile> inputs{
+      {"DSM", profile.dsm}, {"--path", profile.path}, {"--dtm", profile.dtm}, {"--waypoints", profile.waypoints}};
+  add_zone_inputs(profile.no_fly, inputs);
+  refuse_overwrites(inputs, {{"-o", profile.output}});
   check_single_format(request.of, {"png"});
   const ProfileReport report = profile_job(profile, terminal_progress(quiet));
   if (request.json)
@@ -47,6 +48,7 @@ Command profile_command(CLI::App& app, Session& session) {
       ->capture_default_str();
   command->add_option("--max-agl", profile.profile.max_agl, "Ceiling above the ground (m; the DTM, else the DSM)")
       ->capture_default_str();
+  add_zone_options(command, profile.no_fly);
   command->add_option("--title", profile.profile.title, "Title (default: the path's and the DSM's file names)");
   command->add_option("--width", profile.profile.width, "Picture width, pixels")->capture_default_str();
   command->add_option("--height", profile.profile.height, "Picture height, pixels")->capture_default_str();

@@ -26,6 +26,7 @@ void run(Request& request, bool quiet) {
   std::vector<NamedFile> inputs{{"DSM", render.dsm}, {"--waypoints", render.waypoints}, {"--roadmap", render.roadmap}};
   for (const std::string& m : render.meshes) inputs.push_back({"--mesh", m});
   for (const std::string& p : render.paths) inputs.push_back({"--path", p});
+  add_zone_inputs(render.no_fly, inputs);
   check_single_format(request.of, {"png"});
   refuse_overwrites(inputs, {{"-o", render.output}});
   const RenderReport report = render_job(render, terminal_progress(quiet));
@@ -49,6 +50,7 @@ Command render_command(CLI::App& app, Session& session) {
   command->add_option("--path", render.paths, "Path CSV (from dsmplan plan) to draw; repeatable");
   command->add_option("--waypoints", render.waypoints, "Waypoint CSV: numbered discs");
   command->add_option("--roadmap", render.roadmap, "Roadmap file (dsmplan plan --roadmap): its edges");
+  add_zone_options(command, render.no_fly);
   request->res = command->add_option("--res", request->resolution, "Resample the DSM to this x/y resolution (m) first");
   command->add_option("--band", render.read.band, "Band to read")->capture_default_str();
   command->add_option("--crs", render.read.assign_crs, kCrsHelp);

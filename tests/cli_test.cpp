@@ -2824,3 +2824,140 @@ TEST(CliRoutes, EachRouteIsTheSingleRunsPathAndAFailedRouteStopsNoOther) {
   EXPECT_EQ(both.exit_code, 2);
   EXPECT_NE(both.err.find("--routes"), std::string::npos) << both.err;
 }
+
+// ---- zones seen: KML, render and profile -----------------------------------------------------
+
+namespace {
+
+const std::string kNrwZones = std::string(DSMPLAN_TESTS_DIR) + "/data/airspace/nrw_zones_ed269.json";
+
+// The text of every <altitudeMode> in one Placemark's XML, by CPL's own XML parser.
+std::vector<std::string> altitude_modes(const CPLXMLNode* node) {
+  std::vector<std::string> modes;
+  for (const CPLXMLNode* child = node ? node->psChild : nullptr; child; child = child->psNext) {
+    if (child->eType != CXT_Element) continue;
+    if (std::string(child->pszValue) == "altitudeMode") modes.push_back(CPLGetXMLValue(child, "", ""));
+    for (const std::string& m : altitude_modes(child)) modes.push_back(m);
+  }
+  return modes;
+}
+
+}  // namespace
+
+TEST(CliNoFly, KmlCarriesEveryZoneWhereTheFileDrawsIt) {
+  NoFlyFixture f;
+  f.write_waypoints(f.corners());
+  TempDir out;
+  const std::string kml = out.path("p.kml");
+  // No zone blocks (no restriction is named so): the plan runs whatever the zones, and the KML
+  // carries the six hand-made shapes: a hole, a circle, an AGL floor, an AMSL band, feet.
+  const auto run = run_cli({"plan", f.mesh, "--waypoints", f.waypoints, "--no-fly", kNrwZones, "--no-fly-blocking",
+                            "NONE", "--vertical-crs", "EPSG:7837", "--allow-approximate-vertical", "-o", kml, "-q"});
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  const json file = json::parse(testkit::read_file(kNrwZones));
+  // libkml's own parser reads the KML: every zone a feature with its polygons.
+  GDALAllRegister();
+  const char* libkml[] = {"LIBKML", nullptr};
+  GDALDatasetH ds = GDALOpenEx(kml.c_str(), GDAL_OF_VECTOR, libkml, nullptr, nullptr);
+  ASSERT_TRUE(ds) << "libkml cannot read the KML";
+  std::map<std::string, OGRGeometryH> zones;
+  for (int l = 0; l < GDALDatasetGetLayerCount(ds); ++l) {
+    OGRLayerH layer = GDALDatasetGetLayer(ds, l);
+    while (OGRFeatureH feature = OGR_L_GetNextFeature(layer)) {
+      const std::string name = OGR_F_GetFieldAsString(feature, OGR_F_GetFieldIndex(feature, "Name"));
+      if (OGRGeometryH g = OGR_F_GetGeometryRef(feature); g && name != "path" && name.rfind("waypoint", 0) != 0)
+        zones[name] = OGR_G_Clone(g);
+      OGR_F_Destroy(feature);
+    }
+  }
+  GDALClose(ds);
+  ASSERT_EQ(zones.size(), file["features"].size());
+  const GdalTransform to_utm("EPSG:4326", "EPSG:25832");
+  for (const auto& feature : file["features"]) {
+    const std::string name = feature["name"];
+    ASSERT_TRUE(zones.count(name)) << name;
+    OGRGeometryH all = zones[name];
+    ASSERT_GT(OGR_G_GetGeometryCount(all), 0) << name;
+    // The ceiling, or the floor without one (a MultiGeometry of one face may come back a Polygon).
+    OGRGeometryH top = wkbFlatten(OGR_G_GetGeometryType(all)) == wkbPolygon ? all : OGR_G_GetGeometryRef(all, 0);
+    ASSERT_EQ(wkbFlatten(OGR_G_GetGeometryType(top)), wkbPolygon) << name;
+    const auto& g = feature["geometry"][0];
+    const auto& shape = g["horizontalProjection"];
+    const double unit = g["uomDimensions"] == "FT" ? 0.3048 : 1.0;
+    OGRGeometryH outer = OGR_G_GetGeometryRef(top, 0);
+    if (shape["type"] == "Circle") {  // every corner R to R + 5 cm from the centre, in UTM metres
+      double cx = shape["center"][0], cy = shape["center"][1];
+      ASSERT_TRUE(to_utm(cx, cy));
+      for (int k = 0; k < OGR_G_GetPointCount(outer); ++k) {
+        double x = OGR_G_GetX(outer, k), y = OGR_G_GetY(outer, k);
+        ASSERT_TRUE(to_utm(x, y));
+        const double r = shape["radius"].get<double>() * unit;
+        EXPECT_NEAR(std::hypot(x - cx, y - cy), r + 0.025, 0.05 + r * 5e-4) << name << " corner " << k;
+      }
+    } else {  // the file's own corners, and as many holes
+      const auto& rings = shape["coordinates"];
+      ASSERT_EQ(OGR_G_GetGeometryCount(top), static_cast<int>(rings.size())) << name;
+      for (size_t r = 0; r < rings.size(); ++r) {
+        OGRGeometryH ring = OGR_G_GetGeometryRef(top, static_cast<int>(r));
+        ASSERT_EQ(OGR_G_GetPointCount(ring), static_cast<int>(rings[r].size())) << name;
+        for (size_t k = 0; k < rings[r].size(); ++k) {
+          EXPECT_NEAR(OGR_G_GetX(ring, static_cast<int>(k)), rings[r][k][0].get<double>(), 2e-9) << name;
+          EXPECT_NEAR(OGR_G_GetY(ring, static_cast<int>(k)), rings[r][k][1].get<double>(), 2e-9) << name;
+        }
+      }
+    }
+    // The top face's height: the ceiling in its unit, AGL relative to the ground, AMSL absolute.
+    const bool ceiling = g.contains("upperLimit");
+    const double expected = (ceiling ? g["upperLimit"] : g["lowerLimit"]).get<double>() * unit;
+    EXPECT_NEAR(OGR_G_GetZ(outer, 0), expected, 0.01) << name;
+    for (auto& [n, geometry] : zones)
+      if (n == name) OGR_G_DestroyGeometry(geometry), geometry = nullptr;
+  }
+  // Altitude modes, as the limits' references say (CPL's XML parser).
+  std::unique_ptr<CPLXMLNode, decltype(&CPLDestroyXMLNode)> tree(CPLParseXMLString(testkit::read_file(kml).c_str()),
+                                                                 &CPLDestroyXMLNode);
+  ASSERT_TRUE(tree);
+  const CPLXMLNode* document = CPLGetXMLNode(tree.get(), "=kml.Document");
+  ASSERT_TRUE(document);
+  std::map<std::string, std::vector<std::string>> modes;
+  for (const CPLXMLNode* p = document->psChild; p; p = p->psNext)
+    if (p->eType == CXT_Element && std::string(p->pszValue) == "Placemark")
+      modes[CPLGetXMLValue(p, "name", "")] = altitude_modes(CPLGetXMLNode(p, "MultiGeometry"));
+  EXPECT_EQ(modes["East band"].front(), "absolute");
+  EXPECT_EQ(modes["Centre circle"], std::vector<std::string>{"relativeToGround"});  // one face, extruded
+  EXPECT_EQ(modes["Courtyard ring"], std::vector<std::string>{"relativeToGround"});
+  // The AGL floor above the roofs: ceiling, floor and a wall per edge, all relative to the ground.
+  EXPECT_GT(modes["High corridor above the roofs"].size(), 4u);
+  for (const std::string& m : modes["High corridor above the roofs"]) EXPECT_EQ(m, "relativeToGround");
+}
+
+TEST(CliNoFly, RenderAndProfileDrawTheZonesAndRefuseABadFile) {
+  NoFlyFixture f;
+  f.write_waypoints(f.corners());
+  TempDir out;
+  const std::string dsm = testkit::data_path(kSample), path = out.path("p.csv");
+  ASSERT_EQ(run_cli({"plan", f.mesh, "--waypoints", f.waypoints, "-o", path, "-q"}).exit_code, 0);
+  const std::vector<std::string> zones{"--no-fly", kNrwZones, "--vertical-crs", "EPSG:7837",
+                                       "--allow-approximate-vertical"};
+  for (const std::string command : {"render", "profile"}) {
+    std::vector<std::string> args{command, dsm, "--path", path, "-q"};
+    if (command == "render") args.insert(args.end(), {"--zoom", "1"});
+    auto plain = args, zoned = args;
+    plain.insert(plain.end(), {"-o", out.path(command + "_plain.png")});
+    zoned.insert(zoned.end(), {"-o", out.path(command + "_zones.png")});
+    zoned.insert(zoned.end(), zones.begin(), zones.end());
+    ASSERT_EQ(run_cli(plain).exit_code, 0) << command;
+    const auto run = run_cli(zoned);
+    ASSERT_EQ(run.exit_code, 0) << command << ": " << run.err;
+    EXPECT_NE(testkit::read_file(out.path(command + "_plain.png")),
+              testkit::read_file(out.path(command + "_zones.png")))
+        << command << " drew no zone";
+  }
+  // A bad zones file: one line naming it, nothing written.
+  const std::string bad = out.path("bad.json");
+  testkit::write_file(bad, "{\"features\": 3}");
+  const auto run = run_cli({"render", dsm, "--no-fly", bad, "-o", out.path("bad.png"), "-q"});
+  EXPECT_EQ(run.exit_code, 1);
+  EXPECT_NE(run.err.find(bad), std::string::npos) << run.err;
+  EXPECT_FALSE(std::filesystem::exists(out.path("bad.png")));
+}

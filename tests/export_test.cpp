@@ -29,6 +29,7 @@
 #include <sstream>
 #include <vector>
 
+#include "dsmplan/airspace_io.hpp"
 #include "dsmplan/mesh.hpp"
 #include "dsmplan/mission.hpp"
 #include "dsmplan/picture.hpp"
@@ -1077,6 +1078,169 @@ TEST(Profile, PathSilhouetteAndCeilingSitAtTheirHeights) {
   EXPECT_GT(swatches[1], 20u);
   EXPECT_GT(swatches[2], 40u);
   EXPECT_GT(text, 300u);  // "DSM under the path", "ceiling: DSM + 60 m", "path", ...
+}
+
+// ---- no-fly zones in pictures -----------------------------------------------------------------
+
+namespace {
+
+using Ring2 = std::vector<std::array<double, 2>>;
+
+// The zones of the hand-made ED-269 file over the NRW crop, read with nlohmann-json and put into
+// the DSM's CRS by GDAL's own transformer (not read_airspace()): polygons as the file gives them,
+// circles as 720-gons of the file's radius around the centre (a UTM scale error of < 0.05 %).
+struct OracleZone {
+  std::string name;
+  bool blocking = true;
+  std::vector<Ring2> rings;
+};
+std::vector<OracleZone> oracle_zones(const std::string& file, const Grid& grid) {
+  const nlohmann::json doc = nlohmann::json::parse(testkit::read_file(file));
+  OGRSpatialReference wgs84, target;
+  wgs84.SetWellKnownGeogCS("WGS84");
+  wgs84.SetAxisMappingStrategy(OAMS_TRADITIONAL_GIS_ORDER);
+  target.importFromEPSG(grid.crs.epsg);
+  target.SetAxisMappingStrategy(OAMS_TRADITIONAL_GIS_ORDER);
+  std::unique_ptr<OGRCoordinateTransformation> to(OGRCreateCoordinateTransformation(&wgs84, &target));
+  std::vector<OracleZone> zones;
+  for (const auto& feature : doc["features"]) {
+    OracleZone zone;
+    zone.name = feature["name"];
+    const std::string restriction = feature["restriction"];
+    zone.blocking = restriction == "PROHIBITED" || restriction == "REQ_AUTHORISATION";
+    const auto& shape = feature["geometry"][0]["horizontalProjection"];
+    if (shape["type"] == "Circle") {
+      double x = shape["center"][0], y = shape["center"][1];
+      to->Transform(1, &x, &y);
+      const double radius = shape["radius"];
+      Ring2 ring;
+      for (int k = 0; k < 720; ++k)
+        ring.push_back({x + radius * std::cos(k * M_PI / 360), y + radius * std::sin(k * M_PI / 360)});
+      zone.rings.push_back(ring);
+    } else {
+      for (const auto& given : shape["coordinates"]) {
+        Ring2 ring;
+        for (const auto& corner : given) {
+          double x = corner[0], y = corner[1];
+          to->Transform(1, &x, &y);
+          ring.push_back({x, y});
+        }
+        zone.rings.push_back(ring);
+      }
+    }
+    zones.push_back(zone);
+  }
+  return zones;
+}
+
+// Distance from (x, y) to the zone's area (0 inside, by the even-odd rule over its rings).
+double area_distance(const OracleZone& zone, double x, double y) {
+  bool inside = false;
+  double nearest = INFINITY;
+  for (const Ring2& ring : zone.rings)
+    for (size_t k = 0; k < ring.size(); ++k) {
+      const auto& a = ring[k];
+      const auto& b = ring[(k + 1) % ring.size()];
+      nearest = std::min(nearest, segment_distance(x, y, a[0], a[1], b[0], b[1]));
+      if ((a[1] <= y) != (b[1] <= y) && x < a[0] + (y - a[1]) / (b[1] - a[1]) * (b[0] - a[0])) inside = !inside;
+    }
+  return inside ? -nearest : nearest;  // negative: inside, that far from the boundary
+}
+
+}  // namespace
+
+TEST(Render, ZonesAreDrawnInsideTheirOutlinesAndNowhereElse) {
+  const Grid& grid = nrw_grid();
+  const std::string file = std::string(DSMPLAN_TEST_DATA_DIR) + "/airspace/nrw_zones_ed269.json";
+  VerticalOptions vertical;
+  vertical.vertical_crs = "EPSG:7837";
+  vertical.allow_approximate_vertical = true;
+  RenderOptions options = plain(std::nullopt, 1);  // 1 pixel a metre
+  const Image without = render_view(grid, nullptr, options);
+  options.zones.zones = read_airspace(file, grid.crs, vertical);
+  const Image with = render_view(grid, nullptr, options);
+  ASSERT_EQ(with.width, without.width);
+  const std::vector<OracleZone> oracle = oracle_zones(file, grid);
+  ASSERT_EQ(oracle.size(), options.zones.zones.size());
+  std::vector<ImageRegion> captions;
+  for (const ImageRegion& r : with.regions)
+    if (r.what.rfind("zone ", 0) == 0) captions.push_back(r);
+  EXPECT_EQ(captions.size(), oracle.size()) << "every zone over the crop is named";
+  const auto in_caption = [&](int x, int y) {
+    return std::any_of(captions.begin(), captions.end(),
+                       [&](const ImageRegion& r) { return x >= r.x0 && x < r.x1 && y >= r.y0 && y < r.y1; });
+  };
+  size_t blocking_ink = 0, other_ink = 0, tinted = 0, deep = 0;
+  for (int y = 0; y < with.height; ++y)
+    for (int x = 0; x < with.width; ++x) {
+      const double cx = grid.x0 + x + 0.5, cy = grid.y0 - y - 0.5;
+      // nearest: the least signed distance (negative inside a zone); edge: to the nearest ring.
+      double nearest = INFINITY, edge = INFINITY;
+      for (const OracleZone& zone : oracle) {
+        const double d = area_distance(zone, cx, cy);
+        nearest = std::min(nearest, d), edge = std::min(edge, std::abs(d));
+      }
+      const bool differs = std::memcmp(pixel(with, x, y), pixel(without, x, y), 3) != 0;
+      const uint8_t* p = pixel(with, x, y);
+      const bool caption = in_caption(x, y);
+      // Outlines 2 pixels wide (1 each side, +1 antialiasing); the tint inside.
+      if (differs && !caption) EXPECT_LT(nearest, 2.1) << "pixel " << x << "," << y << " changed outside every zone";
+      if (!caption && p[0] == kZoneBlocking[0] && p[1] == kZoneBlocking[1] && p[2] == kZoneBlocking[2]) {
+        ++blocking_ink;
+        EXPECT_LT(edge, 1.5) << "pixel " << x << "," << y << " in the zone colour off an outline";
+      }
+      if (!caption && p[0] == kZoneOther[0] && p[1] == kZoneOther[1] && p[2] == kZoneOther[2]) ++other_ink;
+      // Tinted towards red or amber: red gains on blue.
+      const uint8_t* was = pixel(without, x, y);
+      if (nearest < -3 && edge > 3 && !caption) ++deep, tinted += differs && p[0] - p[2] > was[0] - was[2];
+    }
+  EXPECT_GT(blocking_ink, 600u) << "the blocking zones' outlines in their colour";
+  EXPECT_GT(other_ink, 100u) << "the park (no restriction) in the other colour";
+  EXPECT_GT(deep, 5000u);
+  EXPECT_EQ(tinted, deep) << "every pixel well inside a zone is tinted";
+}
+
+TEST(Profile, ZonesCoverTheirPartOfTheSectionFloorToCeiling) {
+  const Grid town = flat_town();  // 10 m ground, a 30 m building from 80 m to 120 m along the path
+  const std::vector<Point3> path{{1010, 1989.5, 45}, {1190, 1989.5, 45}};
+  ProfileOptions options;
+  options.width = 900, options.height = 420;
+  options.safety = 0, options.max_agl = 60;
+  options.z_min = 0, options.z_max = 100;
+  AirspaceZone agl;  // over 30-50 m along the path: 20 to 50 m above the 10 m ground
+  agl.name = "AGL";
+  agl.restriction = "PROHIBITED";
+  agl.rings = {{{1040, 1980}, {1060, 1980}, {1060, 1995}, {1040, 1995}}};
+  agl.lower = ZoneLimit::agl(20), agl.upper = ZoneLimit::agl(50);
+  AirspaceZone band;  // over 120-150 m: 70 to 80 m in the CRS, not blocking
+  band.name = "BAND";
+  band.restriction = "NO_RESTRICTION";
+  band.rings = {{{1130, 1970}, {1160, 1970}, {1160, 2000}, {1130, 2000}}};
+  band.lower = ZoneLimit::crs_height(70), band.upper = ZoneLimit::crs_height(80);
+  options.zones.zones = {agl, band};
+  const Image image = render_profile(path, town, nullptr, options);
+  const Plot plot = find_plot(image);
+  ASSERT_GT(plot.right - plot.left, 500);
+  const auto column = [&](double d) { return plot.left + static_cast<int>((d / 180) * (plot.right - plot.left)); };
+  const auto row = [&](double z) { return plot.top + static_cast<int>((100 - z) / 100 * (plot.bottom - plot.top)); };
+  const auto reddish = [&](int x, int y) {
+    const uint8_t* p = pixel(image, x, y);
+    return p[0] > p[1] + 25 && p[0] > p[2] + 25 && !magenta(p);
+  };
+  const auto amber = [&](int x, int y) {
+    const uint8_t* p = pixel(image, x, y);
+    return p[0] > p[2] + 25 && p[1] > p[2] + 10 && p[0] > p[1];
+  };
+  // Inside each zone's part, between floor and ceiling (away from the outline, caption and path).
+  for (double d : {33.0, 38.0, 47.0})
+    for (double z : {32.0, 36.0, 40.0})
+      EXPECT_TRUE(reddish(column(d), row(z))) << "AGL zone at " << d << " m, " << z << " m";
+  for (double d : {123.0, 128.0, 147.0}) EXPECT_TRUE(amber(column(d), row(72))) << "band at " << d << " m";
+  // Outside: beyond its ends, and above its ceiling or below its floor.
+  for (double d : {20.0, 60.0, 100.0})
+    for (double z : {35.0, 75.0}) EXPECT_FALSE(reddish(column(d), row(z)) || amber(column(d), row(z))) << d << "," << z;
+  for (double z : {25.0, 64.0, 90.0}) EXPECT_FALSE(reddish(column(40), row(z))) << "AGL zone at 40 m, " << z << " m";
+  for (double z : {60.0, 90.0}) EXPECT_FALSE(amber(column(140), row(z))) << "band at 140 m, " << z << " m";
 }
 
 TEST(Profile, TerrainIsTheCeilingsGroundAndItsGapsStayGaps) {

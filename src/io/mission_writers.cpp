@@ -257,8 +257,93 @@ std::string mission_to_qgc_wpl(const Mission& mission, const MissionOptions& opt
   return text;
 }
 
+namespace {
+
+const char* kml_mode(KmlZone::Altitude mode) {
+  switch (mode) {
+    case KmlZone::Altitude::relative:
+      return "relativeToGround";
+    case KmlZone::Altitude::absolute:
+      return "absolute";
+    default:
+      return "clampToGround";
+  }
+}
+
+// One Polygon of the zone at its floor (which = 2) or ceiling (3), holes inside.
+std::string kml_zone_face(const KmlZone& zone, int which, KmlZone::Altitude mode, bool extrude) {
+  std::string text = "        <Polygon>\n";
+  if (extrude) text += "          <extrude>1</extrude>\n";
+  text += std::string("          <altitudeMode>") + kml_mode(mode) + "</altitudeMode>\n";
+  for (size_t r = 0; r < zone.rings.size(); ++r) {
+    const char* boundary = r == 0 ? "outerBoundaryIs" : "innerBoundaryIs";
+    text += std::string("          <") + boundary + "><LinearRing><coordinates>\n";
+    const auto& ring = zone.rings[r];
+    for (size_t k = 0; k <= ring.size(); ++k) {  // closed: the first corner again
+      const auto& c = ring[k % ring.size()];
+      const double z = mode == KmlZone::Altitude::ground ? 0 : c[which];
+      text += "            " + degrees(c[0]) + "," + degrees(c[1]) + "," + metres(z) + "\n";
+    }
+    text += std::string("          </coordinates></LinearRing></") + boundary + ">\n";
+  }
+  return text + "        </Polygon>\n";
+}
+
+// The wall under one edge a-b: floor to ceiling, both in `mode`.
+std::string kml_zone_wall(const std::array<double, 4>& a, const std::array<double, 4>& b, KmlZone::Altitude mode) {
+  const auto at = [](const std::array<double, 4>& c, int which) {
+    return "            " + degrees(c[0]) + "," + degrees(c[1]) + "," + metres(c[which]) + "\n";
+  };
+  return std::string("        <Polygon>\n          <altitudeMode>") + kml_mode(mode) +
+         "</altitudeMode>\n          <outerBoundaryIs><LinearRing><coordinates>\n" + at(a, 2) + at(b, 2) + at(b, 3) +
+         at(a, 3) + at(a, 2) + "          </coordinates></LinearRing></outerBoundaryIs>\n        </Polygon>\n";
+}
+
+std::string kml_zones(const std::vector<KmlZone>& zones) {
+  using Altitude = KmlZone::Altitude;
+  std::string text;
+  for (const KmlZone& zone : zones) {
+    for (const auto& ring : zone.rings) {
+      if (ring.size() < 3) throw ArgumentError("kml", "zone '" + zone.name + "' has a ring of fewer than 3 corners");
+      std::vector<Point3> corners;
+      for (const auto& c : ring) corners.push_back({c[0], c[1], 0});
+      check_points(corners, "kml zone");
+      for (const auto& c : ring)
+        if (!std::isfinite(c[2]) || !std::isfinite(c[3]))
+          throw ArgumentError("kml", "zone '" + zone.name + "' has a height that is not finite");
+    }
+    text += "    <Placemark>\n      <name>" + xml_escaped(zone.name) + "</name>\n";
+    if (!zone.description.empty()) text += "      <description>" + xml_escaped(zone.description) + "</description>\n";
+    text += std::string("      <styleUrl>#") + (zone.blocking ? "zone-blocking" : "zone-other") + "</styleUrl>\n";
+    text += "      <MultiGeometry>\n";
+    const bool grounded = zone.floor == Altitude::ground, topped = zone.ceiling != Altitude::none;
+    if (topped) text += kml_zone_face(zone, 3, zone.ceiling, grounded);
+    if (!grounded || !topped) text += kml_zone_face(zone, 2, zone.floor, false);
+    if (!grounded && topped && zone.floor == zone.ceiling)
+      for (const auto& ring : zone.rings)
+        for (size_t k = 0; k < ring.size(); ++k)
+          text += kml_zone_wall(ring[k], ring[(k + 1) % ring.size()], zone.floor);
+    text += "      </MultiGeometry>\n    </Placemark>\n";
+  }
+  return text;
+}
+
+// KML colours are aabbggrr: kZoneBlocking (204, 0, 0) and kZoneOther (230, 140, 0) of the pictures.
+constexpr const char* kZoneStyles =
+    "    <Style id=\"zone-blocking\">\n"
+    "      <LineStyle>\n        <color>ff0000cc</color>\n        <width>2</width>\n      </LineStyle>\n"
+    "      <PolyStyle>\n        <color>400000cc</color>\n      </PolyStyle>\n"
+    "    </Style>\n"
+    "    <Style id=\"zone-other\">\n"
+    "      <LineStyle>\n        <color>ff008ce6</color>\n        <width>2</width>\n      </LineStyle>\n"
+    "      <PolyStyle>\n        <color>40008ce6</color>\n      </PolyStyle>\n"
+    "    </Style>\n";
+
+}  // namespace
+
 std::string path_to_kml(const std::vector<Point3>& lonlatamsl, const std::vector<Point3>& marks,
-                        const MissionOptions& options) {
+                        const MissionOptions& options, const std::vector<KmlZone>& zones) {
+  const std::string zone_text = kml_zones(zones);  // checked before anything is formatted
   check_points(lonlatamsl, "kml");
   if (!marks.empty()) check_points(marks, "kml");
   const auto tuple = [](const Point3& p) { return degrees(p[0]) + "," + degrees(p[1]) + "," + metres(p[2]); };
@@ -289,7 +374,8 @@ std::string path_to_kml(const std::vector<Point3>& lonlatamsl, const std::vector
       "      <LabelStyle>\n"
       "        <color>ffffff00</color>\n"
       "      </LabelStyle>\n"
-      "    </Style>\n"
+      "    </Style>\n" +
+      std::string(zones.empty() ? "" : kZoneStyles) +
       "    <Placemark>\n"
       "      <name>path</name>\n"
       "      <styleUrl>#path</styleUrl>\n"
@@ -317,9 +403,9 @@ std::string path_to_kml(const std::vector<Point3>& lonlatamsl, const std::vector
         "</coordinates>\n"
         "      </Point>\n"
         "    </Placemark>\n";
-  text +=
-      "  </Document>\n"
-      "</kml>\n";
+  text += zone_text +
+          "  </Document>\n"
+          "</kml>\n";
   return text;
 }
 

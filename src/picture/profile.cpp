@@ -24,6 +24,7 @@
 #include "core/text.hpp"
 #include "dsmplan/picture.hpp"
 #include "picture/canvas.hpp"
+#include "picture/zones.hpp"
 
 namespace dsmplan {
 
@@ -238,7 +239,7 @@ void fill_column(Canvas& canvas, int x, double top, double bottom, Rgb colour, f
 }
 
 struct LegendEntry {
-  enum Kind { Fill, Line, Dashed, Band, Disc } kind;
+  enum Kind { Fill, Line, Dashed, Band, Disc, Zone } kind;
   Rgb colour;
   std::string label;
   double width = 1;  ///< of a line, pixels
@@ -268,6 +269,14 @@ Image render_profile(const std::vector<Point3>& path, const Grid& dsm, const Gri
   if (!(profile.length > 0)) throw ArgumentError("path", "has no x,y length: there is nothing to draw along it");
   const std::vector<ProfileStep>& ground = dtm ? profile.dtm : profile.dsm;
   const double safety = options.safety, max_agl = options.max_agl;
+  // Each zone's part of the section, floor to ceiling over the ground's steps.
+  std::vector<std::vector<ZonePiece>> zone_parts;
+  bool blocking_zone = false, other_zone = false;
+  for (const AirspaceZone& zone : options.zones.zones) {
+    check_zone(zone);
+    zone_parts.push_back(zone_pieces(zone, zone_spans(zone, path, profile.distance), ground));
+    (zone_blocks(zone, options.zones.airspace) ? blocking_zone : other_zone) = true;
+  }
 
   // ---- sizes: text and marks grow with the picture ----
   const int s = std::clamp(std::min(W / 600, H / 250), 1, 4);
@@ -284,6 +293,8 @@ Image render_profile(const std::vector<Point3>& path, const Grid& dsm, const Gri
   legend.push_back({LegendEntry::Line, kPath, "path", path_width});
   if (safety > 0) legend.push_back({LegendEntry::Band, kPath, "safety +/-" + number(safety) + " m", path_width});
   if (!options.waypoints.empty()) legend.push_back({LegendEntry::Disc, kWaypoint, "waypoints"});
+  if (blocking_zone) legend.push_back({LegendEntry::Zone, rgb(kZoneBlocking), "no-fly zone", line_width});
+  if (other_zone) legend.push_back({LegendEntry::Zone, rgb(kZoneOther), "zone, not blocking", line_width});
   const int swatch = 26 * s, swatch_gap = 6 * s, entry_gap = 22 * s, row_height = glyph + 8 * s;
   std::vector<std::vector<size_t>> rows(1);
   std::vector<int> row_widths(1, 0);
@@ -317,6 +328,13 @@ Image render_profile(const std::vector<Point3>& path, const Grid& dsm, const Gri
   for (const ProfileStep& step : profile.dtm) span(step.z);
   for (const ProfileStep& step : ground) span(step.z + max_agl);
   for (const Point3& p : path) span(p[2] - safety), span(p[2] + safety);
+  if (!zone_parts.empty()) {  // the zones' limits near the flight; far higher ones leave by the top
+    const double cap_lo = lo - max_agl, cap_hi = hi + max_agl;
+    for (const auto& pieces : zone_parts)
+      for (const ZonePiece& piece : pieces)
+        for (double z : {piece.floor, piece.ceiling})
+          if (z >= cap_lo && z <= cap_hi) span(z);
+  }
   const double y_target = std::max(2.0, plot_h / (28.0 * s));  // labels at least ~28 s pixels apart
   double z_min, z_max, y_step;
   if (fixed_axis) {
@@ -377,6 +395,12 @@ Image render_profile(const std::vector<Point3>& path, const Grid& dsm, const Gri
     for (int y = 0; y < plot_h; ++y)
       for (int x = 0; x < plot_w; ++x)
         plot.blend(x, y, kSilhouette, std::min(1.0f, cover[static_cast<size_t>(y) * plot_w + x]));
+  }
+
+  for (size_t i = 0; i < zone_parts.size(); ++i) {
+    const AirspaceZone& zone = options.zones.zones[i];
+    draw_zone_section(plot, zone_parts[i], zone_caption(zone, i), zone_colour(zone, options.zones.airspace), px, py,
+                      line_width, s);
   }
 
   // The safety band: per column, the path's lowest and highest height over it, +-safety.
@@ -474,6 +498,13 @@ Image render_profile(const std::vector<Point3>& path, const Grid& dsm, const Gri
           break;
         case LegendEntry::Disc:
           draw_disc(canvas, x + swatch / 2.0, mid, std::min(marker_radius, glyph / 2.0), e.colour, kOutline);
+          break;
+        case LegendEntry::Zone:
+          canvas.fill(x, legend_y, x + swatch, legend_y + glyph, e.colour, 0.2f);
+          for (const auto& [ax, ay, bx, by] :
+               {std::array<double, 4>{0, 0, 1, 0}, {1, 0, 1, 1}, {1, 1, 0, 1}, {0, 1, 0, 0}})
+            draw_line(canvas, x + ax * swatch, legend_y + ay * glyph, x + bx * swatch, legend_y + by * glyph, e.colour,
+                      1, e.width);
           break;
       }
       draw_text(canvas, x + swatch + swatch_gap, legend_y, e.label, kInk, s);

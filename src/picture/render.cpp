@@ -16,6 +16,7 @@
 
 #include "dsmplan/picture.hpp"
 #include "picture/canvas.hpp"
+#include "picture/zones.hpp"
 
 namespace dsmplan {
 
@@ -493,6 +494,17 @@ Image render_view(const Grid& dsm, const Mesh* mesh, const RenderOptions& option
   Canvas canvas(view.width, view.height);
   draw_ground(canvas, dsm, view);
   if (mesh && options.edges) draw_edges(canvas, dsm, *mesh, view);
+  std::vector<ImageRegion> zone_regions;
+  if (!options.zones.zones.empty()) {
+    for (const AirspaceZone& zone : options.zones.zones) check_zone(zone);
+    const int zone_scale = std::clamp(std::min(view.width, view.height) / 280, 1, 4);
+    draw_zones_above(
+        canvas, options.zones,
+        [&](double x, double y) {
+          return std::array<double, 2>{view.px(x), view.py(y)};
+        },
+        zone_scale, zone_regions);
+  }
   for (const LineLayer& layer : options.lines) draw_lines(canvas, view, layer);
   for (const MarkerLayer& layer : options.markers) draw_markers(canvas, view, layer);
 
@@ -561,6 +573,7 @@ Image render_view(const Grid& dsm, const Mesh* mesh, const RenderOptions& option
   const int label_scale = std::clamp(std::min(view.width, view.height) / 280, 1, 4);
   draw_labels(canvas, view, options, furniture, label_scale, regions);
   Image image = canvas.take();
+  regions.insert(regions.end(), zone_regions.begin(), zone_regions.end());
   image.regions = std::move(regions);
   return image;
 }

@@ -14,6 +14,9 @@
 #include "core/text.hpp"
 #include "dsmplan/core.hpp"
 #include "dsmplan/export.hpp"
+#include "dsmplan/mission.hpp"
+#include "dsmplan/picture.hpp"
+#include "dsmplan/picture_job.hpp"
 #include "dsmplan/tools.hpp"
 #include "dsmplan/wgs84.hpp"
 
@@ -75,5 +78,16 @@ std::optional<Wgs84Transform> tileset_heights(bool tileset, const Crs& crs, cons
 size_t write_mesh_output(const Mesh& mesh, const std::string& output, MeshFormat format,
                          const std::optional<Wgs84Transform>& heights, std::optional<TilesetReport>& report,
                          const Progress& progress);
+
+// ---- no-fly zones in pictures (zone_files.cpp) ----
+
+/// The zones of every file of `files` (read_airspace()) in `crs`, in order, with which
+/// restrictions block; empty without files (the pictures then are as without zones).
+ZoneLayer read_zone_layer(const ZoneFiles& files, const Crs& crs);
+
+/// The zones of `files` as a KML path carries them (kml_zones.cpp): named, their corners in
+/// WGS 84 through `to_msl` (the path's transformation), AGL limits relative to the ground, CRS
+/// heights above mean sea level; empty without files.
+std::vector<KmlZone> kml_zones_of(const ZoneFiles& files, const Crs& crs, const Wgs84Transform& to_msl);
 
 }  // namespace dsmplan

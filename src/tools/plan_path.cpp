@@ -248,7 +248,10 @@ std::string flight_text(const PlanJobOptions& options, const OutputKind& kind, c
     MissionOptions kml = options.mission.format;
     kml.description =
         "dsmplan path from " + crs.name + "; heights above mean sea level (EGM96) by: " + t.to_msl->description();
-    return path_to_kml(lonlatamsl, marks, kml);
+    // The zones it was planned around, drawn with it (kml_zones.cpp).
+    const std::vector<KmlZone> zones =
+        kml_zones_of({options.no_fly, options.no_fly_blocking, options.vertical}, crs, *t.to_msl);
+    return path_to_kml(lonlatamsl, marks, kml, zones);
   }
   const Mission mission = flight_mission(flight, lonlatamsl, t, report);
   return kind.ext == "plan" ? mission_to_qgc_plan(mission, options.mission.format)

@@ -160,6 +160,7 @@ ProfileReport profile_job(const ProfileJobOptions& options, const Progress& prog
   const Box box = path_box(path, frame, options.path);
   TerrainWindow terrain_window;
   if (!options.dtm.empty()) terrain_window = open_terrain(options.dtm, frame, box);
+  ZoneLayer zones = read_zone_layer(options.no_fly, frame.crs);
   report(progress, 0.05);
 
   int c0 = 0, r0 = 0, c1 = 0, r1 = 0;
@@ -177,6 +178,7 @@ ProfileReport profile_job(const ProfileJobOptions& options, const Progress& prog
 
   ProfileOptions drawing = options.profile;
   drawing.waypoints = waypoints;
+  drawing.zones = std::move(zones);
   if (drawing.title.empty())
     drawing.title = "Height profile: " + file_name(options.path) + " over " + file_name(options.dsm);
   const Grid* terrain = terrain_window.source ? &dtm : nullptr;

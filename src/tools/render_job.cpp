@@ -13,6 +13,7 @@
 #include "dsmplan/plan_job.hpp"
 #include "dsmplan/roadmap_file.hpp"
 #include "dsmplan/tools.hpp"
+#include "tools/job_parts.hpp"
 
 namespace dsmplan {
 
@@ -69,6 +70,7 @@ RenderReport render_job(const RenderJobOptions& options, const Progress& progres
 
   // Layers, read before any drawing so a bad file costs nothing: roadmap under paths under waypoints.
   RenderOptions layered = options.render;
+  layered.zones = read_zone_layer(options.no_fly, dsm.crs);
   if (!options.roadmap.empty()) {
     const Roadmap map = read_roadmap(options.roadmap, nullptr);
     LineLayer edges;

@@ -90,14 +90,36 @@ std::string mission_to_qgc_plan(const Mission& mission, const MissionOptions& op
 /// Latitude comes before longitude. Errors as mission_to_qgc_plan().
 std::string mission_to_qgc_wpl(const Mission& mission, const MissionOptions& options = {});
 
+/// A no-fly zone as KML draws it (the caller transforms; path_to_kml()). Each corner holds its
+/// longitude, latitude (degrees), floor height and ceiling height, each in its limit's mode.
+struct KmlZone {
+  enum class Altitude {
+    ground,    ///< a floor at (or below) the ground: the ceiling extruded down to it; no ceiling: clamped to it
+    relative,  ///< metres above the ground (relativeToGround: the viewer's terrain), as AGL limits
+    absolute,  ///< metres above mean sea level (EGM96), as AMSL limits and the path
+    none       ///< a ceiling that is unlimited: none drawn
+  };
+  std::string name, description;  ///< the Placemark's (XML-escaped)
+  bool blocking = true;           ///< style "zone-blocking" (dark red), else "zone-other" (amber)
+  Altitude floor = Altitude::ground, ceiling = Altitude::none;
+  std::vector<std::vector<std::array<double, 4>>> rings;  ///< outer first, then holes: lon, lat, floor, ceiling
+};
+
 /// KML 2.2: a Document with a Placemark "path" whose LineString has <altitudeMode>absolute
 /// </altitudeMode> and "lon,lat,alt" tuples one a line, then a Point Placemark "waypoint k"
 /// (also absolute) for each of `marks` (may be empty). Without altitudeMode a viewer would clamp
 /// the path to the ground. Styles: the path a magenta line 4 px wide (its extrusion translucent),
 /// the waypoints cyan; `extrude` adds a wall down to the ground under each. Name and
-/// description are XML-escaped.
+/// description are XML-escaped. Then, for each of `zones`, a Placemark named after it (styles
+/// "zone-blocking" dark red, "zone-other" amber, translucent faces) holding a MultiGeometry of
+/// Polygons (outer boundary, holes as inner boundaries, rings closed): the ceiling, extruded down
+/// to the ground when the floor is the ground; the floor when it is above the ground; and with
+/// both in the same mode the walls, one Polygon per edge of every ring, so the zone reads as a
+/// prism; with no ceiling and the floor at the ground, the area clamped to the ground. Without
+/// zones the text is what it was before zones existed, to the byte. ArgumentError as for the path
+/// when a corner is not finite or not in degrees, or a zone has a ring of fewer than 3 corners.
 std::string path_to_kml(const std::vector<Point3>& lonlatamsl, const std::vector<Point3>& marks = {},
-                        const MissionOptions& options = {});
+                        const MissionOptions& options = {}, const std::vector<KmlZone>& zones = {});
 
 /// The path without the points that lie within `tolerance` of the straight segment between the
 /// points kept around them (first and last always kept), so that every mission item is a turn:

@@ -2,7 +2,8 @@
 //
 // render_view() draws a DSM seen from above with its mesh, a path, a roadmap and waypoints (the
 // paper's Figures 6 and 7); render_profile() a path seen from the side over the DSM and the
-// terrain; write_png() writes either. src/picture/render.cpp, profile.cpp, png_writer.cpp.
+// terrain; write_png() writes either; both draw no-fly zones (ZoneLayer). src/picture/render.cpp,
+// profile.cpp, zones.cpp, png_writer.cpp.
 #pragma once
 
 #include <array>
@@ -12,6 +13,7 @@
 #include <string>
 #include <vector>
 
+#include "dsmplan/airspace.hpp"
 #include "dsmplan/core.hpp"
 #include "dsmplan/mesh.hpp"
 
@@ -55,7 +57,25 @@ struct MarkerLayer {
   bool numbered = true;
 };
 
+/// No-fly zones to draw (airspace.hpp's AirspaceZone, x, y in the DSM's CRS, as read_airspace()
+/// gives them). A zone that blocks (zone_blocks(zone, airspace)) is drawn in kZoneBlocking, the
+/// others in kZoneOther; each is named by zone_caption(). Empty: nothing drawn, and the picture is
+/// the same to the byte as without the layer.
+struct ZoneLayer {
+  std::vector<AirspaceZone> zones;
+  AirspaceOptions airspace;  ///< which restrictions block
+};
+inline constexpr std::array<uint8_t, 3> kZoneBlocking{204, 0, 0};  ///< dark red
+inline constexpr std::array<uint8_t, 3> kZoneOther{230, 140, 0};   ///< amber
+/// A zone's name in pictures: its name, else its identifier, else "zone N" (N = index + 1).
+std::string zone_caption(const AirspaceZone& zone, size_t index);
+
 struct RenderOptions {
+  /// Drawn over the mesh edges and under the lines: each zone's area (even-odd: holes left out)
+  /// tinted in its colour at alpha 0.15, every ring's outline 2 pixels wide and opaque, and its
+  /// caption in its colour on a light box centred on the visible part of its outer ring's box
+  /// (Image::regions: "zone CAPTION"). A zone wholly outside the picture is not drawn.
+  ZoneLayer zones;
   std::vector<LineLayer> lines;      ///< drawn over the mesh edges, in order
   std::vector<MarkerLayer> markers;  ///< drawn last
   std::optional<Window> window;      ///< none: the whole grid
@@ -138,6 +158,16 @@ struct ProfileOptions {
   std::vector<Point3> waypoints;   ///< numbered markers on the path (may be empty)
   /// The height axis, bottom and top (CRS height units); NaN: fitted to everything drawn.
   double z_min = NAN, z_max = NAN;
+  /// No-fly zones: where the path's x,y runs inside a zone's area (exactly: each segment cut where
+  /// it crosses a ring), the zone's volume over that part of the section, from its floor to its
+  /// ceiling: an AGL limit over the ground below (the DTM where it has data, else the DSM, step
+  /// by step as the ceiling's ground; no ground: no floor, no top, as airspace.hpp counts it), a
+  /// CRS height as it is, an unlimited one to the plot's edge. Shaded in the zone's colour at
+  /// alpha 0.2 under the safety band, outlined 1.5 pixels, captioned at its top inside the plot;
+  /// the legend names the zones that block and the others. A fitted height axis takes in each
+  /// zone's finite floors and ceilings along the path that lie at most max_agl above the
+  /// highest ceiling of the path (higher ones are cut by the plot's top).
+  ZoneLayer zones;
 };
 
 /// A picture of the path's height profile: distance along the path (x axis, 0 to the path's

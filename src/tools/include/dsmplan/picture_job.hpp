@@ -8,8 +8,19 @@
 
 #include "dsmplan/picture.hpp"
 #include "dsmplan/tools.hpp"
+#include "dsmplan/wgs84.hpp"
 
 namespace dsmplan {
+
+/// No-fly zone files to draw (`--no-fly`), read as `dsmplan plan` reads them: read_airspace()
+/// (airspace_io.hpp) into the DSM's CRS, AMSL and WGS 84 limits through `vertical`, and which
+/// restrictions block (empty: PROHIBITED and REQ_AUTHORISATION). A bad file is the reader's
+/// InputError naming it.
+struct ZoneFiles {
+  std::vector<std::string> files;
+  std::vector<std::string> blocking;
+  VerticalOptions vertical;  ///< --vertical-crs, --allow-approximate-vertical
+};
 
 // ---- dsmplan render -------------------------------------------------------------------------
 
@@ -24,6 +35,7 @@ struct RenderJobOptions {
   std::vector<std::string> paths;    ///< path CSVs (x,y,z as `dsmplan plan` writes them), drawn on every panel
   std::string waypoints;             ///< waypoint CSV: numbered discs on every panel
   std::string roadmap;               ///< roadmap file (`dsmplan plan --roadmap`): its edges, thin, under the paths
+  ZoneFiles no_fly;                  ///< zones drawn on every panel (RenderOptions::zones), under the paths
 };
 
 struct RenderReport {
@@ -51,6 +63,7 @@ struct ProfileJobOptions {
   std::string dtm;         ///< terrain raster (optional): the ground of the ceiling, a brown line
   std::string waypoints;   ///< waypoint CSV (optional): numbered markers on the path
   ProfileOptions profile;  ///< size, title (empty: "PATH over DSM"), safety, max_agl
+  ZoneFiles no_fly;        ///< zones over the section (ProfileOptions::zones), AGL over the DTM, else the DSM
 };
 
 struct ProfileReport {
