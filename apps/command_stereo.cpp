@@ -67,8 +67,8 @@ Command stereo_command(CLI::App& app, Session& session) {
                       "With --colmap: the model -> --crs similarity: a 4x4 matrix by rows, its first 3 rows, or "
                       "scale, rotation by rows, translation");
   command->add_option("--images", stereo.colmap_images,
-                      "With --colmap: the images' folder (default: images/ beside the model's folder, else the "
-                      "model's folder)");
+                      "With --colmap: the images' folder (default: image_path in the model's project.ini, else "
+                      "images/ beside the model's folder, else the model's folder)");
   command->add_option("--crs", stereo.crs,
                       "With satellite images: output CRS (default: WGS 84 / UTM of the scene; heights above the "
                       "WGS 84 ellipsoid). With --colmap: the CRS of the centres or transform and of the DSM");

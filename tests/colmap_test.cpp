@@ -163,6 +163,12 @@ TEST(Colmap, CamerasFromAnArbitraryFrameProjectAsTheOriginals) {
   EXPECT_EQ(read.georeference.bound, 0.5);
   EXPECT_EQ(read.file.path, dir.path("sparse") + "/images.txt");
   EXPECT_EQ(read.file.images[2], dir.path("sparse") + "/img_2.png");  // no images/ beside the model
+  std::filesystem::create_directories(dir.path("photos"));            // the folder COLMAP's project.ini names
+  testkit::write_file(dir.path("sparse/project.ini"), "log_to_stderr=true\nimage_path=" + dir.path("photos") +
+                                                          "\n[Mapper]\nba_refine_focal_length=true\n");
+  EXPECT_EQ(colmap_cameras({.model = dir.path("sparse"), .centres = dir.path("centres.csv"), .crs = "EPSG:25832"})
+                .file.images[0],
+            dir.path("photos") + "/img_0.png");
   std::mt19937 random(1);
   std::uniform_real_distribution<double> across(-30, 30), up(s.lo, s.hi + 20);
   double worst = 0;

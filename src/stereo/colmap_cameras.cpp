@@ -126,9 +126,20 @@ void measure_residuals(const std::string& path, const MatchedCentres& matched, c
                          two_decimals(extent) + " m): a wrong centre, or a model of other images");
 }
 
+// COLMAP's image folder as its mapper wrote it in MODEL_DIR/project.ini (`image_path=...`, the
+// OptionManager's file), when that folder exists; else images/ beside the model; else the model.
 std::string default_images_folder(const std::string& model) {
-  const std::filesystem::path beside = std::filesystem::path(model).parent_path() / "images";
   std::error_code error;
+  const std::string project = (std::filesystem::path(model) / "project.ini").string();
+  if (std::filesystem::is_regular_file(project, error) && std::filesystem::file_size(project, error) < (1 << 20)) {
+    std::ifstream in(project);
+    for (std::string line; std::getline(in, line);)
+      if (line.rfind("image_path=", 0) == 0) {
+        const std::string folder = trimmed(line.substr(11));
+        if (!folder.empty() && std::filesystem::is_directory(folder, error)) return folder;
+      }
+  }
+  const std::filesystem::path beside = std::filesystem::path(model).parent_path() / "images";
   return std::filesystem::is_directory(beside, error) ? beside.string() : model;
 }
 

@@ -113,7 +113,10 @@ struct ColmapOptions {
   std::string centres;    ///< CSV of image,x,y,z in `crs`
   std::string transform;  ///< model -> CRS (read_similarity()); with centres, the fit is checked, not made
   std::string crs;        ///< the centres' and the DSM's CRS ("EPSG:25832")
-  std::string images;     ///< the images' folder; empty: MODEL_DIR/../images when a folder, else MODEL_DIR
+  /// The images' folder; empty: the `image_path=` of MODEL_DIR/project.ini (written by COLMAP's
+  /// mapper) when that folder exists (relative: to the current directory, as COLMAP ran), else
+  /// MODEL_DIR/../images when a folder, else MODEL_DIR.
+  std::string images;
 };
 /// ArgumentError naming the flag: --colmap empty, --crs empty, neither --centres nor --transform.
 void check(const ColmapOptions& options);
