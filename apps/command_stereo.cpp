@@ -24,6 +24,15 @@ void run(const Request& request, bool quiet) {
     if (!request.stats.empty()) check_writable(request.stats);
     const StereoReport report = stereo_job(*job.frame, terminal_progress(quiet));
     for (const std::string& warning : report.warnings) std::fprintf(stderr, "dsmplan: warning: %s\n", warning.c_str());
+    if (report.georeference && !quiet) {
+      const Georeference& g = *report.georeference;
+      std::fprintf(stderr, "dsmplan: COLMAP model in %s by the %s (scale %.6g)", request.stereo.crs.c_str(),
+                   g.method == "centres" ? "similarity fitted to the centres" : "transform given", g.scale);
+      if (g.centres)
+        std::fprintf(stderr, ": residuals at %zu centres RMS %.3f m, max %.3f m (%s), bound %.2f m", g.centres, g.rms,
+                     g.max, g.worst.c_str(), g.bound);
+      std::fprintf(stderr, "\n");
+    }
     write_stats(request.stats, to_json(report), {output});
   } else {
     refuse_overwrites(satellite_stereo_inputs(*job.satellite), {{"-o", output}, {"--stats", request.stats}});
@@ -40,16 +49,29 @@ Command stereo_command(CLI::App& app, Session& session) {
   StereoRequest& stereo = request->stereo;
   CLI::App* command = app.add_subcommand(
       "stereo",
-      "DSM from images: satellite images with RPCs (IMG1 IMG2 ...) or frame cameras with known poses (--cameras): "
+      "DSM from images: satellite images with RPCs (IMG1 IMG2 ...), frame cameras with known poses (--cameras) or "
+      "a COLMAP model (--colmap): "
       "rectification, SGM, triangulation, median per cell");
   command->add_option("images", stereo.images,
                       "Satellite images with RPC cameras (TIFF tags, _RPC.TXT, .RPB or an OSSIM .geom beside "
                       "them), two or more: every overlapping pair is matched");
   command->add_option("--cameras", stereo.cameras,
                       "CAMERAS.json: CRS, cameras and images, optionally the height range (docs/stereo.md)");
+  command->add_option("--colmap", stereo.colmap,
+                      "COLMAP text model folder (cameras.txt, images.txt) instead of --cameras; needs --crs and "
+                      "--centres or --transform (docs/stereo.md)");
+  command->add_option("--centres", stereo.centres,
+                      "With --colmap: CSV of image,x,y,z, the cameras' centres in --crs; a similarity is fitted "
+                      "(Umeyama) and refused when its RMS residual exceeds max(0.5 m, 1 % of the centres' extent)");
+  command->add_option("--transform", stereo.transform,
+                      "With --colmap: the model -> --crs similarity: a 4x4 matrix by rows, its first 3 rows, or "
+                      "scale, rotation by rows, translation");
+  command->add_option("--images", stereo.colmap_images,
+                      "With --colmap: the images' folder (default: image_path in the model's project.ini, else "
+                      "images/ beside the model's folder, else the model's folder)");
   command->add_option("--crs", stereo.crs,
                       "With satellite images: output CRS (default: WGS 84 / UTM of the scene; heights above the "
-                      "WGS 84 ellipsoid)");
+                      "WGS 84 ellipsoid). With --colmap: the CRS of the centres or transform and of the DSM");
   command->add_flag("--allow-approximate-vertical", stereo.allow_approximate_vertical,
                     "With satellite images and a compound --crs whose geoid grid PROJ lacks: heights through "
                     "EGM96 (about 1 m off; --stats' transformation says so) instead of refusing");

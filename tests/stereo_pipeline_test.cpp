@@ -1089,12 +1089,12 @@ TEST(StereoRequest, FlagRulesAreTheLibrarysOwn) {
       frame, [](StereoRequest& r) { r.bounds = "1,2,3"; }, "--bounds: expected four numbers x0,y0,x1,y1, got '1,2,3'");
   refused(
       frame, [](StereoRequest& r) { r.images = {"a.tif"}; },
-      "--cameras: give either satellite images with RPCs (dsmplan stereo IMG1 IMG2 ...) or --cameras "
-      "CAMERAS.json for frame cameras, not both");
+      "--cameras: give one of: satellite images with RPCs (dsmplan stereo IMG1 IMG2 ...), --cameras "
+      "CAMERAS.json for frame cameras, or --colmap MODEL_DIR for a COLMAP text model");
   refused(
       StereoRequest{}, [](StereoRequest&) {},
-      "--cameras: give either satellite images with RPCs (dsmplan stereo IMG1 IMG2 ...) or --cameras "
-      "CAMERAS.json for frame cameras, not both");
+      "--cameras: give one of: satellite images with RPCs (dsmplan stereo IMG1 IMG2 ...), --cameras "
+      "CAMERAS.json for frame cameras, or --colmap MODEL_DIR for a COLMAP text model");
   refused(
       frame, [](StereoRequest& r) { r.fusion_memory_mb = 0.01; },
       "--fusion-memory: must lie in [0.0625, 1e9) MB, got 0.01");
@@ -1103,13 +1103,13 @@ TEST(StereoRequest, FlagRulesAreTheLibrarysOwn) {
       "--band-memory: must lie in [1, 1e9) MB, got 1e+300");
   refused(
       frame, [](StereoRequest& r) { r.crs = "EPSG:32632"; },
-      "--crs: belongs to satellite images; CAMERAS.json states its CRS");
+      "--crs: belongs to satellite images or --colmap; CAMERAS.json states its CRS");
   refused(
       frame, [](StereoRequest& r) { r.allow_approximate_vertical = true; },
       "--allow-approximate-vertical: belongs to satellite images with a compound --crs");
   refused(
       satellite, [](StereoRequest& r) { r.pairs = "0-1"; },
-      "--pairs: belongs to --cameras; satellite images are paired by overlap");
+      "--pairs: belongs to --cameras and --colmap; satellite images are paired by overlap");
 
   frame.bounds = "0,0,10,20", frame.pairs = "0-1", frame.fusion_memory_mb = 2, frame.band_memory_mb = 3;
   const StereoJob job = stereo_job_for(frame);

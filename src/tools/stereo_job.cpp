@@ -27,22 +27,35 @@ void check_job(const StereoJobOptions& options) {
   if (extension != ".tif" && extension != ".tiff")
     throw ArgumentError(options.output, "output must be a GeoTIFF (.tif)");
   check(static_cast<const FrameDsmOptions&>(options));
+  if (!options.colmap.model.empty()) check(options.colmap);
   check_writable(options.output);  // a missing folder is known now, not after the matching
 }
 
-// CAMERAS.json's CRS: one dsmplan can make a DSM in (degrees, a geocentric frame or stretched
-// metres refused as for rasters).
-Crs cameras_crs(const CameraFile& file) {
+// CAMERAS.json's CRS, or --colmap's --crs: one dsmplan can make a DSM in (degrees, a geocentric
+// frame or stretched metres refused as for rasters).
+Crs cameras_crs(const CameraFile& file, bool from_flag) {
   Crs crs;
   crs.definition = file.crs;
+  const auto refuse = [&](const std::string& problem) {
+    if (from_flag) throw ArgumentError("--crs", problem);
+    throw InputError(file.path, "crs", problem);
+  };
   try {
     resolve_crs(crs);
   } catch (const ArgumentError& error) {
-    throw InputError(file.path, "crs", error.problem());
+    refuse(error.problem());
   }
   const std::string problem = metric_problem(crs, file.path, file.cameras[0].center[0], file.cameras[0].center[1]);
-  if (!problem.empty()) throw InputError(file.path, "crs", problem);
+  if (!problem.empty()) refuse(problem);
   return crs;
+}
+
+// The cameras of the job: CAMERAS.json, or the COLMAP model put in the CRS.
+CameraFile job_cameras(const StereoJobOptions& options, std::optional<Georeference>* georeference = nullptr) {
+  if (options.colmap.model.empty()) return read_camera_file(options.cameras);
+  ColmapCameras colmap = colmap_cameras(options.colmap);
+  if (georeference) *georeference = colmap.georeference;
+  return std::move(colmap.file);
 }
 
 std::vector<NamedFile> camera_images(const CameraFile& file) {
@@ -64,10 +77,15 @@ std::array<double, 4> parse_bounds(const std::string& text) {
 
 // The rules that hold whichever pipeline runs.
 void check_common(const StereoRequest& request) {
-  if (request.cameras.empty() == request.images.empty())
+  if (request.cameras.empty() + request.images.empty() + request.colmap.empty() != 2)
     throw ArgumentError("--cameras",
-                        "give either satellite images with RPCs (dsmplan stereo IMG1 IMG2 ...) or "
-                        "--cameras CAMERAS.json for frame cameras, not both");
+                        "give one of: satellite images with RPCs (dsmplan stereo IMG1 IMG2 ...), --cameras "
+                        "CAMERAS.json for frame cameras, or --colmap MODEL_DIR for a COLMAP text model");
+  if (request.colmap.empty())
+    for (const auto& [flag, value] :
+         {std::pair{"--centres", &request.centres}, std::pair{"--transform", &request.transform},
+          std::pair{"--images", &request.colmap_images}})
+      if (!value->empty()) throw ArgumentError(flag, "belongs to --colmap");
   for (const auto& [flag, megabytes, least] : {std::tuple{"--fusion-memory", request.fusion_memory_mb, 0.0625},
                                                std::tuple{"--band-memory", request.band_memory_mb, 1.0}})
     if (!(megabytes >= least && megabytes < 1e9)) {
@@ -75,6 +93,28 @@ void check_common(const StereoRequest& request) {
       std::snprintf(range, sizeof range, "must lie in [%g, 1e9) MB, got %g", least, megabytes);
       throw ArgumentError(flag, range);
     }
+}
+
+// The frame cameras' job: --cameras, or --colmap with its CRS and georeference.
+StereoJobOptions frame_job(const StereoRequest& request, const std::optional<std::array<double, 4>>& bounds) {
+  StereoJobOptions frame;
+  if (request.colmap.empty() && !request.crs.empty())
+    throw ArgumentError("--crs", "belongs to satellite images or --colmap; CAMERAS.json states its CRS");
+  if (request.allow_approximate_vertical)
+    throw ArgumentError("--allow-approximate-vertical", "belongs to satellite images with a compound --crs");
+  frame.cameras = request.cameras, frame.output = request.output;
+  if (!request.colmap.empty()) {
+    frame.colmap = {.model = request.colmap,
+                    .centres = request.centres,
+                    .transform = request.transform,
+                    .crs = request.crs,
+                    .images = request.colmap_images};
+    check(frame.colmap);
+  }
+  frame.resolution = request.resolution, frame.pairs = request.pairs, frame.bounds = bounds;
+  frame.fusion_memory_bytes = static_cast<std::size_t>(request.fusion_memory_mb * 1048576.0);
+  frame.band_memory_bytes = static_cast<std::size_t>(request.band_memory_mb * 1048576.0);
+  return frame;
 }
 
 // --stats' entry of one pair chosen: matched or left out, its search and its share of matched pixels.
@@ -97,16 +137,25 @@ Json pair_json(const FramePairStats& p, const StereoReport& r) {
 }  // namespace
 
 std::vector<NamedFile> stereo_job_inputs(const StereoJobOptions& options) {
-  std::vector<NamedFile> files{{"--cameras", options.cameras}};
-  for (const NamedFile& image : camera_images(read_camera_file(options.cameras))) files.push_back(image);
+  std::vector<NamedFile> files;
+  if (options.colmap.model.empty()) {
+    files.push_back({"--cameras", options.cameras});
+  } else {
+    for (const char* name : {"cameras.txt", "images.txt"})
+      files.push_back({"--colmap", (std::filesystem::path(options.colmap.model) / name).string()});
+    if (!options.colmap.centres.empty()) files.push_back({"--centres", options.colmap.centres});
+    if (!options.colmap.transform.empty()) files.push_back({"--transform", options.colmap.transform});
+  }
+  for (const NamedFile& image : camera_images(job_cameras(options))) files.push_back(image);
   return files;
 }
 
 StereoReport stereo_job(const StereoJobOptions& options, const Progress& progress) {
   check_job(options);
   auto start = std::chrono::steady_clock::now();
-  const CameraFile file = read_camera_file(options.cameras);
-  const Crs crs = cameras_crs(file);
+  std::optional<Georeference> georeference;
+  const CameraFile file = job_cameras(options, &georeference);
+  const Crs crs = cameras_crs(file, !options.colmap.model.empty());
   refuse_overwrites(camera_images(file), {{"-o", options.output}});
   const double seconds_read = seconds_since(start);
   const GridCheck fits = [&](const Grid& grid) {
@@ -114,7 +163,8 @@ StereoReport stereo_job(const StereoJobOptions& options, const Progress& progres
   };
   Grid dsm;
   StereoReport out = frame_dsm(file, crs, open_image_file, options, dsm, fits, sub_progress(progress, 0, 0.9));
-  out.cameras = options.cameras;
+  out.cameras = file.path;
+  out.georeference = georeference;
   out.output = options.output;
   out.seconds_read += seconds_read;
   start = std::chrono::steady_clock::now();
@@ -129,19 +179,12 @@ StereoJob stereo_job_for(const StereoRequest& request) {
   check_common(request);
   const auto fusion_bytes = static_cast<std::size_t>(request.fusion_memory_mb * 1048576.0);
   StereoJob job;
-  if (!request.cameras.empty()) {
-    if (!request.crs.empty()) throw ArgumentError("--crs", "belongs to satellite images; CAMERAS.json states its CRS");
-    if (request.allow_approximate_vertical)
-      throw ArgumentError("--allow-approximate-vertical", "belongs to satellite images with a compound --crs");
-    StereoJobOptions& frame = job.frame.emplace();
-    frame.cameras = request.cameras, frame.output = request.output;
-    frame.resolution = request.resolution, frame.pairs = request.pairs, frame.bounds = bounds;
-    frame.fusion_memory_bytes = fusion_bytes;
-    frame.band_memory_bytes = static_cast<std::size_t>(request.band_memory_mb * 1048576.0);
+  if (request.images.empty()) {
+    job.frame = frame_job(request, bounds);
     return job;
   }
   if (request.pairs != "auto")
-    throw ArgumentError("--pairs", "belongs to --cameras; satellite images are paired by overlap");
+    throw ArgumentError("--pairs", "belongs to --cameras and --colmap; satellite images are paired by overlap");
   SatelliteStereoOptions& satellite = job.satellite.emplace();
   satellite.images = request.images, satellite.output = request.output, satellite.crs = request.crs;
   satellite.allow_approximate_vertical = request.allow_approximate_vertical;
@@ -157,33 +200,40 @@ Json to_json(const StereoReport& r) {
   for (const FramePairStats& p : r.pair_stats) details.push_back(pair_json(p, r));
   const double total = r.seconds_read + r.seconds_height_range + r.seconds_rectify + r.seconds_match +
                        r.seconds_triangulate + r.seconds_fuse + r.seconds_write;
-  return {{"cameras", r.cameras},
-          {"output", r.output},
-          {"camera_count", r.camera_count},
-          {"pairs", pairs},
-          {"pair_details", details},
-          {"pairs_left_out", r.pair_stats.size() - r.pairs.size()},
-          {"height_range", {r.min_height, r.max_height}},
-          {"height_range_estimated", r.height_range_estimated},
-          {"bounds", {r.bounds[0], r.bounds[1], r.bounds[2], r.bounds[3]}},
-          {"width", r.width},
-          {"height", r.height},
-          {"matched_pixels", r.matched_pixels},
-          {"points", r.points},
-          {"points_outside_height_range", r.points_outside_range},
-          {"points_in_grid", r.points_in_grid},
-          {"fusion_runs_spilled", r.fusion_runs_spilled},
-          {"bands", r.bands},
-          {"dsm", to_json(r.summary)},
-          {"seconds",
-           {{"read", r.seconds_read},
-            {"height_range", r.seconds_height_range},
-            {"rectify", r.seconds_rectify},
-            {"match", r.seconds_match},
-            {"triangulate", r.seconds_triangulate},
-            {"fuse", r.seconds_fuse},
-            {"write", r.seconds_write},
-            {"total", total}}}};
+  Json out = {{"cameras", r.cameras},
+              {"output", r.output},
+              {"camera_count", r.camera_count},
+              {"pairs", pairs},
+              {"pair_details", details},
+              {"pairs_left_out", r.pair_stats.size() - r.pairs.size()},
+              {"height_range", {r.min_height, r.max_height}},
+              {"height_range_estimated", r.height_range_estimated},
+              {"bounds", {r.bounds[0], r.bounds[1], r.bounds[2], r.bounds[3]}},
+              {"width", r.width},
+              {"height", r.height},
+              {"matched_pixels", r.matched_pixels},
+              {"points", r.points},
+              {"points_outside_height_range", r.points_outside_range},
+              {"points_in_grid", r.points_in_grid},
+              {"fusion_runs_spilled", r.fusion_runs_spilled},
+              {"bands", r.bands},
+              {"dsm", to_json(r.summary)},
+              {"seconds",
+               {{"read", r.seconds_read},
+                {"height_range", r.seconds_height_range},
+                {"rectify", r.seconds_rectify},
+                {"match", r.seconds_match},
+                {"triangulate", r.seconds_triangulate},
+                {"fuse", r.seconds_fuse},
+                {"write", r.seconds_write},
+                {"total", total}}}};
+  if (r.georeference) {
+    const Georeference& g = *r.georeference;
+    out["georeference"] = {{"method", g.method},       {"centres", g.centres},  {"scale", g.scale},
+                           {"residual_rms", g.rms},    {"residual_max", g.max}, {"worst_image", g.worst},
+                           {"residual_bound", g.bound}};
+  }
+  return out;
 }
 
 }  // namespace dsmplan

@@ -26,6 +26,7 @@
 #include <utility>
 #include <vector>
 
+#include "dsmplan/colmap_model.hpp"
 #include "dsmplan/core.hpp"
 #include "dsmplan/image_reader.hpp"
 #include "dsmplan/raster.hpp"
@@ -70,6 +71,8 @@ struct StereoReport {
   size_t fusion_runs_spilled = 0;   ///< 0: the points fitted in fusion_memory_bytes
   size_t bands = 0;                 ///< bands of rectified rows matched (one a pair when it fits band_memory_bytes)
   GridSummary summary;
+  /// Set by the job for cameras from a COLMAP model (--colmap): how they were put in the CRS.
+  std::optional<Georeference> georeference;
   /// seconds_read includes the job's reading of CAMERAS.json; seconds_write is the job's.
   double seconds_read = 0, seconds_height_range = 0, seconds_rectify = 0, seconds_match = 0, seconds_triangulate = 0,
          seconds_fuse = 0, seconds_write = 0;

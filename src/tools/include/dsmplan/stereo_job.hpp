@@ -34,13 +34,18 @@ namespace dsmplan {
 /// coarse disparity steps. InputError (key height_range) when no such pair matches. `image` is any GDAL raster,
 /// relative to the JSON's folder: one band (grey) or three or more (RGB taken as luminance 0.299 R + 0.587 G + 0.114
 /// B), 8 or 16 bit.
+///
+/// Or, instead of CAMERAS.json, a COLMAP text model (`colmap`, dsmplan/colmap_model.hpp): its
+/// cameras put in `colmap.crs` by a similarity given or fitted to known centres, the same camera
+/// list CAMERAS.json would give, the height range estimated; StereoReport::georeference says how.
 struct StereoJobOptions : FrameDsmOptions {
-  std::string cameras;  ///< CAMERAS.json
-  std::string output;   ///< GeoTIFF (.tif, .tiff)
+  std::string cameras;   ///< CAMERAS.json; empty when colmap.model is set
+  ColmapOptions colmap;  ///< --colmap MODEL_DIR, --centres, --transform, --crs, --images
+  std::string output;    ///< GeoTIFF (.tif, .tiff)
 };
 
-/// The files a run of `options` reads: CAMERAS.json ("--cameras") and every image it names
-/// ("camera i's image", relative to its folder), for refuse_overwrites() before the work: a
+/// The files a run of `options` reads: CAMERAS.json ("--cameras"), or the COLMAP model's two files,
+/// --centres and --transform, and every image named ("camera i's image"), for refuse_overwrites() before the work: a
 /// --stats or -o that is one of them would replace it. InputError as stereo_job() for a
 /// CAMERAS.json it cannot read.
 std::vector<NamedFile> stereo_job_inputs(const StereoJobOptions& options);
@@ -50,7 +55,9 @@ std::vector<NamedFile> stereo_job_inputs(const StereoJobOptions& options);
 /// read through GDAL) and writes the Float32 GeoTIFF atomically. ArgumentError naming the output
 /// when it is not .tif. Nothing is written when it fails. Progress: the stage to 0.9, then the writing.
 StereoReport stereo_job(const StereoJobOptions& options, const Progress& progress = {});
-/// Keys: cameras, output, camera_count, pairs [[i,j],...] (the pairs matched), pair_details (every pair chosen:
+/// Keys: cameras (CAMERAS.json, or the COLMAP model's images.txt), output, georeference (--colmap only:
+/// method "centres" or "transform", centres, scale, residual_rms, residual_max (CRS units),
+/// worst_image, residual_bound), camera_count, pairs [[i,j],...] (the pairs matched), pair_details (every pair chosen:
 /// cameras [i,j], used, problem (why left out, "" when used), height_range, disparity_offset (px), disparities,
 /// windows, pixels, matched_pixels, matched_share (of pixels), share_of_all_matched, window_conflicts, points),
 /// pairs_left_out, height_range, height_range_estimated, bounds, width, height,
@@ -65,11 +72,15 @@ Json to_json(const StereoReport& report);
 struct StereoRequest {
   std::vector<std::string> images;          ///< satellite images with RPCs (IMAGES)
   std::string cameras;                      ///< CAMERAS.json (--cameras)
+  std::string colmap;                       ///< --colmap MODEL_DIR: a COLMAP text model instead of --cameras
+  std::string centres;                      ///< --centres CSV (image,x,y,z in --crs), with --colmap
+  std::string transform;                    ///< --transform FILE (model -> --crs), with --colmap
+  std::string colmap_images;                ///< --images DIR, with --colmap
   std::string output;                       ///< -o
   double resolution = 0;                    ///< --res
   std::string pairs = "auto";               ///< --pairs, frame cameras only
   std::string bounds;                       ///< --bounds "x0,y0,x1,y1"; empty: the pairs' footprint
-  std::string crs;                          ///< --crs, satellite images only
+  std::string crs;                          ///< --crs: satellite images' output CRS, or --colmap's CRS
   bool allow_approximate_vertical = false;  ///< --allow-approximate-vertical, satellite images only
   double fusion_memory_mb = 1024;           ///< --fusion-memory, MB, [0.0625, 1e9)
   double band_memory_mb = 1024;             ///< --band-memory, MB, [1, 1e9)
@@ -82,9 +93,10 @@ struct StereoJob {
 };
 
 /// The rules of `dsmplan stereo`'s flags taken together, one ArgumentError naming the flag for
-/// the first broken: --bounds not four numbers; neither or both of IMAGES and --cameras
-/// (reported as "--cameras"); --fusion-memory outside [0.0625, 1e9) MB, --band-memory outside
-/// [1, 1e9) MB; with --cameras, --crs or --allow-approximate-vertical (satellite images only);
+/// the first broken: --bounds not four numbers; not exactly one of IMAGES, --cameras and --colmap
+/// (reported as "--cameras"); --centres, --transform or --images without --colmap; with --colmap,
+/// check(ColmapOptions) (--crs and --centres or --transform needed); --fusion-memory outside [0.0625, 1e9) MB,
+/// --band-memory outside [1, 1e9) MB; with --cameras, --crs or --allow-approximate-vertical (satellite images only);
 /// with IMAGES, --pairs other than auto (frame cameras only). The options' own ranges are checked
 /// by the jobs (check(FrameDsmOptions), check(SatelliteDsmOptions)).
 StereoJob stereo_job_for(const StereoRequest& request);

@@ -1,0 +1,135 @@
+// dsmplan/colmap_model.hpp: cameras from structure-from-motion (issue 34, point 4): COLMAP's
+// text model read into the frame cameras of stereo_frames.hpp, and put into a CRS by a similarity
+// transform, given or fitted to the cameras' known centres (Umeyama 1991). `dsmplan stereo
+// --colmap MODEL_DIR` builds from it the same camera list a CAMERAS.json gives, and runs the
+// pipeline unchanged (frame_dsm.hpp).
+//
+// The model (COLMAP's "Output Format", https://colmap.github.io/format.html; COLMAP's
+// src/colmap/sensor/models.h for the cameras; `colmap model_converter --output_type TXT` writes
+// it from a binary model):
+//   cameras.txt  CAMERA_ID MODEL WIDTH HEIGHT PARAMS[]       one line a camera;
+//   images.txt   IMAGE_ID QW QX QY QZ TX TY TZ CAMERA_ID NAME, then one line of 2D points (skipped,
+//                even when empty, as COLMAP's own reader does); '#' lines and blank lines between
+//                images are comments.
+// Mapping, exact: (QW, QX, QY, QZ) is a Hamilton quaternion of R, world -> camera, and x_cam = R X
+// + t (TX, TY, TZ), so C = -Rᵀ t; the camera axes are ours (x right, y down, z forward). COLMAP's
+// pixel centres lie at half-integers (the top-left pixel's centre is (0.5, 0.5)), ours at
+// integers: cx = cx_colmap - 0.5, cy likewise. The distortion models, with COLMAP's parameters:
+//   SIMPLE_PINHOLE f, cx, cy              fx = fy = f, no distortion;
+//   PINHOLE        fx, fy, cx, cy         no distortion;
+//   SIMPLE_RADIAL  f, cx, cy, k           k1 = k;
+//   RADIAL         f, cx, cy, k1, k2      k1, k2;
+//   OPENCV         fx, fy, cx, cy, k1, k2, p1, p2   the same Brown–Conrady terms as ours;
+//   FULL_OPENCV    ... k1, k2, p1, p2, k3, k4, k5, k6  only with k4 = k5 = k6 = 0 (no rational part).
+// Any other model (the fisheye ones, FOV, THIN_PRISM_FISHEYE, ...) is refused in one line naming
+// the line: it cannot be written as ours; `colmap image_undistorter` makes PINHOLE images of it.
+// Camera i of the pipeline is the i-th image of images.txt, in the file's order.
+//
+// Into the CRS: X_crs = s Q X_model + T (s > 0, Q a rotation). A camera becomes R' = R Qᵀ, C' =
+// s Q C + T; its focal lengths, principal point and distortion (pixels, normalised coordinates)
+// do not change. s, Q, T come from a --transform file or are fitted to --centres (Umeyama,
+// "Least-squares estimation of transformation parameters between two point patterns", IEEE
+// PAMI 13(4), 1991: the closed form minimising Σ |y - (s Q x + T)|²). The fit is refused when
+// fewer than 3 centres match the model's images, when the centres lie nearly on a line (the spread
+// across it under 1 % of the spread along it: the rotation about the line is not determined), or
+// when its RMS residual exceeds max(0.5 m, 1 % of the extent of the centres, the diagonal of their
+// bounding box): a wrong centre or a model that is not the block.
+#pragma once
+
+#include <cstddef>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "dsmplan/stereo_frames.hpp"
+
+namespace dsmplan {
+
+/// One registered image of the model: its camera in the model's frame, as FrameCamera.
+struct ColmapImage {
+  long long id = 0;
+  std::string name;  ///< NAME, relative to the images folder
+  FrameCamera camera;
+};
+
+/// Reads MODEL_DIR/cameras.txt and MODEL_DIR/images.txt. InputError naming the file and "line N"
+/// for a line with too few fields or a bad number, an unknown or unrepresentable model, a camera
+/// the image refers to that cameras.txt lacks, a duplicate id, a quaternion far from unit length
+/// (|q| off 1 by more than 1e-3; it is normalised), a camera check_camera() refuses; naming the
+/// file for a missing one (with the model_converter hint when cameras.bin is there) or fewer than
+/// two images. Memory: the cameras, not the 2D points.
+std::vector<ColmapImage> read_colmap_model(const std::string& model_dir);
+
+/// X' = scale · rotation · X + translation.
+struct Similarity {
+  double scale = 1;
+  Mat3 rotation{{{1, 0, 0}, {0, 1, 0}, {0, 0, 1}}};
+  Vec3 translation{0, 0, 0};
+  Vec3 apply(const Vec3& x) const;
+};
+
+/// The camera seen from the transformed world: R' = R Qᵀ, C' = s Q C + T; intrinsics kept.
+FrameCamera transformed(const FrameCamera& camera, const Similarity& transform);
+
+/// A --transform file, model -> CRS: whitespace- or comma-separated numbers, '#' to the end of a
+/// line a comment; 16 (a 4 x 4 matrix by rows, [sQ | T; 0 0 0 1]), 12 (its first three rows) or 13
+/// (s, then Q by rows, then T). InputError naming the file for another count, a bad number, a last
+/// row other than 0 0 0 1, or a 3 x 3 part that is not a positive scale times a rotation (1e-6).
+Similarity read_similarity(const std::string& path);
+
+/// One row of a --centres CSV: `image,x,y,z`, the camera centre in the CRS.
+struct CentreRow {
+  std::string image;
+  Vec3 position{};
+  int line = 0;
+};
+/// Reads a centres CSV: one `image,x,y,z` a line, an optional header line first (its x not a
+/// number), '#' lines and blank lines skipped. InputError naming the file and "line N" for a line
+/// with another number of fields, a bad number or an image given twice.
+std::vector<CentreRow> read_centres(const std::string& path);
+
+/// Umeyama's closed form: the s, Q, T minimising Σ |to_i - (s Q from_i + T)|², Q a proper
+/// rotation. ArgumentError for fewer than 3 points or sizes that differ.
+Similarity fit_similarity(const std::vector<Vec3>& from, const std::vector<Vec3>& to);
+
+/// The least bound on the fit's RMS residual, metres, and the share of the centres' extent that
+/// raises it.
+constexpr double kMinFitBound = 0.5;
+constexpr double kFitBoundShare = 0.01;
+
+/// How the model was put in the CRS: --stats' "georeference".
+struct Georeference {
+  std::string method;       ///< "centres" (fitted), "transform" (given)
+  std::size_t centres = 0;  ///< centres matched to the model's images (0: none given)
+  double scale = 1;         ///< s
+  double rms = 0, max = 0;  ///< residuals at the centres, CRS units (0 without centres)
+  std::string worst;        ///< the image of the largest residual
+  double bound = 0;         ///< the RMS bound applied
+};
+
+/// What `--colmap` needs: the model, where its images are, the CRS and how to get there.
+struct ColmapOptions {
+  std::string model;      ///< MODEL_DIR (cameras.txt, images.txt)
+  std::string centres;    ///< CSV of image,x,y,z in `crs`
+  std::string transform;  ///< model -> CRS (read_similarity()); with centres, the fit is checked, not made
+  std::string crs;        ///< the centres' and the DSM's CRS ("EPSG:25832")
+  /// The images' folder; empty: the `image_path=` of MODEL_DIR/project.ini (written by COLMAP's
+  /// mapper) when that folder exists (relative: to the current directory, as COLMAP ran), else
+  /// MODEL_DIR/../images when a folder, else MODEL_DIR.
+  std::string images;
+};
+/// ArgumentError naming the flag: --colmap empty, --crs empty, neither --centres nor --transform.
+void check(const ColmapOptions& options);
+
+/// The model as the pipeline's camera list: `file.path` is MODEL_DIR/images.txt (the name the
+/// pipeline's errors give), `crs` the options', no height range (estimated), images resolved in
+/// the images folder; and how it was georeferenced. InputError naming the centres file for fewer
+/// than 3 matched centres (names compared with NAME, else its file name when unique), centres on a
+/// line, or residuals over the bound (the worst centre's line named); errors of the readers above.
+struct ColmapCameras {
+  CameraFile file;
+  Georeference georeference;
+};
+ColmapCameras colmap_cameras(const ColmapOptions& options);
+
+}  // namespace dsmplan
