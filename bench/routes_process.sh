@@ -33,7 +33,7 @@ for agl in 120 30; do
     status=0
     bench/timed.py "$dir/routes_${agl}_$round.time" build/dsmplan plan "$dir/nrw_1m.ply" --routes "$dir/routes.csv" \
       --max-agl "$agl" -o "$dir/routes_$agl.geojson" --stats "$dir/routes_${agl}_$round.json" -q "${vertical[@]}" \
-      || status=$?
+      > /dev/null || status=$?
     [ "$status" = 0 ] || [ "$status" = 4 ] || exit "$status"
     : > "$dir/single_${agl}_$round.times"
     for r in $(seq 1 "$sample"); do
