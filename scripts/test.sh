@@ -24,9 +24,11 @@ if [ "${1:-}" = "--sanitize" ]; then
   # dsmplan's memory (CloudCompare, MeshLab, Blender and CesiumJS opening its files, Chromium's
   # screenshots of the viewer, a consumer project built against the installed package) and without
   # the whole-tile `data` checks, whose code the unit tests run on smaller inputs: the Release pass
-  # (scripts/test.sh) runs them all. Keeps CI under its 40 minutes.
+  # (scripts/test.sh) runs them all. Keeps CI under its 40 minutes. Nor the service's memory soak:
+  # under ASan a process's resident memory is mostly the allocator's quarantine (freed blocks held
+  # back to catch their use), which grows by design; the Release pass measures dsmplan's own.
   ctest --test-dir "$dir" --output-on-failure -j"$(nproc)" -LE data \
-    -E 'OpensWhereUsersOpenIt|View\.(ScreenshotShows|PathUnderTheGround|PageLoads)|InstalledPackage'
+    -E 'OpensWhereUsersOpenIt|View\.(ScreenshotShows|PathUnderTheGround|PageLoads)|InstalledPackage|Serve\.ResidentMemoryStaysFlat'
 else
   ctest --test-dir "$dir" --output-on-failure -j"$(nproc)"
 fi
