@@ -68,7 +68,11 @@ void run(Request& request, Session& session) {
   plan.mission.format.hover_speed = std::isnan(request.hover_speed) ? plan.mission.format.speed : request.hover_speed;
   // The roadmap and index files are read when they exist and written when not: each may be
   // none of the others.
-  std::vector<NamedFile> outputs{{"--stats", request.stats}, {"--roadmap", plan.roadmap}, {"--index", plan.index}};
+  std::vector<NamedFile> outputs{{"--stats", request.stats},
+                                 {"--roadmap", plan.roadmap},
+                                 {"--index", plan.index},
+                                 {"--render", plan.render},
+                                 {"--profile", plan.profile}};
   for (auto it = request.outputs.rbegin(); it != request.outputs.rend(); ++it)
     outputs.insert(outputs.begin(), {"-o", *it});
   std::vector<NamedFile> inputs{{"MESH", plan.mesh},
@@ -142,6 +146,12 @@ Command plan_command(CLI::App& app, Session& session) {
       ->capture_default_str();
   command->add_option("--seed", request->seed, "Random seed of rrtconnect (>= 0): the same seed, the same path")
       ->capture_default_str();
+  command->add_option("--render", plan.render,
+                      "Picture of the flight as flown from above over the DSM (.png), with the waypoints and zones: "
+                      "as `dsmplan render DSM --path` draws the written CSV (needs --dsm or a DSM input)");
+  command->add_option("--profile", plan.profile,
+                      "Height profile of the flight as flown (.png) over the DSM and --dtm, with --safety and "
+                      "--max-agl: as `dsmplan profile` draws the written CSV (needs --dsm or a DSM input)");
   command->add_option("--of", plan.format,
                       "Path format, overriding the extension: csv, geojson, plan, waypoints, kmz, kml");
   command->add_flag("--json", request->json, "Print the statistics as JSON instead of the summary line");

@@ -129,13 +129,13 @@ def plan(
     """A collision-free path through the waypoints with every check of `dsmplan plan`."""
 
 def render(
-    dsm: str,
+    dsm: str | Dsm,
     output: str,
     *,
     meshes: str | Sequence[str] | None = None,
     titles: str | Sequence[str] | None = None,
-    paths: str | Sequence[str] | None = None,
-    waypoints: str | None = None,
+    paths: str | Flight | Sequence[str | Flight] | None = None,
+    waypoints: str | npt.ArrayLike | None = None,
     roadmap: str | None = None,
     window: tuple[float, float, float, float] | None = None,
     zoom: float = 4.0,
@@ -143,25 +143,35 @@ def render(
     res: float | None = None,
     band: int = 1,
     crs: str = "",
+    no_fly: Sequence[str] = (),
+    no_fly_blocking: Sequence[str] | None = None,
+    vertical_crs: str = "",
+    allow_approximate_vertical: bool = False,
 ) -> dict[str, Any]:
-    """The DSM from above with meshes' edges, paths and waypoints, as `dsmplan render`, to a PNG;
-    returns the report of `--json` (output, width, height, panels)."""
+    """The DSM (a file or a Dsm) from above with meshes' edges, paths (CSVs, or Flights as flown
+    with their waypoints and zones), waypoints and no-fly zones, as `dsmplan render`, to a PNG;
+    returns the report of `--json` (output, width, height, panels, window, zoom)."""
 
 def profile(
-    dsm: str,
-    path: str,
+    dsm: str | Dsm,
+    path: str | Flight,
     output: str,
     *,
-    dtm: str | None = None,
-    waypoints: str | None = None,
-    safety: float = 2.0,
-    max_agl: float = 120.0,
+    dtm: str | Dsm | None = None,
+    waypoints: str | npt.ArrayLike | None = None,
+    safety: float | None = None,
+    max_agl: float | None = None,
     title: str = "",
     width: int = 1200,
     height: int = 500,
+    no_fly: Sequence[str] = (),
+    no_fly_blocking: Sequence[str] | None = None,
+    vertical_crs: str = "",
+    allow_approximate_vertical: bool = False,
 ) -> dict[str, Any]:
-    """A path's height profile as `dsmplan profile`, to a PNG; returns the report of `--json`
-    (length_m, min_above_dsm_m, max_above_ground_m, ground, max_agl_m, ...)."""
+    """A path's height profile as `dsmplan profile`, to a PNG: a path CSV, or a Flight as flown
+    with its waypoints, zones, DTM, safety and ceiling unless given; returns the report of
+    `--json` (length_m, min_above_dsm_m, max_above_ground_m, ground, max_agl_m, ...)."""
 
 def stereo(
     images: str | Sequence[str] | None = None,

@@ -15,7 +15,8 @@
 //   dsm = dsmplan.grid(points, res=1.0, classes=[2], fill_holes=30)   LAS/LAZ/XYZ to a DSM in memory,
 //                                       grid_point_files() of `dsmplan grid`; dsm.write(path): write_dsm()
 //   dsmplan.render(dsm, output, ...), dsmplan.profile(dsm, path, output, ...)   PNGs by render_job()
-//                                       and profile_job(), returning the report of `--json` as a dict
+//                                       and profile_job() (files, a Dsm, a Flight as flown), returning
+//                                       the report of `--json` as a dict
 //   dsm = dsmplan.stereo(images, res=1) or dsmplan.stereo(cameras=path_or_dict, res=0.5)   `dsmplan
 //                                       stereo`: stereo_job_for()'s rules, then stereo_job() or
 //                                       satellite_stereo_job(); a Dsm, or with output= the file and
@@ -102,6 +103,10 @@ struct PyFlight {
   std::vector<Point3> waypoints;
   Crs crs;
   PlanReport report;
+  // What its pictures draw with it (render(), profile()): the zones, the limits, the terrain.
+  ZoneLayer zones;
+  double safety = 0, max_agl = 0;
+  std::shared_ptr<const Grid> dtm;
 };
 
 std::vector<Point3> points_of(const py::array_t<double, py::array::c_style | py::array::forcecast>& waypoints) {
@@ -191,6 +196,9 @@ std::shared_ptr<PyFlight> plan(const std::shared_ptr<PyMesh>& mesh,
   }
   out->waypoints = request.waypoints;
   static_cast<FlightReport&>(out->report) = out->flight.report;
+  out->zones = {request.no_fly, request.airspace};
+  out->safety = safety, out->max_agl = max_agl;
+  out->dtm = request.dtm;
   return out;
 }
 
@@ -257,20 +265,73 @@ std::shared_ptr<PyDsm> grid(const py::object& points, double res, const std::str
   });
 }
 
-py::object render(const std::string& dsm, const std::string& output, const py::object& meshes, const py::object& titles,
-                  const py::object& paths, std::optional<std::string> waypoints, std::optional<std::string> roadmap,
+// A raster given as a file path or as a Dsm in memory: `name` the file, or "DSM" ("DTM") for one
+// in memory (the pictures' titles name it); `grid` set for one in memory.
+void raster_of(const py::object& given, const char* keyword, std::string& name, std::shared_ptr<const Grid>& grid) {
+  if (given.is_none()) return;
+  if (py::isinstance<PyDsm>(given)) {
+    auto dsm = given.cast<std::shared_ptr<PyDsm>>();
+    grid = std::shared_ptr<const Grid>(dsm, &dsm->grid);
+    name = keyword == std::string("dtm") ? "DTM" : "DSM";
+    return;
+  }
+  try {
+    name = given.cast<std::string>();
+  } catch (const py::cast_error&) {
+    throw ArgumentError(keyword, "must be a raster file's path (str) or a Dsm");
+  }
+}
+
+// Waypoints to draw: a CSV's path, or a K x 3 array (then `points`).
+void waypoints_of(const py::object& given, std::string& file, std::vector<Point3>& points) {
+  if (given.is_none()) return;
+  if (py::isinstance<py::str>(given)) {
+    file = given.cast<std::string>();
+    return;
+  }
+  points = points_of(given.cast<py::array_t<double, py::array::c_style | py::array::forcecast>>());
+}
+
+// Paths to draw: CSV paths and Flights, alone or in a list.
+void paths_and_flights(const py::object& given, std::vector<std::string>& files,
+                       std::vector<std::shared_ptr<PyFlight>>& flights) {
+  if (given.is_none()) return;
+  const auto add = [&](const py::handle& one) {
+    if (py::isinstance<PyFlight>(one))
+      flights.push_back(one.cast<std::shared_ptr<PyFlight>>());
+    else if (py::isinstance<py::str>(one))
+      files.push_back(one.cast<std::string>());
+    else
+      throw ArgumentError("paths", "must be a path CSV (str), a Flight, or a list of them");
+  };
+  if (py::isinstance<py::str>(given) || py::isinstance<PyFlight>(given)) return add(given);
+  for (const py::handle& one : given) add(one);
+}
+
+// Zone files to draw, read as plan() reads them.
+ZoneFiles zone_files(const std::vector<std::string>& no_fly, std::optional<std::vector<std::string>> blocking,
+                     const std::string& vertical_crs, bool allow_approximate_vertical) {
+  return {no_fly, blocking.value_or(std::vector<std::string>{}), {vertical_crs, allow_approximate_vertical}};
+}
+
+py::object render(const py::object& dsm, const std::string& output, const py::object& meshes, const py::object& titles,
+                  const py::object& paths, const py::object& waypoints, std::optional<std::string> roadmap,
                   std::optional<std::array<double, 4>> window, double zoom, bool edges, std::optional<double> res,
-                  int band, const std::string& crs) {
+                  int band, const std::string& crs, const std::vector<std::string>& no_fly,
+                  std::optional<std::vector<std::string>> no_fly_blocking, const std::string& vertical_crs,
+                  bool allow_approximate_vertical) {
   static const std::map<std::string, std::string> names = {
       {"--title", "titles"}, {"pixels_per_cell", "zoom"}, {"resolution", "res"}};
   return naming_keywords(names, [&] {
     RenderJobOptions options;
-    options.dsm = dsm;
+    raster_of(dsm, "dsm", options.dsm, options.dsm_grid);
     options.output = output;
     options.meshes = paths_of(meshes, "meshes");
     options.titles = paths_of(titles, "titles");
-    options.paths = paths_of(paths, "paths");
-    options.waypoints = waypoints.value_or("");
+    std::vector<std::shared_ptr<PyFlight>> flights;
+    paths_and_flights(paths, options.paths, flights);
+    std::vector<Point3> points;
+    waypoints_of(waypoints, options.waypoints, points);
     options.roadmap = roadmap.value_or("");
     if (window) options.render.window = Window{(*window)[0], (*window)[1], (*window)[2], (*window)[3]};
     options.render.pixels_per_cell = zoom;
@@ -278,8 +339,19 @@ py::object render(const std::string& dsm, const std::string& output, const py::o
     options.resolution = res;
     options.read.band = band;
     options.read.assign_crs = crs;
-    std::vector<NamedFile> inputs = {
-        {"dsm", options.dsm}, {"waypoints", options.waypoints}, {"roadmap", options.roadmap}};
+    options.no_fly = zone_files(no_fly, no_fly_blocking, vertical_crs, allow_approximate_vertical);
+    // A Flight is drawn as flown, with its waypoints (unless others are given) and its zones (the
+    // first Flight's: flights planned together share them).
+    for (const auto& flight : flights) {
+      LineLayer line;
+      line.polylines.push_back(flown_path(flight->flight));
+      options.render.lines.push_back(std::move(line));
+      if (waypoints.is_none()) options.render.markers.push_back(MarkerLayer{flight->waypoints});
+    }
+    if (!flights.empty() && no_fly.empty()) options.render.zones = flights.front()->zones;
+    if (!points.empty()) options.render.markers.push_back(MarkerLayer{points});
+    std::vector<NamedFile> inputs = {{"waypoints", options.waypoints}, {"roadmap", options.roadmap}};
+    if (!options.dsm_grid) inputs.push_back({"dsm", options.dsm});
     for (const std::string& mesh : options.meshes) inputs.push_back({"meshes", mesh});
     for (const std::string& path : options.paths) inputs.push_back({"paths", path});
     RenderReport report;
@@ -292,27 +364,45 @@ py::object render(const std::string& dsm, const std::string& output, const py::o
   });
 }
 
-py::object profile(const std::string& dsm, const std::string& path, const std::string& output,
-                   std::optional<std::string> dtm, std::optional<std::string> waypoints, double safety, double max_agl,
-                   const std::string& title, int width, int height) {
+py::object profile(const py::object& dsm, const py::object& path, const std::string& output, const py::object& dtm,
+                   const py::object& waypoints, std::optional<double> safety, std::optional<double> max_agl,
+                   const std::string& title, int width, int height, const std::vector<std::string>& no_fly,
+                   std::optional<std::vector<std::string>> no_fly_blocking, const std::string& vertical_crs,
+                   bool allow_approximate_vertical) {
   return naming_keywords({}, [&] {
     ProfileJobOptions options;
-    options.dsm = dsm;
-    options.path = path;
+    raster_of(dsm, "dsm", options.dsm, options.dsm_grid);
+    raster_of(dtm, "dtm", options.dtm, options.dtm_grid);
     options.output = output;
-    options.dtm = dtm.value_or("");
-    options.waypoints = waypoints.value_or("");
-    options.profile.safety = safety;
-    options.profile.max_agl = max_agl;
+    waypoints_of(waypoints, options.waypoints, options.profile.waypoints);
+    options.profile.safety = safety.value_or(2.0);
+    options.profile.max_agl = max_agl.value_or(120.0);
     options.profile.title = title;
     options.profile.width = width;
     options.profile.height = height;
+    options.no_fly = zone_files(no_fly, no_fly_blocking, vertical_crs, allow_approximate_vertical);
+    if (py::isinstance<PyFlight>(path)) {  // as flown, with what it was planned with
+      const auto flight = path.cast<std::shared_ptr<PyFlight>>();
+      options.path = "flight";
+      options.path_points = flown_path(flight->flight);
+      if (waypoints.is_none()) options.profile.waypoints = flight->waypoints;
+      if (no_fly.empty()) options.profile.zones = flight->zones;
+      if (dtm.is_none() && flight->dtm) options.dtm = "DTM", options.dtm_grid = flight->dtm;
+      options.profile.safety = safety.value_or(flight->safety);
+      options.profile.max_agl = max_agl.value_or(flight->max_agl);
+    } else if (py::isinstance<py::str>(path)) {
+      options.path = path.cast<std::string>();
+    } else {
+      throw ArgumentError("path", "must be a path CSV (str) or a Flight");
+    }
+    std::vector<NamedFile> inputs{{"waypoints", options.waypoints}};
+    if (!options.dsm_grid) inputs.push_back({"dsm", options.dsm});
+    if (!options.dtm_grid) inputs.push_back({"dtm", options.dtm});
+    if (options.path_points.empty()) inputs.push_back({"path", options.path});
     ProfileReport report;
     {
       py::gil_scoped_release release;
-      refuse_overwrites(
-          {{"dsm", options.dsm}, {"path", options.path}, {"dtm", options.dtm}, {"waypoints", options.waypoints}},
-          {{"output", options.output}});
+      refuse_overwrites(inputs, {{"output", options.output}});
       report = profile_job(options);
     }
     return json_dict(to_json(report));
@@ -676,39 +766,54 @@ PYBIND11_MODULE(dsmplan, m) {
         py::arg("titles") = py::none(), py::arg("paths") = py::none(), py::arg("waypoints") = py::none(),
         py::arg("roadmap") = py::none(), py::arg("window") = py::none(), py::arg("zoom") = 4.0, py::arg("edges") = true,
         py::arg("res") = py::none(), py::arg("band") = 1, py::arg("crs") = "",
+        py::arg("no_fly") = std::vector<std::string>{}, py::arg("no_fly_blocking") = py::none(),
+        py::arg("vertical_crs") = "", py::arg("allow_approximate_vertical") = false,
         "The DSM from above, hillshaded, one panel per mesh with its edges drawn, as `dsmplan render` (the same "
         "library function, render_job()); returns the report of `dsmplan render --json` as a dict (output, "
-        "width, height, panels).\n\n"
-        "dsm: the DSM raster file.\n"
+        "width, height, panels, window, zoom).\n\n"
+        "dsm: the DSM raster file, or a Dsm.\n"
         "output: the picture, .png (written atomically).\n"
         "meshes: a mesh file (.ply, .obj, .off, in the DSM's CRS) or a list of them: one panel each (--mesh).\n"
-        "titles: a title or a list of them, one per panel (default: the file names) (--title).\n"
-        "paths: a path CSV (Flight.write(\"path.csv\")) or a list of them, drawn on every panel (--path).\n"
-        "waypoints: a waypoint CSV: numbered discs.\n"
+        "titles: a title or a list of them, one per panel (default: the file names, \"DSM\" for a Dsm) (--title).\n"
+        "paths: a path CSV, a Flight, or a list of them, drawn on every panel (--path); a Flight as flown (home "
+        "legs included), with its waypoints (unless `waypoints` is given) and its zones (unless `no_fly` is).\n"
+        "waypoints: a waypoint CSV or a K x 3 array: numbered discs.\n"
         "roadmap: a roadmap file (`dsmplan plan --roadmap`): its edges, thin.\n"
         "window: (xmin, ymin, xmax, ymax) in the CRS: the area to draw (default: all).\n"
         "zoom: pixels per DSM cell.\n"
         "edges: draw the meshes' edges (False: --no-edges).\n"
         "res: resample the DSM (median) to this cell size first.\n"
         "band: the raster band to read.\n"
-        "crs: the DSM's CRS, overriding what the file states.");
+        "crs: the DSM's CRS, overriding what the file states.\n"
+        "no_fly: files of no-fly zones (ED-269 JSON or GeoJSON) to draw, read as plan() reads them.\n"
+        "no_fly_blocking: the restrictions drawn as blocking (default PROHIBITED and REQ_AUTHORISATION).\n"
+        "vertical_crs: the heights' vertical CRS for the zones' AMSL limits when the DSM's CRS has none.\n"
+        "allow_approximate_vertical: take heights of an unknown or grid-less vertical datum as EGM96.");
   m.def("profile", &profile, py::arg("dsm"), py::arg("path"), py::arg("output"), py::kw_only(),
-        py::arg("dtm") = py::none(), py::arg("waypoints") = py::none(), py::arg("safety") = 2.0,
-        py::arg("max_agl") = 120.0, py::arg("title") = "", py::arg("width") = 1200, py::arg("height") = 500,
+        py::arg("dtm") = py::none(), py::arg("waypoints") = py::none(), py::arg("safety") = py::none(),
+        py::arg("max_agl") = py::none(), py::arg("title") = "", py::arg("width") = 1200, py::arg("height") = 500,
+        py::arg("no_fly") = std::vector<std::string>{}, py::arg("no_fly_blocking") = py::none(),
+        py::arg("vertical_crs") = "", py::arg("allow_approximate_vertical") = false,
         "A path's height profile over the DSM below it, the terrain and the ceiling, as `dsmplan profile` (the "
         "same library function, profile_job()); returns the report of `dsmplan profile --json` as a dict "
         "(length_m, min_above_dsm_m, max_above_ground_m, ground, max_agl_m, ...), measured as plan() "
         "verifies.\n\n"
-        "dsm: the DSM raster file the path was planned over.\n"
-        "path: the path CSV (Flight.write(\"path.csv\")), in the DSM's CRS.\n"
+        "dsm: the DSM the path was planned over: a raster file, or a Dsm.\n"
+        "path: the path CSV (Flight.write(\"path.csv\")), in the DSM's CRS, or a Flight: drawn as flown (home "
+        "legs included) with its waypoints, zones, DTM, safety and ceiling unless given here.\n"
         "output: the picture, .png (written atomically).\n"
-        "dtm: a terrain raster file: the ground of the ceiling (default: the DSM).\n"
-        "waypoints: a waypoint CSV: numbered markers on the path.\n"
-        "safety: the half-height of the band drawn around the path, metres.\n"
-        "max_agl: the ceiling above the ground, metres.\n"
-        "title: the title (default: the path's and the DSM's file names).\n"
+        "dtm: the terrain, a raster file or a Dsm: the ground of the ceiling (default: the Flight's, else the "
+        "DSM).\n"
+        "waypoints: a waypoint CSV or a K x 3 array: numbered markers on the path.\n"
+        "safety: the half-height of the band drawn around the path, metres (default: the Flight's, else 2).\n"
+        "max_agl: the ceiling above the ground, metres (default: the Flight's, else 120).\n"
+        "title: the title (default: the path's and the DSM's names).\n"
         "width: the picture's width, pixels (240 to 30000).\n"
-        "height: the picture's height, pixels (160 to 30000).");
+        "height: the picture's height, pixels (160 to 30000).\n"
+        "no_fly: files of no-fly zones (ED-269 JSON or GeoJSON) to draw over the section.\n"
+        "no_fly_blocking: the restrictions drawn as blocking (default PROHIBITED and REQ_AUTHORISATION).\n"
+        "vertical_crs: the heights' vertical CRS for the zones' AMSL limits when the DSM's CRS has none.\n"
+        "allow_approximate_vertical: take heights of an unknown or grid-less vertical datum as EGM96.");
   m.def("stereo", &stereo, py::arg("images") = py::none(), py::kw_only(), py::arg("cameras") = py::none(),
         py::arg("res"), py::arg("output") = py::none(), py::arg("pairs") = "auto", py::arg("bounds") = py::none(),
         py::arg("crs") = "", py::arg("allow_approximate_vertical") = false, py::arg("fusion_memory") = 1024.0,

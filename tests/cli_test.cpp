@@ -2961,3 +2961,71 @@ TEST(CliNoFly, RenderAndProfileDrawTheZonesAndRefuseABadFile) {
   EXPECT_NE(run.err.find(bad), std::string::npos) << run.err;
   EXPECT_FALSE(std::filesystem::exists(out.path("bad.png")));
 }
+
+// One plan run draws its own pictures (issue 32, point 5): the mission as flown, home legs
+// included, over the DSM and the DTM with the waypoints and the zones, the same bytes as `render`
+// and `profile` draw of the written CSV with the window, zoom and title the run reports. A picture
+// needs a DSM, and a refused one leaves nothing behind.
+TEST(CliPlan, OneRunDrawsTheMissionAsFlownAsRenderAndProfileDrawItsCsv) {
+  MissionFixture f;
+  TempDir out;
+  const std::string dsm = testkit::data_path(kSample), dtm = out.path("dtm.tif");
+  dsmplan::Grid terrain = dsmplan::read_raster(dsm);
+  for (float& z : terrain.z) z -= 0.3f;  // lower, yet home's ground stays clear of "roofs"
+  dsmplan::write_geotiff(terrain, dtm);
+  const std::string csv = out.path("flown.csv"), mission = out.path("m.plan"), stats = out.path("s.json");
+  const std::string above = out.path("above.png"), side = out.path("side.png");
+  const std::vector<std::string> zones{"--no-fly",       kNrwZones,   "--no-fly-blocking",           "NONE",
+                                       "--vertical-crs", "EPSG:7837", "--allow-approximate-vertical"};
+  std::vector<std::string> args{"plan",     f.bounded, "--waypoints", f.low, "-o",        mission, "-o",        csv,
+                                "--dsm",    dsm,       "--dtm",       dtm,   "--max-agl", "30",    "--spacing", "10",
+                                "--render", above,     "--profile",   side,  "--stats",   stats,   "-q"};
+  args.insert(args.end(), zones.begin(), zones.end());
+  const auto planned = run_cli(args);
+  ASSERT_EQ(planned.exit_code, 0) << planned.err;
+  const json report = json::parse(testkit::read_file(stats));
+  const auto flown = read_path_csv(csv);
+  const auto home = report["home"].get<std::vector<double>>();
+  ASSERT_EQ(flown.front()[0], home[0]);  // as flown: from home on the ground
+  const json& render = report["render"];
+  const auto window = render["window"].get<std::vector<double>>();
+  for (const auto& p : flown) {  // the picture frames the whole flight
+    EXPECT_GT(p[0], window[0]);
+    EXPECT_GT(p[1], window[1]);
+    EXPECT_LT(p[0], window[2]);
+    EXPECT_LT(p[1], window[3]);
+  }
+  char box[160];
+  std::snprintf(box, sizeof box, "%.17g,%.17g,%.17g,%.17g", window[0], window[1], window[2], window[3]);
+  std::vector<std::string> again{"render",      dsm,
+                                 "--path",      csv,
+                                 "--waypoints", f.low,
+                                 "--window",    box,
+                                 "--zoom",      render["zoom"].dump(),
+                                 "--title",     "flown.csv over " + std::filesystem::path(dsm).filename().string(),
+                                 "-o",          out.path("above_again.png"),
+                                 "-q"};
+  again.insert(again.end(), zones.begin(), zones.end());
+  ASSERT_EQ(run_cli(again).exit_code, 0);
+  EXPECT_EQ(testkit::read_file(above), testkit::read_file(out.path("above_again.png")));
+  again = {"profile", dsm,        "--path", csv,         "--dtm", dtm,  "--waypoints",
+           f.low,     "--safety", "2",      "--max-agl", "30",    "-o", out.path("side_again.png"),
+           "-q"};
+  again.insert(again.end(), zones.begin(), zones.end());
+  ASSERT_EQ(run_cli(again).exit_code, 0);
+  EXPECT_EQ(testkit::read_file(side), testkit::read_file(out.path("side_again.png")));
+  EXPECT_EQ(report["profile"]["max_above_ground_m"].get<double>(), report["max_agl_m"].get<double>());
+
+  // Refused before the planning, nothing written: no DSM to draw over, a picture not named .png.
+  for (const auto& [flag, picture, dsm_given] :
+       {std::tuple{"--render", out.path("r.png"), false}, std::tuple{"--profile", out.path("p.jpg"), true}}) {
+    std::vector<std::string> refused{"plan", f.bounded, "--waypoints", f.low, "-o", out.path("never.csv"),
+                                     flag,   picture,   "-q"};
+    if (dsm_given) refused.insert(refused.end(), {"--dsm", dsm});
+    const auto run = run_cli(refused);
+    EXPECT_EQ(run.exit_code, 2) << flag;
+    EXPECT_EQ(run.err.rfind(std::string("dsmplan: ") + flag, 0), 0u) << run.err;
+    EXPECT_FALSE(std::filesystem::exists(out.path("never.csv")));
+    EXPECT_FALSE(std::filesystem::exists(picture));
+  }
+}

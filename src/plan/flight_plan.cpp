@@ -363,6 +363,16 @@ uint64_t FlightArea::roadmap_key() const {
 
 // ---- a flight ----------------------------------------------------------------------------------
 
+std::vector<Point3> flown_path(const FlightPlan& flight) {
+  if (!flight.site) return flight.path;
+  const MissionSite& site = *flight.site;
+  std::vector<Point3> path{site.home};
+  path.insert(path.end(), flight.path.begin(), flight.path.end());
+  if (site.end == MissionEnd::rtl) path.push_back(site.home);
+  if (site.end == MissionEnd::land) path.push_back(site.land);
+  return path;
+}
+
 FlightAttempt attempt_flight(const FlightArea& area, const FlightQuery& query, const Progress& progress) {
   const FlightData& data = area.data();
   const FlightNames& names = data.names;

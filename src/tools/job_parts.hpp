@@ -79,6 +79,16 @@ size_t write_mesh_output(const Mesh& mesh, const std::string& output, MeshFormat
                          const std::optional<Wgs84Transform>& heights, std::optional<TilesetReport>& report,
                          const Progress& progress);
 
+// ---- pictures (render_job.cpp, profile_job.cpp) ----
+
+/// ArgumentError(flag, or the output when no flag) unless `output` ends in .png; OutputError when
+/// it cannot be written. Before any work.
+void check_png_output(const std::string& output, const std::string& flag);
+/// render_job() and profile_job() up to the picture, nothing written: a caller that writes other
+/// files of the same run draws first, so a refusal leaves nothing behind (`dsmplan plan --render`).
+std::pair<Image, RenderReport> render_picture(const RenderJobOptions& options, const Progress& progress = {});
+std::pair<Image, ProfileReport> profile_picture(const ProfileJobOptions& options, const Progress& progress = {});
+
 // ---- no-fly zones in pictures (zone_files.cpp) ----
 
 /// The zones of every file of `files` (read_airspace()) in `crs`, in order, with which

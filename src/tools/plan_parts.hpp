@@ -3,6 +3,7 @@
 #pragma once
 
 #include <cstdint>
+#include <memory>
 #include <optional>
 #include <string>
 #include <utility>
@@ -10,6 +11,8 @@
 
 #include "dsmplan/flight.hpp"
 #include "dsmplan/mission.hpp"
+#include "dsmplan/picture.hpp"
+#include "dsmplan/picture_job.hpp"
 #include "dsmplan/plan_job.hpp"
 #include "dsmplan/wgs84.hpp"
 
@@ -85,5 +88,36 @@ Mission flight_mission(const FlightPlan& flight, const std::vector<Point3>& lonl
 void write_flight_as(const PlanJobOptions& options, const std::string& output, const OutputKind& kind,
                      const FlightPlan& flight, const std::vector<Point3>& waypoints, const Crs& crs,
                      const Transforms& t, PlanReport& report);
+
+// ---- --render, --profile (plan_pictures.cpp) ----
+
+/// Before anything is read: each picture named .png and writable, and a DSM to draw it over
+/// (--dsm, or a DSM input). ArgumentError("--render" / "--profile").
+void check_flight_pictures(const PlanJobOptions& options, bool dsm_input);
+
+/// What the pictures draw besides the flight, as the plan had it: the DSM and DTM in memory (null:
+/// read from `dsm_file` and options.dtm), and the zones.
+struct PictureData {
+  std::string dsm_file;
+  std::shared_ptr<const Grid> dsm, dtm;
+  ZoneLayer zones;
+};
+
+/// The pictures options.render and options.profile ask for, drawn before any file of the run is
+/// written (a refusal then leaves nothing behind): render_picture() and profile_picture() of the
+/// flight as flown (flown_path()) with the waypoints, the zones, the plan's safety and ceiling,
+/// the picture from above framed on the flight, titled "PATH over DSM" (PATH: the first CSV
+/// output, else the first output), so each is the same bytes as `dsmplan render` (with the
+/// report's window, zoom and title) and `dsmplan profile` give of the written CSV.
+struct FlightPictures {
+  std::optional<Image> render, profile;
+  std::optional<RenderReport> render_report;  ///< the window and zoom drawn, to draw it again
+  std::optional<ProfileReport> profile_report;
+};
+FlightPictures draw_flight_pictures(const PlanJobOptions& options, const FlightPlan& flight,
+                                    const std::vector<Point3>& waypoints, const PictureData& data,
+                                    const Progress& progress);
+/// Writes them (write_png(), atomically).
+void write_flight_pictures(const PlanJobOptions& options, const FlightPictures& pictures);
 
 }  // namespace dsmplan

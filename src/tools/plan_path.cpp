@@ -93,18 +93,6 @@ Outputs plan_outputs(const PlanJobOptions& options) {
 
 namespace {
 
-// A mission's path as the drone flies it: from home on the ground, up to the route, along it,
-// and down (at the landing, or at home after the leg back above it).
-std::vector<Point3> as_flown(const FlightPlan& flight) {
-  if (!flight.site) return flight.path;
-  const MissionSite& site = *flight.site;
-  std::vector<Point3> path{site.home};
-  path.insert(path.end(), flight.path.begin(), flight.path.end());
-  if (site.end == MissionEnd::rtl) path.push_back(site.home);
-  if (site.end == MissionEnd::land) path.push_back(site.land);
-  return path;
-}
-
 // The index kept in `path` when it exists and was built from `input_hash`; std::nullopt when the
 // file is missing or stale (then built and written anew); InputError when it is no index file or
 // is damaged, so a file the user named by mistake is never overwritten.
@@ -146,21 +134,41 @@ void read_no_fly(const PlanJobOptions& options, const Crs& crs, FlightData& data
   if (!options.no_fly_blocking.empty()) data.airspace.blocking = options.no_fly_blocking;
 }
 
+// The flight planned, in the CRS of its data, and what its pictures draw beside it.
+struct Planned {
+  FlightPlan flight;
+  Crs crs;
+  PictureData pictures;
+};
+
 // A DSM (raster, VRT mosaic) instead of a mesh: planned along a corridor, window by window.
-FlightPlan plan_along_corridor(GridSource& city, const std::vector<Point3>& waypoints, const PlanJobOptions& options,
-                               const Transforms& t, bool mission, const Progress& progress) {
+Planned plan_along_corridor(const PlanJobOptions& options, const Outputs& outputs, bool geo_in,
+                            std::vector<Point3>& waypoints, Transforms& t, PlanReport& report,
+                            const Progress& progress) {
+  Stopwatch clock;
+  std::unique_ptr<GridSource> city = open_raster(options.mesh);
+  Planned planned;
+  planned.crs = city->frame().crs;
+  require_projected(planned.crs, options.mesh, centre_of(city->frame()));
+  make_transforms(t, planned.crs, geo_in, outputs, options.vertical, report.transformation);
+  if (geo_in)
+    for (Point3& p : waypoints) p = t.wgs84->from_wgs84(p);
   CorridorRequest request;
   request.waypoints = waypoints;
   request.options = options.plan;
-  if (mission) request.mission = mission_ends(options.mission, t);
+  if (outputs.mission) request.mission = mission_ends(options.mission, t);
   if (!options.dtm.empty()) request.dtm = std::make_shared<const Grid>(read_raster(options.dtm));
   request.corridor = options.corridor;
   request.names = {options.mesh, options.waypoints, options.mesh, options.dtm};
   FlightData zones;
-  read_no_fly(options, city.frame().crs, zones);
-  request.no_fly = std::move(zones.no_fly);
+  read_no_fly(options, planned.crs, zones);
+  request.no_fly = zones.no_fly;
   request.airspace = zones.airspace;
-  return plan_flight_along(city, request, progress);
+  planned.pictures = {options.mesh, nullptr, request.dtm, {zones.no_fly, zones.airspace}};
+  const double opened = clock.lap();
+  planned.flight = plan_flight_along(*city, request, progress);
+  planned.flight.report.seconds_load += opened;
+  return planned;
 }
 
 }  // namespace
@@ -227,7 +235,7 @@ FlightStore file_store(const PlanJobOptions& options) {
 std::string flight_text(const PlanJobOptions& options, const OutputKind& kind, const FlightPlan& flight,
                         const std::vector<Point3>& waypoints, const Crs& crs, const Transforms& t, PlanReport& report) {
   // A mission is its items; every other format shows the flight as flown, home legs included.
-  const std::vector<Point3> path = kind.mission ? flight.path : as_flown(flight);
+  const std::vector<Point3> path = kind.mission ? flight.path : flown_path(flight);
   if (kind.ext == "csv") return path_to_csv(path);
   if (kind.geojson) {
     std::vector<Point3> lonlath;
@@ -280,6 +288,35 @@ void write_flight_as(const PlanJobOptions& options, const std::string& output, c
   write_wpml_kmz(flight_mission(flight, lonlatamsl, t, report), options.mission.format, output);
 }
 
+namespace {
+
+// A mesh (with the DSM's columns, the terrain and a kept index and roadmap when given).
+Planned plan_over_mesh(const PlanJobOptions& options, const Outputs& outputs, bool geo_in,
+                       std::vector<Point3>& waypoints, Transforms& t, PlanReport& report, const Progress& progress) {
+  Stopwatch clock;
+  ReadRequest read = read_flight_request(options, waypoints, progress);
+  FlightRequest& request = read.request;
+  Planned planned;
+  planned.crs = request.mesh->crs;
+  // A kept index was saved only after this very mesh passed the check (its CRS comments are in
+  // the bytes that name the index): not asked again, which would cost PROJ's database (5-7 ms).
+  if (!request.index || request.dsm) require_projected(planned.crs, options.mesh, centre_of(*request.mesh));
+  make_transforms(t, planned.crs, geo_in, outputs, options.vertical, report.transformation);
+  if (geo_in)
+    for (Point3& p : request.waypoints) p = t.wgs84->from_wgs84(p);
+  waypoints = request.waypoints;
+  if (outputs.mission) request.mission = mission_ends(options.mission, t);
+  request.store = file_store(options);
+  planned.pictures = {options.dsm, request.dsm, request.dtm, {request.no_fly, request.airspace}};
+  const double before = clock.lap();
+  planned.flight = plan_flight(request, sub_progress(progress, 0.2, 0.95));
+  planned.flight.report.seconds_load += before;
+  planned.flight.report.seconds_read += read.seconds;
+  return planned;
+}
+
+}  // namespace
+
 PlanReport plan_job(const PlanJobOptions& options, const Progress& progress) {
   if (options.waypoints.empty())
     throw ArgumentError("--waypoints", "is required: the waypoints to fly through (or --routes, many routes)");
@@ -298,6 +335,7 @@ PlanReport plan_job(const PlanJobOptions& options, const Progress& progress) {
     throw ArgumentError("--roadmap", "a DSM input is planned window by window along a corridor; no roadmap is kept");
   if (corridor && !options.dsm.empty())
     throw ArgumentError("--dsm", "the input " + options.mesh + " is the DSM already; its columns are checked");
+  check_flight_pictures(options, corridor);
   PlanReport report;
   const bool geo_in = is_geojson(options.waypoints);
   std::vector<Point3> waypoints =
@@ -306,45 +344,21 @@ PlanReport plan_job(const PlanJobOptions& options, const Progress& progress) {
     throw InputError(options.waypoints, "",
                      "a path needs at least two waypoints, the file has " + std::to_string(waypoints.size()));
 
-  Stopwatch clock;
-  FlightPlan flight;
-  Crs crs;
   Transforms t;
-  if (corridor) {
-    std::unique_ptr<GridSource> city = open_raster(options.mesh);
-    crs = city->frame().crs;
-    require_projected(crs, options.mesh, centre_of(city->frame()));
-    make_transforms(t, crs, geo_in, outputs, options.vertical, report.transformation);
-    if (geo_in)
-      for (Point3& p : waypoints) p = t.wgs84->from_wgs84(p);
-    const double opened = clock.lap();
-    flight = plan_along_corridor(*city, waypoints, options, t, outputs.mission, progress);
-    flight.report.seconds_load += opened;
-  } else {
-    ReadRequest read = read_flight_request(options, waypoints, progress);
-    FlightRequest& request = read.request;
-    crs = request.mesh->crs;
-    // A kept index was saved only after this very mesh passed the check (its CRS comments are in
-    // the bytes that name the index): not asked again, which would cost PROJ's database (5-7 ms).
-    if (!request.index || request.dsm) require_projected(crs, options.mesh, centre_of(*request.mesh));
-    make_transforms(t, crs, geo_in, outputs, options.vertical, report.transformation);
-    if (geo_in)
-      for (Point3& p : request.waypoints) p = t.wgs84->from_wgs84(p);
-    waypoints = request.waypoints;
-    if (outputs.mission) request.mission = mission_ends(options.mission, t);
-    request.store = file_store(options);
-    const double before = clock.lap();
-    flight = plan_flight(request, sub_progress(progress, 0.2, 0.95));
-    flight.report.seconds_load += before;
-    flight.report.seconds_read += read.seconds;
-  }
+  const Planned planned = corridor ? plan_along_corridor(options, outputs, geo_in, waypoints, t, report, progress)
+                                   : plan_over_mesh(options, outputs, geo_in, waypoints, t, report, progress);
+  const FlightPlan& flight = planned.flight;
   static_cast<FlightReport&>(report) = flight.report;
   report.mesh = options.mesh;
   report.waypoints = options.waypoints;
   report.output = options.output;
-  dsmplan::report(progress, 0.95);
+  const FlightPictures pictures =
+      draw_flight_pictures(options, flight, waypoints, planned.pictures, sub_progress(progress, 0.95, 0.99));
   for (const auto& [output, kind] : outputs.files)
-    write_flight_as(options, output, kind, flight, waypoints, crs, t, report);
+    write_flight_as(options, output, kind, flight, waypoints, planned.crs, t, report);
+  write_flight_pictures(options, pictures);
+  report.render = pictures.render_report;
+  report.profile = pictures.profile_report;
   dsmplan::report(progress, 1);
   return report;
 }
@@ -447,6 +461,8 @@ Json to_json(const PlanReport& r) {
                        {"min_distance_m", z.min_distance_m}});
     j["no_fly_zones"] = zones;
   }
+  if (r.render) j["render"] = to_json(*r.render);
+  if (r.profile) j["profile"] = to_json(*r.profile);
   if (r.corridor_windows) {
     j["corridor_windows"] = r.corridor_windows;
     j["corridor_largest_window_cells"] = r.corridor_largest_window_cells;
@@ -507,6 +523,15 @@ std::string to_text(const PlanReport& r) {
     text += "nearest no-fly zone: " + nearest->label + zone + (nearest->blocks ? "" : " (not blocking)") + "\n";
   }
   if (!r.transformation.empty()) text += "heights and coordinates to WGS 84 by: " + r.transformation + "\n";
+  if (r.render) {
+    const Window& w = r.render->window;
+    char picture[320];
+    std::snprintf(picture, sizeof picture, "%s: %d x %d pixels from above, window %.10g,%.10g,%.10g,%.10g, zoom %g\n",
+                  r.render->output.c_str(), r.render->width, r.render->height, w.xmin, w.ymin, w.xmax, w.ymax,
+                  r.render->zoom);
+    text += picture;
+  }
+  if (r.profile) text += to_text(*r.profile);
   return text;
 }
 

@@ -40,6 +40,8 @@ void check_routes_options(const PlanJobOptions& options) {
                                         " is a raster): mesh it first (dsmplan simplify --conservative) and pass "
                                         "the raster as --dsm");
   if (!options.more_outputs.empty()) throw ArgumentError("-o", "--routes writes one output: a .geojson or a folder");
+  for (const auto& [flag, picture] : {std::pair{"--render", &options.render}, std::pair{"--profile", &options.profile}})
+    if (!picture->empty()) throw ArgumentError(flag, "draws one flight; with --routes draw a route's file afterwards");
   if (!is_folder(options.output) && !is_geojson_name(options.output))
     throw ArgumentError("-o", "--routes writes a .geojson FeatureCollection or a folder (a name ending in '/'), got '" +
                                   options.output + "'");

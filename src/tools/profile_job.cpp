@@ -63,9 +63,7 @@ namespace {
 
 // The picture's options and the output, before any file is read (render_profile() checks them again).
 void check_profile_options(const ProfileJobOptions& options) {
-  const std::string extension = lower_case(std::filesystem::path(options.output).extension().string());
-  if (extension != ".png") throw ArgumentError(options.output, "the picture is written as PNG: name it .png");
-  check_writable(options.output);  // a missing folder is known now, not after the reading
+  check_png_output(options.output, "");
   const ProfileOptions& picture = options.profile;
   if (picture.width < 240 || picture.height < 160 || picture.width > 30000 || picture.height > 30000)
     throw ArgumentError(picture.width < 240 || picture.width > 30000 ? "--width" : "--height",
@@ -103,9 +101,10 @@ struct TerrainWindow {
   std::unique_ptr<GridSource> source;
   int c0 = 0, r0 = 0, c1 = 0, r1 = 0;
 };
-TerrainWindow open_terrain(const std::string& dtm, const Grid& frame, const Box& box) {
+TerrainWindow open_terrain(const std::string& dtm, const std::shared_ptr<const Grid>& in_memory, const Grid& frame,
+                           const Box& box) {
   TerrainWindow w;
-  w.source = open_raster(dtm);
+  w.source = in_memory ? std::make_unique<GridView>(*in_memory) : open_raster(dtm);
   const Grid& terrain = w.source->frame();
   if (terrain.crs.epsg && frame.crs.epsg && terrain.crs.epsg != frame.crs.epsg)
     throw InputError(dtm, "",
@@ -146,21 +145,26 @@ ProfileReport report_of(const Image& image, const PathProfile& profile, const Pr
 
 }  // namespace
 
-ProfileReport profile_job(const ProfileJobOptions& options, const Progress& progress) {
+std::pair<Image, ProfileReport> profile_picture(const ProfileJobOptions& options, const Progress& progress) {
   check_profile_options(options);
-  const std::vector<Point3> path = read_waypoints_csv(options.path);
+  const std::vector<Point3> path = options.path_points.empty() ? read_waypoints_csv(options.path) : options.path_points;
   if (path.size() < 2) throw InputError(options.path, "", "a path needs at least two points");
   const std::vector<Point3> waypoints =
-      options.waypoints.empty() ? std::vector<Point3>{} : read_waypoints_csv(options.waypoints);
+      options.waypoints.empty() ? options.profile.waypoints : read_waypoints_csv(options.waypoints);
 
   // Only the windows around the path are read: the DSM may be a whole city's mosaic.
-  const std::unique_ptr<GridSource> dsm_source = open_raster(options.dsm);
+  const std::unique_ptr<GridSource> dsm_source =
+      options.dsm_grid ? std::make_unique<GridView>(*options.dsm_grid) : open_raster(options.dsm);
   const Grid& frame = dsm_source->frame();
   require_projected(frame.crs, options.dsm, centre_of(frame));
   const Box box = path_box(path, frame, options.path);
   TerrainWindow terrain_window;
-  if (!options.dtm.empty()) terrain_window = open_terrain(options.dtm, frame, box);
-  ZoneLayer zones = read_zone_layer(options.no_fly, frame.crs);
+  if (!options.dtm.empty() || options.dtm_grid)
+    terrain_window = open_terrain(options.dtm, options.dtm_grid, frame, box);
+  ZoneLayer zones = options.profile.zones;
+  const ZoneLayer files = read_zone_layer(options.no_fly, frame.crs);
+  zones.zones.insert(zones.zones.end(), files.zones.begin(), files.zones.end());
+  if (!options.no_fly.blocking.empty()) zones.airspace = files.airspace;
   report(progress, 0.05);
 
   int c0 = 0, r0 = 0, c1 = 0, r1 = 0;
@@ -182,7 +186,7 @@ ProfileReport profile_job(const ProfileJobOptions& options, const Progress& prog
   if (drawing.title.empty())
     drawing.title = "Height profile: " + file_name(options.path) + " over " + file_name(options.dsm);
   const Grid* terrain = terrain_window.source ? &dtm : nullptr;
-  const Image image = render_profile(path, dsm, terrain, drawing);
+  Image image = render_profile(path, dsm, terrain, drawing);
   PathProfile profile = profile_path(path, dsm, terrain);
   // The height above ground is the plan stage's measure (measure_path()), the one `dsmplan plan`
   // verifies and reports: the same figure for the same path, whichever command says it.
@@ -192,9 +196,15 @@ ProfileReport profile_job(const ProfileJobOptions& options, const Progress& prog
   profile.max_above_ground_at = std::isnan(profile.max_above_ground)
                                     ? NAN
                                     : highest_point_at(path, ground, measured.max_agl_segment, profile.distance);
+  ProfileReport result = report_of(image, profile, options, terrain != nullptr);
+  return {std::move(image), result};
+}
+
+ProfileReport profile_job(const ProfileJobOptions& options, const Progress& progress) {
+  const auto [image, result] = profile_picture(options, sub_progress(progress, 0, 0.95));
   write_png(image, options.output);
   report(progress, 1);
-  return report_of(image, profile, options, terrain != nullptr);
+  return result;
 }
 
 std::string to_text(const ProfileReport& r) {

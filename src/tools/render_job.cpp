@@ -40,11 +40,17 @@ void check_mesh_fits(const Mesh& mesh, const std::string& path, const Grid& dsm)
 
 }  // namespace
 
-RenderReport render_job(const RenderJobOptions& options, const Progress& progress) {
+void check_png_output(const std::string& output, const std::string& flag) {
+  const std::string extension = lower_case(std::filesystem::path(output).extension().string());
+  if (extension != ".png")
+    throw ArgumentError(flag.empty() ? output : flag,
+                        "the picture is written as PNG: name it .png, got '" + output + "'");
+  check_writable(output);  // a missing folder is known now, not after the drawing
+}
+
+std::pair<Image, RenderReport> render_picture(const RenderJobOptions& options, const Progress& progress) {
   // Everything that can be checked is checked before the long work starts.
-  const std::string extension = lower_case(std::filesystem::path(options.output).extension().string());
-  if (extension != ".png") throw ArgumentError(options.output, "the picture is written as PNG: name it .png");
-  check_writable(options.output);  // a missing folder is known now, not after the drawing
+  check_png_output(options.output, "");
   if (options.resolution && !(*options.resolution > 0 && std::isfinite(*options.resolution))) {
     throw ArgumentError("--res", "must be a positive number of CRS units");
   }
@@ -63,14 +69,19 @@ RenderReport render_job(const RenderJobOptions& options, const Progress& progres
                                        (panels == 1 ? " panel" : " panels"));
   }
 
-  Grid dsm = read_raster(options.dsm, options.read, sub_progress(progress, 0, 0.25));
+  Grid dsm =
+      options.dsm_grid ? *options.dsm_grid : read_raster(options.dsm, options.read, sub_progress(progress, 0, 0.25));
   if (options.resolution && (*options.resolution != dsm.cell_x || *options.resolution != dsm.cell_y)) {
     dsm = resample(dsm, *options.resolution, Resampling::Median, sub_progress(progress, 0.25, 0.3));
   }
 
   // Layers, read before any drawing so a bad file costs nothing: roadmap under paths under waypoints.
+  // The caller's own layers (in memory) go over the files'.
   RenderOptions layered = options.render;
-  layered.zones = read_zone_layer(options.no_fly, dsm.crs);
+  layered.lines.clear(), layered.markers.clear();
+  const ZoneLayer files = read_zone_layer(options.no_fly, dsm.crs);
+  layered.zones.zones.insert(layered.zones.zones.end(), files.zones.begin(), files.zones.end());
+  if (!options.no_fly.blocking.empty()) layered.zones.airspace = files.airspace;
   if (!options.roadmap.empty()) {
     const Roadmap map = read_roadmap(options.roadmap, nullptr);
     LineLayer edges;
@@ -90,6 +101,8 @@ RenderReport render_job(const RenderJobOptions& options, const Progress& progres
     layered.lines.push_back(std::move(line));
   }
   if (!options.waypoints.empty()) layered.markers.push_back(MarkerLayer{read_waypoints_csv(options.waypoints)});
+  layered.lines.insert(layered.lines.end(), options.render.lines.begin(), options.render.lines.end());
+  layered.markers.insert(layered.markers.end(), options.render.markers.begin(), options.render.markers.end());
 
   std::vector<Image> images;
   for (size_t i = 0; i < panels; ++i) {
@@ -107,20 +120,32 @@ RenderReport render_job(const RenderJobOptions& options, const Progress& progres
     }
     report(progress, end);
   }
-  const Image picture = images.size() == 1 ? std::move(images.front()) : side_by_side(images);
-  write_png(picture, options.output);
-  report(progress, 1);
-
+  Image picture = images.size() == 1 ? std::move(images.front()) : side_by_side(images);
   RenderReport result;
   result.output = options.output;
   result.width = picture.width;
   result.height = picture.height;
   result.panels = panels;
+  result.window = options.render.window.value_or(Window{dsm.x0, dsm.y1(), dsm.x1(), dsm.y0});
+  result.zoom = options.render.pixels_per_cell;
+  return {std::move(picture), result};
+}
+
+RenderReport render_job(const RenderJobOptions& options, const Progress& progress) {
+  const auto [picture, result] = render_picture(options, sub_progress(progress, 0, 0.95));
+  write_png(picture, options.output);
+  report(progress, 1);
   return result;
 }
 
 Json to_json(const RenderReport& report) {
-  return {{"output", report.output}, {"width", report.width}, {"height", report.height}, {"panels", report.panels}};
+  const Window& w = report.window;
+  return {{"output", report.output},
+          {"width", report.width},
+          {"height", report.height},
+          {"panels", report.panels},
+          {"window", {w.xmin, w.ymin, w.xmax, w.ymax}},
+          {"zoom", report.zoom}};
 }
 
 }  // namespace dsmplan

@@ -348,3 +348,45 @@ def test_no_fly_zones_give_the_command_lines_path_and_refusal(sample_plan, tmp_p
         dsmplan.plan(mesh, inside, dsm=dsm, no_fly=[NRW_ZONES], vertical_crs="EPSG:7837",
                      allow_approximate_vertical=True)
     assert str(caught.value).split("waypoint 2: ", 1)[1] == cli_words
+
+
+def test_pictures_of_a_flight_are_the_command_lines(sample_plan, tmp_path):
+    """render() and profile() take the Flight in hand (and a Dsm): the mission as flown, with its
+    waypoints, zones, DTM, safety and ceiling, the same bytes as one `dsmplan plan --render
+    --profile` run draws, given the window, zoom and titles that run reports."""
+    folder, mesh_file, dtm_file, dtm_heights = sample_plan
+    vertical = ["--vertical-crs", "EPSG:7837", "--allow-approximate-vertical"]
+    zones = ["--no-fly", NRW_ZONES, "--no-fly-blocking", "NONE"]
+    above, side, stats = (str(tmp_path / name) for name in ("above.png", "side.png", "stats.json"))
+    result = run_cli("plan", mesh_file, "--waypoints", LOW_WAYPOINTS, "--dsm", SAMPLE, "--dtm", dtm_file,
+                     "--max-agl", "30", "--spacing", "10", *zones, *vertical, "-o", str(tmp_path / "m.plan"),
+                     "-o", str(tmp_path / "flown.csv"), "--render", above, "--profile", side, "--stats", stats, "-q")
+    assert result.returncode == 0, result.stderr
+    drawn = json.load(open(stats))
+
+    dsm = dsmplan.read_dsm(SAMPLE)
+    x0, cx, _, y0, _, ny = dsm.transform
+    dtm = dsmplan.Dsm(dtm_heights, (cx, 0.0, x0, 0.0, ny, y0), "EPSG:25832")
+    mesh = dsmplan.simplify(dsm, max_error=0.4, conservative=True)
+    flight = dsmplan.plan(mesh, read_waypoints(LOW_WAYPOINTS), dsm=dsm, dtm=dtm, max_agl=30, spacing=10,
+                          mission=True, no_fly=[NRW_ZONES], no_fly_blocking=["NONE"], vertical_crs="EPSG:7837",
+                          allow_approximate_vertical=True)
+    title = "flown.csv over " + os.path.basename(SAMPLE)
+    py_above, py_side = str(tmp_path / "py_above.png"), str(tmp_path / "py_side.png")
+    report = dsmplan.render(dsm, py_above, paths=flight, window=tuple(drawn["render"]["window"]),
+                            zoom=drawn["render"]["zoom"], titles=title)
+    assert open(py_above, "rb").read() == open(above, "rb").read()
+    assert report == dict(drawn["render"], output=py_above)
+    report = dsmplan.profile(SAMPLE, flight, py_side, title="Height profile: " + title)
+    assert open(py_side, "rb").read() == open(side, "rb").read()
+    assert report["max_above_ground_m"] == flight.report["max_agl_m"] == drawn["max_agl_m"]
+    assert report["ground"] == "dtm" and report["max_agl_m"] == 30
+    # Without the flight's zones the picture differs: they were drawn.
+    dsmplan.profile(SAMPLE, flight, py_side, title="Height profile: " + title, no_fly_blocking=[], no_fly=[])
+    bare = dsmplan.plan(mesh, read_waypoints(LOW_WAYPOINTS), dsm=dsm, dtm=dtm, max_agl=30, spacing=10, mission=True)
+    bare_side = str(tmp_path / "bare_side.png")
+    dsmplan.profile(SAMPLE, bare, bare_side, title="Height profile: " + title)
+    assert open(bare_side, "rb").read() != open(side, "rb").read()
+    with pytest.raises(dsmplan.ArgumentError, match="^path: must be a path CSV"):
+        dsmplan.profile(SAMPLE, 3, str(tmp_path / "x.png"))
+    assert not os.path.exists(tmp_path / "x.png")

@@ -270,6 +270,11 @@ struct FlightPlan {
   std::shared_ptr<const ClearanceIndex> index;
 };
 
+/// The flight as the drone flies it: a mission's path from home on the ground up to the route,
+/// along it, and down (at home after the leg back above it, or at the landing); without a site,
+/// the path. What every output but a mission's items shows (CSV, GeoJSON, KML, pictures).
+std::vector<Point3> flown_path(const FlightPlan& flight);
+
 /// Plans the request and verifies the path against the data, as the top of this header says:
 /// FlightArea(request) then plan_flight(area, request).
 /// Errors: ArgumentError for options out of range (check_plan_options()) or a home or landing

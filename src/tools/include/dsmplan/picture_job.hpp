@@ -3,6 +3,7 @@
 // Errors and reports as tools.hpp.
 #pragma once
 
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -31,17 +32,22 @@ struct RenderJobOptions {
   std::string output;               ///< .png
   ReadRasterOptions read;
   std::optional<double> resolution;  ///< resample the DSM (median) to this cell size first
-  RenderOptions render;              ///< window, zoom, edges, scale bar, north arrow (title: per panel)
-  std::vector<std::string> paths;    ///< path CSVs (x,y,z as `dsmplan plan` writes them), drawn on every panel
-  std::string waypoints;             ///< waypoint CSV: numbered discs on every panel
-  std::string roadmap;               ///< roadmap file (`dsmplan plan --roadmap`): its edges, thin, under the paths
-  ZoneFiles no_fly;                  ///< zones drawn on every panel (RenderOptions::zones), under the paths
+  /// window, zoom, edges, scale bar, north arrow (title: per panel); its lines, markers and zones
+  /// (in memory, in the DSM's CRS) are drawn with the files' (over their lines and markers).
+  RenderOptions render;
+  std::shared_ptr<const Grid> dsm_grid;  ///< the DSM in memory: drawn instead of reading `dsm` (its name)
+  std::vector<std::string> paths;        ///< path CSVs (x,y,z as `dsmplan plan` writes them), drawn on every panel
+  std::string waypoints;                 ///< waypoint CSV: numbered discs on every panel
+  std::string roadmap;                   ///< roadmap file (`dsmplan plan --roadmap`): its edges, thin, under the paths
+  ZoneFiles no_fly;                      ///< zones drawn on every panel (RenderOptions::zones), under the paths
 };
 
 struct RenderReport {
   std::string output;
   int width = 0, height = 0;  ///< of the whole picture, pixels
   size_t panels = 0;
+  Window window;    ///< the area drawn (--window, else the DSM's outer cell edges), CRS units
+  double zoom = 0;  ///< pixels per cell (--zoom)
 };
 
 /// The paper's Figures 3 and 6-8: one hillshaded panel per mesh with its edges drawn (and the
@@ -51,19 +57,25 @@ struct RenderReport {
 /// (ArgumentError), at most one title per panel ("--title"). A mesh whose header names an EPSG
 /// code other than the DSM's, or that lies wholly outside the DSM, is an InputError naming it.
 RenderReport render_job(const RenderJobOptions& options, const Progress& progress = {});
-/// Keys: output, width, height, panels.
+/// Keys: output, width, height, panels, window ([xmin, ymin, xmax, ymax]), zoom.
 Json to_json(const RenderReport& report);
 
 // ---- dsmplan profile ------------------------------------------------------------------------
 
 struct ProfileJobOptions {
-  std::string dsm;         ///< DSM raster: the silhouette under the path
-  std::string path;        ///< path CSV (x,y,z as `dsmplan plan` writes them), in the DSM's CRS
-  std::string output;      ///< .png
-  std::string dtm;         ///< terrain raster (optional): the ground of the ceiling, a brown line
-  std::string waypoints;   ///< waypoint CSV (optional): numbered markers on the path
-  ProfileOptions profile;  ///< size, title (empty: "PATH over DSM"), safety, max_agl
-  ZoneFiles no_fly;        ///< zones over the section (ProfileOptions::zones), AGL over the DTM, else the DSM
+  std::string dsm;        ///< DSM raster: the silhouette under the path
+  std::string path;       ///< path CSV (x,y,z as `dsmplan plan` writes them), in the DSM's CRS
+  std::string output;     ///< .png
+  std::string dtm;        ///< terrain raster (optional): the ground of the ceiling, a brown line
+  std::string waypoints;  ///< waypoint CSV (optional): numbered markers on the path
+  /// size, title (empty: "PATH over DSM"), safety, max_agl; its waypoints (used when `waypoints`
+  /// is empty) and zones (drawn with `no_fly`'s) in memory
+  ProfileOptions profile;
+  ZoneFiles no_fly;  ///< zones over the section (ProfileOptions::zones), AGL over the DTM, else the DSM
+  /// In memory, as the caller has them: the path (then `path` is only its name, for the title),
+  /// the DSM and the DTM (drawn instead of reading `dsm` and `dtm`, their names).
+  std::vector<Point3> path_points;
+  std::shared_ptr<const Grid> dsm_grid, dtm_grid;
 };
 
 struct ProfileReport {

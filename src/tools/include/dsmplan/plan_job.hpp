@@ -12,6 +12,7 @@
 #include "dsmplan/corridor.hpp"
 #include "dsmplan/flight.hpp"
 #include "dsmplan/mission.hpp"
+#include "dsmplan/picture_job.hpp"
 #include "dsmplan/plan.hpp"
 #include "dsmplan/tools.hpp"
 #include "dsmplan/waypoints.hpp"
@@ -76,6 +77,13 @@ struct PlanJobOptions {
   /// window by window (plan_corridor()), on conservative bounded meshes made on the fly.
   CorridorOptions corridor;
   MissionJobOptions mission;  ///< .plan and .waypoints: home, end, firmware, altitude frame, speeds
+  /// Pictures of the flight as flown (home legs included), .png, drawn before any file is written
+  /// and written after the path: `render` the DSM from above with the path, the waypoints and the
+  /// zones (render_job()); `profile` the path's height profile over the DSM and the DTM with the
+  /// safety band and the ceiling (profile_job()). Each is the same, byte for byte, as `dsmplan
+  /// render DSM --path CSV --waypoints ...` and `dsmplan profile DSM CSV ...` give of the written
+  /// CSV. They need a DSM (`dsm`, or a DSM input): ArgumentError("--render" / "--profile").
+  std::string render, profile;
 };
 
 /// The stage's figures (FlightReport, flight.hpp) and the files around them.
@@ -84,7 +92,9 @@ struct PlanReport : FlightReport {
   /// The PROJ operation(s) used: GeoJSON waypoints' and GeoJSON output's (to ellipsoidal
   /// heights), then "; path by: " the missions' and KML's (to EGM96 heights); empty when none.
   std::string transformation;
-  size_t mission_items = 0;  ///< missions: the items written (takeoff, speed, waypoints, end)
+  size_t mission_items = 0;              ///< missions: the items written (takeoff, speed, waypoints, end)
+  std::optional<RenderReport> render;    ///< --render: its window and zoom
+  std::optional<ProfileReport> profile;  ///< --profile: its figures
 };
 
 /// Mesh file + waypoints -> roadmap -> path (plan_path(), see plan.hpp) -> CSV, GeoJSON, a
@@ -118,7 +128,8 @@ void write_flight(const FlightPlan& flight, const std::vector<Point3>& waypoints
 /// Keys: path_length_m, min_clearance_m, roadmap_nodes, roadmap_edges, seconds_load (=
 /// seconds_read + seconds_index), seconds_roadmap, seconds_query, seconds_smooth; min_clearance_dsm_m, dsm_tolerance_m,
 /// mesh_max_below_dsm_m with a DSM;
-/// roadmap_reused, index_reused, refined_samples, planner; transformation when WGS 84 was involved.
+/// roadmap_reused, index_reused, refined_samples, planner; transformation when WGS 84 was involved;
+/// render and profile (their reports' keys) when drawn.
 Json to_json(const PlanReport& report);
 /// One summary line for people.
 std::string to_text(const PlanReport& report);
