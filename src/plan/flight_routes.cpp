@@ -5,6 +5,7 @@
 
 #include <atomic>
 #include <mutex>
+#include <utility>
 
 #include "core/stopwatch.hpp"
 #include "dsmplan/flight.hpp"
@@ -16,6 +17,8 @@ namespace {
 // The roadmap every route shares: the store's, else built by the first route that asks (all ask
 // with the same options: the routes share the query's) and kept for the others.
 struct SharedRoadmap {
+  SharedRoadmap(FlightStore store, const FlightArea& flight_area) : kept(std::move(store)), area(flight_area) {}
+
   FlightStore kept;
   const FlightArea& area;
   std::once_flag made;
@@ -65,7 +68,7 @@ RoutesPlan plan_routes(const FlightArea& area, const std::vector<std::vector<Poi
   Stopwatch clock;
   area.index();  // before the threads: built once, and its time is not a route's
   out.seconds_index = clock.lap();
-  SharedRoadmap shared{common.store, area};
+  SharedRoadmap shared(common.store, area);
   FlightQuery query = common;
   if (common.options.planner == PlannerKind::prm)  // RRT-Connect grows its trees per query
     query.store.kept_roadmap = [&shared](uint64_t key, const PlanOptions& plan) { return shared.get(key, plan); };
