@@ -48,27 +48,30 @@ void check_png_output(const std::string& output, const std::string& flag) {
   check_writable(output);  // a missing folder is known now, not after the drawing
 }
 
-std::pair<Image, RenderReport> render_picture(const RenderJobOptions& options, const Progress& progress) {
-  // Everything that can be checked is checked before the long work starts.
+namespace {
+
+// Everything that can be checked is checked before the long work starts.
+void check_render_options(const RenderJobOptions& options, size_t panels) {
   check_png_output(options.output, "");
-  if (options.resolution && !(*options.resolution > 0 && std::isfinite(*options.resolution))) {
+  if (options.resolution && !(*options.resolution > 0 && std::isfinite(*options.resolution)))
     throw ArgumentError("--res", "must be a positive number of CRS units");
-  }
-  if (!(options.render.pixels_per_cell > 0 && std::isfinite(options.render.pixels_per_cell))) {
+  if (!(options.render.pixels_per_cell > 0 && std::isfinite(options.render.pixels_per_cell)))
     throw ArgumentError("--zoom", "pixels per cell must be a positive number");
-  }
   if (const auto& w = options.render.window) {
     if (!(std::isfinite(w->xmin) && std::isfinite(w->ymin) && std::isfinite(w->xmax) && std::isfinite(w->ymax)) ||
-        !(w->xmin < w->xmax && w->ymin < w->ymax)) {
+        !(w->xmin < w->xmax && w->ymin < w->ymax))
       throw ArgumentError("--window", "must be xmin,ymin,xmax,ymax with xmin < xmax and ymin < ymax");
-    }
   }
-  const size_t panels = std::max<size_t>(1, options.meshes.size());
-  if (options.titles.size() > panels) {
+  if (options.titles.size() > panels)
     throw ArgumentError("--title", std::to_string(options.titles.size()) + " titles for " + std::to_string(panels) +
                                        (panels == 1 ? " panel" : " panels"));
-  }
+}
 
+}  // namespace
+
+std::pair<Image, RenderReport> render_picture(const RenderJobOptions& options, const Progress& progress) {
+  const size_t panels = std::max<size_t>(1, options.meshes.size());
+  check_render_options(options, panels);
   Grid dsm =
       options.dsm_grid ? *options.dsm_grid : read_raster(options.dsm, options.read, sub_progress(progress, 0, 0.25));
   if (options.resolution && (*options.resolution != dsm.cell_x || *options.resolution != dsm.cell_y)) {
