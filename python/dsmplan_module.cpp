@@ -721,7 +721,7 @@ PYBIND11_MODULE(dsmplan, m) {
             m.firmware = parse_firmware(firmware);
             m.altitude_frame = parse_altitude_frame(altitude_frame);
             py::gil_scoped_release release;
-            write_flight(f.flight, f.waypoints, f.crs, options, f.report);
+            write_flight(f.flight, f.waypoints, f.crs, f.zones, options, f.report);
           },
           py::arg("path"), py::arg("format") = "", py::arg("firmware") = "generic",
           py::arg("altitude_frame") = "relative", py::arg("speed") = 5.0, py::arg("vertical_crs") = "",

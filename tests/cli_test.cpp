@@ -2809,6 +2809,26 @@ TEST(CliRoutes, EachRouteIsTheSingleRunsPathAndAFailedRouteStopsNoOther) {
   EXPECT_NE(refused.err.find(reason), std::string::npos) << refused.err << " vs " << reason;
   EXPECT_FALSE(std::filesystem::exists(folder + "under.csv"));
 
+  // Missions too, in a folder: each route's the single run's mission, byte for byte.
+  // One depot for every route, clear of the walls.
+  const std::vector<std::string> vertical{"--vertical-crs", "EPSG:7837",      "--allow-approximate-vertical",
+                                          "--home",         "356781,5699730", "-q"};
+  std::vector<std::string> args{"plan",      f.mesh,  "--routes", routes_file, "--dsm", dsm,
+                                "--roadmap", roadmap, "--of",     "waypoints", "-o",    out.path("missions") + "/"};
+  args.insert(args.end(), vertical.begin(), vertical.end());
+  EXPECT_EQ(run_cli(args).exit_code, 4);
+  for (const auto& [id, which] : legs) {
+    std::vector<std::array<double, 3>> waypoints;
+    for (const size_t k : which) waypoints.push_back(corners[k]);
+    f.write_waypoints(waypoints);
+    const std::string mission = out.path(id + ".waypoints");
+    args = {"plan", f.mesh, "--waypoints", f.waypoints, "--dsm", dsm, "--roadmap", roadmap, "-o", mission};
+    args.insert(args.end(), vertical.begin(), vertical.end());
+    const auto alone = run_cli(args);
+    ASSERT_EQ(alone.exit_code, 0) << alone.err;
+    EXPECT_EQ(testkit::read_file(out.path("missions/" + id + ".waypoints")), testkit::read_file(mission)) << id;
+  }
+
   // As one GeoJSON FeatureCollection: a feature a route, the failed one with a null geometry.
   const auto collected =
       run_cli({"plan", f.mesh, "--routes", routes_file, "--dsm", dsm, "-o", out.path("routes.geojson"),

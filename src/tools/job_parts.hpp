@@ -95,9 +95,9 @@ std::pair<Image, ProfileReport> profile_picture(const ProfileJobOptions& options
 /// restrictions block; empty without files (the pictures then are as without zones).
 ZoneLayer read_zone_layer(const ZoneFiles& files, const Crs& crs);
 
-/// The zones of `files` as a KML path carries them (kml_zones.cpp): named, their corners in
-/// WGS 84 through `to_msl` (the path's transformation), AGL limits relative to the ground, CRS
-/// heights above mean sea level; empty without files.
-std::vector<KmlZone> kml_zones_of(const ZoneFiles& files, const Crs& crs, const Wgs84Transform& to_msl);
+/// The zones (as the plan read them, in its CRS) as a KML path carries them (kml_zones.cpp):
+/// named, their corners in WGS 84 through `to_msl` (the path's transformation), AGL limits
+/// relative to the ground, CRS heights above mean sea level; empty without zones.
+std::vector<KmlZone> kml_zones_of(const ZoneLayer& layer, const Wgs84Transform& to_msl);
 
 }  // namespace dsmplan

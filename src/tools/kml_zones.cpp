@@ -43,8 +43,7 @@ double kml_height(const ZoneLimit& limit, double x, double y, const Wgs84Transfo
 
 }  // namespace
 
-std::vector<KmlZone> kml_zones_of(const ZoneFiles& files, const Crs& crs, const Wgs84Transform& to_msl) {
-  const ZoneLayer layer = read_zone_layer(files, crs);
+std::vector<KmlZone> kml_zones_of(const ZoneLayer& layer, const Wgs84Transform& to_msl) {
   std::vector<KmlZone> out;
   for (size_t i = 0; i < layer.zones.size(); ++i) {
     const AirspaceZone& zone = layer.zones[i];

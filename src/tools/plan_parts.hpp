@@ -73,11 +73,20 @@ ReadRequest read_flight_request(const PlanJobOptions& options, std::vector<Point
 /// options), else built and written there; nothing without --roadmap.
 FlightStore file_store(const PlanJobOptions& options);
 
+/// A flight and what its outputs carry with it: the waypoints (in `crs`) and the zones it was
+/// planned around (a KML draws them).
+struct FlightOutput {
+  const FlightPlan& flight;
+  const std::vector<Point3>& waypoints;
+  const Crs& crs;
+  const ZoneLayer& zones;
+};
+
 /// The bytes of one output of every format but .kmz (a ZIP written through GDAL: write_flight_as()),
 /// in WGS 84 where the format asks (through `t`, made by make_transforms()). Missions fill
 /// report.mission_items.
-std::string flight_text(const PlanJobOptions& options, const OutputKind& kind, const FlightPlan& flight,
-                        const std::vector<Point3>& waypoints, const Crs& crs, const Transforms& t, PlanReport& report);
+std::string flight_text(const PlanJobOptions& options, const OutputKind& kind, const FlightOutput& out,
+                        const Transforms& t, PlanReport& report);
 
 /// A flight's mission in WGS 84, heights above mean sea level (`lonlatamsl`: its path so);
 /// fills report.mission_items.
@@ -86,8 +95,7 @@ Mission flight_mission(const FlightPlan& flight, const std::vector<Point3>& lonl
 
 /// flight_text() written atomically to `output`, or the .kmz.
 void write_flight_as(const PlanJobOptions& options, const std::string& output, const OutputKind& kind,
-                     const FlightPlan& flight, const std::vector<Point3>& waypoints, const Crs& crs,
-                     const Transforms& t, PlanReport& report);
+                     const FlightOutput& out, const Transforms& t, PlanReport& report);
 
 // ---- --render, --profile (plan_pictures.cpp) ----
 

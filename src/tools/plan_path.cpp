@@ -232,8 +232,10 @@ FlightStore file_store(const PlanJobOptions& options) {
   return store;
 }
 
-std::string flight_text(const PlanJobOptions& options, const OutputKind& kind, const FlightPlan& flight,
-                        const std::vector<Point3>& waypoints, const Crs& crs, const Transforms& t, PlanReport& report) {
+std::string flight_text(const PlanJobOptions& options, const OutputKind& kind, const FlightOutput& out,
+                        const Transforms& t, PlanReport& report) {
+  const FlightPlan& flight = out.flight;
+  const Crs& crs = out.crs;
   // A mission is its items; every other format shows the flight as flown, home legs included.
   const std::vector<Point3> path = kind.mission ? flight.path : flown_path(flight);
   if (kind.ext == "csv") return path_to_csv(path);
@@ -252,14 +254,12 @@ std::string flight_text(const PlanJobOptions& options, const OutputKind& kind, c
   std::vector<Point3> lonlatamsl, marks;
   for (const Point3& p : path) lonlatamsl.push_back(t.to_msl->to_wgs84(p));
   if (!kind.mission) {
-    for (const Point3& p : waypoints) marks.push_back(t.to_msl->to_wgs84(p));
+    for (const Point3& p : out.waypoints) marks.push_back(t.to_msl->to_wgs84(p));
     MissionOptions kml = options.mission.format;
     kml.description =
         "dsmplan path from " + crs.name + "; heights above mean sea level (EGM96) by: " + t.to_msl->description();
     // The zones it was planned around, drawn with it (kml_zones.cpp).
-    const std::vector<KmlZone> zones =
-        kml_zones_of({options.no_fly, options.no_fly_blocking, options.vertical}, crs, *t.to_msl);
-    return path_to_kml(lonlatamsl, marks, kml, zones);
+    return path_to_kml(lonlatamsl, marks, kml, kml_zones_of(out.zones, *t.to_msl));
   }
   const Mission mission = flight_mission(flight, lonlatamsl, t, report);
   return kind.ext == "plan" ? mission_to_qgc_plan(mission, options.mission.format)
@@ -280,12 +280,11 @@ Mission flight_mission(const FlightPlan& flight, const std::vector<Point3>& lonl
 }
 
 void write_flight_as(const PlanJobOptions& options, const std::string& output, const OutputKind& kind,
-                     const FlightPlan& flight, const std::vector<Point3>& waypoints, const Crs& crs,
-                     const Transforms& t, PlanReport& report) {
-  if (kind.ext != "kmz") return write_text_file(output, flight_text(options, kind, flight, waypoints, crs, t, report));
+                     const FlightOutput& out, const Transforms& t, PlanReport& report) {
+  if (kind.ext != "kmz") return write_text_file(output, flight_text(options, kind, out, t, report));
   std::vector<Point3> lonlatamsl;
-  for (const Point3& p : flight.path) lonlatamsl.push_back(t.to_msl->to_wgs84(p));
-  write_wpml_kmz(flight_mission(flight, lonlatamsl, t, report), options.mission.format, output);
+  for (const Point3& p : out.flight.path) lonlatamsl.push_back(t.to_msl->to_wgs84(p));
+  write_wpml_kmz(flight_mission(out.flight, lonlatamsl, t, report), options.mission.format, output);
 }
 
 namespace {
@@ -355,7 +354,7 @@ PlanReport plan_job(const PlanJobOptions& options, const Progress& progress) {
   const FlightPictures pictures =
       draw_flight_pictures(options, flight, waypoints, planned.pictures, sub_progress(progress, 0.95, 0.99));
   for (const auto& [output, kind] : outputs.files)
-    write_flight_as(options, output, kind, flight, waypoints, planned.crs, t, report);
+    write_flight_as(options, output, kind, {flight, waypoints, planned.crs, planned.pictures.zones}, t, report);
   write_flight_pictures(options, pictures);
   report.render = pictures.render_report;
   report.profile = pictures.profile_report;
@@ -400,7 +399,7 @@ AltitudeFrame parse_altitude_frame(const std::string& name) {
 }
 
 void write_flight(const FlightPlan& flight, const std::vector<Point3>& waypoints, const Crs& crs,
-                  const PlanJobOptions& options, PlanReport& report) {
+                  const ZoneLayer& zones, const PlanJobOptions& options, PlanReport& report) {
   const Outputs outputs = plan_outputs(options);
   for (const auto& [output, kind] : outputs.files) {
     if (kind.mission && !flight.site)
@@ -411,7 +410,7 @@ void write_flight(const FlightPlan& flight, const std::vector<Point3>& waypoints
   Transforms t;
   make_transforms(t, crs, false, outputs, options.vertical, report.transformation);
   for (const auto& [output, kind] : outputs.files)
-    write_flight_as(options, output, kind, flight, waypoints, crs, t, report);
+    write_flight_as(options, output, kind, {flight, waypoints, crs, zones}, t, report);
 }
 
 Json to_json(const PlanReport& r) {

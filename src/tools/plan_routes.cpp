@@ -99,11 +99,19 @@ std::string routes_geojson(const std::vector<Route>& routes, const RoutesPlan& p
 }
 
 // One file a solved route, and routes.json with every route's figures or reason.
-void write_routes_folder(const std::vector<Route>& routes, const RoutesPlan& planned, const Crs& crs,
+void write_routes_folder(const std::vector<Route>& routes, const RoutesPlan& planned, const FlightArea& area,
                          const PlanJobOptions& options) {
   const std::filesystem::path folder(options.output);
   std::filesystem::create_directories(folder);
   const std::string ext = options.format.empty() ? "csv" : lower_case(options.format);
+  // The transformations once for every route (each costs PROJ's database, milliseconds).
+  PlanJobOptions one = options;
+  one.output = (folder / ("route." + ext)).string();
+  Transforms t;
+  std::string transformation;
+  make_transforms(t, area.crs(), false, plan_outputs(one), options.vertical, transformation);
+  const OutputKind kind = output_kind(one.output, "");
+  const ZoneLayer zones{area.data().no_fly, area.data().airspace};
   std::map<std::string, std::string> taken;  // file name -> id: two ids may make one name
   Json all = Json::array();
   for (size_t i = 0; i < routes.size(); ++i) {
@@ -118,10 +126,8 @@ void write_routes_folder(const std::vector<Route>& routes, const RoutesPlan& pla
       write_text_file(file, path_to_csv(result.plan.path));
       continue;
     }
-    PlanJobOptions one = options;
-    one.output = file;
     PlanReport report;
-    write_flight(result.plan, routes[i].waypoints, crs, one, report);
+    write_flight_as(one, file, kind, {result.plan, routes[i].waypoints, area.crs(), zones}, t, report);
   }
   write_text_file((folder / "routes.json").string(), all.dump(2) + "\n");
 }
@@ -177,7 +183,7 @@ RoutesReport plan_routes_job(const PlanJobOptions& options, const Progress& prog
   }
   clock.lap();
   if (is_folder(options.output))
-    write_routes_folder(routes, planned, crs, options);
+    write_routes_folder(routes, planned, area, options);
   else
     write_text_file(options.output, routes_geojson(routes, planned, crs, *wgs84));
   report.seconds_write = clock.lap();

@@ -58,8 +58,8 @@ std::string base64(const std::string& bytes) {
 
 // A .kmz is a ZIP written through GDAL to a file: written to a temporary file of the server's
 // own naming, read back, removed.
-std::string kmz_bytes(const PlanJobOptions& job, const OutputKind& kind, const FlightPlan& flight,
-                      const std::vector<Point3>& waypoints, const Crs& crs, const Transforms& t, PlanReport& report) {
+std::string kmz_bytes(const PlanJobOptions& job, const OutputKind& kind, const FlightOutput& out, const Transforms& t,
+                      PlanReport& report) {
   static std::atomic<uint64_t> counter{0};
   const fs::path file = fs::temp_directory_path() /
                         ("dsmplan_serve_" + std::to_string(::getpid()) + "_" + std::to_string(counter++) + ".kmz");
@@ -70,7 +70,7 @@ std::string kmz_bytes(const PlanJobOptions& job, const OutputKind& kind, const F
       fs::remove(file, ignored);
     }
   } remove{file};
-  write_flight_as(job, file.string(), kind, flight, waypoints, crs, t, report);
+  write_flight_as(job, file.string(), kind, out, t, report);
   std::ifstream in(file, std::ios::binary);
   std::ostringstream bytes;
   bytes << in.rdbuf();
@@ -146,8 +146,10 @@ std::string plan_answer(const PlanService::State& state, PlanRequest& request, T
   flight.report.seconds_load += before;
   static_cast<FlightReport&>(report) = flight.report;
   const OutputKind& kind = outputs.files.front().second;
-  const std::string bytes = kind.ext == "kmz" ? kmz_bytes(request.job, kind, flight, query.waypoints, crs, t, report)
-                                              : flight_text(request.job, kind, flight, query.waypoints, crs, t, report);
+  const ZoneLayer zones{area.data().no_fly, area.data().airspace};
+  const FlightOutput out{flight, query.waypoints, crs, zones};
+  const std::string bytes =
+      kind.ext == "kmz" ? kmz_bytes(request.job, kind, out, t, report) : flight_text(request.job, kind, out, t, report);
   Json answer{{"format", kind.ext},
               {kind.ext == "kmz" ? "path_base64" : "path", kind.ext == "kmz" ? base64(bytes) : bytes}};
   if (request.stats) answer["stats"] = to_json(report);

@@ -117,14 +117,15 @@ MissionEnd parse_mission_end(const std::string& name);        ///< rtl, land, no
 Firmware parse_firmware(const std::string& name);             ///< px4, ardupilot, generic
 AltitudeFrame parse_altitude_frame(const std::string& name);  ///< relative, amsl
 
-/// Writes a flight planned by plan_flight() over a mesh in `crs` as `dsmplan plan -o` does:
+/// Writes a flight planned by plan_flight() over a mesh in `crs` (around `zones`, which a KML
+/// carries) as `dsmplan plan -o` does:
 /// options.output in options.format or by its extension (csv, geojson, plan, waypoints, kmz,
 /// kml), atomically; missions with options.mission.format, heights to WGS 84 through
 /// options.vertical. ArgumentError for an unknown format, options that do not belong to it, or a
 /// mission asked of a flight planned without a site. Fills report.transformation and
 /// report.mission_items. Python's Flight.write() is this.
 void write_flight(const FlightPlan& flight, const std::vector<Point3>& waypoints, const Crs& crs,
-                  const PlanJobOptions& options, PlanReport& report);
+                  const ZoneLayer& zones, const PlanJobOptions& options, PlanReport& report);
 /// Keys: path_length_m, min_clearance_m, roadmap_nodes, roadmap_edges, seconds_load (=
 /// seconds_read + seconds_index), seconds_roadmap, seconds_query, seconds_smooth; min_clearance_dsm_m, dsm_tolerance_m,
 /// mesh_max_below_dsm_m with a DSM;
