@@ -13,6 +13,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstring>
+#include <functional>
 #include <map>
 #include <memory>
 #include <optional>
@@ -1772,6 +1773,78 @@ TEST(LowAltitude, LatticeSearchFindsWhatAnEagerSearchFindsAtMostTwiceAsLong) {
     EXPECT_TRUE(bounded.path.empty());
     EXPECT_LE(bounded.nodes, 40u + 26u);
   }
+}
+
+// The way out from a waypoint (lattice_escape(), the query's first step for a waypoint no
+// roadmap node reaches): a Dijkstra over the same lattice to the nearest node an exit test
+// accepts, here "within 2h of b with a clear segment to it" so that the eager oracle's least
+// cost to b bounds it; only nodes within the radius (x,y) are made.
+TEST(LowAltitude, EscapeReachesTheNearestExitAndStaysWithinItsRadius) {
+  const Mesh mesh = maze(false);
+  const ClearanceIndex index(mesh);
+  PlanOptions options;
+  options.max_agl = 15;
+  const FlightSpace space = detail::flight_space(index, options);
+  const Point3 a{356010, 5699020, 5}, b{356012, 5699101, 6};
+  const double h = 5;
+  const std::function<bool(const Point3&)> near_b = [&](const Point3& p) {
+    return dist(p, b) <= 2 * h && space.motion_valid(p, b);
+  };
+  const detail::LatticeResult way = detail::lattice_escape(space, a, h, 500, 1000000, near_b);
+  ASSERT_GE(way.path.size(), 3u);
+  EXPECT_EQ(way.path.front(), a);
+  EXPECT_TRUE(near_b(way.path.back()));
+  double length = 0;
+  for (size_t k = 1; k < way.path.size(); ++k) {
+    const Point3 &p = way.path[k - 1], &q = way.path[k];
+    length += dist(p, q);
+    EXPECT_GE(brute_clearance(mesh, index.origin(), p, q, options.safety + 1), options.safety) << k;
+    EXPECT_LE(std::max(p[2], q[2]), options.max_agl) << k;
+  }
+  // Dijkstra's least lattice cost, pulled tight: never more than the eager oracle's to b.
+  const double oracle = lattice_oracle(mesh, index.origin(), a, b, h, options.safety, options.max_agl);
+  EXPECT_LE(length + dist(way.path.back(), b), oracle + 1e-9);
+  // Through the first gap (east of x = 100) a radius of 60 m cannot reach: nothing, and no node
+  // made beyond it.
+  const detail::LatticeResult bounded = detail::lattice_escape(space, a, h, 60, 1000000, near_b);
+  EXPECT_TRUE(bounded.path.empty());
+  EXPECT_FALSE(bounded.out_of_work);
+  EXPECT_LT(bounded.nodes, way.nodes);
+}
+
+// A waypoint deep in a light well (8 x 8 m, walls 40 m tall) that no roadmap node sees: the
+// query climbs out by a lattice around it (its escape) instead of one over the whole leg, and
+// the path is verified by brute force.
+TEST(LowAltitude, AWaypointInALightWellClimbsOutToTheRoadmap) {
+  Mesh mesh;
+  const double x = 356000, y = 5699000;
+  auto box = [&](double x0, double y0, double x1, double y1, double z1) {
+    const auto v = static_cast<uint32_t>(mesh.vertices.size());
+    for (double z : {0.0, z1})
+      mesh.vertices.insert(mesh.vertices.end(),
+                           {{x + x0, y + y0, z}, {x + x1, y + y0, z}, {x + x1, y + y1, z}, {x + x0, y + y1, z}});
+    mesh.triangles.push_back({v + 4, v + 5, v + 6});
+    mesh.triangles.push_back({v + 4, v + 6, v + 7});
+    for (uint32_t k = 0; k < 4 && z1 > 0; ++k) {
+      const uint32_t p = v + k, q = v + (k + 1) % 4;
+      mesh.triangles.push_back({p, q, q + 4});
+      mesh.triangles.push_back({p, q + 4, p + 4});
+    }
+  };
+  box(0, 0, 600, 300, 0);
+  box(40, 40, 76, 46, 40), box(40, 54, 76, 60, 40), box(40, 46, 54, 54, 40), box(62, 46, 76, 54, 40);
+  const ClearanceIndex index(mesh);
+  PlanOptions options;
+  options.max_agl = 120;
+  const std::vector<Point3> waypoints{{x + 58, y + 50, 3}, {x + 560, y + 250, 5}};
+  const Roadmap map = build_roadmap(index, options);
+  const PlanResult result = query_roadmap(map, index, waypoints, options);
+  expect_path_verified(mesh, index, waypoints, result, options.safety);
+  EXPECT_GT(result.lattice_nodes, 0u);  // the roadmap alone could not
+  EXPECT_LT(result.lattice_nodes, 50000u);
+  double top = 0;
+  for (const Point3& p : result.path) top = std::max(top, p[2]);
+  EXPECT_GT(top, 40 + options.safety);  // out over the walls
 }
 
 TEST(LowAltitude, GridLookupJoinsTheSameNodesAsAScanOverAll) {

@@ -47,6 +47,14 @@ class LatticeSearch {
 public:
   LatticeSearch(const FlightSpace& space, const Point3& a, const Point3& b, double step, size_t max_nodes)
       : space_(space), a_(a), b_(b), h_(step), max_nodes_(max_nodes), steps_(neighbour_steps()) {}
+  // An escape (lattice_escape()): no goal point, the first settled node `is_exit` accepts ends
+  // it, nodes farther than `radius` (x,y) from a are out.
+  LatticeSearch(const FlightSpace& space, const Point3& a, double step, double radius, size_t max_nodes,
+                const std::function<bool(const Point3&)>& is_exit)
+      : LatticeSearch(space, a, a, step, max_nodes) {
+    is_exit_ = &is_exit;
+    radius_ = radius;
+  }
 
   LatticeResult run() {
     LatticeResult result;
@@ -78,7 +86,11 @@ public:
       const double gv = e.g;
       const Point3 pv = v.p;
       const int i = v.i, j = v.j, k = v.k;
-      if (squared_distance(pv, b_) <= reach * reach)
+      if (is_exit_ && (*is_exit_)(pv)) {
+        result.path = path_to(e.v);
+        break;
+      }
+      if (!is_exit_ && squared_distance(pv, b_) <= reach * reach)
         open_.push({gv + distance(pv, b_), gv + distance(pv, b_), kGoal, e.v});
       for (const Step& s : steps_) {
         const uint32_t w = node(i + s.di, j + s.dj, k + s.dk);
@@ -115,7 +127,7 @@ private:
     bool operator>(const Entry& o) const { return f != o.f ? f > o.f : v != o.v ? v > o.v : u > o.u; }
   };
 
-  double h(uint32_t v) const { return kWeight * distance(nodes_[v].p, b_); }
+  double h(uint32_t v) const { return is_exit_ ? 0.0 : kWeight * distance(nodes_[v].p, b_); }
 
   static uint64_t key(int i, int j, int k) {
     constexpr int64_t mask = (int64_t{1} << 21) - 1, off = int64_t{1} << 20;
@@ -141,6 +153,8 @@ private:
     Node& n = nodes_[v];
     if (n.state == kUntested) {
       const ClearanceIndex& index = space_.index();
+      const double dx = n.p[0] - a_[0], dy = n.p[1] - a_[1];
+      if (dx * dx + dy * dy > radius_ * radius_) return n.state = kInvalid, false;
       // The floor first: a node less than the safety distance above it is in a building or
       // too near a roof, and reading the floor costs far less than the triangles.
       const bool ok = space_.within_limits(n.p) && !(index.floor().height_above(n.p) < space_.safety()) &&
@@ -168,7 +182,8 @@ private:
   }
 
   std::vector<Point3> path_to(uint32_t last) const {
-    std::vector<Point3> path{b_};
+    std::vector<Point3> path;
+    if (!is_exit_) path.push_back(b_);  // an escape ends at its exit node
     for (uint32_t v = last; v != kNone; v = nodes_[v].parent) path.push_back(nodes_[v].p);
     path.back() = a_;  // exactly the waypoint, not a copy
     std::reverse(path.begin(), path.end());
@@ -190,6 +205,8 @@ private:
   const double h_;
   const size_t max_nodes_;
   const std::vector<Step> steps_;
+  const std::function<bool(const Point3&)>* is_exit_ = nullptr;
+  double radius_ = INFINITY;
   std::vector<Node> nodes_;
   std::unordered_map<uint64_t, uint32_t> ids_;
   std::unordered_set<uint64_t> blocked_;
@@ -200,6 +217,11 @@ private:
 
 LatticeResult lattice_path(const FlightSpace& space, const Point3& a, const Point3& b, double step, size_t max_nodes) {
   return LatticeSearch(space, a, b, step, max_nodes).run();
+}
+
+LatticeResult lattice_escape(const FlightSpace& space, const Point3& a, double step, double radius, size_t max_nodes,
+                             const std::function<bool(const Point3&)>& is_exit) {
+  return LatticeSearch(space, a, step, radius, max_nodes, is_exit).run();
 }
 
 }  // namespace dsmplan::detail

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <functional>
 #include <utility>
 #include <vector>
 
@@ -42,6 +43,7 @@ public:
   }
   double cell() const { return cell_; }
   bool empty() const { return sorted_.empty(); }
+  size_t size() const { return sorted_.size(); }
   /// fn(id) for every point in the 27 cubes around p (a superset of those within `cell`), in
   /// ascending order of cube, then id.
   template <class F>
@@ -130,5 +132,13 @@ struct LatticeResult {
 /// first in the queue, and one motion is checked per settled node plus one per blocked edge
 /// (lattice_search.cpp).
 LatticeResult lattice_path(const FlightSpace& space, const Point3& a, const Point3& b, double step, size_t max_nodes);
+
+/// The way out from a waypoint `a` that no roadmap node reaches in a straight line (a courtyard,
+/// a street under trees): the shortest path over the same lattice (Dijkstra, no goal) from a to
+/// the first node for which `is_exit` holds (one motion to a roadmap node, checked by the
+/// caller), exploring only nodes within `radius` (x,y) of a; path from a to that node, or empty.
+/// Local, so far cheaper than a lattice over the whole leg. Deterministic.
+LatticeResult lattice_escape(const FlightSpace& space, const Point3& a, double step, double radius, size_t max_nodes,
+                             const std::function<bool(const Point3&)>& is_exit);
 
 }  // namespace dsmplan::detail

@@ -186,6 +186,7 @@ public:
       s = search(a, ia, &b, ib, SIZE_MAX);
       if (!s->path.empty()) return s->path;
     }
+    if (std::vector<Point3> path = via_escapes(a, ia, b, ib); !path.empty()) return path;
     // Lattices from coarse to fine: a coarse one that fails has cost an eighth of the next.
     double previous = 0;
     for (int level = 1; level <= kMaxLevel; ++level) {
@@ -221,6 +222,67 @@ private:
     std::vector<Point3> path;      // with a goal: the path found, else empty
     std::vector<uint32_t> closed;  // the nodes settled (waypoints left out)
   };
+
+  // ---- escapes: a waypoint no roadmap node reaches in a straight line ----
+  //
+  // A waypoint in a courtyard or a street under trees may have no clear segment to any roadmap
+  // node within max_edge while the air above the roofs is one well-joined roadmap. The lattices
+  // below search the whole leg (on the NRW tile under a 120 m ceiling, one such street waypoint
+  // 850 m from the other took 21 s and 2 million nodes); a lattice around the waypoint alone
+  // finds the way out to the roadmap in milliseconds, and the roadmap does the rest.
+
+  // True when some node within max_edge of waypoint w (id wid) has a clear segment to it.
+  bool reaches_roadmap(const Point3& w, uint32_t wid) {
+    bool reached = false;
+    near_waypoint(w, [&](uint32_t v, double) {
+      if (!reached) reached = clear(wid, v, w, point(v));
+    });
+    return reached;
+  }
+
+  // The lattice path from w out to a point with a clear segment to one of the four nearest
+  // roadmap nodes within max_edge, at spacing / 4 then / 8, within two max_edge of w (x,y);
+  // empty when none. (Any node, not the largest component's: the component labels only spare
+  // searches, they never change a path.)
+  std::vector<Point3> escape(const Point3& w) {
+    const std::function<bool(const Point3&)> is_exit = [&](const Point3& p) {
+      std::vector<std::pair<double, uint32_t>> near;
+      base_grid_.around(p, [&](uint32_t v) {
+        const double d2 = detail::squared_distance(p, map_.nodes[v]);
+        if (d2 < o_.max_edge * o_.max_edge) near.emplace_back(d2, v);
+      });
+      std::sort(near.begin(), near.end());
+      for (size_t k = 0; k < std::min<size_t>(4, near.size()); ++k)
+        if (space_.motion_valid(p, map_.nodes[near[k].second])) return true;
+      return false;
+    };
+    for (const int level : {2, 3}) {
+      const double side = std::min(o_.spacing / (1 << level), o_.max_edge / std::sqrt(3.0));
+      const detail::LatticeResult way = detail::lattice_escape(space_, w, side, 2 * o_.max_edge,
+                                                               std::min<size_t>(max_lattice_nodes_, 200000), is_exit);
+      lattice_nodes_ += way.nodes;
+      if (way.path.size() >= 2) return way.path;
+    }
+    return {};
+  }
+
+  // The leg through the escapes of its ends that need one (none needed: empty): each end's way
+  // out, joined by a search over the roadmap from its last point (searched as a waypoint of its
+  // own: its edges are cached apart from the waypoint's).
+  std::vector<Point3> via_escapes(const Point3& a, size_t ia, const Point3& b, size_t ib) {
+    const uint32_t wa = kWaypoint + static_cast<uint32_t>(ia), wb = kWaypoint + static_cast<uint32_t>(ib);
+    std::vector<Point3> out_a{a}, out_b{b};
+    if (!reaches_roadmap(a, wa) && (out_a = escape(a)).empty()) return {};
+    if (!reaches_roadmap(b, wb) && (out_b = escape(b)).empty()) return {};
+    if (out_a.size() == 1 && out_b.size() == 1) return {};  // both reach it: nothing to add
+    const size_t ea = kEscape + escapes_++, eb = kEscape + escapes_++;
+    const Search s = search(out_a.back(), ea, &out_b.back(), eb, SIZE_MAX);
+    if (s.path.empty()) return {};
+    std::vector<Point3> path(out_a.begin(), out_a.end() - 1);
+    path.insert(path.end(), s.path.begin(), s.path.end());
+    path.insert(path.end(), out_b.rbegin() + 1, out_b.rend());
+    return path;
+  }
 
   // True when no roadmap node within max_edge of a (a waypoint's candidate edges) shares a
   // component with one within max_edge of b, and no samples were added (they join components):
@@ -476,6 +538,8 @@ private:
   const PlanOptions& o_;
   const uint32_t nb_;
   const size_t max_samples_, max_lattice_nodes_;  // the fixed bounds, or less on a small machine
+  static constexpr size_t kEscape = 0x08000000;   // ids of escapes' ends, apart from the waypoints'
+  size_t escapes_ = 0;
   bool lattice_at_bound_ = false;
   double wx_ = 0, wy_ = 0;
   double count_[kMaxLevel + 1] = {};
@@ -492,6 +556,19 @@ private:
 
 }  // namespace
 
+RoadmapCache& RoadmapCache::operator=(const RoadmapCache&) {
+  const std::lock_guard lock(mutex_);
+  grid_.reset();  // the roadmap it belongs to was given other nodes
+  return *this;
+}
+
+std::shared_ptr<const PointGrid> RoadmapCache::node_grid(const std::vector<Point3>& nodes, double cell) const {
+  const std::lock_guard lock(mutex_);
+  if (!grid_ || grid_->cell() != cell || grid_->size() != nodes.size())
+    grid_ = std::make_shared<const PointGrid>(nodes, all_nodes(nodes.size()), cell);
+  return grid_;
+}
+
 PlanResult query_roadmap(const Roadmap& map, const ClearanceIndex& index, const std::vector<Point3>& waypoints,
                          const PlanOptions& options) {
   check_plan_options(options);
@@ -502,7 +579,8 @@ PlanResult query_roadmap(const Roadmap& map, const ClearanceIndex& index, const 
   Stopwatch clock;
   const FlightSpace space = detail::flight_space(index, options);
   if (detail::invalid_waypoints(waypoints, space, result)) return result;
-  const PointGrid grid(map.nodes, all_nodes(map.nodes.size()), options.max_edge);
+  const std::shared_ptr<const PointGrid> shared_grid = map.cache.node_grid(map.nodes, options.max_edge);
+  const PointGrid& grid = *shared_grid;
   std::vector<std::vector<std::pair<double, uint32_t>>> links(waypoints.size());
   std::vector<std::vector<Point3>> legs;
   for (size_t i = 0; i < waypoints.size(); ++i)

@@ -70,6 +70,8 @@ Json route_figures(const Route& route, const RouteResult& result) {
   p["min_clearance_m"] = r.min_clearance_m;
   if (std::isfinite(r.min_clearance_dsm_m)) p["min_clearance_dsm_m"] = r.min_clearance_dsm_m;
   p["max_agl_m"] = r.max_agl_m;
+  p["seconds_query"] = r.seconds_query;
+  p["seconds_smooth"] = r.seconds_smooth;
   return p;
 }
 

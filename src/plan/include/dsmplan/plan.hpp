@@ -15,6 +15,7 @@
 #include <cstdint>
 #include <functional>
 #include <memory>
+#include <mutex>
 #include <string>
 #include <vector>
 
@@ -163,6 +164,27 @@ struct PlanOptions {
 void check_plan_options(const PlanOptions& options);
 
 /// A roadmap: nodes and undirected edges in compressed adjacency form, CRS coordinates.
+namespace detail {
+class PointGrid;
+}
+
+/// What a roadmap's queries share once one has made it (the nodes bucketed for the lookups of
+/// nearby nodes): made by the first query that needs it, under a lock, so that many queries in
+/// parallel over one roadmap (plan_routes(), dsmplan serve) make it once instead of each (1 ms
+/// of a 2 ms query on the NRW tile's 14,509 nodes). A copy starts empty. Internal to the queries.
+class RoadmapCache {
+public:
+  RoadmapCache() = default;
+  RoadmapCache(const RoadmapCache&) {}
+  RoadmapCache& operator=(const RoadmapCache&);
+  /// The grid of `nodes` in cubes of `cell`, made now when there is none of that cell and size.
+  std::shared_ptr<const detail::PointGrid> node_grid(const std::vector<Point3>& nodes, double cell) const;
+
+private:
+  mutable std::mutex mutex_;
+  mutable std::shared_ptr<const detail::PointGrid> grid_;
+};
+
 struct Roadmap {
   std::vector<Point3> nodes;
   std::vector<uint32_t> start;      ///< node i's neighbours are neighbour[start[i], start[i+1])
@@ -172,6 +194,7 @@ struct Roadmap {
   /// up on the roadmap at once for a leg whose ends reach no common component, where A* would
   /// learn it by searching the whole component of one end.
   std::vector<uint32_t> component;
+  RoadmapCache cache;  ///< the queries' (not saved; nodes are not changed once a query ran)
   size_t edges() const { return neighbour.size() / 2; }
 };
 
