@@ -2,7 +2,8 @@
 // path of `dsmplan plan -o X.csv` as a magenta tube with the waypoints as cyan spheres.
 //
 // Query parameters: mesh=URL (required), path=URL, waypoints=URL (CSV "x,y,z" in the mesh's CRS),
-// radius=M (the path's radius in CRS units; default 1/300 of the mesh's diagonal).
+// radius=M (the path's radius in CRS units; default 1/300 of the mesh's diagonal), service=URL
+// (a planning service's /v1: click the mesh to plan, planner.js; with clicks=, height=).
 //
 // When everything is drawn: body[data-state] = "ready", window.dsmplanReady = true and the title
 // ends in "ready"; on a failure data-state = "error" and one line in #status says why. Frames
@@ -10,6 +11,7 @@
 import * as THREE from 'three';
 import { GLTFLoader } from 'three/addons/loaders/GLTFLoader.js';
 import { OrbitControls } from 'three/addons/controls/OrbitControls.js';
+import { startPlanner } from './planner.js';
 
 // Unlit, so these exact colours are in a screenshot (the tests look for them).
 const PATH_COLOUR = 0xff00ff;
@@ -134,8 +136,10 @@ async function main() {
     throw new Error(`${meshUrl}: the mesh node's translation is not asset.extras.origin`);
   }
   let triangles = 0;
+  const surfaces = [];  // the GLB's own meshes, what a click may hit (not the path or waypoints)
   node.traverse((object) => {
     if (!object.isMesh) return;
+    surfaces.push(object);
     colourByHeight(object.geometry);
     triangles += object.geometry.index ? object.geometry.index.count / 3 : 0;
     // Flat shading needs no normals (the GLB has none); both sides, as a surface has no inside.
@@ -206,6 +210,12 @@ async function main() {
   resize();
 
   statusLine.textContent = summary;
+  const service = params.get('service');
+  if (service) {
+    startPlanner({ service, node, origin: originVector, surfaces, camera, canvas, render, radius, parseXyz, tube,
+      pathColour: PATH_COLOUR, waypointColour: WAYPOINT_COLOUR,
+      params: { meshCrs: gltf.asset.extras.crs, clicks: params.get('clicks'), height: params.get('height') } });
+  }
   document.body.dataset.state = 'ready';
   document.title = 'dsmplan viewer: ready';
   window.dsmplanReady = true;
