@@ -9,6 +9,7 @@
 #include <gtest/gtest.h>
 #include <httplib.h>
 #include <netinet/in.h>
+#include <ogr_srs_api.h>
 #include <png.h>
 #include <poll.h>
 #include <signal.h>
@@ -30,6 +31,7 @@
 #include <sstream>
 #include <string>
 #include <thread>
+#include <tuple>
 #include <vector>
 
 #include "testkit.hpp"
@@ -431,6 +433,30 @@ struct Dsm {
   }
 };
 
+// The surface of Scene's GLB (`dsmplan mesh --res 5`: the median of each 5 x 5 block of cells
+// at the block's centre, heights to 0.1 m, each square of four centres split along its higher
+// diagonal) over (x, y): the surface split either way, or none off the centres' grid.
+std::vector<double> glb_surface(const Dsm& dsm, double x, double y) {
+  const double step = 5 * dsm.dx;
+  const double u = (x - dsm.x0) / step - 0.5, v = (dsm.y0 - y) / step - 0.5;  // in blocks, rows down
+  const int i = int(std::floor(u)), j = int(std::floor(v));
+  if (i < 0 || j < 0 || i + 1 >= dsm.width / 5 || j + 1 >= dsm.height / 5) return {};
+  const auto median = [&](int bi, int bj) {
+    std::vector<float> block;
+    for (int r = 5 * bj; r < 5 * bj + 5; ++r)
+      for (int c = 5 * bi; c < 5 * bi + 5; ++c) block.push_back(dsm.z[size_t(r) * dsm.width + c]);
+    std::nth_element(block.begin(), block.begin() + 12, block.end());
+    return std::round(block[12] * 10.0) / 10.0;
+  };
+  const double z00 = median(i, j), z10 = median(i + 1, j), z01 = median(i, j + 1), z11 = median(i + 1, j + 1);
+  const double a = u - i, b = v - j;
+  // Split along 00-11, then along 10-01.
+  const double first = a >= b ? z00 + a * (z10 - z00) + b * (z11 - z10) : z00 + b * (z01 - z00) + a * (z11 - z01);
+  const double second =
+      a + b <= 1 ? z00 + a * (z10 - z00) + b * (z01 - z00) : z11 + (1 - a) * (z01 - z11) + (1 - b) * (z10 - z11);
+  return {first, second};
+}
+
 Dsm read_dsm() {
   Dsm dsm;
   GDALDatasetH data = GDALOpen(testkit::data_path(kDsm).c_str(), GA_ReadOnly);
@@ -445,6 +471,21 @@ Dsm read_dsm() {
   GDALClose(data);
   if (read != CE_None) throw std::runtime_error("GDAL cannot read " + kDsm);
   return dsm;
+}
+
+// Longitude, latitude (WGS 84) to EPSG:25832 (the crop's CRS), by GDAL's own transformation.
+bool to_utm32(double& x, double& y) {
+  OGRSpatialReferenceH wgs84 = OSRNewSpatialReference(nullptr), utm = OSRNewSpatialReference(nullptr);
+  OSRImportFromEPSG(wgs84, 4326);
+  OSRImportFromEPSG(utm, 25832);
+  OSRSetAxisMappingStrategy(wgs84, OAMS_TRADITIONAL_GIS_ORDER);
+  OSRSetAxisMappingStrategy(utm, OAMS_TRADITIONAL_GIS_ORDER);
+  OGRCoordinateTransformationH transform = OCTNewCoordinateTransformation(wgs84, utm);
+  const bool done = transform && OCTTransform(transform, 1, &x, &y, nullptr);
+  if (transform) OCTDestroyCoordinateTransformation(transform);
+  OSRDestroySpatialReference(wgs84);
+  OSRDestroySpatialReference(utm);
+  return done;
 }
 
 // The mesh `dsmplan serve` plans over: the bundled DSM meshed at 1 m as a PLY (serve_test's),
@@ -1008,4 +1049,160 @@ TEST(View, PassesOnTheServiceRoutesOnlyFromItsOwnPageWithTheToken) {
     EXPECT_EQ(error.find('\n'), std::string::npos) << r->body;
     EXPECT_EQ(r->body.find(secret), std::string::npos);
   }
+}
+
+// ---- dsmplan view --no-fly: the zones as prisms ------------------------------------------
+
+TEST(View, DrawsEachNoFlyZoneAsAPrismFromItsFloorToItsCeiling) {
+  // The hand-made ED-269 zones over the crop: a polygon with a hole and no floor, a circle, an
+  // AGL floor, an AMSL band (hence the vertical options), one in feet, one that does not block.
+  const std::string file = std::string(DSMPLAN_TESTS_DIR) + "/data/airspace/nrw_zones_ed269.json";
+  Scene scene;
+  ViewServer view(scene.dir,
+                  {scene.mesh, "--no-fly", file, "--vertical-crs", "EPSG:7837", "--allow-approximate-vertical"});
+  ASSERT_FALSE(view.url().empty());
+  EXPECT_NE(view.url().find("&zones=/data/zones.json"), std::string::npos) << view.url();
+  const std::string dom = run_chromium(scene.dir, view.url(), "--dump-dom");
+  ASSERT_NE(dom.find("data-state=\"ready\""), std::string::npos) << dom;
+  EXPECT_NE(dom.find("; 6 no-fly zones"), std::string::npos) << element_text(dom, "div", "status");
+
+  // The file read here on its own: one prism per geometry item, in order, its limits in metres.
+  struct Expected {
+    std::string name, lower_ref, upper_ref;
+    double lower = 0, upper = 0;
+    bool blocks = false, circle = false;
+    size_t corners = 0;
+    double lon = 0, lat = 0;  // the first corner
+  };
+  std::vector<Expected> expected;
+  const Json zones = Json::parse(testkit::read_file(file));
+  for (const Json& feature : zones["features"])
+    for (const Json& g : feature["geometry"]) {
+      Expected e;
+      e.name = feature["name"];
+      const std::string restriction = feature["restriction"];
+      e.blocks = restriction == "PROHIBITED" || restriction == "REQ_AUTHORISATION";
+      const double unit = g.value("uomDimensions", "M") == "FT" ? 0.3048 : 1;
+      if (g.contains("lowerLimit"))
+        e.lower = g["lowerLimit"].get<double>() * unit, e.lower_ref = g["lowerVerticalReference"];
+      if (g.contains("upperLimit"))
+        e.upper = g["upperLimit"].get<double>() * unit, e.upper_ref = g["upperVerticalReference"];
+      const Json& shape = g["horizontalProjection"];
+      e.circle = shape["type"] == "Circle";
+      if (!e.circle) {
+        for (const Json& ring : shape["coordinates"]) e.corners += ring.size() - (ring.front() == ring.back());
+        e.lon = shape["coordinates"][0][0][0], e.lat = shape["coordinates"][0][0][1];
+      }
+      expected.push_back(e);
+    }
+  ASSERT_EQ(expected.size(), 6u);
+
+  // What the page drew: one <li> per prism, its figures from the corners drawn.
+  std::vector<std::string> items;
+  for (size_t at = dom.find("<li "); at != std::string::npos; at = dom.find("<li ", at + 1))
+    items.push_back(dom.substr(at, dom.find('>', at) - at));
+  ASSERT_EQ(items.size(), expected.size()) << element_text(dom, "ul", "zones");
+  const auto number = [](const std::string& tag, const std::string& name) {
+    const size_t at = tag.find(" data-" + name + "=\"");
+    return at == std::string::npos ? std::nan("") : std::stod(tag.substr(at + name.size() + 8));
+  };
+  const auto text = [](const std::string& tag, const std::string& name) {
+    const size_t at = tag.find(" data-" + name + "=\"");
+    if (at == std::string::npos) return std::string();
+    const size_t begin = at + name.size() + 8;
+    return tag.substr(begin, tag.find('"', begin) - begin);
+  };
+  const Dsm dsm = read_dsm();
+  // The mesh's lowest point, where the zone without a floor starts.
+  double floor_min_of_mesh = std::nan("");
+  for (size_t i = 0; i < items.size(); ++i)
+    if (expected[i].lower_ref.empty()) floor_min_of_mesh = number(items[i], "floor-min");
+  ASSERT_FALSE(std::isnan(floor_min_of_mesh));
+  const double dsm_low = *std::min_element(dsm.z.begin(), dsm.z.end());
+  const double dsm_high = *std::max_element(dsm.z.begin(), dsm.z.end());
+  for (size_t i = 0; i < items.size(); ++i) {
+    const Expected& e = expected[i];
+    const std::string& tag = items[i];
+    SCOPED_TRACE(e.name + ": " + tag);
+    EXPECT_EQ(text(tag, "caption"), e.name);
+    EXPECT_EQ(text(tag, "blocks"), e.blocks ? "true" : "false");
+    if (e.circle)
+      EXPECT_GE(number(tag, "corners"), 32);
+    else
+      EXPECT_EQ(number(tag, "corners"), double(e.corners));
+    const double floor_min = number(tag, "floor-min"), floor_max = number(tag, "floor-max");
+    const double ceiling_min = number(tag, "ceiling-min"), ceiling_max = number(tag, "ceiling-max");
+    // AMSL limits: flat, at the file's height (EPSG:7837 taken as EGM96: the same numbers).
+    if (e.lower_ref == "AMSL") {
+      EXPECT_NEAR(floor_min, e.lower, 0.01);
+      EXPECT_NEAR(floor_max, e.lower, 0.01);
+    }
+    if (e.upper_ref == "AMSL") {
+      EXPECT_NEAR(ceiling_min, e.upper, 0.01);
+      EXPECT_NEAR(ceiling_max, e.upper, 0.01);
+    }
+    // AGL limits: on the surface, which the DSM's heights bound (the mesh's lowest point where a
+    // corner is off it), and for two AGL limits their difference at every corner (feet converted).
+    if (e.lower_ref == "AGL") {
+      EXPECT_GE(floor_min - e.lower, dsm_low - 0.1);
+      EXPECT_LE(floor_max - e.lower, dsm_high + 0.1);
+    }
+    if (e.upper_ref == "AGL") {
+      EXPECT_GE(ceiling_min - e.upper, dsm_low - 0.1);
+      EXPECT_LE(ceiling_max - e.upper, dsm_high + 0.1);
+    }
+    if (e.lower_ref == "AGL" && e.upper_ref == "AGL") {
+      EXPECT_NEAR(number(tag, "thickness-min"), e.upper - e.lower, 1e-6);
+      EXPECT_NEAR(number(tag, "thickness-max"), e.upper - e.lower, 1e-6);
+    }
+    // No floor: from the mesh's lowest point (the DSM's lowest, as the 5 m median keeps it).
+    if (e.lower_ref.empty()) {
+      EXPECT_EQ(floor_min, floor_max);
+      EXPECT_NEAR(floor_min, dsm_low, 1.0);
+    }
+    EXPECT_GT(ceiling_min, floor_max - 1e-9);
+    // The first corner: where GDAL puts the file's first position in the mesh's CRS, and its AGL
+    // limits on the GLB's surface there (glb_surface()), or on the mesh's lowest point
+    // off the mesh.
+    double corner[4] = {};
+    ASSERT_EQ(std::sscanf(text(tag, "first-corner").c_str(), "%lf,%lf,%lf,%lf", &corner[0], &corner[1], &corner[2],
+                          &corner[3]),
+              4);
+    if (!e.circle) {
+      double x = e.lon, y = e.lat;
+      ASSERT_TRUE(to_utm32(x, y));
+      EXPECT_NEAR(corner[0], x, 0.01);
+      EXPECT_NEAR(corner[1], y, 0.01);
+    }
+    const bool on_mesh = corner[0] >= dsm.x0 + 2.5 && corner[0] <= dsm.x0 + dsm.width * dsm.dx - 2.5 &&
+                         corner[1] <= dsm.y0 - 2.5 && corner[1] >= dsm.y0 + dsm.height * dsm.dy + 2.5;
+    for (const auto& [ref, h, z] :
+         {std::tuple{e.lower_ref, e.lower, corner[2]}, std::tuple{e.upper_ref, e.upper, corner[3]}})
+      if (ref == "AGL" && on_mesh) {
+        const std::vector<double> surface = glb_surface(dsm, corner[0], corner[1]);
+        ASSERT_EQ(surface.size(), 2u);
+        std::printf("%s: first corner %.2f, %.2f: %s %g m above %.2f (the GLB's surface %.2f or %.2f)\n",
+                    e.name.c_str(), corner[0], corner[1], ref.c_str(), h, z - h, surface[0], surface[1]);
+        // Split along its higher diagonal, the square's surface is the higher of the two.
+        EXPECT_NEAR(z - h, std::max(surface[0], surface[1]), 0.02) << ref << " " << h;
+      } else if (ref == "AGL") {
+        EXPECT_NEAR(z - h, floor_min_of_mesh, 1e-6);
+      }
+  }
+
+  // And seen: the zones' dark red tint covers much of the picture, and nothing of it is there
+  // without the zones.
+  const auto reddish = [](const Picture& picture) {
+    size_t n = 0;
+    for (size_t i = 0; i + 2 < picture.rgb.size(); i += 3)
+      n += picture.rgb[i] > picture.rgb[i + 1] + 60 && picture.rgb[i] > picture.rgb[i + 2] + 60;
+    return n;
+  };
+  const std::string with = scene.dir.path("zones.png"), without = scene.dir.path("no_zones.png");
+  run_chromium(scene.dir, view.url(), "--screenshot=" + with);
+  run_chromium(scene.dir, view.url().substr(0, view.url().find("&zones=")), "--screenshot=" + without);
+  const size_t red_with = reddish(read_png(with)), red_without = reddish(read_png(without));
+  std::printf("reddish pixels: %zu with the zones, %zu without\n", red_with, red_without);
+  EXPECT_GT(red_with, 480000u / 10);
+  EXPECT_LT(red_without, 100u);
 }

@@ -17,6 +17,7 @@
 #include "dsmplan/plan_job.hpp"
 #include "dsmplan/view.hpp"
 #include "http_server.hpp"
+#include "tools/job_parts.hpp"
 #include "view_proxy.hpp"
 
 namespace dsmplan {
@@ -120,6 +121,7 @@ void refuse(httplib::Response& response, const std::string& why) {
 struct ViewFiles {
   fs::path viewer, viewer_real;
   std::map<std::string, fs::path> data;
+  std::map<std::string, std::string> made;  // made in memory at start: the zones' JSON
   std::string query;
   const std::string* port;  // the port listened on, set before the first request
 
@@ -152,6 +154,10 @@ struct ViewFiles {
     // request.path is percent-decoded already, so "%2e%2e" is caught here too.
     const std::string& url = request.path;
     if (url == "/" && request.params.empty()) return response.set_redirect(query);
+    if (const auto it = made.find(url); it != made.end()) {
+      response.set_header("Cache-Control", "no-store");
+      return response.set_content(it->second, "application/json");
+    }
     fs::path file;
     if (const auto it = data.find(url); it != data.end()) {
       file = it->second;
@@ -185,12 +191,15 @@ struct ViewFiles {
 
 void serve_view(const ViewOptions& options, const std::function<void(const std::string& url)>& listening) {
   std::string port_text;
-  ViewFiles files{
-      checked_viewer_dir(options), {}, {{"/data/mesh.glb", options.mesh}}, "/?mesh=/data/mesh.glb", &port_text};
+  ViewFiles files{checked_viewer_dir(options), {},        {{"/data/mesh.glb", options.mesh}}, {},
+                  "/?mesh=/data/mesh.glb",     &port_text};
   files.viewer_real = fs::canonical(files.viewer);
   if (!options.path.empty()) files.data["/data/path.csv"] = options.path, files.query += "&path=/data/path.csv";
   if (!options.waypoints.empty())
     files.data["/data/waypoints.csv"] = options.waypoints, files.query += "&waypoints=/data/waypoints.csv";
+  if (!options.no_fly.files.empty())
+    files.made["/data/zones.json"] = view_zones_json(options.no_fly, options.mesh),
+    files.query += "&zones=/data/zones.json";
   std::unique_ptr<ServiceProxy> proxy;
   if (!options.serve.empty())
     proxy = std::make_unique<ServiceProxy>(options.serve, options.serve_token_file), files.query += "&service=/v1";

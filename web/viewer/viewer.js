@@ -3,7 +3,8 @@
 //
 // Query parameters: mesh=URL (required), path=URL, waypoints=URL (CSV "x,y,z" in the mesh's CRS),
 // radius=M (the path's radius in CRS units; default 1/300 of the mesh's diagonal), service=URL
-// (a planning service's /v1: click the mesh to plan, planner.js; with clicks=, height=).
+// (a planning service's /v1: click the mesh to plan, planner.js; with clicks=, height=),
+// zones=URL (no-fly zones' JSON of `dsmplan view --no-fly`: translucent prisms, zones.js).
 //
 // When everything is drawn: body[data-state] = "ready", window.dsmplanReady = true and the title
 // ends in "ready"; on a failure data-state = "error" and one line in #status says why. Frames
@@ -12,6 +13,7 @@ import * as THREE from 'three';
 import { GLTFLoader } from 'three/addons/loaders/GLTFLoader.js';
 import { OrbitControls } from 'three/addons/controls/OrbitControls.js';
 import { startPlanner } from './planner.js';
+import { drawZones, surfaceOf } from './zones.js';
 
 // Unlit, so these exact colours are in a screenshot (the tests look for them).
 const PATH_COLOUR = 0xff00ff;
@@ -114,7 +116,8 @@ async function main() {
   const meshUrl = params.get('mesh');
   if (!meshUrl) throw new Error('no mesh: open the page with ?mesh=URL of a GLB');
 
-  const [gltf, path, waypoints] = await Promise.all([
+  const zonesUrl = params.get('zones');
+  const [gltf, path, waypoints, zones] = await Promise.all([
     new GLTFLoader().loadAsync(meshUrl).catch((error) => {
       throw new Error(`${meshUrl}: ${error.message}`);
     }),
@@ -122,6 +125,7 @@ async function main() {
     params.get('waypoints')
       ? fetchText(params.get('waypoints')).then((t) => parseXyz(t, params.get('waypoints')))
       : null,
+    zonesUrl ? fetchText(zonesUrl).then((t) => JSON.parse(t).zones) : null,
   ]);
 
   // dsmplan's GLB (src/io/glb_writer.cpp): scene -> root node (rotation z-up to y-up) ->
@@ -152,7 +156,7 @@ async function main() {
   // The path and waypoints in the mesh node's own frame: CRS minus origin, subtracted here in
   // doubles (float32 cannot hold 5.7e6 to the centimetre), then the same rotation by the root
   // node, so path and mesh line up exactly.
-  const box = new THREE.Box3().setFromObject(gltf.scene);
+  const box = new THREE.Box3().setFromObject(gltf.scene);  // world: y is the CRS height (origin included)
   const radius = Number(params.get('radius')) || box.getSize(new THREE.Vector3()).length() / 300;
   const local = (points) => points.map((p) => p.clone().sub(originVector));
   const crs = gltf.asset.extras.crs?.name;
@@ -174,6 +178,13 @@ async function main() {
     }
     node.add(spheres);
     summary += `; ${waypoints.length} waypoints`;
+  }
+
+  if (zones) {
+    const size = box.getSize(new THREE.Vector3());
+    drawZones({ zones, node, origin: originVector, surfaceAt: surfaceOf(surfaces, node),
+      low: box.min.y, high: box.max.y, labelHeight: size.length() / 60 });
+    summary += `; ${zones.length} no-fly zone${zones.length === 1 ? '' : 's'}`;
   }
 
   // Centre the scene at 0 so the camera's numbers stay small.

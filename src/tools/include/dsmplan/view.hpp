@@ -4,6 +4,8 @@
 #include <functional>
 #include <string>
 
+#include "dsmplan/picture_job.hpp"
+
 namespace dsmplan {
 
 // ---- dsmplan view ---------------------------------------------------------------------------
@@ -27,13 +29,20 @@ struct ViewOptions {
   /// Optional file holding the service's bearer token (its --token-file), sent with every
   /// request passed on; needs `serve`.
   std::string serve_token_file;
+  /// Optional no-fly zones drawn as translucent prisms from floor to ceiling, read as `dsmplan
+  /// plan --no-fly` reads them into the GLB's CRS (asset.extras.crs). AGL limits stand on the
+  /// mesh's surface under each corner (the DSM's, as plan counts them without a DTM); an
+  /// unlimited floor starts at the mesh's lowest point, an unlimited ceiling is drawn 120 m
+  /// above its highest (the open category's ceiling over the tallest roof).
+  ZoneFiles no_fly;
 };
 
 /// web/viewer beside the running executable (build/dsmplan -> build/web/viewer).
 std::string default_viewer_dir();
 
 /// The 3D viewer (web/viewer: three.js) over HTTP: serves the viewer folder at / and the given
-/// files as /data/mesh.glb, /data/path.csv, /data/waypoints.csv, nothing else (a request naming
+/// files as /data/mesh.glb, /data/path.csv, /data/waypoints.csv (and the zones as
+/// /data/zones.json), nothing else (a request naming
 /// ".." is refused); with `serve`, also the service's three routes under /v1 (a POST only as
 /// application/json and from the page's own origin, so that another site cannot plan through it). Checks every file
 /// first (the mesh a GLB, the CSVs readable as x,y,z, the viewer folder complete: InputError), binds
