@@ -1206,3 +1206,84 @@ TEST(View, DrawsEachNoFlyZoneAsAPrismFromItsFloorToItsCeiling) {
   EXPECT_GT(red_with, 480000u / 10);
   EXPECT_LT(red_without, 100u);
 }
+
+TEST(View, DrawsGeoJsonZonesFromTheGroundToTheClampedTopAndRepeatsNoFly) {
+  // A GeoJSON file written here over the crop: a square with no limits (from below the ground to
+  // no top) and one from 30 to 90 m above the ground that does not block; then the ED-269 file
+  // as a second --no-fly, its six zones after these two.
+  Scene scene;
+  const auto lonlat = [](double x, double y) {
+    OGRSpatialReferenceH wgs84 = OSRNewSpatialReference(nullptr), utm = OSRNewSpatialReference(nullptr);
+    OSRImportFromEPSG(wgs84, 4326);
+    OSRImportFromEPSG(utm, 25832);
+    OSRSetAxisMappingStrategy(wgs84, OAMS_TRADITIONAL_GIS_ORDER);
+    OSRSetAxisMappingStrategy(utm, OAMS_TRADITIONAL_GIS_ORDER);
+    OGRCoordinateTransformationH transform = OCTNewCoordinateTransformation(utm, wgs84);
+    EXPECT_TRUE(transform && OCTTransform(transform, 1, &x, &y, nullptr));
+    OCTDestroyCoordinateTransformation(transform);
+    OSRDestroySpatialReference(wgs84);
+    OSRDestroySpatialReference(utm);
+    return Json::array({x, y});
+  };
+  const auto square = [&](double x, double y, double h) {
+    return Json::array({Json::array({lonlat(x - h, y - h), lonlat(x + h, y - h), lonlat(x + h, y + h),
+                                     lonlat(x - h, y + h), lonlat(x - h, y - h)})});
+  };
+  const Json collection{{"type", "FeatureCollection"},
+                        {"features",
+                         {{{"type", "Feature"},
+                           {"properties", {{"name", "Open sky"}}},
+                           {"geometry", {{"type", "Polygon"}, {"coordinates", square(356450, 5699400, 40)}}}},
+                          {{"type", "Feature"},
+                           {"properties",
+                            {{"id", "CND-1"},
+                             {"restriction", "CONDITIONAL"},
+                             {"lower", 30},
+                             {"lower_ref", "AGL"},
+                             {"upper", 90},
+                             {"upper_ref", "AGL"}}},
+                           {"geometry", {{"type", "Polygon"}, {"coordinates", square(356650, 5699600, 30)}}}}}}};
+  const std::string geojson = scene.dir.path("zones.geojson");
+  testkit::write_file(geojson, collection.dump());
+  const std::string ed269 = std::string(DSMPLAN_TESTS_DIR) + "/data/airspace/nrw_zones_ed269.json";
+  ViewServer view(scene.dir, {scene.mesh, "--no-fly", geojson, "--no-fly", ed269, "--vertical-crs", "EPSG:7837",
+                              "--allow-approximate-vertical"});
+  ASSERT_FALSE(view.url().empty());
+  const std::string dom = run_chromium(scene.dir, view.url(), "--dump-dom");
+  EXPECT_NE(dom.find("; 8 no-fly zones"), std::string::npos) << element_text(dom, "div", "status");
+  std::vector<std::string> items;
+  for (size_t at = dom.find("<li "); at != std::string::npos; at = dom.find("<li ", at + 1))
+    items.push_back(dom.substr(at, dom.find('>', at) - at));
+  ASSERT_EQ(items.size(), 8u) << element_text(dom, "ul", "zones");
+  const auto value = [](const std::string& tag, const std::string& name) {
+    const size_t begin = tag.find(" data-" + name + "=\"") + name.size() + 8;
+    return tag.substr(begin, tag.find('"', begin) - begin);
+  };
+  EXPECT_EQ(value(items[0], "caption"), "Open sky");
+  EXPECT_EQ(value(items[1], "caption"), "CND-1");  // no name: its identifier
+  EXPECT_EQ(value(items[2], "caption"), "Courtyard ring");
+  EXPECT_EQ(value(items[0], "blocks"), "true");  // GeoJSON's default restriction: PROHIBITED
+  EXPECT_EQ(value(items[1], "blocks"), "false");
+  EXPECT_EQ(value(items[0], "corners"), "4");
+  // The mesh's lowest and highest points: the least and greatest 5 m block median, to 0.1 m.
+  const Dsm dsm = read_dsm();
+  double low = 1e30, high = -1e30;
+  for (int j = 0; j < dsm.height / 5; ++j)
+    for (int i = 0; i < dsm.width / 5; ++i) {
+      std::vector<float> block;
+      for (int r = 5 * j; r < 5 * j + 5; ++r)
+        for (int c = 5 * i; c < 5 * i + 5; ++c) block.push_back(dsm.z[size_t(r) * dsm.width + c]);
+      std::nth_element(block.begin(), block.begin() + 12, block.end());
+      low = std::min(low, std::round(block[12] * 10.0) / 10.0),
+      high = std::max(high, std::round(block[12] * 10.0) / 10.0);
+    }
+  std::printf("the mesh from %.2f to %.2f m; open sky drawn from %s to %s\n", low, high,
+              value(items[0], "floor-min").c_str(), value(items[0], "ceiling-max").c_str());
+  // No floor: from the mesh's lowest point; no top: 120 m above its highest; flat both.
+  for (const char* key : {"floor-min", "floor-max"}) EXPECT_NEAR(std::stod(value(items[0], key)), low, 0.01) << key;
+  for (const char* key : {"ceiling-min", "ceiling-max"})
+    EXPECT_NEAR(std::stod(value(items[0], key)), high + 120, 0.01) << key;
+  // 30 to 90 m above the ground: 60 m thick at every corner.
+  EXPECT_NEAR(std::stod(value(items[1], "thickness-min")), 60, 1e-6);
+  EXPECT_NEAR(std::stod(value(items[1], "thickness-max")), 60, 1e-6);
+}
