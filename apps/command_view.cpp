@@ -40,6 +40,11 @@ Command view_command(CLI::App& app, Session& session) {
   command->add_option("--viewer-dir", view.viewer_dir,
                       "The viewer's files (index.html, viewer.js, node_modules/three); default: web/viewer beside "
                       "the dsmplan binary");
+  command->add_option("--serve", view.serve,
+                      "Address of a planning service (dsmplan serve, http://HOST:PORT): click the mesh to plan");
+  command->add_option("--serve-token-file", view.serve_token_file,
+                      "File whose first line is the service's bearer token (its --token-file)");
+  add_zone_options(command, view.no_fly);
   command->add_flag("--json", request->json, "Print the viewer's address as JSON ({\"url\": ...})");
   command->add_flag("-q,--quiet", session.quiet, "Accepted for every command; the address is still printed");
   return {command, [request] { run(*request); }};

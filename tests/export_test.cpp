@@ -412,6 +412,34 @@ TEST(MeshReader, CrsFromTheHeaderAloneIsTheCrsOfTheWholeRead) {
   }
 }
 
+// A GLB, which read_mesh() does not read, gives the CRS its asset.extras carry (dsmplan view
+// --no-fly places the zones with it): the one the PLY of the same mesh gives; a GLB cut inside
+// its JSON chunk is one line naming the file.
+TEST(MeshReader, CrsOfAGlbIsTheCrsItWasWrittenWith) {
+  testkit::TempDir dir;
+  Mesh mesh = real_mesh();
+  mesh.triangles.resize(20);
+  write_mesh(mesh, dir.path("m.glb"), MeshFormat::Glb);
+  write_mesh(mesh, dir.path("m.ply"), MeshFormat::Ply);
+  const Crs glb = read_mesh_crs(dir.path("m.glb")), ply = read_mesh_crs(dir.path("m.ply"));
+  ASSERT_FALSE(glb.wkt.empty());
+  EXPECT_EQ(glb.wkt, ply.wkt);
+  EXPECT_EQ(glb.definition, ply.definition);
+  EXPECT_EQ(glb.epsg, 25832);
+  EXPECT_EQ(glb.name, ply.name);
+  EXPECT_EQ(glb.vertical_name, ply.vertical_name);
+  EXPECT_EQ(glb.geographic, false);
+  const std::string bytes = testkit::read_file(dir.path("m.glb"));
+  testkit::write_file(dir.path("cut.glb"), bytes.substr(0, 40));
+  try {
+    read_mesh_crs(dir.path("cut.glb"));
+    ADD_FAILURE() << "a cut GLB was read";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("cut.glb: byte 20: the JSON chunk is cut short"), std::string::npos)
+        << e.what();
+  }
+}
+
 TEST(MeshReader, ReadsAsciiPlyWithFloatsAndExtraProperties) {
   testkit::TempDir dir;
   const std::string path = dir.path("ascii.ply");

@@ -16,6 +16,7 @@
 #include <fstream>
 #include <limits>
 #include <map>
+#include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
 #include <string_view>
@@ -161,7 +162,6 @@ public:
     return crs;
   }
 
-private:
   // The core has no PROJ: a WKT whose first (horizontal) CRS keyword is geographic or
   // geodetic says enough. BASEGEOGCRS inside a PROJCRS comes after the PROJCRS keyword.
   static bool geographic_wkt(const std::string& wkt) {
@@ -178,6 +178,7 @@ private:
     return geographic;
   }
 
+private:
   const std::string& path_;
   std::optional<std::string> name_, wkt_, vertical_;
   std::optional<int> epsg_, parts_total_;
@@ -977,11 +978,49 @@ Mesh read_mesh(const std::string& path, const Progress& progress) {
   return mesh;
 }
 
+namespace {
+
+// A GLB's CRS: asset.extras.crs and .vertical as glb_writer.cpp writes them, from the JSON chunk
+// alone (GLB 2.0: a 12-byte header, then the JSON chunk's length, its type, its bytes).
+Crs glb_crs(const std::string& path, std::ifstream& in) {
+  unsigned char head[20] = {};
+  in.seekg(0);
+  if (!in.read(reinterpret_cast<char*>(head), sizeof head) ||
+      std::string_view(reinterpret_cast<char*>(head + 16), 4) != "JSON")
+    throw InputError(path, "byte 16", "not a GLB: no JSON chunk first");
+  const uint32_t length =
+      uint32_t(head[12]) | uint32_t(head[13]) << 8 | uint32_t(head[14]) << 16 | uint32_t(head[15]) << 24;
+  if (length > (64u << 20)) throw InputError(path, "byte 12", "a JSON chunk of " + std::to_string(length) + " bytes");
+  std::string text(length, '\0');
+  if (!in.read(text.data(), length)) throw InputError(path, "byte 20", "the JSON chunk is cut short");
+  const nlohmann::json gltf = nlohmann::json::parse(text, nullptr, false);
+  if (gltf.is_discarded()) throw InputError(path, "JSON chunk", "not JSON");
+  const nlohmann::json extras = gltf.value("/asset/extras"_json_pointer, nlohmann::json::object());
+  const nlohmann::json crs_json = extras.value("crs", nlohmann::json::object()),
+                       vertical = extras.value("vertical", nlohmann::json::object());
+  Crs crs;
+  if (crs_json.is_object()) {
+    crs.name = crs_json.value("name", "");
+    crs.epsg = crs_json.value("epsg", 0);
+    crs.wkt = crs_json.value("wkt", "");
+  }
+  if (vertical.is_object())
+    crs.vertical_name = vertical.value("name", ""), crs.vertical_unit = vertical.value("unit", "");
+  crs.definition = !crs.wkt.empty() ? crs.wkt : crs.epsg ? "EPSG:" + std::to_string(crs.epsg) : "";
+  crs.geographic = CrsComments::geographic_wkt(crs.wkt);
+  return crs;
+}
+
+}  // namespace
+
 Crs read_mesh_crs(const std::string& path) {
   require_input_file(path);
   std::ifstream in(path, std::ios::binary);
   char magic[4] = {};
-  if (!in || !in.read(magic, 3) || std::string_view(magic, 3) != "ply") return read_mesh(path).crs;
+  if (in && in.read(magic, 4) && std::string_view(magic, 4) == "glTF") return glb_crs(path, in);
+  in.clear();
+  in.seekg(3);  // the header is read on from after "ply"
+  if (!in || std::string_view(magic, 3) != "ply") return read_mesh(path).crs;
   // The header, read until its end line (headers are a few kB; read_mesh() says what is wrong
   // with one that never ends). The line itself, not the word: a comment may say "end_header".
   std::string head(magic, 3);

@@ -14,6 +14,7 @@
 #include <cstdint>
 #include <cstring>
 #include <deque>
+#include <fstream>
 #include <mutex>
 #include <string>
 #include <thread>
@@ -286,6 +287,18 @@ int bind_listening(DeadlineServer& server, const std::string& host, int port_ask
     throw Error("--port: cannot listen on " + host + ":" + std::to_string(port) + " (in use)");
   }
   return port;
+}
+
+std::string read_token(const std::string& file) {
+  if (file.empty()) return "";
+  require_input_file(file, 4096, "a token file");
+  std::ifstream in(file);
+  std::string line;
+  if (!in || !std::getline(in, line)) throw InputError(file, "", "cannot read the token");
+  const size_t begin = line.find_first_not_of(" \t\r"), end = line.find_last_not_of(" \t\r");
+  const std::string token = begin == std::string::npos ? "" : line.substr(begin, end - begin + 1);
+  if (token.size() < 16) throw InputError(file, "", "the token must be at least 16 characters on the first line");
+  return token;
 }
 
 }  // namespace dsmplan

@@ -68,4 +68,9 @@ private:
 /// (with which a second server would share the port).
 int bind_listening(DeadlineServer& server, const std::string& host, int port);
 
+/// The bearer token in `file`: its first line, blanks trimmed, at least 16 characters; "" for no
+/// file. InputError naming the file otherwise. `dsmplan serve --token-file` requires it of every
+/// request; `dsmplan view --serve-token-file` sends it to the service.
+std::string read_token(const std::string& file);
+
 }  // namespace dsmplan

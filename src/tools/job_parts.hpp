@@ -95,6 +95,12 @@ std::pair<Image, ProfileReport> profile_picture(const ProfileJobOptions& options
 /// restrictions block; empty without files (the pictures then are as without zones).
 ZoneLayer read_zone_layer(const ZoneFiles& files, const Crs& crs);
 
+/// The zones of `files` as `dsmplan view` hands them to its page (view_zones.cpp): JSON
+/// {"zones": [{caption, label, restriction, blocks, rings: [[[x, y], ...], ...] in the GLB's
+/// CRS, floor and ceiling: {reference: "ground" | "crs" | "unlimited", height}}]}. InputError
+/// when the GLB names no CRS, and the reader's for a bad file.
+std::string view_zones_json(const ZoneFiles& files, const std::string& glb);
+
 /// The zones (as the plan read them, in its CRS) as a KML path carries them (kml_zones.cpp):
 /// named, their corners in WGS 84 through `to_msl` (the path's transformation), AGL limits
 /// relative to the ground, CRS heights above mean sea level; empty without zones.

@@ -11,7 +11,6 @@
 #include <condition_variable>
 #include <cstdio>
 #include <deque>
-#include <fstream>
 #include <future>
 #include <mutex>
 #include <thread>
@@ -102,18 +101,6 @@ bool same_secret(const std::string& a, const std::string& b) {
   unsigned char diff = a.size() == b.size() ? 0 : 1;
   for (size_t i = 0; i < a.size(); ++i) diff |= static_cast<unsigned char>(a[i] ^ b[i % std::max<size_t>(1, b.size())]);
   return diff == 0;
-}
-
-std::string read_token(const std::string& file) {
-  if (file.empty()) return "";
-  require_input_file(file, 4096, "a token file");
-  std::ifstream in(file);
-  std::string line;
-  if (!in || !std::getline(in, line)) throw InputError(file, "", "cannot read the token");
-  const size_t begin = line.find_first_not_of(" \t\r"), end = line.find_last_not_of(" \t\r");
-  const std::string token = begin == std::string::npos ? "" : line.substr(begin, end - begin + 1);
-  if (token.size() < 16) throw InputError(file, "", "the token must be at least 16 characters on the first line");
-  return token;
 }
 
 // The routes: POST /v1/plan through the pool, GET /v1/health and /v1/info at once; every one

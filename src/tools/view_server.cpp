@@ -10,12 +10,15 @@
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <memory>
 #include <sstream>
 
 #include "core/text.hpp"
 #include "dsmplan/plan_job.hpp"
 #include "dsmplan/view.hpp"
 #include "http_server.hpp"
+#include "tools/job_parts.hpp"
+#include "view_proxy.hpp"
 
 namespace dsmplan {
 
@@ -118,18 +121,43 @@ void refuse(httplib::Response& response, const std::string& why) {
 struct ViewFiles {
   fs::path viewer, viewer_real;
   std::map<std::string, fs::path> data;
+  std::map<std::string, std::string> made;  // made in memory at start: the zones' JSON
   std::string query;
   const std::string* port;  // the port listened on, set before the first request
 
-  void answer(const httplib::Request& request, httplib::Response& response) const {
-    // A page of another site that made its name resolve to this address (DNS rebinding) sends
-    // its own name as Host: only an address (or "localhost") with our port is answered.
+  // A page of another site that made its name resolve to this address (DNS rebinding) sends
+  // its own name as Host: only an address (or "localhost") with our port is answered.
+  bool admitted(const httplib::Request& request, httplib::Response& response) const {
     const std::string host = request.get_header_value("Host");
-    if (!host_is_ours(host, *port))
-      return refuse(response, "Host '" + host + "' is not an address of this server (port " + *port + ")");
+    if (host_is_ours(host, *port)) return true;
+    refuse(response, "Host '" + host + "' is not an address of this server (port " + *port + ")");
+    return false;
+  }
+
+  // The service's routes, passed on. Another site's page may send this server a POST (a form, or
+  // fetch without CORS): its Origin differs from our address, and a form cannot send JSON
+  // without the preflight this server never grants, so both are refused before the service sees them.
+  void pass(const httplib::Request& request, httplib::Response& response, const ServiceProxy& proxy) const {
+    if (!admitted(request, response)) return;
+    const std::string origin = request.get_header_value("Origin");
+    if (!origin.empty() && origin != "http://" + request.get_header_value("Host"))
+      return refuse(response, "Origin '" + origin + "' is not this server's page");
+    if (request.method == "POST" && request.get_header_value("Content-Type").rfind("application/json", 0) != 0) {
+      response.status = 415;
+      return response.set_content("refused: the plan must be sent as application/json\n", "text/plain");
+    }
+    proxy.forward(request, response);
+  }
+
+  void answer(const httplib::Request& request, httplib::Response& response) const {
+    if (!admitted(request, response)) return;
     // request.path is percent-decoded already, so "%2e%2e" is caught here too.
     const std::string& url = request.path;
     if (url == "/" && request.params.empty()) return response.set_redirect(query);
+    if (const auto it = made.find(url); it != made.end()) {
+      response.set_header("Cache-Control", "no-store");
+      return response.set_content(it->second, "application/json");
+    }
     fs::path file;
     if (const auto it = data.find(url); it != data.end()) {
       file = it->second;
@@ -163,12 +191,20 @@ struct ViewFiles {
 
 void serve_view(const ViewOptions& options, const std::function<void(const std::string& url)>& listening) {
   std::string port_text;
-  ViewFiles files{
-      checked_viewer_dir(options), {}, {{"/data/mesh.glb", options.mesh}}, "/?mesh=/data/mesh.glb", &port_text};
+  ViewFiles files{checked_viewer_dir(options), {},        {{"/data/mesh.glb", options.mesh}}, {},
+                  "/?mesh=/data/mesh.glb",     &port_text};
   files.viewer_real = fs::canonical(files.viewer);
   if (!options.path.empty()) files.data["/data/path.csv"] = options.path, files.query += "&path=/data/path.csv";
   if (!options.waypoints.empty())
     files.data["/data/waypoints.csv"] = options.waypoints, files.query += "&waypoints=/data/waypoints.csv";
+  if (!options.no_fly.files.empty())
+    files.made["/data/zones.json"] = view_zones_json(options.no_fly, options.mesh),
+    files.query += "&zones=/data/zones.json";
+  std::unique_ptr<ServiceProxy> proxy;
+  if (!options.serve.empty())
+    proxy = std::make_unique<ServiceProxy>(options.serve, options.serve_token_file), files.query += "&service=/v1";
+  else if (!options.serve_token_file.empty())
+    throw ArgumentError("--serve-token-file", "is the token of the service --serve names: give --serve too");
 
   // A slow or idle client holds a connection thread for a bounded time: a request (head and
   // body) must arrive within the deadline (a client sending a header byte a second was held for
@@ -181,6 +217,11 @@ void serve_view(const ViewOptions& options, const std::function<void(const std::
   server.set_read_timeout(2, 0);
   server.set_keep_alive_timeout(2);
   server.set_payload_max_length(64 * 1024);  // the viewer takes no bodies: any is junk
+  if (proxy) {                               // before the files' route, which would take the GETs
+    const auto pass = [&files, &proxy](const httplib::Request& q, httplib::Response& r) { files.pass(q, r, *proxy); };
+    for (const char* route : {"/v1/info", "/v1/health"}) server.Get(route, pass);
+    server.Post("/v1/plan", pass);
+  }
   server.Get(R"(/.*)", [&files](const httplib::Request& request, httplib::Response& response) {
     files.answer(request, response);
   });

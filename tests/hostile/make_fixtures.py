@@ -437,6 +437,21 @@ def zone_fixtures():
     out("zones_bad_uom.json", json.dumps(ed269).encode())
 
 
+def glb_fixtures():
+    """GLBs for dsmplan view --no-fly, which needs the CRS of the GLB's asset.extras."""
+    def glb(document, cut=None):
+        text = json.dumps(document).encode()
+        text += b" " * (-len(text) % 4)
+        chunk = struct.pack("<I4s", len(text), b"JSON") + text
+        data = struct.pack("<4sII", b"glTF", 2, 12 + len(chunk)) + chunk
+        return data if cut is None else data[:cut]
+
+    with_crs = {"asset": {"version": "2.0", "extras": {"crs": {"name": "ETRS89 / UTM zone 32N", "epsg": 25832}}}}
+    out("glb_crs_only.glb", glb(with_crs))
+    out("glb_no_crs.glb", glb({"asset": {"version": "2.0"}}))
+    out("glb_json_cut.glb", glb(with_crs, cut=40))
+
+
 def main():
     if len(sys.argv) != 2:
         sys.exit(__doc__)
@@ -447,6 +462,7 @@ def main():
     disagreement_fixtures()
     waypoint_fixtures()
     zone_fixtures()
+    glb_fixtures()
     plan_fixtures(os.path.abspath(sys.argv[1]))
     unit_fixtures(os.path.abspath(sys.argv[1]))
 

@@ -2,7 +2,9 @@
 // path of `dsmplan plan -o X.csv` as a magenta tube with the waypoints as cyan spheres.
 //
 // Query parameters: mesh=URL (required), path=URL, waypoints=URL (CSV "x,y,z" in the mesh's CRS),
-// radius=M (the path's radius in CRS units; default 1/300 of the mesh's diagonal).
+// radius=M (the path's radius in CRS units; default 1/300 of the mesh's diagonal), service=URL
+// (a planning service's /v1: click the mesh to plan, planner.js; with clicks=, height=),
+// zones=URL (no-fly zones' JSON of `dsmplan view --no-fly`: translucent prisms, zones.js).
 //
 // When everything is drawn: body[data-state] = "ready", window.dsmplanReady = true and the title
 // ends in "ready"; on a failure data-state = "error" and one line in #status says why. Frames
@@ -10,6 +12,8 @@
 import * as THREE from 'three';
 import { GLTFLoader } from 'three/addons/loaders/GLTFLoader.js';
 import { OrbitControls } from 'three/addons/controls/OrbitControls.js';
+import { startPlanner } from './planner.js';
+import { drawZones, surfaceOf } from './zones.js';
 
 // Unlit, so these exact colours are in a screenshot (the tests look for them).
 const PATH_COLOUR = 0xff00ff;
@@ -112,7 +116,8 @@ async function main() {
   const meshUrl = params.get('mesh');
   if (!meshUrl) throw new Error('no mesh: open the page with ?mesh=URL of a GLB');
 
-  const [gltf, path, waypoints] = await Promise.all([
+  const zonesUrl = params.get('zones');
+  const [gltf, path, waypoints, zones] = await Promise.all([
     new GLTFLoader().loadAsync(meshUrl).catch((error) => {
       throw new Error(`${meshUrl}: ${error.message}`);
     }),
@@ -120,6 +125,7 @@ async function main() {
     params.get('waypoints')
       ? fetchText(params.get('waypoints')).then((t) => parseXyz(t, params.get('waypoints')))
       : null,
+    zonesUrl ? fetchText(zonesUrl).then((t) => JSON.parse(t).zones) : null,
   ]);
 
   // dsmplan's GLB (src/io/glb_writer.cpp): scene -> root node (rotation z-up to y-up) ->
@@ -134,8 +140,10 @@ async function main() {
     throw new Error(`${meshUrl}: the mesh node's translation is not asset.extras.origin`);
   }
   let triangles = 0;
+  const surfaces = [];  // the GLB's own meshes, what a click may hit (not the path or waypoints)
   node.traverse((object) => {
     if (!object.isMesh) return;
+    surfaces.push(object);
     colourByHeight(object.geometry);
     triangles += object.geometry.index ? object.geometry.index.count / 3 : 0;
     // Flat shading needs no normals (the GLB has none); both sides, as a surface has no inside.
@@ -148,7 +156,7 @@ async function main() {
   // The path and waypoints in the mesh node's own frame: CRS minus origin, subtracted here in
   // doubles (float32 cannot hold 5.7e6 to the centimetre), then the same rotation by the root
   // node, so path and mesh line up exactly.
-  const box = new THREE.Box3().setFromObject(gltf.scene);
+  const box = new THREE.Box3().setFromObject(gltf.scene);  // world: y is the CRS height (origin included)
   const radius = Number(params.get('radius')) || box.getSize(new THREE.Vector3()).length() / 300;
   const local = (points) => points.map((p) => p.clone().sub(originVector));
   const crs = gltf.asset.extras.crs?.name;
@@ -170,6 +178,13 @@ async function main() {
     }
     node.add(spheres);
     summary += `; ${waypoints.length} waypoints`;
+  }
+
+  if (zones) {
+    const size = box.getSize(new THREE.Vector3());
+    drawZones({ zones, node, origin: originVector, surfaceAt: surfaceOf(surfaces, node),
+      low: box.min.y, high: box.max.y, labelHeight: size.length() / 60 });
+    summary += `; ${zones.length} no-fly zone${zones.length === 1 ? '' : 's'}`;
   }
 
   // Centre the scene at 0 so the camera's numbers stay small.
@@ -206,6 +221,12 @@ async function main() {
   resize();
 
   statusLine.textContent = summary;
+  const service = params.get('service');
+  if (service) {
+    startPlanner({ service, node, origin: originVector, surfaces, camera, canvas, render, radius, parseXyz, tube,
+      pathColour: PATH_COLOUR, waypointColour: WAYPOINT_COLOUR,
+      params: { meshCrs: gltf.asset.extras.crs, clicks: params.get('clicks'), height: params.get('height') } });
+  }
   document.body.dataset.state = 'ready';
   document.title = 'dsmplan viewer: ready';
   window.dsmplanReady = true;

@@ -138,7 +138,9 @@ Mesh read_mesh(const std::string& path, const Progress& progress = {});
 
 /// The CRS read_mesh() would give, without the vertices and triangles: for a PLY file only its
 /// header is read and checked (O(header)); other formats are read whole. Same errors as
-/// read_mesh() for what it reads.
+/// read_mesh() for what it reads. A GLB (which read_mesh() does not read) gives the CRS its
+/// asset.extras name (write_glb()'s `crs` and `vertical`), from its JSON chunk alone; unknown
+/// without them; InputError for a JSON chunk that is missing, cut short or not JSON.
 Crs read_mesh_crs(const std::string& path);
 
 }  // namespace dsmplan
