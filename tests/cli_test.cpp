@@ -3220,3 +3220,47 @@ TEST(CliPlan, WaypointHeightsAboveTheGroundCountFromTheDtmElseTheDsm) {
   EXPECT_EQ(path.back()[2], dtm_cell(agl[1][0], agl[1][1]) + 11.25);
   EXPECT_NE(path.front()[2], f.ground(agl[0][0], agl[0][1]) + 9.5);  // the DTM, not the DSM
 }
+
+TEST(CliNoFly, SnapMovesAWaypointOutOfAZoneAndItsSafetyDistance) {
+  NoFlyFixture f;
+  std::vector<std::array<double, 3>> points = f.corners();
+  f.write_waypoints(points);
+  TempDir out;
+  const std::string dsm = testkit::data_path(kSample), zones = f.in.path("zones.geojson");
+  // A 30 m square from the ground up whose west edge runs 1 m west of waypoint 1: it must move
+  // 3 m west (1 m out, then --safety 2) or more; up does not leave a zone without a ceiling.
+  const std::array<double, 2> centre{points[0][0] + 14, points[0][1]};
+  write_square_zone(zones, "snap block", centre, 15);
+  for (size_t k = 1; k < points.size(); ++k) ASSERT_GT(square_distance(points[k][0], points[k][1], centre, 15), 20);
+  const auto plan = [&](std::vector<std::string> extra) {
+    std::vector<std::string> args{"plan", f.mesh, "--waypoints", f.waypoints, "--dsm", dsm, "--no-fly", zones, "-q"};
+    args.insert(args.end(), extra.begin(), extra.end());
+    return run_cli(args);
+  };
+  const auto refused = plan({"-o", out.path("never.csv")});
+  EXPECT_EQ(refused.exit_code, 1);
+  EXPECT_NE(refused.err.find("waypoint 1: inside no-fly zone 'snap block'"), std::string::npos) << refused.err;
+  EXPECT_NE(refused.err.find("; the nearest valid point: x "), std::string::npos) << refused.err;
+  const auto too_far = plan({"-o", out.path("never.csv"), "--snap", "2"});
+  EXPECT_EQ(too_far.exit_code, 1);
+  EXPECT_NE(too_far.err.find("no valid point within --snap 2.00 m"), std::string::npos) << too_far.err;
+  EXPECT_FALSE(std::filesystem::exists(out.path("never.csv")));
+
+  const std::string csv = out.path("snapped.csv"), stats = out.path("snapped.json");
+  const auto snapped = plan({"-o", csv, "--snap", "5", "--stats", stats});
+  ASSERT_EQ(snapped.exit_code, 0) << snapped.err;
+  const json report = json::parse(testkit::read_file(stats));
+  ASSERT_EQ(report["snapped"].size(), 1u) << report.dump();
+  const json& move = report["snapped"][0];
+  EXPECT_EQ(move["waypoint"], 1);
+  EXPECT_NE(move["reason"].get<std::string>().find("inside no-fly zone 'snap block'"), std::string::npos);
+  const std::array<double, 3> to = point_of(move["to"]);
+  // Out of the zone by the safety distance (the square's edges drawn through WGS 84: 1 cm),
+  // no farther than 5 m, and kept from the DSM's columns and under the ceiling as before.
+  EXPECT_GE(square_distance(to[0], to[1], centre, 15), 2 - 0.01);
+  const double moved = std::hypot(to[0] - points[0][0], to[1] - points[0][1], to[2] - points[0][2]);
+  EXPECT_LE(moved, 5.0);
+  EXPECT_GE(moved, 3.0 - 0.01);
+  EXPECT_EQ(read_path_csv(csv).front(), to);
+  EXPECT_GE(sampled_square_distance(read_path_csv(csv), centre, 15), 2 - 0.01);
+}
