@@ -115,6 +115,14 @@ Command plan_command(CLI::App& app, Session& session) {
       ->capture_default_str();
   command->add_option("--waypoints", plan.waypoints,
                       "Waypoints: .csv (x,y,z in the mesh's CRS) or .geojson (WGS 84 lon, lat, ellipsoidal height)");
+  command->add_option("--waypoint-heights", plan.waypoint_heights,
+                      "crs (z in the mesh's CRS, GeoJSON's ellipsoidal heights) or agl (above the ground: the DTM, "
+                      "else the DSM, else the mesh); default crs, or agl when a CSV's header is x,y,agl");
+  command
+      ->add_option("--snap", plan.snap,
+                   "Move a refused waypoint (near the DSM's columns, under a roof, above the ceiling, in a zone) "
+                   "to the nearest valid point within this many metres, straight up first (0: off, at most 50)")
+      ->capture_default_str();
   command->add_option("--routes", plan.routes,
                       "Many routes instead of --waypoints, over one roadmap: .csv (route,x,y,z) or .geojson "
                       "(LineStrings with an id); -o a .geojson FeatureCollection or a folder/ (exit 4: some failed)");

@@ -128,6 +128,8 @@ std::string flag_message(const ArgumentError& error) {
       {"pixels_per_cell", "--zoom"},
       {"window", "--window"},
       {"max_agl", "--max-agl"},
+      {"snap", "--snap"},
+      {"waypoint_heights", "--waypoint-heights"},
       {"width", "--width"},
       {"height", "--height"},
       {"vertical_crs", "--vertical-crs"},

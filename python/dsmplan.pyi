@@ -125,6 +125,8 @@ def plan(
     no_fly: Sequence[str] = [],
     no_fly_blocking: Sequence[str] | None = None,
     allow_approximate_vertical: bool = False,
+    snap: float = 0.0,
+    waypoint_heights: str = "crs",
 ) -> Flight:
     """A collision-free path through the waypoints with every check of `dsmplan plan`."""
 

@@ -156,10 +156,12 @@ std::shared_ptr<PyFlight> plan(const std::shared_ptr<PyMesh>& mesh,
                                double max_agl, double spacing, const std::string& planner, bool mission,
                                std::optional<std::array<double, 2>> home, std::optional<std::string> end,
                                const std::string& vertical_crs, const std::vector<std::string>& no_fly,
-                               std::optional<std::vector<std::string>> no_fly_blocking,
-                               bool allow_approximate_vertical) {
+                               std::optional<std::vector<std::string>> no_fly_blocking, bool allow_approximate_vertical,
+                               double snap, const std::string& waypoint_heights) {
   FlightRequest request;
   request.waypoints = points_of(waypoints);
+  request.snap = snap;
+  request.heights = parse_waypoint_heights(waypoint_heights);
   request.names = {"mesh", "waypoints", "dsm", "dtm"};
   request.options.safety = safety;
   request.options.max_agl = max_agl;
@@ -194,7 +196,7 @@ std::shared_ptr<PyFlight> plan(const std::shared_ptr<PyMesh>& mesh,
     }
     out->flight = plan_flight(request);
   }
-  out->waypoints = request.waypoints;
+  out->waypoints = out->flight.waypoints;  // in the CRS, snapped
   static_cast<FlightReport&>(out->report) = out->flight.report;
   out->zones = {request.no_fly, request.airspace};
   out->safety = safety, out->max_agl = max_agl;
@@ -740,7 +742,8 @@ PYBIND11_MODULE(dsmplan, m) {
         py::arg("safety") = 2.0, py::arg("max_agl") = 120.0, py::arg("spacing") = 20.0, py::arg("planner") = "prm",
         py::arg("mission") = false, py::arg("home") = py::none(), py::arg("end") = py::none(),
         py::arg("vertical_crs") = "", py::arg("no_fly") = std::vector<std::string>{},
-        py::arg("no_fly_blocking") = py::none(), py::arg("allow_approximate_vertical") = false,
+        py::arg("no_fly_blocking") = py::none(), py::arg("allow_approximate_vertical") = false, py::arg("snap") = 0.0,
+        py::arg("waypoint_heights") = "crs",
         "A collision-free path through the waypoints by the plan stage's plan_flight(), with every check of "
         "`dsmplan plan`; returns a Flight. Raises InputError when there is no path, naming the waypoint.\n\n"
         "mesh: the obstacle Mesh (simplify(..., conservative=True)), in metres.\n"
@@ -761,7 +764,11 @@ PYBIND11_MODULE(dsmplan, m) {
         "home or landing inside one is refused.\n"
         "no_fly_blocking: the restrictions that block (default PROHIBITED and REQ_AUTHORISATION).\n"
         "allow_approximate_vertical: take heights of an unknown or grid-less vertical datum as EGM96 (about "
-        "1 m off) for the zones' limits.");
+        "1 m off) for the zones' limits.\n"
+        "snap: metres (0: off, at most 50): a refused waypoint moved to the nearest valid point within it, "
+        "straight up first; each move in Flight.report[\"snapped\"].\n"
+        "waypoint_heights: \"crs\" (z in the mesh's CRS) or \"agl\" (z above the ground: the DTM, else the "
+        "DSM, else the mesh's floor).");
   m.def("render", &render, py::arg("dsm"), py::arg("output"), py::kw_only(), py::arg("meshes") = py::none(),
         py::arg("titles") = py::none(), py::arg("paths") = py::none(), py::arg("waypoints") = py::none(),
         py::arg("roadmap") = py::none(), py::arg("window") = py::none(), py::arg("zoom") = 4.0, py::arg("edges") = true,

@@ -3049,3 +3049,218 @@ TEST(CliPlan, OneRunDrawsTheMissionAsFlownAsRenderAndProfileDrawItsCsv) {
     EXPECT_FALSE(std::filesystem::exists(picture));
   }
 }
+
+namespace {
+
+// Issue 35, point 4: waypoints near walls snapped, and heights above the ground.
+struct SnapFixture : MissionFixture {
+  // Brute force over every cell of the DSM read by GDAL: the distance of p to the cells as solid
+  // columns (each cell's square from below up to its height). A hole counts as infinitely tall,
+  // which only a point beside it could notice: the wall point below has none within 6 m.
+  double column_distance(const std::array<double, 3>& p) const {
+    double best = INFINITY;
+    const double cx = dsm.gt[1], cy = -dsm.gt[5];
+    for (int row = 0; row < dsm.height; ++row)
+      for (int col = 0; col < dsm.width; ++col) {
+        const double x0 = dsm.gt[0] + col * cx, y1 = dsm.gt[3] - row * cy;
+        const double dx = std::max({0.0, x0 - p[0], p[0] - (x0 + cx)});
+        const double dy = std::max({0.0, (y1 - cy) - p[1], p[1] - y1});
+        if (dx > best || dy > best) continue;
+        const float top = dsm.z[size_t(row) * dsm.width + col];
+        const double dz = std::isnan(top) ? 0.0 : std::max(0.0, p[2] - top);
+        best = std::min(best, std::sqrt(dx * dx + dy * dy + dz * dz));
+      }
+    return best;
+  }
+  bool hole_within(double x, double y, double r) const {
+    for (int row = 0; row < dsm.height; ++row)
+      for (int col = 0; col < dsm.width; ++col) {
+        const double cx = dsm.gt[0] + (col + 0.5) * dsm.gt[1], cy = dsm.gt[3] + (row + 0.5) * dsm.gt[5];
+        if (std::abs(cx - x) <= r && std::abs(cy - y) <= r && std::isnan(dsm.z[size_t(row) * dsm.width + col]))
+          return true;
+      }
+    return false;
+  }
+  // A waypoint 8 m above a street cell, on its side 1 m from a building's column: of the cells
+  // within 60 m of the mission's first waypoint, in row order, the first street cell (its top
+  // within 1 m of that waypoint's street) whose east neighbour stands 10 m above it, moved to its
+  // west edge; kept only when the columns (brute force) lie 0.9 to 1.1 m away and no hole is near.
+  std::array<double, 3> wall_point() const {
+    const double x = 356359, y = 5699307, street = cell(x, y);
+    for (int row = 0; row < dsm.height; ++row)
+      for (int col = 0; col + 1 < dsm.width; ++col) {
+        const double cx = dsm.gt[0] + (col + 0.5) * dsm.gt[1], cy = dsm.gt[3] + (row + 0.5) * dsm.gt[5];
+        if (std::hypot(cx - x, cy - y) > 60) continue;
+        const float here = dsm.z[size_t(row) * dsm.width + col], east = dsm.z[size_t(row) * dsm.width + col + 1];
+        if (!(std::abs(here - street) <= 1 && east > here + 10)) continue;
+        const std::array<double, 3> p{cx - 0.5 * dsm.gt[1], cy, here + 8.0};
+        const double d = column_distance(p);
+        if (d >= 0.9 && d <= 1.1 && !hole_within(p[0], p[1], 6)) return p;
+      }
+    throw std::runtime_error("no street cell beside a wall near the first waypoint");
+  }
+  testkit::CliResult plan_points(const std::vector<std::array<double, 3>>& points, const std::string& output,
+                                 std::vector<std::string> extra, const std::string& header = "x,y,z\n") const {
+    write_waypoints(points, header);
+    std::vector<std::string> args{"plan",      bounded, "--waypoints", waypoints,
+                                  "-o",        output,  "--dsm",       testkit::data_path(kSample),
+                                  "--max-agl", "30",    "--spacing",   "10"};
+    args.insert(args.end(), extra.begin(), extra.end());
+    return run_cli(args);
+  }
+};
+
+std::array<double, 3> point_of(const json& xyz) {
+  return {xyz[0].get<double>(), xyz[1].get<double>(), xyz[2].get<double>()};
+}
+
+}  // namespace
+
+TEST(CliPlan, SnapMovesAWaypointBesideAWallToTheNearestValidPoint) {
+  SnapFixture f;
+  TempDir out;
+  const std::array<double, 3> wall = f.wall_point();
+  const std::array<double, 3> second{356469, 5699429, 129};  // the mission's second street point
+  ASSERT_LT(f.column_distance(wall), 2.0);
+  ASSERT_GE(f.column_distance(second), 2.0);
+
+  // Without --snap: refused, naming the waypoint and a nearest valid point, which holds.
+  const auto refused = f.plan_points({wall, second}, out.path("never.csv"), {"-q"});
+  EXPECT_EQ(refused.exit_code, 1) << refused.err;
+  EXPECT_NE(refused.err.find("waypoint 1"), std::string::npos) << refused.err;
+  const size_t named = refused.err.find("the nearest valid point: x ");
+  ASSERT_NE(named, std::string::npos) << refused.err;
+  std::array<double, 3> nearest{};
+  ASSERT_EQ(std::sscanf(refused.err.c_str() + named, "the nearest valid point: x %lf, y %lf, z %lf", &nearest[0],
+                        &nearest[1], &nearest[2]),
+            3)
+      << refused.err;
+  EXPECT_GE(f.column_distance(nearest), 2.0 - 0.01);  // two decimals written
+  EXPECT_FALSE(std::filesystem::exists(out.path("never.csv")));
+
+  // With --snap 5: moved, reported in the summary, --stats and the GeoJSON, and the moved point
+  // keeps every rule by the oracle: the columns, the ceiling over the DSM's ground, within 5 m.
+  const std::string csv = out.path("snapped.csv"), geo = out.path("snapped.geojson"), stats = out.path("s.json");
+  const auto snapped =
+      f.plan_points({wall, second}, csv, {"-o", geo, "--snap", "5", "--stats", stats, "--vertical-crs", "EPSG:5773"});
+  ASSERT_EQ(snapped.exit_code, 0) << snapped.err;
+  EXPECT_NE(snapped.out.find("waypoint 1 snapped "), std::string::npos) << snapped.out;
+  const json report = json::parse(testkit::read_file(stats));
+  ASSERT_EQ(report["snapped"].size(), 1u) << report.dump();
+  const json& move = report["snapped"][0];
+  EXPECT_EQ(move["waypoint"], 1);
+  const std::array<double, 3> from = point_of(move["from"]), to = point_of(move["to"]);
+  EXPECT_EQ(from, wall);
+  const double moved = std::hypot(to[0] - from[0], to[1] - from[1], to[2] - from[2]);
+  EXPECT_NEAR(move["distance_m"].get<double>(), moved, 1e-9);
+  EXPECT_LE(moved, 5.0);
+  EXPECT_GT(moved, 0.0);
+  EXPECT_NE(move["reason"].get<std::string>().find("safety distance"), std::string::npos) << move.dump();
+  EXPECT_GE(f.column_distance(to), 2.0);
+  EXPECT_LE(to[2] - f.ground(to[0], to[1]), 30.0);
+  const std::vector<std::array<double, 3>> path = read_path_csv(csv);
+  ASSERT_GE(path.size(), 2u);
+  EXPECT_EQ(path.front(), to);  // the path starts at the moved point
+  EXPECT_EQ(path.back(), second);
+  const json feature = json::parse(testkit::read_file(geo));
+  EXPECT_EQ(feature["properties"]["snapped"], report["snapped"]);
+
+  // The wall needs about 1 m: --snap 0.5 refuses it, saying so and naming the nearest point.
+  const auto too_far = f.plan_points({wall, second}, out.path("never.csv"), {"--snap", "0.5", "-q"});
+  EXPECT_EQ(too_far.exit_code, 1);
+  EXPECT_NE(too_far.err.find("no valid point within --snap 0.50 m"), std::string::npos) << too_far.err;
+  EXPECT_NE(too_far.err.find("the nearest valid point"), std::string::npos) << too_far.err;
+  EXPECT_FALSE(std::filesystem::exists(out.path("never.csv")));
+
+  const auto bad = f.plan_points({wall, second}, out.path("never.csv"), {"--snap", "60", "-q"});
+  EXPECT_EQ(bad.exit_code, 2);
+  EXPECT_EQ(bad.err.rfind("dsmplan: --snap: must lie in [0, 50.00]", 0), 0u) << bad.err;
+}
+
+TEST(CliPlan, WaypointHeightsAboveTheGroundCountFromTheDtmElseTheDsm) {
+  SnapFixture f;
+  TempDir out;
+  const std::vector<std::array<double, 3>> agl{{356359, 5699307, 9.5}, {356469, 5699429, 11.25}};
+  // The DSM's cells, read by GDAL, are the ground without a DTM: z = cell + agl exactly.
+  const std::string over_dsm = out.path("dsm.csv");
+  const auto by_header = f.plan_points(agl, over_dsm, {"-q"}, "x,y,agl\n");
+  ASSERT_EQ(by_header.exit_code, 0) << by_header.err;
+  std::vector<std::array<double, 3>> path = read_path_csv(over_dsm);
+  EXPECT_EQ(path.front()[2], f.ground(agl[0][0], agl[0][1]) + 9.5);
+  EXPECT_EQ(path.back()[2], f.ground(agl[1][0], agl[1][1]) + 11.25);
+  // The flag says the same of a header-less file; crs over an agl header is refused.
+  const auto by_flag = f.plan_points(agl, out.path("flag.csv"), {"--waypoint-heights", "agl", "-q"}, "");
+  ASSERT_EQ(by_flag.exit_code, 0) << by_flag.err;
+  EXPECT_EQ(testkit::read_file(out.path("flag.csv")), testkit::read_file(over_dsm));
+  const auto clash = f.plan_points(agl, out.path("never.csv"), {"--waypoint-heights", "crs", "-q"}, "x,y,agl\n");
+  EXPECT_EQ(clash.exit_code, 2);
+  EXPECT_EQ(clash.err.rfind("dsmplan: --waypoint-heights: is crs, but the header of", 0), 0u) << clash.err;
+
+  // With a DTM 3 m under the DSM, read back by GDAL: z = DTM cell + agl.
+  dsmplan::Grid terrain = dsmplan::read_raster(testkit::data_path(kSample));
+  for (float& z : terrain.z) z -= 3;
+  const std::string dtm = out.path("dtm.tif"), over_dtm = out.path("dtm.csv");
+  dsmplan::write_geotiff(terrain, dtm);
+  const Raster ground = read_with_gdal(dtm);
+  // The lowest of the DTM's cells whose closed squares hold (x, y), as the ground is counted.
+  const auto dtm_cell = [&](double x, double y) {
+    double low = INFINITY;
+    for (const double ex : {-1e-9, 1e-9})
+      for (const double ey : {-1e-9, 1e-9}) {
+        const int col = int(std::floor((x + ex - ground.gt[0]) / ground.gt[1]));
+        const int row = int(std::floor((y + ey - ground.gt[3]) / ground.gt[5]));
+        low = std::min(low, double(ground.z[size_t(row) * ground.width + col]));
+      }
+    return low;
+  };
+  const auto planned = f.plan_points(agl, over_dtm, {"--dtm", dtm, "-q"}, "x,y,agl\n");
+  ASSERT_EQ(planned.exit_code, 0) << planned.err;
+  path = read_path_csv(over_dtm);
+  EXPECT_EQ(path.front()[2], dtm_cell(agl[0][0], agl[0][1]) + 9.5);
+  EXPECT_EQ(path.back()[2], dtm_cell(agl[1][0], agl[1][1]) + 11.25);
+  EXPECT_NE(path.front()[2], f.ground(agl[0][0], agl[0][1]) + 9.5);  // the DTM, not the DSM
+}
+
+TEST(CliNoFly, SnapMovesAWaypointOutOfAZoneAndItsSafetyDistance) {
+  NoFlyFixture f;
+  std::vector<std::array<double, 3>> points = f.corners();
+  f.write_waypoints(points);
+  TempDir out;
+  const std::string dsm = testkit::data_path(kSample), zones = f.in.path("zones.geojson");
+  // A 30 m square from the ground up whose west edge runs 1 m west of waypoint 1: it must move
+  // 3 m west (1 m out, then --safety 2) or more; up does not leave a zone without a ceiling.
+  const std::array<double, 2> centre{points[0][0] + 14, points[0][1]};
+  write_square_zone(zones, "snap block", centre, 15);
+  for (size_t k = 1; k < points.size(); ++k) ASSERT_GT(square_distance(points[k][0], points[k][1], centre, 15), 20);
+  const auto plan = [&](std::vector<std::string> extra) {
+    std::vector<std::string> args{"plan", f.mesh, "--waypoints", f.waypoints, "--dsm", dsm, "--no-fly", zones, "-q"};
+    args.insert(args.end(), extra.begin(), extra.end());
+    return run_cli(args);
+  };
+  const auto refused = plan({"-o", out.path("never.csv")});
+  EXPECT_EQ(refused.exit_code, 1);
+  EXPECT_NE(refused.err.find("waypoint 1: inside no-fly zone 'snap block'"), std::string::npos) << refused.err;
+  EXPECT_NE(refused.err.find("; the nearest valid point: x "), std::string::npos) << refused.err;
+  const auto too_far = plan({"-o", out.path("never.csv"), "--snap", "2"});
+  EXPECT_EQ(too_far.exit_code, 1);
+  EXPECT_NE(too_far.err.find("no valid point within --snap 2.00 m"), std::string::npos) << too_far.err;
+  EXPECT_FALSE(std::filesystem::exists(out.path("never.csv")));
+
+  const std::string csv = out.path("snapped.csv"), stats = out.path("snapped.json");
+  const auto snapped = plan({"-o", csv, "--snap", "5", "--stats", stats});
+  ASSERT_EQ(snapped.exit_code, 0) << snapped.err;
+  const json report = json::parse(testkit::read_file(stats));
+  ASSERT_EQ(report["snapped"].size(), 1u) << report.dump();
+  const json& move = report["snapped"][0];
+  EXPECT_EQ(move["waypoint"], 1);
+  EXPECT_NE(move["reason"].get<std::string>().find("inside no-fly zone 'snap block'"), std::string::npos);
+  const std::array<double, 3> to = point_of(move["to"]);
+  // Out of the zone by the safety distance (the square's edges drawn through WGS 84: 1 cm),
+  // no farther than 5 m, and kept from the DSM's columns and under the ceiling as before.
+  EXPECT_GE(square_distance(to[0], to[1], centre, 15), 2 - 0.01);
+  const double moved = std::hypot(to[0] - points[0][0], to[1] - points[0][1], to[2] - points[0][2]);
+  EXPECT_LE(moved, 5.0);
+  EXPECT_GE(moved, 3.0 - 0.01);
+  EXPECT_EQ(read_path_csv(csv).front(), to);
+  EXPECT_GE(sampled_square_distance(read_path_csv(csv), centre, 15), 2 - 0.01);
+}

@@ -11,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "core/text.hpp"
 #include "dsmplan/waypoints.hpp"
 
 namespace dsmplan {
@@ -92,7 +93,8 @@ void check_count(const std::string& path, size_t count) {
 
 }  // namespace
 
-std::vector<Point3> read_waypoints_csv(const std::string& path) {
+std::vector<Point3> read_waypoints_csv(const std::string& path, bool* agl) {
+  if (agl) *agl = false;
   std::istringstream in(read_waypoint_bytes(path));
   std::vector<Point3> points;
   std::string line;
@@ -106,6 +108,11 @@ std::vector<Point3> read_waypoints_csv(const std::string& path) {
     } else if (!first || std::any_of(text.begin(), text.end(), [](unsigned char c) { return std::isdigit(c); })) {
       throw InputError(path, "line " + std::to_string(number),
                        "expected 'x,y,z' (three numbers), got '" + text.substr(0, 60) + "'");
+    } else if (agl) {  // the header: "x,y,agl" gives heights above the ground
+      std::istringstream columns(text);
+      std::string column;
+      for (int k = 0; k < 3 && std::getline(columns, column, ','); ++k) *agl = lower_case(trim(column)) == "agl";
+      *agl = *agl && std::count(text.begin(), text.end(), ',') >= 2;
     }
     first = false;
   }

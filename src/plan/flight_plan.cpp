@@ -12,10 +12,14 @@
 #include "core/text.hpp"
 #include "dsmplan/columns.hpp"
 #include "dsmplan/flight.hpp"
+#include "plan/nearest_spot.hpp"
+#include "plan/path_parts.hpp"
 
 namespace dsmplan {
 
 namespace {
+
+constexpr double kMaxSnap = 50;  // m: the largest FlightQuery::snap
 
 struct Extent {
   double xmin = INFINITY, ymin = INFINITY, xmax = -INFINITY, ymax = -INFINITY;
@@ -150,6 +154,9 @@ PlanResult run_planner(const ClearanceIndex& index, const std::vector<Point3>& r
 
 void check_query(const FlightQuery& query, const FlightNames& names) {
   check_plan_options(query.options);
+  if (!(query.snap >= 0 && query.snap <= kMaxSnap))
+    throw ArgumentError("snap",
+                        "must lie in [0, " + two_decimals(kMaxSnap) + "] m (0: off), got " + two_decimals(query.snap));
   if (query.waypoints.size() < 2)
     throw InputError(names.waypoints, "",
                      "a path needs at least two waypoints, the file has " + std::to_string(query.waypoints.size()));
@@ -158,12 +165,13 @@ void check_query(const FlightQuery& query, const FlightNames& names) {
 // Every waypoint above the ceiling or near a column, refused before the work on the mesh, in
 // the order the user has always been told them: the ceiling over the DSM, the columns, the
 // ceiling over the terrain.
-std::vector<PlanResult::Invalid> refused_before_planning(const FlightArea& area, const FlightQuery& query) {
-  const double max_agl = query.options.max_agl;
+std::vector<PlanResult::Invalid> refused_before_planning(const FlightArea& area, const std::vector<Point3>& waypoints,
+                                                         const PlanOptions& options) {
+  const double max_agl = options.max_agl;
   std::vector<PlanResult::Invalid> refused;
-  if (area.columns() && !area.terrain()) refused = above_ceiling(query.waypoints, area.ground(), max_agl);
-  if (refused.empty() && area.columns()) refused = near_columns(query.waypoints, *area.columns(), query.options.safety);
-  if (refused.empty() && area.terrain()) refused = above_ceiling(query.waypoints, *area.terrain(), max_agl);
+  if (area.columns() && !area.terrain()) refused = above_ceiling(waypoints, area.ground(), max_agl);
+  if (refused.empty() && area.columns()) refused = near_columns(waypoints, *area.columns(), options.safety);
+  if (refused.empty() && area.terrain()) refused = above_ceiling(waypoints, *area.terrain(), max_agl);
   return refused;
 }
 
@@ -178,6 +186,133 @@ std::vector<PlanResult::Invalid> inside_zones(const std::vector<Point3>& waypoin
         break;
       }
   return refused;
+}
+
+// Every rule a waypoint is held to, for one point, in the order a list is refused: the checks
+// before planning, the no-fly zones, then the planner's own (invalid_waypoints()). A point --snap
+// moves a waypoint to passes exactly what refused it: one implementation.
+struct WaypointRules {
+  WaypointRules(const FlightArea& area, const PlanOptions& options)
+      : area(area),
+        options(options),
+        plan(area.planner_options(options)),
+        space(detail::flight_space(area.index(), plan)) {}
+  WaypointRules(const WaypointRules&) = delete;  // `space` refers to `plan`
+  WaypointRules& operator=(const WaypointRules&) = delete;
+
+  // Why `p` cannot be a waypoint, or empty when it can.
+  std::string refusal(const Point3& p) const {
+    const std::vector<Point3> one{p};
+    std::vector<PlanResult::Invalid> found = refused_before_planning(area, one, options);
+    if (found.empty()) found = inside_zones(one, area.data(), &area.ground());
+    if (!found.empty()) return found.front().reason;
+    PlanResult result;
+    return detail::invalid_waypoints(one, space, result) ? result.reason : std::string();
+  }
+  bool valid(const Point3& p) const { return refusal(p).empty(); }
+
+  const FlightArea& area;
+  const PlanOptions& options;
+  const PlanOptions plan;  // the planner's: the safety widened on the mesh, the zones added
+  const FlightSpace space;
+};
+
+constexpr double kClimbStep = 0.1;   // m: the steps straight up
+constexpr double kWiderSearch = 50;  // m: how far a refusal looks for the nearest valid point
+
+struct Spot {
+  bool found = false;
+  Point3 at{NAN, NAN, NAN};
+  double distance = INFINITY;
+};
+
+// The nearest point to `p` within `radius` (3D) that the rules accept. Straight up first, in
+// steps of kClimbStep (what a pilot does near a wall: climb over it): with `up_first` a climb
+// that works is the answer; without, it only bounds the sideways search, which may find nearer.
+// Sideways: search_rings() in steps of max(0.5 m, radius / 40) (at most 40 rings, so a
+// refusal's wider search stays a fraction of a second), each offset with the least vertical
+// shift that works (0, +1, -1, +2, ... steps), the nearest in 3D kept.
+Spot nearest_valid_point(const Point3& p, double radius, bool up_first, const WaypointRules& rules) {
+  Spot spot;
+  for (int m = 1; m * kClimbStep <= radius + 1e-9 && !spot.found; ++m)
+    if (const Point3 q{p[0], p[1], p[2] + m * kClimbStep}; rules.valid(q)) spot = {true, q, m * kClimbStep};
+  if (spot.found && up_first) return spot;
+  const double step = std::max(0.5, radius / 40);
+  detail::search_rings(step, std::min(radius, spot.distance), 0, [&](double dx, double dy, double dxy) -> double {
+    for (int m = 0;; ++m) {
+      const double dz = (m + 1) / 2 * step * (m % 2 ? 1 : -1);
+      const double d = std::hypot(dxy, dz);
+      if (d > radius || d >= spot.distance) break;
+      if (dxy == 0 && dz >= 0) continue;  // the point itself, or climbed already (finer)
+      const Point3 q{p[0] + dx, p[1] + dy, p[2] + dz};
+      if (rules.valid(q)) {
+        spot = {true, q, d};
+        return d;
+      }
+    }
+    return INFINITY;
+  });
+  return spot;
+}
+
+std::string point_in_words(const Point3& p) {
+  return "x " + two_decimals(p[0]) + ", y " + two_decimals(p[1]) + ", z " + two_decimals(p[2]);
+}
+
+// Where a refused point could be instead, for its message: the nearest valid point within 50 m
+// (within 10 m first, on the finer steps of a smaller radius).
+std::string nearest_in_words(const Point3& p, const WaypointRules& rules) {
+  Spot spot = nearest_valid_point(p, 10, false, rules);
+  if (!spot.found) spot = nearest_valid_point(p, kWiderSearch, false, rules);
+  if (!spot.found) return "; no valid point within " + two_decimals(kWiderSearch) + " m";
+  return "; the nearest valid point: " + point_in_words(spot.at) + " (" + two_decimals(spot.distance) +
+         " m away; --snap moves a waypoint there)";
+}
+
+// Each refusal with the nearest valid point to the refused one (`points[waypoint]`).
+std::vector<PlanResult::Invalid> naming_nearest(std::vector<PlanResult::Invalid> invalid,
+                                                const std::vector<Point3>& points, const WaypointRules& rules) {
+  for (PlanResult::Invalid& one : invalid)
+    if (one.waypoint < points.size()) one.reason += nearest_in_words(points[one.waypoint], rules);
+  return invalid;
+}
+
+// FlightQuery::snap: every refused waypoint moved to the nearest valid point within the radius
+// (up first), each move reported; those with none within, refused and listed.
+std::vector<PlanResult::Invalid> snap_waypoints(std::vector<Point3>& waypoints, double radius,
+                                                const WaypointRules& rules, FlightReport& report) {
+  std::vector<PlanResult::Invalid> refused;
+  for (size_t i = 0; i < waypoints.size(); ++i) {
+    const std::string why = rules.refusal(waypoints[i]);
+    if (why.empty()) continue;
+    const Spot spot = nearest_valid_point(waypoints[i], radius, true, rules);
+    if (!spot.found) {
+      refused.push_back({i, why + "; no valid point within --snap " + two_decimals(radius) + " m" +
+                                nearest_in_words(waypoints[i], rules)});
+      continue;
+    }
+    report.snapped.push_back({i + 1, waypoints[i], spot.at, spot.distance, why});
+    waypoints[i] = spot.at;
+  }
+  return refused;
+}
+
+// The waypoints with z in the CRS: a height above the ground (WaypointHeights::agl) added to the
+// ground the ceiling counts from, as the pilot meant it.
+std::vector<Point3> heights_in_crs(const FlightArea& area, const FlightQuery& query) {
+  std::vector<Point3> waypoints = query.waypoints;
+  if (query.heights != WaypointHeights::agl) return waypoints;
+  const GroundGrid& ground = area.ground();
+  for (size_t i = 0; i < waypoints.size(); ++i) {
+    Point3& p = waypoints[i];
+    const double z = -ground.height_above({p[0], p[1], 0});
+    if (!std::isfinite(z))
+      throw InputError(area.data().names.waypoints, "waypoint " + std::to_string(i + 1),
+                       "x " + two_decimals(p[0]) + ", y " + two_decimals(p[1]) + " lies over no ground (the " +
+                           area.ground_name() + ") to count its height above the ground from");
+    p[2] += z;
+  }
+  return waypoints;
 }
 
 // The path's distance to each zone (for --stats and the summary), and its segments checked once
@@ -377,31 +512,41 @@ FlightAttempt attempt_flight(const FlightArea& area, const FlightQuery& query, c
   const FlightData& data = area.data();
   const FlightNames& names = data.names;
   check_query(query, names);
-  const std::vector<Point3>& waypoints = query.waypoints;
   Stopwatch clock;
   FlightAttempt attempt;
   FlightPlan& out = attempt.plan;
   FlightReport& report = out.report;
   report.planner = query.options.planner == PlannerKind::prm ? "prm" : "rrtconnect";
-  report.waypoint_count = waypoints.size();
+  report.waypoint_count = query.waypoints.size();
   report.ground = area.ground_name();
   report.safety_margin_m = data.dsm ? area.safety_margin() : NAN;
   report.mesh_max_below_dsm_m = area.mesh_max_below_dsm();
   report.column_max_above_mesh_m = area.column_max_above_mesh();
-  if (std::vector<PlanResult::Invalid> invalid = refused_before_planning(area, query); !invalid.empty()) {
-    attempt.failure = refused(std::move(invalid));
+  std::vector<Point3> waypoints = heights_in_crs(area, query);
+  out.waypoints = waypoints;
+  std::vector<PlanResult::Invalid> early = refused_before_planning(area, waypoints, query.options);
+  // Refused without --snap: before the index is built, unless it is needed to name the nearest
+  // valid point (the planner's own check is one of the rules).
+  if (!early.empty() && query.snap <= 0) {
+    const WaypointRules rules(area, query.options);
+    attempt.failure = refused(naming_nearest(std::move(early), waypoints, rules));
     return attempt;
   }
   report.index_reused = data.index != nullptr;
   out.index = area.shared_index();
   report.seconds_index = clock.lap();
   const ClearanceIndex& index = *out.index;
-  PlanOptions plan = area.planner_options(query.options);
+  const WaypointRules checks(area, query.options);
+  const PlanOptions& plan = checks.plan;
   // What a mission's straight items and vertical legs are held to: the DSM's columns when known,
   // else the mesh; the ceiling over the ground in use; the zones that block, at the safety distance.
   const std::shared_ptr<const GroundGrid> ground_held = area.shared_ground();
   const GroundGrid& ground = *ground_held;
-  if (std::vector<PlanResult::Invalid> invalid = inside_zones(waypoints, data, &ground); !invalid.empty()) {
+  std::vector<PlanResult::Invalid> invalid =
+      query.snap > 0 ? snap_waypoints(waypoints, query.snap, checks, report)
+                     : naming_nearest(inside_zones(waypoints, data, &ground), waypoints, checks);
+  out.waypoints = waypoints;
+  if (!invalid.empty()) {
     attempt.failure = refused(std::move(invalid));
     return attempt;
   }
@@ -441,6 +586,10 @@ FlightAttempt attempt_flight(const FlightArea& area, const FlightQuery& query, c
   const uint64_t roadmap_key = store.kept_roadmap ? area.roadmap_key() : 0;
   PlanResult result = run_planner(index, route, plan, store, roadmap_key, report, clock, progress);
   take_planner_figures(result, report);
+  if (result.status == PlanStatus::InvalidWaypoint && !result.invalid.empty()) {  // the planner's check: where instead
+    result.invalid = naming_nearest(std::move(result.invalid), route, checks);
+    result.reason = result.invalid.front().reason;
+  }
   if (result.status != PlanStatus::Solved) {
     attempt.failure = std::move(result);
     return attempt;

@@ -8,6 +8,7 @@
 #include "core/text.hpp"
 #include "dsmplan/columns.hpp"
 #include "dsmplan/flight.hpp"
+#include "plan/nearest_spot.hpp"
 
 namespace dsmplan {
 
@@ -109,26 +110,19 @@ std::array<double, 2> nearest_clear_climb(const Point3& top, double ground, cons
                                           const std::function<double(double, double)>& dsm_z) {
   if (!limits.ground || limits.ground->empty()) return {NAN, NAN};
   const double step = std::max(limits.ground->grid().cell_x, 0.5), above = top[2] - ground;
-  const int rings = static_cast<int>(std::ceil(50 / step));
-  double best = INFINITY;
   std::array<double, 2> found{NAN, NAN};
-  // Square rings of Chebyshev radius k; a ring's points lie at least k steps away, so the
-  // search stops past the best distance found.
-  for (int k = 1; k <= rings && k * step < best; ++k)
-    for (int i = -k; i <= k; ++i)
-      for (int j = -k; j <= k; ++j) {
-        if (std::max(std::abs(i), std::abs(j)) != k) continue;
-        const double x = top[0] + i * step, y = top[1] + j * step, d = std::hypot(i, j) * step;
-        if (d >= best) continue;
-        const double g = -limits.ground->height_above({x, y, 0});
-        if (!std::isfinite(g)) continue;
-        try {
-          check_vertical({x, y, g + above}, g, limits, dsm_z, "--home", "climb from home");
-        } catch (const ArgumentError&) {
-          continue;
-        }
-        best = d, found = {x, y};
-      }
+  detail::search_rings(step, 50, 1, [&](double dx, double dy, double d) -> double {
+    const double x = top[0] + dx, y = top[1] + dy;
+    const double g = -limits.ground->height_above({x, y, 0});
+    if (!std::isfinite(g)) return INFINITY;
+    try {
+      check_vertical({x, y, g + above}, g, limits, dsm_z, "--home", "climb from home");
+    } catch (const ArgumentError&) {
+      return INFINITY;
+    }
+    found = {x, y};
+    return d;
+  });
   return found;
 }
 

@@ -128,4 +128,12 @@ FlightPictures draw_flight_pictures(const PlanJobOptions& options, const FlightP
 /// Writes them (write_png(), atomically).
 void write_flight_pictures(const PlanJobOptions& options, const FlightPictures& pictures);
 
+/// GeoJSON waypoints [lon, lat, height] to the mesh's CRS: the height through `wgs84` when it is
+/// ellipsoidal (WaypointHeights::crs), kept as it is when it is above the ground (agl).
+void from_wgs84(std::vector<Point3>& waypoints, const Wgs84Transform& wgs84, WaypointHeights heights);
+
+/// FlightReport::snapped as --stats and the GeoJSON's properties give it: a list of {waypoint,
+/// from, to, distance_m, reason}, points in the mesh's CRS.
+Json snapped_json(const std::vector<FlightReport::Snap>& snapped);
+
 }  // namespace dsmplan

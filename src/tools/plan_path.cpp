@@ -50,6 +50,36 @@ bool is_geojson(const std::string& path) {
 
 }  // namespace
 
+WaypointHeights parse_waypoint_heights(const std::string& name) {
+  if (name != "crs" && name != "agl") throw ArgumentError("waypoint_heights", "must be crs or agl, got '" + name + "'");
+  return name == "agl" ? WaypointHeights::agl : WaypointHeights::crs;
+}
+
+std::vector<Point3> read_job_waypoints(const PlanJobOptions& options, WaypointHeights& heights) {
+  bool agl_column = false;
+  std::vector<Point3> waypoints = is_geojson(options.waypoints) ? read_waypoints_geojson(options.waypoints)
+                                                                : read_waypoints_csv(options.waypoints, &agl_column);
+  heights = agl_column ? WaypointHeights::agl : WaypointHeights::crs;
+  if (options.waypoint_heights.empty()) return waypoints;
+  heights = parse_waypoint_heights(options.waypoint_heights);
+  if (agl_column && heights == WaypointHeights::crs)
+    throw ArgumentError("waypoint_heights", "is crs, but the header of " + options.waypoints +
+                                                " names its third column agl (heights above the ground)");
+  return waypoints;
+}
+
+void from_wgs84(std::vector<Point3>& waypoints, const Wgs84Transform& wgs84, WaypointHeights heights) {
+  for (Point3& p : waypoints) {
+    if (heights == WaypointHeights::crs) {
+      p = wgs84.from_wgs84(p);
+      continue;
+    }
+    // Above the ground: only the position is WGS 84's; the height stays the pilot's.
+    const Point3 at = wgs84.from_wgs84({p[0], p[1], 0});
+    p = {at[0], at[1], p[2]};
+  }
+}
+
 OutputKind output_kind(const std::string& output, const std::string& format) {
   OutputKind kind;
   kind.ext = lower_case(format.empty() ? lower_extension(output) : format);
@@ -249,6 +279,7 @@ std::string flight_text(const PlanJobOptions& options, const OutputKind& kind, c
                     {"safety_m", options.plan.safety},
                     {"path_length_m", report.path_length_m},
                     {"min_clearance_m", report.min_clearance_m}};
+    if (!report.snapped.empty()) properties["snapped"] = snapped_json(report.snapped);
     return path_to_geojson(lonlath, properties.dump());
   }
   std::vector<Point3> lonlatamsl, marks;
@@ -290,7 +321,7 @@ void write_flight_as(const PlanJobOptions& options, const std::string& output, c
 namespace {
 
 // A mesh (with the DSM's columns, the terrain and a kept index and roadmap when given).
-Planned plan_over_mesh(const PlanJobOptions& options, const Outputs& outputs, bool geo_in,
+Planned plan_over_mesh(const PlanJobOptions& options, const Outputs& outputs, bool geo_in, WaypointHeights heights,
                        std::vector<Point3>& waypoints, Transforms& t, PlanReport& report, const Progress& progress) {
   Stopwatch clock;
   ReadRequest read = read_flight_request(options, waypoints, progress);
@@ -301,14 +332,15 @@ Planned plan_over_mesh(const PlanJobOptions& options, const Outputs& outputs, bo
   // the bytes that name the index): not asked again, which would cost PROJ's database (5-7 ms).
   if (!request.index || request.dsm) require_projected(planned.crs, options.mesh, centre_of(*request.mesh));
   make_transforms(t, planned.crs, geo_in, outputs, options.vertical, report.transformation);
-  if (geo_in)
-    for (Point3& p : request.waypoints) p = t.wgs84->from_wgs84(p);
-  waypoints = request.waypoints;
+  request.heights = heights;
+  request.snap = options.snap;
+  if (geo_in) from_wgs84(request.waypoints, *t.wgs84, heights);
   if (outputs.mission) request.mission = mission_ends(options.mission, t);
   request.store = file_store(options);
   planned.pictures = {options.dsm, request.dsm, request.dtm, {request.no_fly, request.airspace}};
   const double before = clock.lap();
   planned.flight = plan_flight(request, sub_progress(progress, 0.2, 0.95));
+  waypoints = planned.flight.waypoints;  // in the CRS, snapped: what the outputs mark
   planned.flight.report.seconds_load += before;
   planned.flight.report.seconds_read += read.seconds;
   return planned;
@@ -337,15 +369,18 @@ PlanReport plan_job(const PlanJobOptions& options, const Progress& progress) {
   check_flight_pictures(options, corridor);
   PlanReport report;
   const bool geo_in = is_geojson(options.waypoints);
-  std::vector<Point3> waypoints =
-      geo_in ? read_waypoints_geojson(options.waypoints) : read_waypoints_csv(options.waypoints);
+  WaypointHeights heights = WaypointHeights::crs;
+  std::vector<Point3> waypoints = read_job_waypoints(options, heights);
+  if (corridor && (heights == WaypointHeights::agl || options.snap != 0))
+    throw ArgumentError(heights == WaypointHeights::agl ? "waypoint_heights" : "snap",
+                        "applies to a mesh input; the DSM " + options.mesh + " is planned along a corridor");
   if (waypoints.size() < 2)
     throw InputError(options.waypoints, "",
                      "a path needs at least two waypoints, the file has " + std::to_string(waypoints.size()));
 
   Transforms t;
   const Planned planned = corridor ? plan_along_corridor(options, outputs, geo_in, waypoints, t, report, progress)
-                                   : plan_over_mesh(options, outputs, geo_in, waypoints, t, report, progress);
+                                   : plan_over_mesh(options, outputs, geo_in, heights, waypoints, t, report, progress);
   const FlightPlan& flight = planned.flight;
   static_cast<FlightReport&>(report) = flight.report;
   report.mesh = options.mesh;
@@ -413,6 +448,17 @@ void write_flight(const FlightPlan& flight, const std::vector<Point3>& waypoints
     write_flight_as(options, output, kind, {flight, waypoints, crs, zones}, t, report);
 }
 
+Json snapped_json(const std::vector<FlightReport::Snap>& snapped) {
+  Json moves = Json::array();
+  for (const FlightReport::Snap& s : snapped)
+    moves.push_back({{"waypoint", s.waypoint},
+                     {"from", {s.from[0], s.from[1], s.from[2]}},
+                     {"to", {s.to[0], s.to[1], s.to[2]}},
+                     {"distance_m", s.distance_m},
+                     {"reason", s.reason}});
+  return moves;
+}
+
 Json to_json(const PlanReport& r) {
   Json j;
   j["path_length_m"] = r.path_length_m;
@@ -460,6 +506,7 @@ Json to_json(const PlanReport& r) {
                        {"min_distance_m", z.min_distance_m}});
     j["no_fly_zones"] = zones;
   }
+  if (!r.snapped.empty()) j["snapped"] = snapped_json(r.snapped);
   if (r.render) j["render"] = to_json(*r.render);
   if (r.profile) j["profile"] = to_json(*r.profile);
   if (r.corridor_windows) {
@@ -520,6 +567,13 @@ std::string to_text(const PlanReport& r) {
     char zone[64];
     std::snprintf(zone, sizeof zone, " %.2f m from the path", nearest->min_distance_m);
     text += "nearest no-fly zone: " + nearest->label + zone + (nearest->blocks ? "" : " (not blocking)") + "\n";
+  }
+  for (const FlightReport::Snap& s : r.snapped) {
+    char move[240];
+    std::snprintf(move, sizeof move,
+                  "waypoint %zu snapped %.2f m: x %.2f, y %.2f, z %.2f to x %.2f, y %.2f, z %.2f (--snap; ", s.waypoint,
+                  s.distance_m, s.from[0], s.from[1], s.from[2], s.to[0], s.to[1], s.to[2]);
+    text += move + s.reason + ")\n";
   }
   if (!r.transformation.empty()) text += "heights and coordinates to WGS 84 by: " + r.transformation + "\n";
   if (r.render) {

@@ -72,6 +72,7 @@ Json route_figures(const Route& route, const RouteResult& result) {
   p["max_agl_m"] = r.max_agl_m;
   p["seconds_query"] = r.seconds_query;
   p["seconds_smooth"] = r.seconds_smooth;
+  if (!r.snapped.empty()) p["snapped"] = snapped_json(r.snapped);
   return p;
 }
 
@@ -129,7 +130,7 @@ void write_routes_folder(const std::vector<Route>& routes, const RoutesPlan& pla
       continue;
     }
     PlanReport report;
-    write_flight_as(one, file, kind, {result.plan, routes[i].waypoints, area.crs(), zones}, t, report);
+    write_flight_as(one, file, kind, {result.plan, result.plan.waypoints, area.crs(), zones}, t, report);
   }
   write_text_file((folder / "routes.json").string(), all.dump(2) + "\n");
 }
@@ -149,9 +150,10 @@ RoutesReport plan_routes_job(const PlanJobOptions& options, const Progress& prog
   std::optional<Wgs84Transform> wgs84;
   if (is_geojson_name(options.routes) || !is_folder(options.output))
     wgs84.emplace(crs, HeightReference::Ellipsoid, options.vertical);
+  const WaypointHeights heights =
+      options.waypoint_heights.empty() ? WaypointHeights::crs : parse_waypoint_heights(options.waypoint_heights);
   if (is_geojson_name(options.routes))
-    for (Route& route : routes)
-      for (Point3& p : route.waypoints) p = wgs84->from_wgs84(p);
+    for (Route& route : routes) from_wgs84(route.waypoints, *wgs84, heights);
   RoutesReport report;
   report.output = options.output;
   report.routes = routes.size();
@@ -160,6 +162,8 @@ RoutesReport plan_routes_job(const PlanJobOptions& options, const Progress& prog
   const FlightArea area(request);
   FlightQuery common;
   common.options = options.plan;
+  common.heights = heights;
+  common.snap = options.snap;
   common.store = file_store(options);
   if (options.format == "plan" || options.format == "waypoints" || options.format == "kmz") {
     MissionEnds ends{options.mission.home, options.mission.end, {}};

@@ -138,7 +138,8 @@ std::string request_key(const std::string& field) {
                                                        {"--extrude", "extrude"},
                                                        {"--safety", "safety"},
                                                        {"--max-agl", "max_agl"},
-                                                       {"--seed", "seed"}};
+                                                       {"--seed", "seed"},
+                                                       {"snap", "snap_m"}};
   const auto it = keys.find(field);
   return it == keys.end() ? field : it->second;
 }
@@ -179,9 +180,15 @@ PlanRequest parse_plan_request(const std::string& body, const ServeOptions& serv
       job.mission.format.extrude = value.get<bool>();
     } else if (key == "mission") {
       read_mission(value, job.mission);
+    } else if (key == "snap_m") {
+      job.snap = number(value, key);
+    } else if (key == "waypoint_heights") {
+      job.waypoint_heights = text(value, key);
+      parse_waypoint_heights(job.waypoint_heights);  // refused now, naming the key
     } else if (key != "safety" && key != "max_agl") {
       throw ArgumentError(key,
-                          "unknown key (waypoints, safety, max_agl, planner, seed, format, stats, mission, extrude)");
+                          "unknown key (waypoints, safety, max_agl, planner, seed, format, stats, mission, extrude, "
+                          "snap_m, waypoint_heights)");
     }
   }
   read_limits(doc, server.plan, job.plan);

@@ -130,11 +130,15 @@ std::string plan_answer(const PlanService::State& state, PlanRequest& request, T
   Stopwatch clock;
   PlanReport report;
   make_transforms(t, crs, request.geojson, outputs, request.job.vertical, report.transformation);
-  if (request.geojson)
-    for (Point3& p : request.waypoints) p = t.wgs84->from_wgs84(p);
+  const WaypointHeights heights = request.job.waypoint_heights.empty()
+                                      ? WaypointHeights::crs
+                                      : parse_waypoint_heights(request.job.waypoint_heights);
+  if (request.geojson) from_wgs84(request.waypoints, *t.wgs84, heights);
   FlightQuery query;
   query.waypoints = request.waypoints;
   query.options = request.job.plan;
+  query.heights = heights;
+  query.snap = request.job.snap;
   if (outputs.mission) {
     query.mission = MissionEnds{request.job.mission.home, request.job.mission.end, {}};
     query.mission->from_lonlat = [&t](double lon, double lat) { return t.to_msl->from_wgs84({lon, lat, 0}); };
@@ -147,7 +151,7 @@ std::string plan_answer(const PlanService::State& state, PlanRequest& request, T
   static_cast<FlightReport&>(report) = flight.report;
   const OutputKind& kind = outputs.files.front().second;
   const ZoneLayer zones{area.data().no_fly, area.data().airspace};
-  const FlightOutput out{flight, query.waypoints, crs, zones};
+  const FlightOutput out{flight, flight.waypoints, crs, zones};
   const std::string bytes =
       kind.ext == "kmz" ? kmz_bytes(request.job, kind, out, t, report) : flight_text(request.job, kind, out, t, report);
   Json answer{{"format", kind.ext},

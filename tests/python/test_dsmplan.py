@@ -390,3 +390,45 @@ def test_pictures_of_a_flight_are_the_command_lines(sample_plan, tmp_path):
     with pytest.raises(dsmplan.ArgumentError, match="^path: must be a path CSV"):
         dsmplan.profile(SAMPLE, 3, str(tmp_path / "x.png"))
     assert not os.path.exists(tmp_path / "x.png")
+
+
+def test_snap_and_heights_above_the_ground_give_the_command_lines_path(sample_plan, tmp_path):
+    """--snap and --waypoint-heights agl are the plan stage's: a waypoint 0.5 m above its street
+    cell (read here from the DSM's array) is moved up by both faces to the same point, and the
+    path bytes and the reported moves are the same."""
+    folder, mesh_file, _, _ = sample_plan
+    dsm = dsmplan.read_dsm(SAMPLE)
+    x0, cx, _, y0, _, ny = dsm.transform
+    waypoints = read_waypoints(LOW_WAYPOINTS)
+    x, y = waypoints[1, 0] + 0.5, waypoints[1, 1] - 0.5  # inside one cell
+    street = float(dsm.heights[int((y - y0) // ny), int((x - x0) // cx)])
+    waypoints[1] = (x, y, street + 0.5)
+    low = str(tmp_path / "low.csv")
+    np.savetxt(low, waypoints, delimiter=",", header="x,y,z", comments="", fmt="%.17g")
+    cli_csv = str(tmp_path / "cli.csv")
+    common = ["--dsm", SAMPLE, "--max-agl", "30", "--spacing", "10"]
+    result = run_cli("plan", mesh_file, "--waypoints", low, *common, "--snap", "5", "-o", cli_csv, "--json", "-q")
+    assert result.returncode == 0, result.stderr
+    cli_moves = json.loads(result.stdout)["snapped"]
+    assert [m["waypoint"] for m in cli_moves] == [2]
+    assert cli_moves[0]["to"][:2] == [x, y] and 1.5 <= cli_moves[0]["to"][2] - street <= 5.5  # straight up
+    mesh = dsmplan.simplify(dsm, max_error=0.4, conservative=True)
+    flight = dsmplan.plan(mesh, waypoints, dsm=dsm, max_agl=30, spacing=10, snap=5)
+    py_csv = str(tmp_path / "py.csv")
+    flight.write(py_csv)
+    assert open(py_csv, "rb").read() == open(cli_csv, "rb").read()
+    assert flight.report["snapped"] == cli_moves
+
+    agl = waypoints.copy()
+    agl[:, 2] = 10.0
+    agl_file = str(tmp_path / "agl.csv")
+    np.savetxt(agl_file, agl, delimiter=",", header="x,y,agl", comments="", fmt="%.17g")
+    cli_agl = str(tmp_path / "cli_agl.csv")
+    result = run_cli("plan", mesh_file, "--waypoints", agl_file, *common, "-o", cli_agl, "-q")
+    assert result.returncode == 0, result.stderr
+    flight = dsmplan.plan(mesh, agl, dsm=dsm, max_agl=30, spacing=10, waypoint_heights="agl")
+    py_agl = str(tmp_path / "py_agl.csv")
+    flight.write(py_agl)
+    assert open(py_agl, "rb").read() == open(cli_agl, "rb").read()
+    with pytest.raises(dsmplan.ArgumentError, match="waypoint_heights"):
+        dsmplan.plan(mesh, agl, dsm=dsm, waypoint_heights="above")

@@ -12,8 +12,10 @@ namespace dsmplan {
 /// Waypoints from a CSV file: one "x,y,z" line each, in the mesh's CRS (blanks around the
 /// numbers allowed). Empty lines and lines starting with '#' are skipped; a first line that is
 /// not numbers (e.g. "x,y,z") is a header. Throws InputError(path, "line N", ...) for any other
-/// line that is not three finite numbers, and InputError(path) for a missing file.
-std::vector<Point3> read_waypoints_csv(const std::string& path);
+/// line that is not three finite numbers, and InputError(path) for a missing file. `agl`, when
+/// given, is set to whether the header's third column is named "agl" (heights above the ground,
+/// FlightQuery::heights) rather than z.
+std::vector<Point3> read_waypoints_csv(const std::string& path, bool* agl = nullptr);
 
 /// Waypoints from GeoJSON (RFC 7946): a FeatureCollection of Point features (one waypoint each,
 /// in order; MultiPoint and LineString features give theirs in order), a Feature, or a bare

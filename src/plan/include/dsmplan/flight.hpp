@@ -17,6 +17,8 @@
 //     under the surface, closer than `safety` to the columns, above the ceiling or outside the
 //     ground; a mission's vertical climb and descent are checked from 1 m plus `safety` above
 //     the ground up, and a home that fails is answered with the nearest clear spot.
+//   - A refused waypoint is answered with the nearest valid point; with FlightQuery::snap it is
+//     moved there when that lies within the radius, and the move is reported (FlightReport::snapped).
 #pragma once
 
 #include <array>
@@ -122,9 +124,23 @@ struct FlightData {
   std::function<void(const ClearanceIndex& index, uint64_t key)> keep_index;
 };
 
+/// What a waypoint's z is: a height in the mesh's CRS, or above the ground (agl): the ground the
+/// ceiling counts from (FlightArea::ground(): the DTM, else the DSM, else the mesh's floor), as
+/// ground stations let pilots give it.
+enum class WaypointHeights { crs, agl };
+
 /// One flight over the data: the waypoints and the limits.
 struct FlightQuery {
-  std::vector<Point3> waypoints;  ///< x, y, z in the mesh's CRS, at least two
+  std::vector<Point3> waypoints;  ///< x, y in the mesh's CRS, z as `heights` says; at least two
+  WaypointHeights heights = WaypointHeights::crs;
+  /// Metres, in [0, 50]; 0: off. A waypoint that is refused (closer than the safety distance to
+  /// the obstacles, under the surface, above the ceiling, inside a no-fly zone that blocks) is
+  /// moved to the nearest valid point within this 3D distance: straight up first (steps of
+  /// 0.1 m), then sideways (square rings of max(0.5 m, snap / 40), nearest in 3D first, each
+  /// with the least vertical shift), held to the very check that refuses it. None within:
+  /// refused as without, naming the nearest valid point (within 50 m). Each move is reported
+  /// (FlightReport::snapped). Home is not moved: its refusal names the nearest clear spot.
+  double snap = 0;
   /// Planner, safety, ceiling, constraints (no-fly zones). `ground` is set from the data.
   PlanOptions options;
   /// A mission: a takeoff from home, the end, and the fewest straight legs that keep every
@@ -255,12 +271,24 @@ struct FlightReport {
     double min_distance_m = NAN;
   };
   std::vector<ZoneFigure> no_fly_zones;
+  /// Each waypoint FlightQuery::snap moved, in order: its number (1-based), where it was and
+  /// where it went (the CRS), how far (3D) and why it was refused there.
+  struct Snap {
+    size_t waypoint = 0;
+    Point3 from{NAN, NAN, NAN}, to{NAN, NAN, NAN};
+    double distance_m = NAN;
+    std::string reason;
+  };
+  std::vector<Snap> snapped;
 };
 
 /// A mission's site in its report: home, the takeoff's height, the end.
 void report_site(const MissionSite& site, FlightReport& report);
 
 struct FlightPlan {
+  /// The waypoints flown through, in the CRS: the query's, their heights above the ground turned
+  /// into the CRS's and the refused ones snapped (FlightQuery::snap).
+  std::vector<Point3> waypoints;
   /// The path through every waypoint, in order; a mission's from the top of the takeoff above
   /// home (or the first waypoint) with the fewest straight legs that keep every limit.
   std::vector<Point3> path;

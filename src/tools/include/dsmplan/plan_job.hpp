@@ -51,6 +51,13 @@ struct PlanJobOptions {
   /// .kml) show it as flown: from home on the ground up, and down at the end (home legs included).
   std::vector<std::string> more_outputs;
   PlanOptions plan;  ///< planner (prm, rrt_connect), seed, safety, spacing, max_edge, max_agl, threads
+  /// The waypoints' heights (FlightQuery::heights): "crs" (z in the mesh's CRS; GeoJSON's
+  /// ellipsoidal heights), "agl" (above the ground the ceiling counts from), or empty: crs, unless
+  /// a CSV's header names its third column "agl". parse_waypoint_heights() reads the names.
+  std::string waypoint_heights;
+  /// FlightQuery::snap (m, [0, 50], 0: off): a refused waypoint moved to the nearest valid point
+  /// within it, each move in the report (PlanReport::snapped) and the GeoJSON's properties.
+  double snap = 0;
   /// Roadmap file (PRM): read when it exists (read_roadmap(): refused when made for another mesh
   /// or other options), else built and written there for the next query.
   std::string roadmap;
@@ -112,10 +119,16 @@ PlanReport plan_job(const PlanJobOptions& options, const Progress& progress = {}
 /// The names every face takes for the plan's choices (the CLI's flags, Python's keywords), one
 /// ArgumentError naming the field ("planner", "end", "firmware", "altitude_frame": the CLI
 /// shows --planner, ...) and listing the names otherwise.
-PlannerKind parse_planner(const std::string& name);           ///< prm, rrtconnect
-MissionEnd parse_mission_end(const std::string& name);        ///< rtl, land, none
-Firmware parse_firmware(const std::string& name);             ///< px4, ardupilot, generic
-AltitudeFrame parse_altitude_frame(const std::string& name);  ///< relative, amsl
+PlannerKind parse_planner(const std::string& name);               ///< prm, rrtconnect
+MissionEnd parse_mission_end(const std::string& name);            ///< rtl, land, none
+Firmware parse_firmware(const std::string& name);                 ///< px4, ardupilot, generic
+AltitudeFrame parse_altitude_frame(const std::string& name);      ///< relative, amsl
+WaypointHeights parse_waypoint_heights(const std::string& name);  ///< crs, agl ("waypoint_heights")
+
+/// The waypoints of options.waypoints (CSV or GeoJSON, as plan_job() reads them) and their
+/// heights' reference: options.waypoint_heights, else a CSV header's "agl" column.
+/// ArgumentError("waypoint_heights") for "crs" over a file whose header says agl.
+std::vector<Point3> read_job_waypoints(const PlanJobOptions& options, WaypointHeights& heights);
 
 /// Writes a flight planned by plan_flight() over a mesh in `crs` (around `zones`, which a KML
 /// carries) as `dsmplan plan -o` does:
@@ -130,7 +143,8 @@ void write_flight(const FlightPlan& flight, const std::vector<Point3>& waypoints
 /// seconds_read + seconds_index), seconds_roadmap, seconds_query, seconds_smooth; min_clearance_dsm_m, dsm_tolerance_m,
 /// mesh_max_below_dsm_m with a DSM;
 /// roadmap_reused, index_reused, refined_samples, planner; transformation when WGS 84 was involved;
-/// render and profile (their reports' keys) when drawn.
+/// render and profile (their reports' keys) when drawn; snapped (each move: waypoint, from, to,
+/// distance_m, reason) when --snap moved a waypoint.
 Json to_json(const PlanReport& report);
 /// One summary line for people.
 std::string to_text(const PlanReport& report);
