@@ -1655,22 +1655,26 @@ TEST(LowAltitude, RefinementStopsAtItsWorkBoundsAndNamesThem) {
 // A 120 m square of ground at z = 0 with two walls 30 m tall across it, each with a 20 m gap at
 // opposite ends (or, closed, without it): under a 15 m ceiling a leg from the south to the north
 // must snake east through the first gap and west through the second.
+// A box from z = 0 to z1 over [x0, x1] x [y0, y1] (metres east and north of 356000, 5699000):
+// its top and, when z1 > 0, its four walls.
+void add_box(Mesh& mesh, double x0, double y0, double x1, double y1, double z1) {
+  const double x = 356000, y = 5699000;
+  const auto v = static_cast<uint32_t>(mesh.vertices.size());
+  for (double z : {0.0, z1})
+    mesh.vertices.insert(mesh.vertices.end(),
+                         {{x + x0, y + y0, z}, {x + x1, y + y0, z}, {x + x1, y + y1, z}, {x + x0, y + y1, z}});
+  mesh.triangles.push_back({v + 4, v + 5, v + 6});
+  mesh.triangles.push_back({v + 4, v + 6, v + 7});
+  for (uint32_t k = 0; k < 4 && z1 > 0; ++k) {
+    const uint32_t a = v + k, b = v + (k + 1) % 4;
+    mesh.triangles.push_back({a, b, b + 4});
+    mesh.triangles.push_back({a, b + 4, a + 4});
+  }
+}
+
 Mesh maze(bool closed) {
   Mesh mesh;
-  const double x = 356000, y = 5699000;
-  auto box = [&](double x0, double y0, double x1, double y1, double z1) {
-    const auto v = static_cast<uint32_t>(mesh.vertices.size());
-    for (double z : {0.0, z1})
-      mesh.vertices.insert(mesh.vertices.end(),
-                           {{x + x0, y + y0, z}, {x + x1, y + y0, z}, {x + x1, y + y1, z}, {x + x0, y + y1, z}});
-    mesh.triangles.push_back({v + 4, v + 5, v + 6});
-    mesh.triangles.push_back({v + 4, v + 6, v + 7});
-    for (uint32_t k = 0; k < 4 && z1 > 0; ++k) {
-      const uint32_t a = v + k, b = v + (k + 1) % 4;
-      mesh.triangles.push_back({a, b, b + 4});
-      mesh.triangles.push_back({a, b + 4, a + 4});
-    }
-  };
+  const auto box = [&](double x0, double y0, double x1, double y1, double z1) { add_box(mesh, x0, y0, x1, y1, z1); };
   box(0, 0, 120, 120, 0);
   box(0, 40, 100, 41, 30);
   box(closed ? 0 : 20, 80, 120, 81, 30);
@@ -1818,19 +1822,7 @@ TEST(LowAltitude, EscapeReachesTheNearestExitAndStaysWithinItsRadius) {
 TEST(LowAltitude, AWaypointInALightWellClimbsOutToTheRoadmap) {
   Mesh mesh;
   const double x = 356000, y = 5699000;
-  auto box = [&](double x0, double y0, double x1, double y1, double z1) {
-    const auto v = static_cast<uint32_t>(mesh.vertices.size());
-    for (double z : {0.0, z1})
-      mesh.vertices.insert(mesh.vertices.end(),
-                           {{x + x0, y + y0, z}, {x + x1, y + y0, z}, {x + x1, y + y1, z}, {x + x0, y + y1, z}});
-    mesh.triangles.push_back({v + 4, v + 5, v + 6});
-    mesh.triangles.push_back({v + 4, v + 6, v + 7});
-    for (uint32_t k = 0; k < 4 && z1 > 0; ++k) {
-      const uint32_t p = v + k, q = v + (k + 1) % 4;
-      mesh.triangles.push_back({p, q, q + 4});
-      mesh.triangles.push_back({p, q + 4, p + 4});
-    }
-  };
+  const auto box = [&](double x0, double y0, double x1, double y1, double z1) { add_box(mesh, x0, y0, x1, y1, z1); };
   box(0, 0, 600, 300, 0);
   box(40, 40, 76, 46, 40), box(40, 54, 76, 60, 40), box(40, 46, 54, 54, 40), box(62, 46, 76, 54, 40);
   const ClearanceIndex index(mesh);

@@ -473,20 +473,24 @@ Dsm read_dsm() {
   return dsm;
 }
 
-// Longitude, latitude (WGS 84) to EPSG:25832 (the crop's CRS), by GDAL's own transformation.
-bool to_utm32(double& x, double& y) {
-  OGRSpatialReferenceH wgs84 = OSRNewSpatialReference(nullptr), utm = OSRNewSpatialReference(nullptr);
-  OSRImportFromEPSG(wgs84, 4326);
-  OSRImportFromEPSG(utm, 25832);
-  OSRSetAxisMappingStrategy(wgs84, OAMS_TRADITIONAL_GIS_ORDER);
-  OSRSetAxisMappingStrategy(utm, OAMS_TRADITIONAL_GIS_ORDER);
-  OGRCoordinateTransformationH transform = OCTNewCoordinateTransformation(wgs84, utm);
+// (x, y) from EPSG `from` to EPSG `to` (longitude, latitude order for WGS 84), by GDAL's own
+// transformation.
+bool transform_point(int from, int to, double& x, double& y) {
+  OGRSpatialReferenceH source = OSRNewSpatialReference(nullptr), target = OSRNewSpatialReference(nullptr);
+  OSRImportFromEPSG(source, from);
+  OSRImportFromEPSG(target, to);
+  OSRSetAxisMappingStrategy(source, OAMS_TRADITIONAL_GIS_ORDER);
+  OSRSetAxisMappingStrategy(target, OAMS_TRADITIONAL_GIS_ORDER);
+  OGRCoordinateTransformationH transform = OCTNewCoordinateTransformation(source, target);
   const bool done = transform && OCTTransform(transform, 1, &x, &y, nullptr);
   if (transform) OCTDestroyCoordinateTransformation(transform);
-  OSRDestroySpatialReference(wgs84);
-  OSRDestroySpatialReference(utm);
+  OSRDestroySpatialReference(source);
+  OSRDestroySpatialReference(target);
   return done;
 }
+
+// Longitude, latitude (WGS 84) to EPSG:25832 (the crop's CRS).
+bool to_utm32(double& x, double& y) { return transform_point(4326, 25832, x, y); }
 
 // The mesh `dsmplan serve` plans over: the bundled DSM meshed at 1 m as a PLY (serve_test's),
 // the same area and CRS (EPSG:25832) as the viewer's GLB at 5 m.
@@ -1213,16 +1217,7 @@ TEST(View, DrawsGeoJsonZonesFromTheGroundToTheClampedTopAndRepeatsNoFly) {
   // as a second --no-fly, its six zones after these two.
   Scene scene;
   const auto lonlat = [](double x, double y) {
-    OGRSpatialReferenceH wgs84 = OSRNewSpatialReference(nullptr), utm = OSRNewSpatialReference(nullptr);
-    OSRImportFromEPSG(wgs84, 4326);
-    OSRImportFromEPSG(utm, 25832);
-    OSRSetAxisMappingStrategy(wgs84, OAMS_TRADITIONAL_GIS_ORDER);
-    OSRSetAxisMappingStrategy(utm, OAMS_TRADITIONAL_GIS_ORDER);
-    OGRCoordinateTransformationH transform = OCTNewCoordinateTransformation(utm, wgs84);
-    EXPECT_TRUE(transform && OCTTransform(transform, 1, &x, &y, nullptr));
-    OCTDestroyCoordinateTransformation(transform);
-    OSRDestroySpatialReference(wgs84);
-    OSRDestroySpatialReference(utm);
+    EXPECT_TRUE(transform_point(25832, 4326, x, y));
     return Json::array({x, y});
   };
   const auto square = [&](double x, double y, double h) {
