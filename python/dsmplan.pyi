@@ -130,6 +130,26 @@ def plan(
 ) -> Flight:
     """A collision-free path through the waypoints with every check of `dsmplan plan`."""
 
+def plan_routes(
+    mesh: Mesh,
+    routes: Sequence[npt.ArrayLike],
+    *,
+    dsm: Dsm | None = None,
+    dtm: Dsm | None = None,
+    safety: float = 2.0,
+    max_agl: float = 120.0,
+    spacing: float = 20.0,
+    planner: str = "prm",
+    no_fly: Sequence[str] = (),
+    no_fly_blocking: Sequence[str] | None = None,
+    vertical_crs: str = "",
+    allow_approximate_vertical: bool = False,
+    snap: float = 0.0,
+    waypoint_heights: str = "crs",
+) -> list[Flight | InputError]:
+    """Many routes over one roadmap, as `dsmplan plan --routes`: a Flight a route, or the
+    InputError plan() would raise for it (returned, not raised: one route stops no other)."""
+
 def render(
     dsm: str | Dsm,
     output: str,

@@ -14,6 +14,7 @@
 //   mesh.write(path)                    .ply, .obj, .off or .glb by the extension
 //   dsm = dsmplan.grid(points, res=1.0, classes=[2], fill_holes=30)   LAS/LAZ/XYZ to a DSM in memory,
 //                                       grid_point_files() of `dsmplan grid`; dsm.write(path): write_dsm()
+//   dsmplan.plan_routes(mesh, routes, ...)   many routes over one roadmap (plan_routes())
 //   dsmplan.render(dsm, output, ...), dsmplan.profile(dsm, path, output, ...)   PNGs by render_job()
 //                                       and profile_job() (files, a Dsm, a Flight as flown), returning
 //                                       the report of `--json` as a dict
@@ -150,6 +151,16 @@ std::shared_ptr<PyDsm> dsm_from_array(py::array_t<float, py::array::c_style | py
   return out;
 }
 
+// The zone files into the flight's data, in its mesh's CRS, and which restrictions block.
+void read_zones(FlightData& data, const std::vector<std::string>& no_fly,
+                const std::optional<std::vector<std::string>>& blocking, const VerticalOptions& vertical) {
+  for (const std::string& file : no_fly) {
+    const std::vector<AirspaceZone> zones = read_airspace(file, data.mesh->crs, vertical);
+    data.no_fly.insert(data.no_fly.end(), zones.begin(), zones.end());
+  }
+  if (blocking) data.airspace.blocking = *blocking;
+}
+
 std::shared_ptr<PyFlight> plan(const std::shared_ptr<PyMesh>& mesh,
                                py::array_t<double, py::array::c_style | py::array::forcecast> waypoints,
                                const std::shared_ptr<PyDsm>& dsm, const std::shared_ptr<PyDsm>& dtm, double safety,
@@ -177,12 +188,7 @@ std::shared_ptr<PyFlight> plan(const std::shared_ptr<PyMesh>& mesh,
   {
     py::gil_scoped_release release;
     require_projected(mesh->mesh.crs, "mesh", centre_of(mesh->mesh));  // as `dsmplan plan` does
-    for (const std::string& file : no_fly) {
-      const std::vector<AirspaceZone> zones =
-          read_airspace(file, mesh->mesh.crs, VerticalOptions{vertical_crs, allow_approximate_vertical});
-      request.no_fly.insert(request.no_fly.end(), zones.begin(), zones.end());
-    }
-    if (no_fly_blocking) request.airspace.blocking = *no_fly_blocking;
+    read_zones(request, no_fly, no_fly_blocking, VerticalOptions{vertical_crs, allow_approximate_vertical});
     std::optional<Wgs84Transform> to_msl;
     if (mission) {
       MissionEnds ends;
@@ -201,6 +207,60 @@ std::shared_ptr<PyFlight> plan(const std::shared_ptr<PyMesh>& mesh,
   out->zones = {request.no_fly, request.airspace};
   out->safety = safety, out->max_agl = max_agl;
   out->dtm = request.dtm;
+  return out;
+}
+
+// Many routes over one area, one roadmap (plan_routes(), flight.hpp): a Flight a route, or for a
+// route without a path the InputError it would raise, not raised.
+py::list plan_routes_of(const std::shared_ptr<PyMesh>& mesh,
+                        const std::vector<py::array_t<double, py::array::c_style | py::array::forcecast>>& routes,
+                        const std::shared_ptr<PyDsm>& dsm, const std::shared_ptr<PyDsm>& dtm, double safety,
+                        double max_agl, double spacing, const std::string& planner,
+                        const std::vector<std::string>& no_fly, std::optional<std::vector<std::string>> no_fly_blocking,
+                        const std::string& vertical_crs, bool allow_approximate_vertical, double snap,
+                        const std::string& waypoint_heights) {
+  FlightData data;
+  data.names = {"mesh", "routes", "dsm", "dtm"};
+  data.mesh = std::shared_ptr<const Mesh>(mesh, &mesh->mesh);
+  if (dsm) data.dsm = std::shared_ptr<const Grid>(dsm, &dsm->grid);
+  if (dtm) data.dtm = std::shared_ptr<const Grid>(dtm, &dtm->grid);
+  FlightQuery common;
+  common.options.safety = safety;
+  common.options.max_agl = max_agl;
+  common.options.spacing = spacing;
+  common.options.planner = parse_planner(planner);
+  common.snap = snap;
+  common.heights = parse_waypoint_heights(waypoint_heights);
+  std::vector<std::vector<Point3>> points;
+  for (const auto& route : routes) points.push_back(points_of(route));
+  RoutesPlan planned;
+  std::shared_ptr<const Grid> terrain = data.dtm;
+  ZoneLayer zones;
+  {
+    py::gil_scoped_release release;
+    require_projected(mesh->mesh.crs, "mesh", centre_of(mesh->mesh));
+    read_zones(data, no_fly, no_fly_blocking, VerticalOptions{vertical_crs, allow_approximate_vertical});
+    zones = {data.no_fly, data.airspace};
+    const FlightArea area(std::move(data));
+    planned = plan_routes(area, points, common);
+  }
+  const py::object input_error = py::module_::import("dsmplan").attr("InputError");
+  py::list out;
+  for (RouteResult& route : planned.routes) {
+    if (!route.solved) {
+      out.append(input_error(route.place.empty() ? route.why : route.place + ": " + route.why));
+      continue;
+    }
+    auto flight = std::make_shared<PyFlight>();
+    flight->flight = std::move(route.plan);
+    flight->waypoints = flight->flight.waypoints;
+    flight->crs = mesh->mesh.crs;
+    static_cast<FlightReport&>(flight->report) = flight->flight.report;
+    flight->zones = zones;
+    flight->safety = safety, flight->max_agl = max_agl;
+    flight->dtm = terrain;
+    out.append(flight);
+  }
   return out;
 }
 
@@ -769,6 +829,29 @@ PYBIND11_MODULE(dsmplan, m) {
         "straight up first; each move in Flight.report[\"snapped\"].\n"
         "waypoint_heights: \"crs\" (z in the mesh's CRS) or \"agl\" (z above the ground: the DTM, else the "
         "DSM, else the mesh's floor).");
+  m.def("plan_routes", &plan_routes_of, py::arg("mesh"), py::arg("routes"), py::kw_only(), py::arg("dsm") = nullptr,
+        py::arg("dtm") = nullptr, py::arg("safety") = 2.0, py::arg("max_agl") = 120.0, py::arg("spacing") = 20.0,
+        py::arg("planner") = "prm", py::arg("no_fly") = std::vector<std::string>{},
+        py::arg("no_fly_blocking") = py::none(), py::arg("vertical_crs") = "",
+        py::arg("allow_approximate_vertical") = false, py::arg("snap") = 0.0, py::arg("waypoint_heights") = "crs",
+        "Many routes over one roadmap, as `dsmplan plan --routes` (the same library function, plan_routes()): the "
+        "roadmap built once, every route a query against it, in parallel, each held to every rule of plan() and "
+        "verified. Returns a list in the routes' order: a Flight for a route with a path, else the InputError "
+        "plan() would raise for it (returned, not raised: one route stops no other).\n\n"
+        "mesh: the obstacle Mesh, in metres.\n"
+        "routes: a list of K x 3 arrays of x, y, z in the mesh's CRS, one a route.\n"
+        "dsm: a Dsm kept `safety` away from as solid columns, as plan().\n"
+        "dtm: a Dsm of the terrain, the ceiling's ground, as plan().\n"
+        "safety: the least distance from the mesh (and the DSM's columns), metres.\n"
+        "max_agl: the ceiling above the ground, metres.\n"
+        "spacing: the roadmap's sample spacing, metres.\n"
+        "planner: \"prm\" (one roadmap for all) or \"rrtconnect\" (trees per route).\n"
+        "no_fly: files of no-fly zones (ED-269 JSON or GeoJSON), as plan().\n"
+        "no_fly_blocking: the restrictions that block (default PROHIBITED and REQ_AUTHORISATION).\n"
+        "vertical_crs: the heights' vertical CRS for the zones' AMSL and WGS 84 limits, as plan().\n"
+        "allow_approximate_vertical: take heights of an unknown or grid-less vertical datum as EGM96.\n"
+        "snap: metres (0: off): a refused waypoint moved to the nearest valid point within it, as plan().\n"
+        "waypoint_heights: \"crs\" or \"agl\" (z above the ground), as plan().");
   m.def("render", &render, py::arg("dsm"), py::arg("output"), py::kw_only(), py::arg("meshes") = py::none(),
         py::arg("titles") = py::none(), py::arg("paths") = py::none(), py::arg("waypoints") = py::none(),
         py::arg("roadmap") = py::none(), py::arg("window") = py::none(), py::arg("zoom") = 4.0, py::arg("edges") = true,

@@ -432,3 +432,38 @@ def test_snap_and_heights_above_the_ground_give_the_command_lines_path(sample_pl
     assert open(py_agl, "rb").read() == open(cli_agl, "rb").read()
     with pytest.raises(dsmplan.ArgumentError, match="waypoint_heights"):
         dsmplan.plan(mesh, agl, dsm=dsm, waypoint_heights="above")
+
+
+def test_plan_routes_gives_the_command_lines_routes_and_reasons(sample_plan, tmp_path):
+    """Many routes over one roadmap: each solved route's path the bytes `dsmplan plan --routes`
+    writes for it, and a route without a path its InputError (returned, not raised) in the words
+    of routes.json."""
+    folder, mesh_file, _, _ = sample_plan
+    waypoints = read_waypoints(LOW_WAYPOINTS)
+    under = waypoints[0].copy()
+    under[2] = 90.0  # under the street's surface
+    routes = [waypoints[0:2], waypoints[1:3], waypoints[2:4], np.array([under, waypoints[1]])]
+    csv = tmp_path / "routes.csv"
+    csv.write_text("route,x,y,z\n" + "".join(f"r{i},{x!r},{y!r},{z!r}\n" for i, route in enumerate(routes)
+                                               for x, y, z in route))
+    out = str(tmp_path / "paths") + "/"
+    result = run_cli("plan", mesh_file, "--routes", str(csv), "--dsm", SAMPLE, "--max-agl", "30", "--spacing", "10",
+                     "-o", out, "-q")
+    assert result.returncode == 4, result.stderr
+    listed = json.load(open(out + "routes.json"))
+
+    dsm = dsmplan.read_dsm(SAMPLE)
+    mesh = dsmplan.simplify(dsm, max_error=0.4, conservative=True)
+    flights = dsmplan.plan_routes(mesh, routes, dsm=dsm, max_agl=30, spacing=10)
+    assert len(flights) == 4
+    for i, flight in enumerate(flights[:3]):
+        assert isinstance(flight, dsmplan.Flight), flight
+        mine = str(tmp_path / f"py_r{i}.csv")
+        flight.write(mine)
+        assert open(mine, "rb").read() == open(out + f"r{i}.csv", "rb").read()
+        assert flight.report["min_clearance_dsm_m"] >= 2.0 - 0.01
+    assert isinstance(flights[3], dsmplan.InputError)
+    assert not listed[3]["solved"] and str(flights[3]) == listed[3]["reason"]
+    assert "waypoint 1: inside the DSM" in str(flights[3])
+    with pytest.raises(dsmplan.ArgumentError, match="^planner: "):
+        dsmplan.plan_routes(mesh, routes, planner="astar")
