@@ -467,3 +467,74 @@ def test_plan_routes_gives_the_command_lines_routes_and_reasons(sample_plan, tmp
     assert "waypoint 1: inside the DSM" in str(flights[3])
     with pytest.raises(dsmplan.ArgumentError, match="^planner: "):
         dsmplan.plan_routes(mesh, routes, planner="astar")
+
+
+def test_delft_zones_are_kept_away_from_and_one_on_the_path_is_flown_around(tmp_path):
+    """Issue 35 point 3 over the Delft sample (AHN3 LiDAR, RD New + NAP): the mission between the
+    blocks planned with the hand-made GeoJSON zones, and again with a square zone the test puts on
+    the middle of the unconstrained path. Oracle: every 5 cm of each path, GDAL's planar distance
+    (EPSG:28992) to each blocking zone that spans the flight's heights is at least the safety
+    distance, and the square is flown around (a longer path)."""
+    from osgeo import ogr, osr
+
+    laz = [os.path.join(os.path.dirname(os.path.dirname(SAMPLE)), "delft-ahn3", f"ahn3_cropped_{i}.laz")
+           for i in (1, 2)]
+    dsm = dsmplan.grid(laz, res=1.0, crs="EPSG:7415")
+    dtm = dsmplan.grid(laz, res=1.0, crs="EPSG:7415", classes=[2], fill_holes=30)
+    mesh = dsmplan.simplify(dsm, max_error=0.4, conservative=True)
+    waypoints = read_waypoints(os.path.join(os.path.dirname(os.path.dirname(SAMPLE)), "delft-ahn3",
+                                            "low_waypoints.csv"))
+    common = dict(dsm=dsm, dtm=dtm, max_agl=10, spacing=4, allow_approximate_vertical=True)
+    bare = dsmplan.plan(mesh, waypoints, **common)
+    wgs84, rd = osr.SpatialReference(), osr.SpatialReference()
+    wgs84.ImportFromEPSG(4326), rd.ImportFromEPSG(28992)
+    for srs in (wgs84, rd):
+        srs.SetAxisMappingStrategy(osr.OAMS_TRADITIONAL_GIS_ORDER)
+    to_rd, to_wgs84 = osr.CoordinateTransformation(wgs84, rd), osr.CoordinateTransformation(rd, wgs84)
+
+    # A 6 m square, ground to unlimited, on the unconstrained path's middle point (a street:
+    # a wider one would close it under this ceiling).
+    path = np.asarray(bare.path)
+    mx, my = path[len(path) // 2, :2]
+    corners = [(mx - 3, my - 3), (mx + 3, my - 3), (mx + 3, my + 3), (mx - 3, my + 3), (mx - 3, my - 3)]
+    ring = [list(to_wgs84.TransformPoint(x, y)[:2]) for x, y in corners]
+    square = tmp_path / "square.geojson"
+    square.write_text(json.dumps({"type": "FeatureCollection", "features": [
+        {"type": "Feature", "properties": {"id": "SQ", "name": "Square on the path"},
+         "geometry": {"type": "Polygon", "coordinates": [ring]}}]}))
+
+    def zone_shapes(files):
+        """The blocking zones that span 0-40 m above the ground, as OGR polygons in RD New."""
+        shapes = []
+        for file in files:
+            for feature in json.load(open(file))["features"]:
+                p = feature["properties"]
+                if p.get("restriction", "PROHIBITED") not in ("PROHIBITED", "REQ_AUTHORISATION"):
+                    continue
+                if p.get("lower_ref", "AGL") != "AGL" or p.get("lower", 0) > 0:
+                    continue  # floor above the flight (the mast's 200-400 ft), or in another reference
+                geometry = ogr.CreateGeometryFromJson(json.dumps(feature["geometry"]))
+                geometry.Transform(to_rd)
+                shapes.append((p["name"], geometry))
+        return shapes
+
+    zones = os.path.join(os.path.dirname(__file__), "..", "data", "airspace", "delft_zones.geojson")
+    for files in ([zones], [zones, str(square)]):
+        flight = dsmplan.plan(mesh, waypoints, no_fly=files, **common)
+        shapes = zone_shapes(files)
+        assert len(shapes) == len(files) + 1  # the church precinct, the canal stops (and the square)
+        points = np.asarray(flight.path)
+        nearest = {name: np.inf for name, _ in shapes}
+        for a, b in zip(points[:-1], points[1:]):
+            steps = max(1, int(np.ceil(np.linalg.norm(b - a) / 0.05)))
+            for t in np.linspace(0, 1, steps + 1):
+                x, y = a[:2] + t * (b[:2] - a[:2])
+                point = ogr.Geometry(ogr.wkbPoint)
+                point.AddPoint_2D(float(x), float(y))
+                for name, shape in shapes:
+                    nearest[name] = min(nearest[name], shape.Distance(point))
+        for name, distance in nearest.items():
+            assert distance >= 2.0 - 0.01, (name, distance)
+        if len(files) == 2:
+            assert nearest["Square on the path"] < 10  # it goes close by, around it
+            assert flight.report["path_length_m"] > bare.report["path_length_m"] + 1
