@@ -220,10 +220,16 @@ struct WaypointRules {
 constexpr double kClimbStep = 0.1;   // m: the steps straight up
 constexpr double kWiderSearch = 50;  // m: how far a refusal looks for the nearest valid point
 
+// Points a refusal's wider (50 m) search tries at most: a refusal must come in seconds, not
+// search a 50 m ball of points each checked with a widened safety distance (a tower 20 m over
+// the mesh widened it to 22 m on the sample: 100 s for one refusal before this bound).
+constexpr size_t kMaxTries = 4000;
+
 struct Spot {
   bool found = false;
   Point3 at{NAN, NAN, NAN};
   double distance = INFINITY;
+  bool bounded = false;  // stopped at kMaxTries: only the nearest points were tried
 };
 
 // The nearest point to `p` within `radius` (3D) that the rules accept. Straight up first, in
@@ -232,9 +238,11 @@ struct Spot {
 // Sideways: search_rings() in steps of max(0.5 m, radius / 40) (at most 40 rings, so a
 // refusal's wider search stays a fraction of a second), each offset with the least vertical
 // shift that works (0, +1, -1, +2, ... steps), the nearest in 3D kept.
-Spot nearest_valid_point(const Point3& p, double radius, bool up_first, const WaypointRules& rules) {
+Spot nearest_valid_point(const Point3& p, double radius, bool up_first, const WaypointRules& rules,
+                         size_t max_tries = SIZE_MAX) {
   Spot spot;
-  for (int m = 1; m * kClimbStep <= radius + 1e-9 && !spot.found; ++m)
+  size_t tries = 0;
+  for (int m = 1; m * kClimbStep <= radius + 1e-9 && !spot.found; ++m, ++tries)
     if (const Point3 q{p[0], p[1], p[2] + m * kClimbStep}; rules.valid(q)) spot = {true, q, m * kClimbStep};
   if (spot.found && up_first) return spot;
   const double step = std::max(0.5, radius / 40);
@@ -244,9 +252,13 @@ Spot nearest_valid_point(const Point3& p, double radius, bool up_first, const Wa
       const double d = std::hypot(dxy, dz);
       if (d > radius || d >= spot.distance) break;
       if (dxy == 0 && dz >= 0) continue;  // the point itself, or climbed already (finer)
+      if (++tries > max_tries) {
+        spot.bounded = true;
+        return 0;  // ends the rings: nothing nearer than 0 is left to find
+      }
       const Point3 q{p[0] + dx, p[1] + dy, p[2] + dz};
       if (rules.valid(q)) {
-        spot = {true, q, d};
+        spot = {true, q, d, false};
         return d;
       }
     }
@@ -263,7 +275,8 @@ std::string point_in_words(const Point3& p) {
 // (within 10 m first, on the finer steps of a smaller radius).
 std::string nearest_in_words(const Point3& p, const WaypointRules& rules) {
   Spot spot = nearest_valid_point(p, 10, false, rules);
-  if (!spot.found) spot = nearest_valid_point(p, kWiderSearch, false, rules);
+  if (!spot.found) spot = nearest_valid_point(p, kWiderSearch, false, rules, kMaxTries);
+  if (!spot.found && spot.bounded) return "; no valid point among the " + std::to_string(kMaxTries) + " nearest tried";
   if (!spot.found) return "; no valid point within " + two_decimals(kWiderSearch) + " m";
   return "; the nearest valid point: " + point_in_words(spot.at) + " (" + two_decimals(spot.distance) +
          " m away; --snap moves a waypoint there)";
