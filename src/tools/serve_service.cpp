@@ -28,6 +28,7 @@ public:
 struct PlanService::State {
   ServeOptions options;
   std::unique_ptr<FlightArea> area;
+  ZoneLayer zones;                // the area's zones as a KML answer draws them, made once
   mutable RoadmapShelf shelf{4};  // the server's roadmap, and four for requests with another safety or ceiling
   Json loaded;                    // what /v1/info says was loaded
   std::string vertical_geojson, vertical_msl;  // the transformations' names, or why there is none
@@ -92,6 +93,7 @@ void prepare(PlanService::State& state, FlightData data, const Progress& progres
   const ServeOptions& options = state.options;
   state.area = std::make_unique<FlightArea>(std::move(data));
   const FlightArea& area = *state.area;
+  state.zones = {area.data().no_fly, area.data().airspace};
   report(progress, 0.4);
   (void)area.index();  // built now, not by the first request
   report(progress, 0.7);
@@ -150,8 +152,7 @@ std::string plan_answer(const PlanService::State& state, PlanRequest& request, T
   flight.report.seconds_load += before;
   static_cast<FlightReport&>(report) = flight.report;
   const OutputKind& kind = outputs.files.front().second;
-  const ZoneLayer zones{area.data().no_fly, area.data().airspace};
-  const FlightOutput out{flight, flight.waypoints, crs, zones};
+  const FlightOutput out{flight, flight.waypoints, crs, state.zones};
   const std::string bytes =
       kind.ext == "kmz" ? kmz_bytes(request.job, kind, out, t, report) : flight_text(request.job, kind, out, t, report);
   Json answer{{"format", kind.ext},
