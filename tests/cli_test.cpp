@@ -3177,6 +3177,60 @@ TEST(CliPlan, SnapMovesAWaypointBesideAWallToTheNearestValidPoint) {
   EXPECT_EQ(bad.err.rfind("dsmplan: --snap: must lie in [0, 50.00]", 0), 0u) << bad.err;
 }
 
+// --snap moves a mission's home too: a home against a wall (its climb passes nearer than the
+// safety distance) goes to the nearest clear spot, the very one the refusal without --snap names,
+// and the climb there keeps the safety distance from the DSM's columns by brute force.
+TEST(CliPlan, SnapMovesAHomeAgainstAWallToTheNearestClearSpot) {
+  SnapFixture f;
+  TempDir out;
+  const auto user = read_waypoints_csv_file(f.low);
+  std::array<double, 2> wall{NAN, NAN};  // as MissionHomeEndAndFirmwareRefusedInOneLine finds it
+  for (double dx = 0.5; dx < 60 && std::isnan(wall[0]); dx += 1) {
+    const double x = user[0][0] + dx, y = user[0][1] + 0.5;
+    if (f.cell(x + 1, y) - f.cell(x, y) > 8) wall = {x, y};
+  }
+  ASSERT_FALSE(std::isnan(wall[0])) << "no wall east of the first waypoint";
+  char at[64];
+  std::snprintf(at, sizeof at, "%.2f,%.2f", wall[0], wall[1]);
+  const auto refused = f.plan(out.path("never.plan"), {"--home", at});
+  ASSERT_EQ(refused.exit_code, 2) << refused.err;
+  const std::string said = "the nearest clear spot: --home ";
+  const size_t named = refused.err.find(said);
+  ASSERT_NE(named, std::string::npos) << refused.err;
+  double cx = NAN, cy = NAN, away = NAN;
+  ASSERT_EQ(std::sscanf(refused.err.c_str() + named + said.size(), "%lf,%lf (%lf m away)", &cx, &cy, &away), 3)
+      << refused.err;
+
+  const std::string plan = out.path("m.plan"), stats = out.path("s.json");
+  const auto snapped = f.plan(plan, {"--home", at, "--snap", "10", "--stats", stats});
+  ASSERT_EQ(snapped.exit_code, 0) << snapped.err;
+  const json report = json::parse(testkit::read_file(stats));
+  ASSERT_EQ(report["snapped"].size(), 1u) << report.dump();
+  const json& move = report["snapped"][0];
+  EXPECT_EQ(move["place"], "home");
+  EXPECT_EQ(move["waypoint"], 0);
+  EXPECT_NE(move["reason"].get<std::string>().find("climb"), std::string::npos) << move.dump();
+  const std::array<double, 3> from = point_of(move["from"]), to = point_of(move["to"]);
+  EXPECT_NEAR(from[0], std::stod(at), 1e-9);
+  EXPECT_NEAR(to[0], cx, 0.005);  // the spot the refusal named, to its two decimals
+  EXPECT_NEAR(to[1], cy, 0.005);
+  EXPECT_NEAR(move["distance_m"].get<double>(), away, 0.005);
+  EXPECT_EQ(to[2], f.ground(to[0], to[1]));  // on the ground (the DSM's cell, no DTM)
+  EXPECT_EQ(point_of(report["home"]), to);   // the mission's home is the moved one
+  // The climb at the new home, every 5 cm from 1 m plus --safety above the ground to the takeoff's
+  // top (as high above the ground as waypoint 1), keeps 2 m from the columns.
+  const double top = to[2] + report["takeoff_height_m"].get<double>();
+  for (double z = to[2] + 1 + 2; z <= top; z += 0.05)
+    ASSERT_GE(f.column_distance({to[0], to[1], z}), 2.0 - 0.01) << "z " << z;
+  // A radius short of the spot refuses home as without --snap, nothing written.
+  if (away > 1) {
+    const auto short_of = f.plan(out.path("never.plan"), {"--home", at, "--snap", "1"});
+    EXPECT_EQ(short_of.exit_code, 2) << short_of.err;
+    EXPECT_NE(short_of.err.find(said), std::string::npos) << short_of.err;
+    EXPECT_FALSE(std::filesystem::exists(out.path("never.plan")));
+  }
+}
+
 TEST(CliPlan, WaypointHeightsAboveTheGroundCountFromTheDtmElseTheDsm) {
   SnapFixture f;
   TempDir out;
@@ -3195,6 +3249,27 @@ TEST(CliPlan, WaypointHeightsAboveTheGroundCountFromTheDtmElseTheDsm) {
   const auto clash = f.plan_points(agl, out.path("never.csv"), {"--waypoint-heights", "crs", "-q"}, "x,y,agl\n");
   EXPECT_EQ(clash.exit_code, 2);
   EXPECT_EQ(clash.err.rfind("dsmplan: --waypoint-heights: is crs, but the header of", 0), 0u) << clash.err;
+  // --routes reads a "route,x,y,agl" header the same way: the route's path is the single run's.
+  const std::string routes = f.in.path("routes.csv"), folder = out.path("routes") + "/";
+  std::ostringstream rows;
+  rows.precision(17);
+  rows << "route,x,y,agl\n";
+  for (const auto& p : agl) rows << "r," << p[0] << "," << p[1] << "," << p[2] << "\n";
+  testkit::write_file(routes, rows.str());
+  const std::vector<std::string> route_args{
+      "plan",      f.bounded, "--routes",  routes, "--dsm", testkit::data_path(kSample),
+      "--max-agl", "30",      "--spacing", "10",   "-q"};
+  auto args = route_args;
+  args.insert(args.end(), {"-o", folder});
+  const auto by_routes = run_cli(args);
+  ASSERT_EQ(by_routes.exit_code, 0) << by_routes.err;
+  EXPECT_EQ(testkit::read_file(folder + "r.csv"), testkit::read_file(over_dsm));
+  args = route_args;
+  args.insert(args.end(), {"-o", out.path("never") + "/", "--waypoint-heights", "crs"});
+  const auto routes_clash = run_cli(args);
+  EXPECT_EQ(routes_clash.exit_code, 2);
+  EXPECT_EQ(routes_clash.err.rfind("dsmplan: --waypoint-heights: is crs, but the header of " + routes, 0), 0u)
+      << routes_clash.err;
 
   // With a DTM 3 m under the DSM, read back by GDAL: z = DTM cell + agl.
   dsmplan::Grid terrain = dsmplan::read_raster(testkit::data_path(kSample));
@@ -3219,6 +3294,22 @@ TEST(CliPlan, WaypointHeightsAboveTheGroundCountFromTheDtmElseTheDsm) {
   EXPECT_EQ(path.front()[2], dtm_cell(agl[0][0], agl[0][1]) + 9.5);
   EXPECT_EQ(path.back()[2], dtm_cell(agl[1][0], agl[1][1]) + 11.25);
   EXPECT_NE(path.front()[2], f.ground(agl[0][0], agl[0][1]) + 9.5);  // the DTM, not the DSM
+
+  // A DSM input, planned along a corridor window by window, counts from the same ground: the DSM's
+  // cells, or the DTM's.
+  f.write_waypoints(agl, "x,y,agl\n");
+  for (const std::string& with : {std::string(), dtm}) {
+    std::vector<std::string> args{"plan", testkit::data_path(kSample), "--waypoints", f.waypoints,
+                                  "-o",   out.path("corridor.csv"),    "--max-agl",   "30",
+                                  "-q"};
+    if (!with.empty()) args.insert(args.end(), {"--dtm", with});
+    const auto along = run_cli(args);
+    ASSERT_EQ(along.exit_code, 0) << along.err;
+    path = read_path_csv(out.path("corridor.csv"));
+    const auto under = [&](double x, double y) { return with.empty() ? f.ground(x, y) : dtm_cell(x, y); };
+    EXPECT_EQ(path.front()[2], under(agl[0][0], agl[0][1]) + 9.5) << with;
+    EXPECT_EQ(path.back()[2], under(agl[1][0], agl[1][1]) + 11.25) << with;
+  }
 }
 
 TEST(CliNoFly, SnapMovesAWaypointOutOfAZoneAndItsSafetyDistance) {

@@ -11,24 +11,28 @@ namespace dsmplan {
 
 namespace {
 
-// The corridor's ground under home, for a mission: the DTM, else the DSM read a cell at a time.
-double corridor_ground(GridSource& city, const GroundGrid* terrain, double x, double y) {
-  if (terrain) return -terrain->height_above({x, y, 0});
-  int col = 0, row = 0;
-  if (!city.frame().cell_at(x, y, col, row)) return NAN;
-  return read_window(city, col, row, 1, 1).z[0];
-}
-
-// The DSM's 3 x 3 cells around home: how uncertain its ground is (GroundGrid::spread_at()).
-double corridor_home_spread(GridSource& city, const GroundGrid* terrain, const Point3& home) {
-  if (terrain) return terrain->spread_at(home[0], home[1]);
+// The DSM's 3 x 3 cells around (x, y) as the ground (GroundGrid: a point on a cell's edge counts
+// the lowest cell it touches, as over a mesh with its DSM); empty outside the DSM.
+GroundGrid dsm_ground_around(GridSource& city, double x, double y) {
   const Grid& frame = city.frame();
   int col = 0, row = 0;
-  frame.cell_at(home[0], home[1], col, row);
+  if (!frame.cell_at(x, y, col, row)) return {};
   const int c0 = std::max(0, col - 1), r0 = std::max(0, row - 1);
-  const GroundGrid around(
+  return GroundGrid(
       read_window(city, c0, r0, std::min(frame.width, col + 2) - c0, std::min(frame.height, row + 2) - r0));
-  return around.spread_at(home[0], home[1]);
+}
+
+// The corridor's ground at (x, y): the DTM, else the DSM read around it; NaN where unknown.
+double corridor_ground(GridSource& city, const GroundGrid* terrain, double x, double y) {
+  const double above =
+      terrain ? terrain->height_above({x, y, 0}) : dsm_ground_around(city, x, y).height_above({x, y, 0});
+  return std::isfinite(above) ? -above : NAN;
+}
+
+// How uncertain the ground under home is (GroundGrid::spread_at()).
+double corridor_home_spread(GridSource& city, const GroundGrid* terrain, const Point3& home) {
+  if (terrain) return terrain->spread_at(home[0], home[1]);
+  return dsm_ground_around(city, home[0], home[1]).spread_at(home[0], home[1]);
 }
 
 // The DTM against the DSM a row at a time: the comparison walks its lattice row by row.
@@ -82,10 +86,13 @@ FlightPlan plan_flight_along(GridSource& city, const CorridorRequest& request, c
   report.planner = request.options.planner == PlannerKind::prm ? "prm" : "rrtconnect";
   report.waypoint_count = request.waypoints.size();
   report.ground = along.terrain ? "dtm" : "dsm";
-  const std::vector<Point3>& waypoints = request.waypoints;
+  const GroundGrid* terrain = along.terrain.get();
+  out.waypoints = waypoints_in_crs(
+      request.waypoints, request.heights, [&](double x, double y) { return corridor_ground(city, terrain, x, y); },
+      names.waypoints, report.ground);
+  const std::vector<Point3>& waypoints = out.waypoints;
   std::vector<Point3> route = waypoints;
   if (request.mission) {
-    const GroundGrid* terrain = along.terrain.get();
     out.site = mission_site(*request.mission, waypoints,
                             [&](double x, double y) { return corridor_ground(city, terrain, x, y); });
     report.home_ground = report.ground;

@@ -91,6 +91,15 @@ void check_count(const std::string& path, size_t count) {
     throw InputError(path, "", std::to_string(count) + " waypoints: at most 100000 a mission (split it into several)");
 }
 
+// Whether a CSV header's column `k` (0-based) is named "agl": heights above the ground.
+bool column_is_agl(const std::string& header, int k) {
+  std::istringstream columns(header);
+  std::string column;
+  for (int i = 0; std::getline(columns, column, ','); ++i)
+    if (i == k) return lower_case(trim(column)) == "agl";
+  return false;
+}
+
 }  // namespace
 
 std::vector<Point3> read_waypoints_csv(const std::string& path, bool* agl) {
@@ -109,10 +118,7 @@ std::vector<Point3> read_waypoints_csv(const std::string& path, bool* agl) {
       throw InputError(path, "line " + std::to_string(number),
                        "expected 'x,y,z' (three numbers), got '" + text.substr(0, 60) + "'");
     } else if (agl) {  // the header: "x,y,agl" gives heights above the ground
-      std::istringstream columns(text);
-      std::string column;
-      for (int k = 0; k < 3 && std::getline(columns, column, ','); ++k) *agl = lower_case(trim(column)) == "agl";
-      *agl = *agl && std::count(text.begin(), text.end(), ',') >= 2;
+      *agl = column_is_agl(text, 2);
     }
     first = false;
   }
@@ -195,7 +201,8 @@ std::vector<Point3>& route_named(std::vector<Route>& routes, std::map<std::strin
 
 }  // namespace
 
-std::vector<Route> read_routes_csv(const std::string& path) {
+std::vector<Route> read_routes_csv(const std::string& path, bool* agl) {
+  if (agl) *agl = false;
   std::istringstream in(read_waypoint_bytes(path));
   std::vector<Route> routes;
   std::map<std::string, size_t> index;
@@ -214,6 +221,8 @@ std::vector<Route> read_routes_csv(const std::string& path) {
     } else if (!first) {
       throw InputError(path, "line " + std::to_string(number),
                        "expected 'route,x,y,z' (an id and three numbers), got '" + text.substr(0, 60) + "'");
+    } else if (agl) {  // the header: "route,x,y,agl" gives heights above the ground
+      *agl = column_is_agl(text, 3);
     }
     first = false;
   }

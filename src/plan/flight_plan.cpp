@@ -304,28 +304,10 @@ std::vector<PlanResult::Invalid> snap_waypoints(std::vector<Point3>& waypoints, 
                                 nearest_in_words(waypoints[i], rules)});
       continue;
     }
-    report.snapped.push_back({i + 1, waypoints[i], spot.at, spot.distance, why});
+    report.snapped.push_back({i + 1, "waypoint " + std::to_string(i + 1), waypoints[i], spot.at, spot.distance, why});
     waypoints[i] = spot.at;
   }
   return refused;
-}
-
-// The waypoints with z in the CRS: a height above the ground (WaypointHeights::agl) added to the
-// ground the ceiling counts from, as the pilot meant it.
-std::vector<Point3> heights_in_crs(const FlightArea& area, const FlightQuery& query) {
-  std::vector<Point3> waypoints = query.waypoints;
-  if (query.heights != WaypointHeights::agl) return waypoints;
-  const GroundGrid& ground = area.ground();
-  for (size_t i = 0; i < waypoints.size(); ++i) {
-    Point3& p = waypoints[i];
-    const double z = -ground.height_above({p[0], p[1], 0});
-    if (!std::isfinite(z))
-      throw InputError(area.data().names.waypoints, "waypoint " + std::to_string(i + 1),
-                       "x " + two_decimals(p[0]) + ", y " + two_decimals(p[1]) + " lies over no ground (the " +
-                           area.ground_name() + ") to count its height above the ground from");
-    p[2] += z;
-  }
-  return waypoints;
 }
 
 // The path's distance to each zone (for --stats and the summary), and its segments checked once
@@ -375,6 +357,22 @@ void report_site(const MissionSite& site, FlightReport& report) {
   report.home = site.home;
   report.takeoff_height_m = site.takeoff_top[2] - site.home[2];
   report.mission_end = site.end == MissionEnd::rtl ? "rtl" : site.end == MissionEnd::land ? "land" : "none";
+}
+
+std::vector<Point3> waypoints_in_crs(std::vector<Point3> waypoints, WaypointHeights heights,
+                                     const std::function<double(double, double)>& ground_z, const std::string& file,
+                                     const std::string& ground_name) {
+  if (heights != WaypointHeights::agl) return waypoints;
+  for (size_t i = 0; i < waypoints.size(); ++i) {
+    Point3& p = waypoints[i];
+    const double z = ground_z(p[0], p[1]);
+    if (!std::isfinite(z))
+      throw InputError(file, "waypoint " + std::to_string(i + 1),
+                       "x " + two_decimals(p[0]) + ", y " + two_decimals(p[1]) + " lies over no ground (the " +
+                           ground_name + ") to count its height above the ground from");
+    p[2] += z;
+  }
+  return waypoints;
 }
 
 // ---- the area ----------------------------------------------------------------------------------
@@ -535,7 +533,13 @@ FlightAttempt attempt_flight(const FlightArea& area, const FlightQuery& query, c
   report.safety_margin_m = data.dsm ? area.safety_margin() : NAN;
   report.mesh_max_below_dsm_m = area.mesh_max_below_dsm();
   report.column_max_above_mesh_m = area.column_max_above_mesh();
-  std::vector<Point3> waypoints = heights_in_crs(area, query);
+  const GroundGrid& ground_in_use = area.ground();
+  std::vector<Point3> waypoints = waypoints_in_crs(
+      query.waypoints, query.heights,
+      [&](double x, double y) {
+        return -ground_in_use.height_above({x, y, 0});
+      },
+      data.names.waypoints, area.ground_name());
   out.waypoints = waypoints;
   std::vector<PlanResult::Invalid> early = refused_before_planning(area, waypoints, query.options);
   // Refused without --snap: before the index is built, unless it is needed to name the nearest
@@ -572,9 +576,14 @@ FlightAttempt attempt_flight(const FlightArea& area, const FlightQuery& query, c
     rules.constraints.push_back(constraint.get());
 
   std::vector<Point3> route = waypoints;
+  const auto dsm_z = [&](double x, double y) { return area.columns() ? double(area.columns()->height_at(x, y)) : NAN; };
   if (query.mission) {
     const auto ground_z = [&](double x, double y) { return -ground.height_above({x, y, 0}); };
     out.site = mission_site(*query.mission, waypoints, ground_z);
+    if (query.snap > 0)
+      if (auto moved = snap_home(*out.site, waypoints, rules, dsm_z, query.snap,
+                                 [&](const Point3& p) { return checks.valid(p); }))
+        report.snapped.push_back(std::move(*moved));
     report.home_ground = report.ground;
     report.home_ground_uncertainty_m = ground.spread_at(out.site->home[0], out.site->home[1]);
   }
@@ -587,9 +596,6 @@ FlightAttempt attempt_flight(const FlightArea& area, const FlightQuery& query, c
                          area.columns() ? "the DSM " + names.dsm : "the mesh " + names.mesh);
   }
   if (site) {
-    const auto dsm_z = [&](double x, double y) {
-      return area.columns() ? double(area.columns()->height_at(x, y)) : NAN;
-    };
     check_vertical_legs(*site, waypoints, rules, dsm_z);
     route = route_waypoints(waypoints, *site);
   }

@@ -4,6 +4,7 @@
 // src/io/mission_writers.cpp.
 #include <array>
 #include <cmath>
+#include <optional>
 
 #include "core/text.hpp"
 #include "dsmplan/columns.hpp"
@@ -104,14 +105,17 @@ void check_vertical(const Point3& top, double ground, const FlightRules& limits,
                                 " (checked from " + two_decimals(kTouchdown) + " m plus --safety above the ground up)");
 }
 
-// The nearest place to `top` (within 50 m, on the ground's cells) whose climb, as high above
-// the ground as `top`'s, keeps the limits; NaN, NaN when there is none.
+// The nearest place to `top` (within `radius`, horizontally, on the ground's cells) whose climb,
+// as high above the ground as `top`'s, keeps the limits and whose top `top_valid` accepts (when
+// given); NaN, NaN when there is none.
 std::array<double, 2> nearest_clear_climb(const Point3& top, double ground, const FlightRules& limits,
-                                          const std::function<double(double, double)>& dsm_z) {
+                                          const std::function<double(double, double)>& dsm_z, double radius = 50,
+                                          const std::function<bool(const Point3&)>& top_valid = {}) {
   if (!limits.ground || limits.ground->empty()) return {NAN, NAN};
   const double step = std::max(limits.ground->grid().cell_x, 0.5), above = top[2] - ground;
   std::array<double, 2> found{NAN, NAN};
-  detail::search_rings(step, 50, 1, [&](double dx, double dy, double d) -> double {
+  detail::search_rings(step, radius, 1, [&](double dx, double dy, double d) -> double {
+    if (d > radius) return INFINITY;  // a ring's corners lie beyond it
     const double x = top[0] + dx, y = top[1] + dy;
     const double g = -limits.ground->height_above({x, y, 0});
     if (!std::isfinite(g)) return INFINITY;
@@ -120,6 +124,7 @@ std::array<double, 2> nearest_clear_climb(const Point3& top, double ground, cons
     } catch (const ArgumentError&) {
       return INFINITY;
     }
+    if (top_valid && !top_valid({x, y, g + above})) return INFINITY;
     found = {x, y};
     return d;
   });
@@ -142,6 +147,28 @@ void check_vertical_legs(const MissionSite& site, const std::vector<Point3>& way
   }
   if (site.end == MissionEnd::land)
     check_vertical(waypoints.back(), site.land[2], limits, dsm_z, "--end", "descent to land");
+}
+
+std::optional<FlightReport::Snap> snap_home(MissionSite& site, const std::vector<Point3>& waypoints,
+                                            const FlightRules& limits,
+                                            const std::function<double(double, double)>& dsm_z, double radius,
+                                            const std::function<bool(const Point3&)>& top_valid) {
+  std::string why;
+  try {
+    check_vertical(site.takeoff_top, site.home[2], limits, dsm_z, "--home", "climb from home");
+    return std::nullopt;
+  } catch (const ArgumentError& error) {
+    why = error.problem();
+  }
+  const auto [x, y] = nearest_clear_climb(site.takeoff_top, site.home[2], limits, dsm_z, radius, top_valid);
+  if (std::isnan(x)) return std::nullopt;  // check_vertical_legs() refuses it, naming the nearest
+  const double ground = -limits.ground->height_above({x, y, 0});
+  FlightReport::Snap move{0, "home", site.home, {x, y, ground}, std::hypot(x - site.home[0], y - site.home[1]), why};
+  site.takeoff_top = {x, y, ground + (site.takeoff_top[2] - site.home[2])};
+  site.home = move.to;
+  site.leading = true;  // the takeoff top is no longer the first waypoint: a leg leads to it
+  site.returns = site.end == MissionEnd::rtl && !same_point(waypoints.back(), site.takeoff_top);
+  return move;
 }
 
 std::string mission_place(const PlanResult& result, const MissionSite& site, size_t user_waypoints) {

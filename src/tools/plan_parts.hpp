@@ -128,6 +128,11 @@ FlightPictures draw_flight_pictures(const PlanJobOptions& options, const FlightP
 /// Writes them (write_png(), atomically).
 void write_flight_pictures(const PlanJobOptions& options, const FlightPictures& pictures);
 
+/// What a waypoint file's heights are: `option` (--waypoint-heights: crs or agl), else agl when
+/// the CSV header of `file` names its height column "agl". ArgumentError("waypoint_heights") for
+/// crs over such a header.
+WaypointHeights waypoint_heights_of(const std::string& option, bool agl_column, const std::string& file);
+
 /// GeoJSON waypoints [lon, lat, height] to the mesh's CRS: the height through `wgs84` when it is
 /// ellipsoidal (WaypointHeights::crs), kept as it is when it is above the ground (agl).
 void from_wgs84(std::vector<Point3>& waypoints, const Wgs84Transform& wgs84, WaypointHeights heights);

@@ -55,16 +55,20 @@ WaypointHeights parse_waypoint_heights(const std::string& name) {
   return name == "agl" ? WaypointHeights::agl : WaypointHeights::crs;
 }
 
+WaypointHeights waypoint_heights_of(const std::string& option, bool agl_column, const std::string& file) {
+  if (option.empty()) return agl_column ? WaypointHeights::agl : WaypointHeights::crs;
+  const WaypointHeights heights = parse_waypoint_heights(option);
+  if (agl_column && heights == WaypointHeights::crs)
+    throw ArgumentError("waypoint_heights", "is crs, but the header of " + file +
+                                                " names its height column agl (heights above the ground)");
+  return heights;
+}
+
 std::vector<Point3> read_job_waypoints(const PlanJobOptions& options, WaypointHeights& heights) {
   bool agl_column = false;
   std::vector<Point3> waypoints = is_geojson(options.waypoints) ? read_waypoints_geojson(options.waypoints)
                                                                 : read_waypoints_csv(options.waypoints, &agl_column);
-  heights = agl_column ? WaypointHeights::agl : WaypointHeights::crs;
-  if (options.waypoint_heights.empty()) return waypoints;
-  heights = parse_waypoint_heights(options.waypoint_heights);
-  if (agl_column && heights == WaypointHeights::crs)
-    throw ArgumentError("waypoint_heights", "is crs, but the header of " + options.waypoints +
-                                                " names its third column agl (heights above the ground)");
+  heights = waypoint_heights_of(options.waypoint_heights, agl_column, options.waypoints);
   return waypoints;
 }
 
@@ -172,7 +176,7 @@ struct Planned {
 };
 
 // A DSM (raster, VRT mosaic) instead of a mesh: planned along a corridor, window by window.
-Planned plan_along_corridor(const PlanJobOptions& options, const Outputs& outputs, bool geo_in,
+Planned plan_along_corridor(const PlanJobOptions& options, const Outputs& outputs, bool geo_in, WaypointHeights heights,
                             std::vector<Point3>& waypoints, Transforms& t, PlanReport& report,
                             const Progress& progress) {
   Stopwatch clock;
@@ -181,10 +185,10 @@ Planned plan_along_corridor(const PlanJobOptions& options, const Outputs& output
   planned.crs = city->frame().crs;
   require_projected(planned.crs, options.mesh, centre_of(city->frame()));
   make_transforms(t, planned.crs, geo_in, outputs, options.vertical, report.transformation);
-  if (geo_in)
-    for (Point3& p : waypoints) p = t.wgs84->from_wgs84(p);
+  if (geo_in) from_wgs84(waypoints, *t.wgs84, heights);
   CorridorRequest request;
   request.waypoints = waypoints;
+  request.heights = heights;
   request.options = options.plan;
   if (outputs.mission) request.mission = mission_ends(options.mission, t);
   if (!options.dtm.empty()) request.dtm = std::make_shared<const Grid>(read_raster(options.dtm));
@@ -198,6 +202,7 @@ Planned plan_along_corridor(const PlanJobOptions& options, const Outputs& output
   const double opened = clock.lap();
   planned.flight = plan_flight_along(*city, request, progress);
   planned.flight.report.seconds_load += opened;
+  waypoints = planned.flight.waypoints;  // in the CRS: what the outputs mark
   return planned;
 }
 
@@ -371,16 +376,16 @@ PlanReport plan_job(const PlanJobOptions& options, const Progress& progress) {
   const bool geo_in = is_geojson(options.waypoints);
   WaypointHeights heights = WaypointHeights::crs;
   std::vector<Point3> waypoints = read_job_waypoints(options, heights);
-  if (corridor && (heights == WaypointHeights::agl || options.snap != 0))
-    throw ArgumentError(heights == WaypointHeights::agl ? "waypoint_heights" : "snap",
-                        "applies to a mesh input; the DSM " + options.mesh + " is planned along a corridor");
+  if (corridor && options.snap != 0)
+    throw ArgumentError("snap", "applies to a mesh input; the DSM " + options.mesh + " is planned along a corridor");
   if (waypoints.size() < 2)
     throw InputError(options.waypoints, "",
                      "a path needs at least two waypoints, the file has " + std::to_string(waypoints.size()));
 
   Transforms t;
-  const Planned planned = corridor ? plan_along_corridor(options, outputs, geo_in, waypoints, t, report, progress)
-                                   : plan_over_mesh(options, outputs, geo_in, heights, waypoints, t, report, progress);
+  const Planned planned = corridor
+                              ? plan_along_corridor(options, outputs, geo_in, heights, waypoints, t, report, progress)
+                              : plan_over_mesh(options, outputs, geo_in, heights, waypoints, t, report, progress);
   const FlightPlan& flight = planned.flight;
   static_cast<FlightReport&>(report) = flight.report;
   report.mesh = options.mesh;
@@ -452,6 +457,7 @@ Json snapped_json(const std::vector<FlightReport::Snap>& snapped) {
   Json moves = Json::array();
   for (const FlightReport::Snap& s : snapped)
     moves.push_back({{"waypoint", s.waypoint},
+                     {"place", s.place},
                      {"from", {s.from[0], s.from[1], s.from[2]}},
                      {"to", {s.to[0], s.to[1], s.to[2]}},
                      {"distance_m", s.distance_m},
@@ -570,9 +576,8 @@ std::string to_text(const PlanReport& r) {
   }
   for (const FlightReport::Snap& s : r.snapped) {
     char move[240];
-    std::snprintf(move, sizeof move,
-                  "waypoint %zu snapped %.2f m: x %.2f, y %.2f, z %.2f to x %.2f, y %.2f, z %.2f (--snap; ", s.waypoint,
-                  s.distance_m, s.from[0], s.from[1], s.from[2], s.to[0], s.to[1], s.to[2]);
+    std::snprintf(move, sizeof move, "%s snapped %.2f m: x %.2f, y %.2f, z %.2f to x %.2f, y %.2f, z %.2f (--snap; ",
+                  s.place.c_str(), s.distance_m, s.from[0], s.from[1], s.from[2], s.to[0], s.to[1], s.to[2]);
     text += move + s.reason + ")\n";
   }
   if (!r.transformation.empty()) text += "heights and coordinates to WGS 84 by: " + r.transformation + "\n";

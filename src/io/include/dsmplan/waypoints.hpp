@@ -36,8 +36,9 @@ struct Route {
 /// Routes from CSV: "route,x,y,z" lines, the id any text without a comma, x, y, z in the mesh's
 /// CRS; a first line that is not such (e.g. "route,x,y,z") is a header, '#' lines and empty ones
 /// are skipped. A route's rows are its waypoints in order; routes come in the order of their first
-/// row. InputError(path, "line N", ...) for another line, InputError(path) for no route.
-std::vector<Route> read_routes_csv(const std::string& path);
+/// row. InputError(path, "line N", ...) for another line, InputError(path) for no route. `agl`,
+/// when given, is set to whether the header's fourth column is named "agl" (read_waypoints_csv()).
+std::vector<Route> read_routes_csv(const std::string& path, bool* agl = nullptr);
 
 /// Routes from GeoJSON (RFC 7946): a FeatureCollection of LineString (or MultiPoint) features, one
 /// route each, its id the feature's properties.id, else its id member, else "route N"; positions

@@ -139,7 +139,8 @@ struct FlightQuery {
   /// 0.1 m), then sideways (square rings of max(0.5 m, snap / 40), nearest in 3D first, each
   /// with the least vertical shift), held to the very check that refuses it. None within:
   /// refused as without, naming the nearest valid point (within 50 m). Each move is reported
-  /// (FlightReport::snapped). Home is not moved: its refusal names the nearest clear spot.
+  /// (FlightReport::snapped). A mission's home whose climb is refused is moved sideways to the
+  /// nearest clear spot within the radius (snap_home()); without, its refusal names that spot.
   double snap = 0;
   /// Planner, safety, ceiling, constraints (no-fly zones). `ground` is set from the data.
   PlanOptions options;
@@ -271,16 +272,25 @@ struct FlightReport {
     double min_distance_m = NAN;
   };
   std::vector<ZoneFigure> no_fly_zones;
-  /// Each waypoint FlightQuery::snap moved, in order: its number (1-based), where it was and
-  /// where it went (the CRS), how far (3D) and why it was refused there.
+  /// Each waypoint FlightQuery::snap moved, in order, then home: its number (1-based; 0 for
+  /// home), where it was and where it went (the CRS), how far (3D) and why it was refused there.
   struct Snap {
-    size_t waypoint = 0;
+    size_t waypoint = 0;  ///< 0: home
+    std::string place;    ///< "waypoint N" or "home"
     Point3 from{NAN, NAN, NAN}, to{NAN, NAN, NAN};
     double distance_m = NAN;
     std::string reason;
   };
   std::vector<Snap> snapped;
 };
+
+/// The waypoints with z in the CRS: with WaypointHeights::agl, each z is a height above the ground
+/// and the ground's height there, `ground_z(x, y)`, is added (the same ground the ceiling counts
+/// from). InputError(file, "waypoint N") where `ground_z` is not finite (no ground known there;
+/// `ground_name` names the ground: "dtm", "dsm", "mesh floor").
+std::vector<Point3> waypoints_in_crs(std::vector<Point3> waypoints, WaypointHeights heights,
+                                     const std::function<double(double, double)>& ground_z, const std::string& file,
+                                     const std::string& ground_name);
 
 /// A mission's site in its report: home, the takeoff's height, the end.
 void report_site(const MissionSite& site, FlightReport& report);
@@ -424,6 +434,17 @@ std::vector<Point3> route_waypoints(const std::vector<Point3>& waypoints, const 
 /// that fails is answered with the nearest clear spot within 50 m.
 void check_vertical_legs(const MissionSite& site, const std::vector<Point3>& waypoints, const FlightRules& rules,
                          const std::function<double(double, double)>& dsm_z);
+
+/// FlightQuery::snap for home: when check_vertical_legs() would refuse the climb at home, home is
+/// moved to the nearest clear spot within `radius` metres (horizontally; on the ground's cells,
+/// nearest first) whose climb keeps the rules and whose top `top_valid` accepts (when given: the
+/// planner's check of a waypoint). The takeoff top moves with it, as high above the new ground,
+/// and becomes a leg of its own. Returns the move; none when the climb is clear or no spot lies
+/// within (check_vertical_legs() then refuses home, naming the nearest clear spot).
+std::optional<FlightReport::Snap> snap_home(MissionSite& site, const std::vector<Point3>& waypoints,
+                                            const FlightRules& rules,
+                                            const std::function<double(double, double)>& dsm_z, double radius,
+                                            const std::function<bool(const Point3&)>& top_valid = {});
 
 /// The no-fly zones a vertical leg keeps out of, where the ground is read piece by piece: their
 /// AGL limits count from `terrain`, else from the DSM read around the leg.

@@ -56,7 +56,8 @@ struct PlanJobOptions {
   /// a CSV's header names its third column "agl". parse_waypoint_heights() reads the names.
   std::string waypoint_heights;
   /// FlightQuery::snap (m, [0, 50], 0: off): a refused waypoint moved to the nearest valid point
-  /// within it, each move in the report (PlanReport::snapped) and the GeoJSON's properties.
+  /// within it (a mission's home to the nearest clear spot), each move in the report
+  /// (PlanReport::snapped) and the GeoJSON's properties.
   double snap = 0;
   /// Roadmap file (PRM): read when it exists (read_roadmap(): refused when made for another mesh
   /// or other options), else built and written there for the next query.
@@ -143,8 +144,8 @@ void write_flight(const FlightPlan& flight, const std::vector<Point3>& waypoints
 /// seconds_read + seconds_index), seconds_roadmap, seconds_query, seconds_smooth; min_clearance_dsm_m, dsm_tolerance_m,
 /// mesh_max_below_dsm_m with a DSM;
 /// roadmap_reused, index_reused, refined_samples, planner; transformation when WGS 84 was involved;
-/// render and profile (their reports' keys) when drawn; snapped (each move: waypoint, from, to,
-/// distance_m, reason) when --snap moved a waypoint.
+/// render and profile (their reports' keys) when drawn; snapped (each move: waypoint, place, from,
+/// to, distance_m, reason) when --snap moved a waypoint or home.
 Json to_json(const PlanReport& report);
 /// One summary line for people.
 std::string to_text(const PlanReport& report);
