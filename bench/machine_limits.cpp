@@ -103,25 +103,31 @@ int main() {
               bench::load_average().c_str());
   Stream m;
   for (const int threads : {1, cores}) {
-    line("memory read (sum)", threads, m.rate(threads, 8, [&](size_t b, size_t e) {
-      double sum = 0;
-      for (size_t i = b; i < e; ++i) sum += m.a[i];
-      sink = sink + sum;
-    }), "GB/s");
-    line("memory write (fill)", threads, m.rate(threads, 8, [&](size_t b, size_t e) {
-      std::memset(static_cast<void*>(&m.c[b]), 0, (e - b) * sizeof(double));
-    }), "GB/s");
-    line("memory copy (a = b)", threads, m.rate(threads, 16, [&](size_t b, size_t e) {
-      std::memcpy(&m.a[b], &m.b[b], (e - b) * sizeof(double));
-    }), "GB/s");
-    line("memory triad (a = b + s c)", threads, m.rate(threads, 24, [&](size_t b, size_t e) {
-      for (size_t i = b; i < e; ++i) m.a[i] = m.b[i] + 0.5 * m.c[i];
-    }), "GB/s");
+    line("memory read (sum)", threads,
+         m.rate(threads, 8,
+                [&](size_t b, size_t e) {
+                  double sum = 0;
+                  for (size_t i = b; i < e; ++i) sum += m.a[i];
+                  sink = sink + sum;
+                }),
+         "GB/s");
+    line("memory write (fill)", threads,
+         m.rate(threads, 8,
+                [&](size_t b, size_t e) { std::memset(static_cast<void*>(&m.c[b]), 0, (e - b) * sizeof(double)); }),
+         "GB/s");
+    line("memory copy (a = b)", threads,
+         m.rate(threads, 16, [&](size_t b, size_t e) { std::memcpy(&m.a[b], &m.b[b], (e - b) * sizeof(double)); }),
+         "GB/s");
+    line("memory triad (a = b + s c)", threads,
+         m.rate(threads, 24,
+                [&](size_t b, size_t e) {
+                  for (size_t i = b; i < e; ++i) m.a[i] = m.b[i] + 0.5 * m.c[i];
+                }),
+         "GB/s");
   }
   for (const int threads : {1, cores}) {
     line("fp32 FMA, AVX2 (2 flops a lane)", threads, ops_rate(threads, 12 * 8 * 2, fma_chains), "GFLOP/s");
-    line("uint16 add+min, AVX2 (2 ops a lane)", threads, ops_rate(threads, 8 * 16 * 2, saturating_chains),
-         "Gop/s");
+    line("uint16 add+min, AVX2 (2 ops a lane)", threads, ops_rate(threads, 8 * 16 * 2, saturating_chains), "Gop/s");
   }
   return 0;
 }

@@ -220,10 +220,15 @@ struct WaypointRules {
 constexpr double kClimbStep = 0.1;   // m: the steps straight up
 constexpr double kWiderSearch = 50;  // m: how far a refusal looks for the nearest valid point
 
-// Points a refusal's wider (50 m) search tries at most: a refusal must come in seconds, not
-// search a 50 m ball of points each checked with a widened safety distance (a tower 20 m over
-// the mesh widened it to 22 m on the sample: 100 s for one refusal before this bound).
-constexpr size_t kMaxTries = 4000;
+// Points a refusal's searches (within 10 m, then 50 m) try at most: a refusal must come in
+// seconds, not search a ball of points each checked with a widened safety distance (a tower 20 m
+// over the mesh widened it to 22 m on the sample: 100 s for one refusal with no bound, 30 s with
+// the wider search bounded alone, since the 10 m ball at 0.5 m steps holds 33,000 points; 16 s
+// with both). Of the 1,346 waypoints refused among bench/routes_process.sh's 10,000 routes, the
+// bounded search names the same point as the unbounded one for all but one (8.73 m away instead
+// of 8.41 m); a bound of 4,000 for both named a farther one for others too (r1946: 7.92 m, not
+// 6.75 m).
+constexpr size_t kMaxNearTries = 16000, kMaxTries = 4000;
 
 struct Spot {
   bool found = false;
@@ -274,7 +279,7 @@ std::string point_in_words(const Point3& p) {
 // Where a refused point could be instead, for its message: the nearest valid point within 50 m
 // (within 10 m first, on the finer steps of a smaller radius).
 std::string nearest_in_words(const Point3& p, const WaypointRules& rules) {
-  Spot spot = nearest_valid_point(p, 10, false, rules);
+  Spot spot = nearest_valid_point(p, 10, false, rules, kMaxNearTries);
   if (!spot.found) spot = nearest_valid_point(p, kWiderSearch, false, rules, kMaxTries);
   if (!spot.found && spot.bounded) return "; no valid point among the " + std::to_string(kMaxTries) + " nearest tried";
   if (!spot.found) return "; no valid point within " + two_decimals(kWiderSearch) + " m";
@@ -341,11 +346,18 @@ void measure_flight(FlightPlan& out, const FlightArea& area, const FlightQuery& 
   const std::vector<Point3>& path = out.path;
   report.path_points = path.size();
   report.path_length_m = path_length(path);
+  // The least clearance up to `cap`: within a reach of the safety distance plus 1 m first (a
+  // path keeps the safety distance and most pass within a metre or two of it), doubled until some
+  // segment comes within it, and each segment up to the least so far. The same minimum as one
+  // pass within the whole cap, but a query's cost grows with the square of its reach: the first
+  // segment searched within 122 m cost more than planning the route (issue 35's routes at 120 m).
   const double cap = query.options.safety + query.options.max_agl;
-  report.min_clearance_m = cap;
-  for (size_t k = 1; k < path.size(); ++k)
-    // Up to the least so far: the same minimum, without searching 100 m around every segment.
-    report.min_clearance_m = out.index->clearance(path[k - 1], path[k], report.min_clearance_m);
+  for (double reach = std::min(cap, query.options.safety + 1);; reach = std::min(cap, 2 * reach)) {
+    double least = reach;
+    for (size_t k = 1; k < path.size(); ++k) least = out.index->clearance(path[k - 1], path[k], least);
+    report.min_clearance_m = least;
+    if (least < reach || reach >= cap) break;
+  }
   const FlightNames& names = area.data().names;
   verify(path, area.columns(), area.ground(), query.options, cap, report, area.columns() ? names.dsm : names.mesh);
   if (out.site) report_site(*out.site, report);

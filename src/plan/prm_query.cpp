@@ -43,6 +43,25 @@ std::vector<uint32_t> all_nodes(size_t n) {
   return ids;
 }
 
+// A*'s state for one thread, kept from query to query: a route is one query among thousands
+// against a roadmap of ten thousand nodes and more, and clearing arrays that large for each leg
+// cost more than the search itself (issue 35's routes at 120 m: A* was 20 % of the run). An
+// entry is valid only when its stamp is the current search's.
+struct AStarState {
+  std::vector<double> g, goal_cost;
+  std::vector<uint32_t> parent, seen, closed, goal;  // seen/closed/goal: the search's stamp
+  std::vector<std::pair<double, uint32_t>> open;     // a binary heap: f, node (ties by node number)
+  uint32_t stamp = 0;
+  void start(size_t nodes) {
+    if (g.size() < nodes || ++stamp == 0) {  // grown, or the stamps wrapped: cleared once
+      g.assign(nodes, INFINITY), goal_cost.assign(nodes, 0), parent.assign(nodes, UINT32_MAX);
+      seen.assign(nodes, 0), closed.assign(nodes, 0), goal.assign(nodes, 0);
+      stamp = 1;
+    }
+    open.clear();
+  }
+};
+
 // A* from waypoint a to waypoint b through the roadmap; the points of the path (a and b
 // included), or empty when none exists.
 std::vector<Point3> astar(const Roadmap& map, const Point3& a, const Point3& b,
@@ -50,42 +69,47 @@ std::vector<Point3> astar(const Roadmap& map, const Point3& a, const Point3& b,
                           const std::vector<std::pair<double, uint32_t>>& to_b) {
   const uint32_t n = static_cast<uint32_t>(map.nodes.size()), S = n, G = n + 1;
   auto point = [&](uint32_t v) -> const Point3& { return v == S ? a : v == G ? b : map.nodes[v]; };
-  std::vector<double> goal_cost(n, -1);
-  for (const auto& [d, v] : to_b) goal_cost[v] = d;
-  std::vector<double> g(n + 2, INFINITY);
-  std::vector<uint32_t> parent(n + 2, UINT32_MAX);
-  std::vector<char> closed(n + 2, 0);
-  using Entry = std::pair<double, uint32_t>;  // f, node: ties break by node number
-  std::priority_queue<Entry, std::vector<Entry>, std::greater<>> open;
-  g[S] = 0;
-  open.emplace(distance(a, b), S);
+  thread_local AStarState state;
+  AStarState& st = state;
+  st.start(n + 2);
+  const uint32_t now = st.stamp;
+  for (const auto& [d, v] : to_b) st.goal_cost[v] = d, st.goal[v] = now;
+  const auto g = [&](uint32_t v) { return st.seen[v] == now ? st.g[v] : INFINITY; };
+  using Entry = std::pair<double, uint32_t>;
+  const auto push = [&](double f, uint32_t v) {
+    st.open.emplace_back(f, v);
+    std::push_heap(st.open.begin(), st.open.end(), std::greater<Entry>());
+  };
+  st.g[S] = 0, st.seen[S] = now, st.parent[S] = UINT32_MAX;
+  push(distance(a, b), S);
   auto relax = [&](uint32_t u, uint32_t v, double w) {
-    const double cost = g[u] + w;
-    if (cost < g[v]) {
-      g[v] = cost;
-      parent[v] = u;
-      open.emplace(cost + distance(point(v), b), v);
+    const double cost = st.g[u] + w;
+    if (cost < g(v)) {
+      st.g[v] = cost, st.seen[v] = now;
+      st.parent[v] = u;
+      push(cost + distance(point(v), b), v);
     }
   };
-  while (!open.empty()) {
-    const uint32_t u = open.top().second;
-    open.pop();
-    if (closed[u]) continue;
-    closed[u] = 1;
+  while (!st.open.empty()) {
+    std::pop_heap(st.open.begin(), st.open.end(), std::greater<Entry>());
+    const uint32_t u = st.open.back().second;
+    st.open.pop_back();
+    if (st.closed[u] == now) continue;
+    st.closed[u] = now;
     if (u == G) break;
     if (u == S) {
       for (const auto& [d, v] : from_a) relax(u, v, d);
       continue;
     }
-    if (goal_cost[u] >= 0) relax(u, G, goal_cost[u]);
+    if (st.goal[u] == now) relax(u, G, st.goal_cost[u]);
     for (uint32_t k = map.start[u]; k < map.start[u + 1]; ++k) {
       const uint32_t v = map.neighbour[k];
-      if (!closed[v]) relax(u, v, distance(map.nodes[u], map.nodes[v]));
+      if (st.closed[v] != now) relax(u, v, distance(map.nodes[u], map.nodes[v]));
     }
   }
-  if (!closed[G]) return {};
+  if (st.closed[G] != now) return {};
   std::vector<Point3> path;
-  for (uint32_t v = G; v != UINT32_MAX; v = parent[v]) path.push_back(point(v));
+  for (uint32_t v = G; v != UINT32_MAX; v = st.parent[v]) path.push_back(point(v));
   std::reverse(path.begin(), path.end());
   return path;
 }

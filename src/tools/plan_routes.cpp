@@ -1,9 +1,16 @@
 // dsmplan plan --routes: many routes in one run over one mesh, the paper's multi-query planner
 // (plan_routes(): one roadmap, every route a query against it), written as one GeoJSON
 // FeatureCollection or a folder of files, a route without a path reported, not fatal.
+#include <tbb/blocked_range.h>
+#include <tbb/enumerable_thread_specific.h>
+#include <tbb/parallel_for.h>
+
 #include <filesystem>
 #include <map>
+#include <memory>
+#include <mutex>
 #include <optional>
+#include <utility>
 
 #include "core/stopwatch.hpp"
 #include "core/text.hpp"
@@ -77,28 +84,44 @@ Json route_figures(const Route& route, const RouteResult& result) {
 }
 
 // The FeatureCollection: each route's path in WGS 84 (ellipsoidal heights), its figures or reason.
+// The features are made in parallel, each thread with its own transformation (PROJ's objects are
+// not shared across threads; each is `wgs84`'s operation made again), and joined in the routes'
+// order: the bytes Json::dump() gives of the whole document (its members in their order).
 std::string routes_geojson(const std::vector<Route>& routes, const RoutesPlan& planned, const Crs& crs,
-                           const Wgs84Transform& wgs84) {
-  Json features = Json::array();
-  for (size_t i = 0; i < routes.size(); ++i) {
-    const RouteResult& result = planned.routes[i];
-    Json geometry;  // null for a route without a path
-    if (result.solved) {
-      Json line = Json::array();
-      for (const Point3& p : result.plan.path) {
-        const Point3 g = wgs84.to_wgs84(p);
-        line.push_back({g[0], g[1], g[2]});
+                           const Wgs84Transform& wgs84, const VerticalOptions& vertical) {
+  std::vector<std::string> features(routes.size());
+  tbb::enumerable_thread_specific<std::unique_ptr<Wgs84Transform>> transforms;
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, routes.size(), 64), [&](const tbb::blocked_range<size_t>& range) {
+    std::unique_ptr<Wgs84Transform>& mine = transforms.local();
+    if (!mine) mine = std::make_unique<Wgs84Transform>(crs, HeightReference::Ellipsoid, vertical);
+    for (size_t i = range.begin(); i != range.end(); ++i) {
+      const RouteResult& result = planned.routes[i];
+      Json geometry;  // null for a route without a path
+      if (result.solved) {
+        Json line = Json::array();
+        for (const Point3& p : result.plan.path) {
+          const Point3 g = mine->to_wgs84(p);
+          line.push_back({g[0], g[1], g[2]});
+        }
+        geometry = {{"type", "LineString"}, {"coordinates", line}};
       }
-      geometry = {{"type", "LineString"}, {"coordinates", line}};
+      features[i] =
+          Json{{"type", "Feature"}, {"properties", route_figures(routes[i], result)}, {"geometry", geometry}}.dump();
     }
-    features.push_back({{"type", "Feature"}, {"properties", route_figures(routes[i], result)}, {"geometry", geometry}});
+  });
+  size_t bytes = 0;
+  for (const std::string& f : features) bytes += f.size() + 1;
+  std::string doc;
+  doc.reserve(bytes + 1024);
+  doc += "{\"type\":\"FeatureCollection\",\"crs_source\":" + Json(crs.name).dump() +
+         ",\"height\":" + Json("metres above the WGS 84 ellipsoid").dump() +
+         ",\"transformation\":" + Json(wgs84.description()).dump() + ",\"features\":[";
+  for (size_t i = 0; i < features.size(); ++i) {
+    if (i) doc += ',';
+    doc += features[i];
   }
-  const Json doc{{"type", "FeatureCollection"},
-                 {"crs_source", crs.name},
-                 {"height", "metres above the WGS 84 ellipsoid"},
-                 {"transformation", wgs84.description()},
-                 {"features", features}};
-  return doc.dump() + "\n";
+  doc += "]}\n";
+  return doc;
 }
 
 // One file a solved route, and routes.json with every route's figures or reason.
@@ -140,8 +163,9 @@ void write_routes_folder(const std::vector<Route>& routes, const RoutesPlan& pla
 RoutesReport plan_routes_job(const PlanJobOptions& options, const Progress& progress) {
   check_routes_options(options);
   Stopwatch clock;
-  std::vector<Route> routes =
-      is_geojson_name(options.routes) ? read_routes_geojson(options.routes) : read_routes_csv(options.routes);
+  bool agl_column = false;
+  std::vector<Route> routes = is_geojson_name(options.routes) ? read_routes_geojson(options.routes)
+                                                              : read_routes_csv(options.routes, &agl_column);
   ReadRequest read = read_flight_request(options, {}, sub_progress(progress, 0, 0.1));
   FlightRequest& request = read.request;
   const Crs crs = request.mesh->crs;
@@ -150,8 +174,7 @@ RoutesReport plan_routes_job(const PlanJobOptions& options, const Progress& prog
   std::optional<Wgs84Transform> wgs84;
   if (is_geojson_name(options.routes) || !is_folder(options.output))
     wgs84.emplace(crs, HeightReference::Ellipsoid, options.vertical);
-  const WaypointHeights heights =
-      options.waypoint_heights.empty() ? WaypointHeights::crs : parse_waypoint_heights(options.waypoint_heights);
+  const WaypointHeights heights = waypoint_heights_of(options.waypoint_heights, agl_column, options.routes);
   if (is_geojson_name(options.routes))
     for (Route& route : routes) from_wgs84(route.waypoints, *wgs84, heights);
   RoutesReport report;
@@ -167,8 +190,14 @@ RoutesReport plan_routes_job(const PlanJobOptions& options, const Progress& prog
   common.store = file_store(options);
   if (options.format == "plan" || options.format == "waypoints" || options.format == "kmz") {
     MissionEnds ends{options.mission.home, options.mission.end, {}};
-    ends.from_lonlat = [&](double lon, double lat) {
-      return Wgs84Transform(crs, HeightReference::MeanSeaLevel, options.vertical).from_wgs84({lon, lat, 0});
+    // Every route has the one home: turned into the CRS once, by the first route that asks
+    // (routes are planned in parallel, and a PROJ transformation is not shared across threads).
+    auto home = std::make_shared<std::pair<std::once_flag, Point3>>();
+    ends.from_lonlat = [&, home](double lon, double lat) {
+      std::call_once(home->first, [&] {
+        home->second = Wgs84Transform(crs, HeightReference::MeanSeaLevel, options.vertical).from_wgs84({lon, lat, 0});
+      });
+      return home->second;
     };
     common.mission = ends;
   }
@@ -191,7 +220,7 @@ RoutesReport plan_routes_job(const PlanJobOptions& options, const Progress& prog
   if (is_folder(options.output))
     write_routes_folder(routes, planned, area, options);
   else
-    write_text_file(options.output, routes_geojson(routes, planned, crs, *wgs84));
+    write_text_file(options.output, routes_geojson(routes, planned, crs, *wgs84, options.vertical));
   report.seconds_write = clock.lap();
   dsmplan::report(progress, 1);
   return report;
