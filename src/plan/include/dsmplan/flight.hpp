@@ -137,8 +137,9 @@ struct FlightQuery {
   /// the obstacles, under the surface, above the ceiling, inside a no-fly zone that blocks) is
   /// moved to the nearest valid point within this 3D distance: straight up first (steps of
   /// 0.1 m), then sideways (square rings of max(0.5 m, snap / 40), nearest in 3D first, each
-  /// with the least vertical shift), held to the very check that refuses it. None within:
-  /// refused as without, naming the nearest valid point (within 50 m). Each move is reported
+  /// with the least vertical shift), held to the very check that refuses it, at most 16,000
+  /// points tried (nearest first). None within: refused as without, naming the nearest valid
+  /// point (within 50 m). Each move is reported
   /// (FlightReport::snapped). A mission's home whose climb is refused is moved sideways to the
   /// nearest clear spot within the radius (snap_home()); without, its refusal names that spot.
   double snap = 0;
