@@ -11,22 +11,28 @@ import numpy as np
 from osgeo import gdal
 
 
-def main():
-    dsm_path, count, out = sys.argv[1], int(sys.argv[2]), sys.argv[3]
-    rng = np.random.default_rng(int(sys.argv[4]) if len(sys.argv) > 4 else 1)
-    source = gdal.Open(dsm_path)
-    z = source.GetRasterBand(1).ReadAsArray().astype(np.float64)
-    x0, cx, _, y0, _, cy = source.GetGeoTransform()
-    r = int(round(10 / abs(cx)))
+def street_cells(z, cell, margin_m):
+    """Rows and columns of the street cells of heights `z` (cells of `cell` m), `margin_m` away
+    from the raster's edge."""
+    r = int(round(10 / cell))
     padded = np.pad(z, r, mode="edge")
     low = np.full_like(z, np.inf)
     for dy in range(0, 2 * r + 1, 2):
         for dx in range(0, 2 * r + 1, 2):
             low = np.minimum(low, padded[dy:dy + z.shape[0], dx:dx + z.shape[1]])
     rows, cols = np.nonzero(np.isfinite(z) & (z <= low + 0.5))
-    margin = 20 / abs(cx)  # away from the tile's edge
+    margin = margin_m / cell
     keep = (rows > margin) & (cols > margin) & (rows < z.shape[0] - margin) & (cols < z.shape[1] - margin)
-    rows, cols = rows[keep], cols[keep]
+    return rows[keep], cols[keep]
+
+
+def main():
+    dsm_path, count, out = sys.argv[1], int(sys.argv[2]), sys.argv[3]
+    rng = np.random.default_rng(int(sys.argv[4]) if len(sys.argv) > 4 else 1)
+    source = gdal.Open(dsm_path)
+    z = source.GetRasterBand(1).ReadAsArray().astype(np.float64)
+    x0, cx, _, y0, _, cy = source.GetGeoTransform()
+    rows, cols = street_cells(z, abs(cx), 20)  # away from the tile's edge
     xs, ys = x0 + (cols + 0.5) * cx, y0 + (rows + 0.5) * cy
     with open(out, "w") as f:
         f.write("route,x,y,z\n")

@@ -17,20 +17,9 @@ import sys
 import numpy as np
 from osgeo import gdal
 
+from make_routes import street_cells  # this folder's: the street cells the routes bench draws from
+
 SAFETY = 2.0
-
-
-def street_cells(z, cx):
-    r = int(round(10 / abs(cx)))
-    padded = np.pad(z, r, mode="edge")
-    low = np.full_like(z, np.inf)
-    for dy in range(0, 2 * r + 1, 2):
-        for dx in range(0, 2 * r + 1, 2):
-            low = np.minimum(low, padded[dy:dy + z.shape[0], dx:dx + z.shape[1]])
-    rows, cols = np.nonzero(np.isfinite(z) & (z <= low + 0.5))
-    margin = 15 / abs(cx)
-    keep = (rows > margin) & (cols > margin) & (rows < z.shape[0] - margin) & (cols < z.shape[1] - margin)
-    return rows[keep], cols[keep]
 
 
 def column_distance(p, z, x0, y0, cx, cy):
@@ -77,7 +66,7 @@ def main():
     if nodata is not None:
         z[z == nodata] = np.nan
     gt = source.GetGeoTransform()
-    rows, cols = street_cells(z, gt[1])
+    rows, cols = street_cells(z, abs(gt[1]), 15)
     xs, ys = gt[0] + (cols + 0.5) * gt[1], gt[3] + (rows + 0.5) * gt[5]
     plain = {"planned": 0, "refused_wall": 0, "refused_other": 0}
     snapped = {"planned": 0, "refused": 0, "moves": [], "worst_clearance": np.inf}

@@ -1845,6 +1845,17 @@ struct MissionFixture : PlanFixture {
     args.insert(args.end(), extra.begin(), extra.end());
     return run_cli(args);
   }
+  // A home against a wall, whose climb passes nearer than the safety distance: the first cell
+  // centre east of the first waypoint (on the half-metre line north of it) whose east neighbour
+  // stands 8 m higher; NaN, NaN when there is none within 60 m.
+  std::array<double, 2> home_against_wall() const {
+    const auto user = read_waypoints_csv_file(low);
+    for (double dx = 0.5; dx < 60; dx += 1) {
+      const double x = user[0][0] + dx, y = user[0][1] + 0.5;
+      if (cell(x + 1, y) - cell(x, y) > 8) return {x, y};
+    }
+    return {NAN, NAN};
+  }
 };
 
 // One definition of each measure (issue 32): the height above the ground `plan` verifies and
@@ -2188,11 +2199,7 @@ TEST(CliBadInput, MissionHomeEndAndFirmwareRefusedInOneLine) {
   expect_clean_failure(f.plan(out.path("m.csv"), {"--home", "356400,5699400"}), out, "--home", {"missions"});
   expect_clean_failure(f.plan(out.path("m.csv"), {"--end", "land"}), out, "--end", {"missions"});
   // A home against a wall: the climb passes nearer than the safety distance.
-  std::array<double, 2> wall{NAN, NAN};
-  for (double dx = 0.5; dx < 60 && std::isnan(wall[0]); dx += 1) {
-    const double x = user[0][0] + dx, y = user[0][1] + 0.5;
-    if (f.cell(x + 1, y) - f.cell(x, y) > 8) wall = {x, y};
-  }
+  const std::array<double, 2> wall = f.home_against_wall();
   ASSERT_FALSE(std::isnan(wall[0])) << "no wall east of the first waypoint";
   char at[64];
   std::snprintf(at, sizeof at, "%.2f,%.2f", wall[0], wall[1]);
@@ -3183,12 +3190,7 @@ TEST(CliPlan, SnapMovesAWaypointBesideAWallToTheNearestValidPoint) {
 TEST(CliPlan, SnapMovesAHomeAgainstAWallToTheNearestClearSpot) {
   SnapFixture f;
   TempDir out;
-  const auto user = read_waypoints_csv_file(f.low);
-  std::array<double, 2> wall{NAN, NAN};  // as MissionHomeEndAndFirmwareRefusedInOneLine finds it
-  for (double dx = 0.5; dx < 60 && std::isnan(wall[0]); dx += 1) {
-    const double x = user[0][0] + dx, y = user[0][1] + 0.5;
-    if (f.cell(x + 1, y) - f.cell(x, y) > 8) wall = {x, y};
-  }
+  const std::array<double, 2> wall = f.home_against_wall();
   ASSERT_FALSE(std::isnan(wall[0])) << "no wall east of the first waypoint";
   char at[64];
   std::snprintf(at, sizeof at, "%.2f,%.2f", wall[0], wall[1]);
