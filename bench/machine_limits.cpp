@@ -51,6 +51,20 @@ struct Stream {
 
 volatile double sink = 0;  // keeps the sums alive
 
+// The sum of [b, e) of `a` in four independent vector chains: bound by memory, not by the
+// latency of one chain of additions (a plain loop read at 9.4 GB/s here, one add per 3 cycles).
+__attribute__((target("avx2"))) double vector_sum(const double* a, size_t b, size_t e) {
+  __m256d s[4] = {_mm256_setzero_pd(), _mm256_setzero_pd(), _mm256_setzero_pd(), _mm256_setzero_pd()};
+  size_t i = b;
+  for (; i + 16 <= e; i += 16)
+    for (int k = 0; k < 4; ++k) s[k] = _mm256_add_pd(s[k], _mm256_loadu_pd(a + i + 4 * k));
+  double out[4];
+  _mm256_storeu_pd(out, _mm256_add_pd(_mm256_add_pd(s[0], s[1]), _mm256_add_pd(s[2], s[3])));
+  double total = out[0] + out[1] + out[2] + out[3];
+  for (; i < e; ++i) total += a[i];
+  return total;
+}
+
 __attribute__((target("avx2,fma"))) double fma_chains(size_t iterations) {
   // 12 independent chains: enough to cover the FMA latency (4 cycles) on two FMA ports.
   __m256 acc[12];
@@ -104,13 +118,7 @@ int main() {
   Stream m;
   for (const int threads : {1, cores}) {
     line("memory read (sum)", threads,
-         m.rate(threads, 8,
-                [&](size_t b, size_t e) {
-                  double sum = 0;
-                  for (size_t i = b; i < e; ++i) sum += m.a[i];
-                  sink = sink + sum;
-                }),
-         "GB/s");
+         m.rate(threads, 8, [&](size_t b, size_t e) { sink = sink + vector_sum(m.a.data(), b, e); }), "GB/s");
     line("memory write (fill)", threads,
          m.rate(threads, 8,
                 [&](size_t b, size_t e) { std::memset(static_cast<void*>(&m.c[b]), 0, (e - b) * sizeof(double)); }),
