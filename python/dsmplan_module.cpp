@@ -161,6 +161,38 @@ void read_zones(FlightData& data, const std::vector<std::string>& no_fly,
   if (blocking) data.airspace.blocking = *blocking;
 }
 
+// The data and limits plan() and plan_routes() take alike. The data are shared with the Python
+// objects, not copied: the arrays handed out are read-only.
+void share_data(FlightData& data, const std::shared_ptr<PyMesh>& mesh, const std::shared_ptr<PyDsm>& dsm,
+                const std::shared_ptr<PyDsm>& dtm) {
+  data.mesh = std::shared_ptr<const Mesh>(mesh, &mesh->mesh);
+  if (dsm) data.dsm = std::shared_ptr<const Grid>(dsm, &dsm->grid);
+  if (dtm) data.dtm = std::shared_ptr<const Grid>(dtm, &dtm->grid);
+}
+void set_limits(FlightQuery& query, double safety, double max_agl, double spacing, const std::string& planner,
+                double snap, const std::string& waypoint_heights) {
+  query.options.safety = safety;
+  query.options.max_agl = max_agl;
+  query.options.spacing = spacing;
+  query.options.planner = parse_planner(planner);
+  query.snap = snap;
+  query.heights = parse_waypoint_heights(waypoint_heights);
+}
+
+// A planned flight as a Flight, with what its pictures draw with it.
+std::shared_ptr<PyFlight> flight_of(FlightPlan plan, const Crs& crs, ZoneLayer zones, std::shared_ptr<const Grid> dtm,
+                                    double safety, double max_agl) {
+  auto out = std::make_shared<PyFlight>();
+  out->flight = std::move(plan);
+  out->waypoints = out->flight.waypoints;  // in the CRS, snapped
+  out->crs = crs;
+  static_cast<FlightReport&>(out->report) = out->flight.report;
+  out->zones = std::move(zones);
+  out->safety = safety, out->max_agl = max_agl;
+  out->dtm = std::move(dtm);
+  return out;
+}
+
 std::shared_ptr<PyFlight> plan(const std::shared_ptr<PyMesh>& mesh,
                                py::array_t<double, py::array::c_style | py::array::forcecast> waypoints,
                                const std::shared_ptr<PyDsm>& dsm, const std::shared_ptr<PyDsm>& dtm, double safety,
@@ -171,20 +203,11 @@ std::shared_ptr<PyFlight> plan(const std::shared_ptr<PyMesh>& mesh,
                                double snap, const std::string& waypoint_heights) {
   FlightRequest request;
   request.waypoints = points_of(waypoints);
-  request.snap = snap;
-  request.heights = parse_waypoint_heights(waypoint_heights);
   request.names = {"mesh", "waypoints", "dsm", "dtm"};
-  request.options.safety = safety;
-  request.options.max_agl = max_agl;
-  request.options.spacing = spacing;
-  request.options.planner = parse_planner(planner);
-  // Shared with the Python objects, not copied: the arrays handed out are read-only.
-  request.mesh = std::shared_ptr<const Mesh>(mesh, &mesh->mesh);
-  if (dsm) request.dsm = std::shared_ptr<const Grid>(dsm, &dsm->grid);
-  if (dtm) request.dtm = std::shared_ptr<const Grid>(dtm, &dtm->grid);
+  set_limits(request, safety, max_agl, spacing, planner, snap, waypoint_heights);
+  share_data(request, mesh, dsm, dtm);
   if (!mission && (home || end)) throw ArgumentError("home", "home and end belong to a mission (mission=True)");
-  auto out = std::make_shared<PyFlight>();
-  out->crs = mesh->mesh.crs;
+  FlightPlan planned;
   {
     py::gil_scoped_release release;
     require_projected(mesh->mesh.crs, "mesh", centre_of(mesh->mesh));  // as `dsmplan plan` does
@@ -195,19 +218,16 @@ std::shared_ptr<PyFlight> plan(const std::shared_ptr<PyMesh>& mesh,
       if (home) ends.home = *home;
       if (end) ends.end = parse_mission_end(*end);
       ends.from_lonlat = [&](double lon, double lat) {
-        if (!to_msl) to_msl.emplace(out->crs, HeightReference::MeanSeaLevel, VerticalOptions{vertical_crs, false});
+        if (!to_msl)
+          to_msl.emplace(mesh->mesh.crs, HeightReference::MeanSeaLevel, VerticalOptions{vertical_crs, false});
         return to_msl->from_wgs84({lon, lat, 0});
       };
       request.mission = ends;
     }
-    out->flight = plan_flight(request);
+    planned = plan_flight(request);
   }
-  out->waypoints = out->flight.waypoints;  // in the CRS, snapped
-  static_cast<FlightReport&>(out->report) = out->flight.report;
-  out->zones = {request.no_fly, request.airspace};
-  out->safety = safety, out->max_agl = max_agl;
-  out->dtm = request.dtm;
-  return out;
+  return flight_of(std::move(planned), mesh->mesh.crs, {request.no_fly, request.airspace}, request.dtm, safety,
+                   max_agl);
 }
 
 // Many routes over one area, one roadmap (plan_routes(), flight.hpp): a Flight a route, or for a
@@ -221,16 +241,9 @@ py::list plan_routes_of(const std::shared_ptr<PyMesh>& mesh,
                         const std::string& waypoint_heights) {
   FlightData data;
   data.names = {"mesh", "routes", "dsm", "dtm"};
-  data.mesh = std::shared_ptr<const Mesh>(mesh, &mesh->mesh);
-  if (dsm) data.dsm = std::shared_ptr<const Grid>(dsm, &dsm->grid);
-  if (dtm) data.dtm = std::shared_ptr<const Grid>(dtm, &dtm->grid);
+  share_data(data, mesh, dsm, dtm);
   FlightQuery common;
-  common.options.safety = safety;
-  common.options.max_agl = max_agl;
-  common.options.spacing = spacing;
-  common.options.planner = parse_planner(planner);
-  common.snap = snap;
-  common.heights = parse_waypoint_heights(waypoint_heights);
+  set_limits(common, safety, max_agl, spacing, planner, snap, waypoint_heights);
   std::vector<std::vector<Point3>> points;
   for (const auto& route : routes) points.push_back(points_of(route));
   RoutesPlan planned;
@@ -251,15 +264,7 @@ py::list plan_routes_of(const std::shared_ptr<PyMesh>& mesh,
       out.append(input_error(route.place.empty() ? route.why : route.place + ": " + route.why));
       continue;
     }
-    auto flight = std::make_shared<PyFlight>();
-    flight->flight = std::move(route.plan);
-    flight->waypoints = flight->flight.waypoints;
-    flight->crs = mesh->mesh.crs;
-    static_cast<FlightReport&>(flight->report) = flight->flight.report;
-    flight->zones = zones;
-    flight->safety = safety, flight->max_agl = max_agl;
-    flight->dtm = terrain;
-    out.append(flight);
+    out.append(flight_of(std::move(route.plan), mesh->mesh.crs, zones, terrain, safety, max_agl));
   }
   return out;
 }
