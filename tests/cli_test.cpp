@@ -3312,6 +3312,12 @@ TEST(CliPlan, WaypointHeightsAboveTheGroundCountFromTheDtmElseTheDsm) {
     EXPECT_EQ(path.front()[2], under(agl[0][0], agl[0][1]) + 9.5) << with;
     EXPECT_EQ(path.back()[2], under(agl[1][0], agl[1][1]) + 11.25) << with;
   }
+  // --snap is not done along a corridor: refused in one line, nothing written.
+  const auto snap = run_cli({"plan", testkit::data_path(kSample), "--waypoints", f.waypoints, "-o",
+                             out.path("never.csv"), "--snap", "2", "-q"});
+  EXPECT_EQ(snap.exit_code, 2);
+  EXPECT_EQ(snap.err.rfind("dsmplan: --snap: applies to a mesh input", 0), 0u) << snap.err;
+  EXPECT_FALSE(std::filesystem::exists(out.path("never.csv")));
 }
 
 TEST(CliNoFly, SnapMovesAWaypointOutOfAZoneAndItsSafetyDistance) {

@@ -77,6 +77,9 @@ FlightPlan plan_flight_along(GridSource& city, const CorridorRequest& request, c
   FlightPlan out;
   FlightReport& report = out.report;
   const FlightNames& names = request.names;
+  // Snapping holds a moved point to the columns around it, which a corridor reads window by window.
+  if (request.snap != 0)
+    throw ArgumentError("snap", "applies to a mesh input; the DSM " + names.mesh + " is planned along a corridor");
   CorridorOptions along = request.corridor;
   const Grid& frame = city.frame();
   if (request.dtm) {

@@ -189,6 +189,7 @@ Planned plan_along_corridor(const PlanJobOptions& options, const Outputs& output
   CorridorRequest request;
   request.waypoints = waypoints;
   request.heights = heights;
+  request.snap = options.snap;
   request.options = options.plan;
   if (outputs.mission) request.mission = mission_ends(options.mission, t);
   if (!options.dtm.empty()) request.dtm = std::make_shared<const Grid>(read_raster(options.dtm));
@@ -376,8 +377,6 @@ PlanReport plan_job(const PlanJobOptions& options, const Progress& progress) {
   const bool geo_in = is_geojson(options.waypoints);
   WaypointHeights heights = WaypointHeights::crs;
   std::vector<Point3> waypoints = read_job_waypoints(options, heights);
-  if (corridor && options.snap != 0)
-    throw ArgumentError("snap", "applies to a mesh input; the DSM " + options.mesh + " is planned along a corridor");
   if (waypoints.size() < 2)
     throw InputError(options.waypoints, "",
                      "a path needs at least two waypoints, the file has " + std::to_string(waypoints.size()));

@@ -75,7 +75,8 @@ CorridorResult plan_corridor(GridSource& dsm, const std::vector<Point3>& waypoin
 /// same rules and the same answer (FlightPlan, its report's corridor figures set). The DTM is
 /// checked beside and below the DSM (read a row at a time), a mission's home and landing against
 /// the DSM read around them; each piece is verified on its window. Errors as plan_flight(), and
-/// ArgumentError for bad corridor options. `dtm`: optional.
+/// ArgumentError for bad corridor options, and ArgumentError("snap") for FlightQuery::snap, which
+/// a corridor does not do. `dtm`: optional.
 struct CorridorRequest : FlightQuery {
   std::shared_ptr<const Grid> dtm;
   std::vector<AirspaceZone> no_fly;  ///< as FlightData::no_fly
