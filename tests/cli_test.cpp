@@ -1232,6 +1232,27 @@ std::vector<std::array<double, 3>> read_path_csv(const std::string& path) {
 
 }  // namespace
 
+// A command loads only what it uses (issue 37): planning on a mesh file and --version never load
+// GDAL (the binary's geo stage is stubs that load libdsmplan_gdal.so at the first call), and a
+// command that reads a raster does, through the plugin. The oracle is the dynamic loader's own
+// account of the libraries it loaded (glibc's LD_DEBUG=libs, printed to stderr).
+TEST(CliPlan, APlanOnAMeshLoadsNoGdalAndARasterCommandDoes) {
+  PlanFixture f;
+  f.write_waypoints(f.corners(), "x,y,z\n");
+  TempDir out;
+  auto loaded_gdal = [](const std::vector<std::string>& args) {
+    std::vector<std::string> command{"LD_DEBUG=libs", DSMPLAN_CLI};
+    command.insert(command.end(), args.begin(), args.end());
+    const auto result = testkit::run_program("env", command);
+    EXPECT_EQ(result.exit_code, 0) << result.err;
+    EXPECT_NE(result.err.find("libc.so"), std::string::npos) << "the loader said nothing: " << result.err;
+    return result.err.find("libgdal.so") != std::string::npos;
+  };
+  EXPECT_FALSE(loaded_gdal({"--version"}));
+  EXPECT_FALSE(loaded_gdal({"plan", f.mesh, "--waypoints", f.waypoints, "-o", out.path("path.csv"), "-q"}));
+  EXPECT_TRUE(loaded_gdal({"info", testkit::data_path(kSample)}));
+}
+
 TEST(CliPlan, ThreeWaypointsGiveAPathCsvAndStats) {
   PlanFixture f;
   const auto waypoints = f.corners();

@@ -24,6 +24,7 @@
 #include "dsmplan/raster.hpp"
 #include "dsmplan/raster_io.hpp"
 #include "heights_statement.hpp"
+#include "metric_crs.hpp"
 #include "raster_inputs.hpp"
 
 namespace dsmplan {
@@ -212,8 +213,6 @@ std::string metres_text(double metres) {
   return text;
 }
 
-bool is_metre(double metres) { return std::abs(metres - 1) < 1e-9; }
-
 // "dsm_m.tif" for "dsm_ft.tif": where an example command would write the input in metres.
 std::string metric_name(const std::string& path, const std::string& extension) {
   std::string stem = std::filesystem::path(path).stem().string();
@@ -261,46 +260,6 @@ int metre_vertical_crs(const std::string& vertical_name) {
   proj_get_crs_list_parameters_destroy(params);
   proj_context_destroy(ctx);
   return code;
-}
-
-// How far lengths in the projected CRS `text` depart from lengths on the ground at (x, y): the
-// larger of |h - 1| and |k - 1|, the meridional and parallel scale factors, as finite
-// differences of the CRS's own conversion (its projection, geographic degrees to x, y) over
-// 1e-5 degrees, against the arcs of its ellipsoid (meridian M dphi, parallel N cos(phi) dlambda).
-// PROJ's proj_factors() computes the same but would build an operation from the CRS each time
-// (10-20 ms); the conversion alone costs well under a millisecond. 0 where there is no
-// projection to measure (a local engineering CRS) or PROJ cannot invert it there.
-double scale_departure(const std::string& text, double x, double y) {
-  PJ_CONTEXT* ctx = proj_context_create();
-  proj_log_level(ctx, PJ_LOG_NONE);
-  std::vector<PJ*> made;  // destroyed at the end, in reverse
-  const auto keep = [&](PJ* p) { return p ? made.push_back(p), p : nullptr; };
-  double departure = 0;
-  PJ* crs = keep(proj_create(ctx, text.c_str()));
-  if (crs && proj_get_type(crs) == PJ_TYPE_COMPOUND_CRS) crs = keep(proj_crs_get_sub_crs(ctx, crs, 0));
-  PJ* conversion =
-      crs && proj_get_type(crs) == PJ_TYPE_PROJECTED_CRS ? keep(proj_crs_get_coordoperation(ctx, crs)) : nullptr;
-  PJ* lonlat_first = conversion ? keep(proj_normalize_for_visualization(ctx, conversion)) : nullptr;
-  PJ* ellipsoid = crs ? keep(proj_get_ellipsoid(ctx, crs)) : nullptr;
-  double a = 0, inverse_flattening = 0;
-  if (lonlat_first && ellipsoid &&
-      proj_ellipsoid_get_parameters(ctx, ellipsoid, &a, nullptr, nullptr, &inverse_flattening) && a > 0) {
-    const PJ_COORD at = proj_trans(lonlat_first, PJ_INV, proj_coord(x, y, 0, 0));
-    const double lon = at.xy.x, lat = at.xy.y, step = 1e-5;
-    const PJ_COORD p = proj_trans(lonlat_first, PJ_FWD, proj_coord(lon, lat, 0, 0));
-    const PJ_COORD north = proj_trans(lonlat_first, PJ_FWD, proj_coord(lon, lat + step, 0, 0));
-    const PJ_COORD east = proj_trans(lonlat_first, PJ_FWD, proj_coord(lon + step, lat, 0, 0));
-    const double f = inverse_flattening > 0 ? 1 / inverse_flattening : 0, e2 = f * (2 - f);
-    const double phi = proj_torad(lat), w = 1 - e2 * std::sin(phi) * std::sin(phi);
-    const double m = a * (1 - e2) / (w * std::sqrt(w)), n = a / std::sqrt(w);
-    const double h = std::hypot(north.xy.x - p.xy.x, north.xy.y - p.xy.y) / (m * proj_torad(step));
-    const double k = std::hypot(east.xy.x - p.xy.x, east.xy.y - p.xy.y) / (n * std::cos(phi) * proj_torad(step));
-    if (std::isfinite(h) && std::isfinite(k) && std::abs(lat) < 89.9)
-      departure = std::max(std::abs(h - 1), std::abs(k - 1));
-  }
-  for (auto it = made.rbegin(); it != made.rend(); ++it) proj_destroy(*it);
-  proj_context_destroy(ctx);
-  return departure;
 }
 
 bool is_geocentric(const Crs& crs) {
@@ -353,6 +312,7 @@ std::string utm_epsg_at(const Crs& crs, double x, double y) {
 
 std::string metric_problem(const Crs& given, const std::string& path, double centre_x, double centre_y,
                            bool units_only) {
+  if (proven_metric(given, centre_x, centre_y, units_only)) return "";
   Crs crs = given;
   resolve_units(crs);
   const bool geocentric = !units_only && is_geocentric(crs);

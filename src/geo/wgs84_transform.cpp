@@ -55,7 +55,7 @@ Wgs84Transform::Wgs84Transform(Wgs84Transform&&) noexcept = default;
 
 Wgs84Transform::Wgs84Transform(const Crs& crs, HeightReference target, const VerticalOptions& options,
                                const std::array<double, 4>& area)
-    : state_(std::make_unique<State>()) {
+    : state_(std::make_shared<State>()) {
   PJ_CONTEXT* ctx = state_->ctx.get();
   proj_log_level(ctx, PJ_LOG_NONE);
   const std::string horizontal_text = !crs.wkt.empty() ? crs.wkt : crs.definition;

@@ -67,7 +67,9 @@ public:
 private:
   Point3 apply(const Point3& p, bool forward) const;
   struct State;
-  std::unique_ptr<State> state_;
+  // Shared, not unique: its deleter is fixed where State is defined, so code that cannot see
+  // State (the dsmplan binary's stubs, gdal_stubs.cpp) can still move and destroy the object.
+  std::shared_ptr<State> state_;
   std::string description_;
   bool approximate_ = false;
 };
