@@ -173,14 +173,19 @@ ClearanceIndex::Layout::Layout(const Mesh& mesh, const ClearanceOptions& options
   floor_ = GroundGrid::floor_of(mesh, std::max(cell_ / 4, std::sqrt(std::max(wx * wy, 1e-12) / 5e7)));
 
   // Pass 1 counts the buckets each triangle's box meets; pass 2 clips the triangle to each of
-  // them and lists it where it is (a bucket its box meets but it misses gets kUnlisted), both
-  // parallel over triangles; pass 3 scatters the listings into their buckets, in parallel
-  // (each bucket's order is set by the sort below, so the scatter's order does not matter).
+  // them, keeps the height of its part there (-inf where the box meets the bucket but the
+  // triangle misses it) and counts the bucket's listings; pass 3 scatters the listings into
+  // their buckets. All three are parallel over triangles; each bucket's order is set by the
+  // sort below, so the scatter's order does not matter. Fresh memory is most of what building
+  // costs (the kernel zeroes every new page: 45 % of a first plan's time, perf), so what
+  // passes 1 and 2 keep is 8 bytes a listing and 4 a triangle: a listing's bucket follows from
+  // its triangle's box.
   const size_t nt = tris.size();
   if (nt >= UINT32_MAX) throw ArgumentError("mesh", "has 2^32 or more triangles");
-  std::vector<size_t> per_tri;
+  std::vector<uint32_t> per_tri;
   detail::reserve_on_huge_pages(per_tri, nt + 1);
-  per_tri.assign(nt + 1, 0);
+  per_tri.resize(nt + 1);
+  per_tri[0] = 0;
   const double eps = margin_;
   struct Box {
     int c0, c1, r0, r1;
@@ -197,18 +202,21 @@ ClearanceIndex::Layout::Layout(const Mesh& mesh, const ClearanceOptions& options
   tbb::parallel_for(tbb::blocked_range<size_t>(0, nt), [&](const tbb::blocked_range<size_t>& range) {
     for (size_t t = range.begin(); t != range.end(); ++t) {
       const Box b = box_of(t);
-      per_tri[t + 1] = size_t(b.c1 - b.c0 + 1) * size_t(b.r1 - b.r0 + 1);
+      // At most cols_ * rows_ <= 5e8 each.
+      per_tri[t + 1] = static_cast<uint32_t>(size_t(b.c1 - b.c0 + 1) * size_t(b.r1 - b.r0 + 1));
     }
   });
-  for (size_t t = 0; t < nt; ++t) per_tri[t + 1] += per_tri[t];
-  if (per_tri[nt] >= UINT32_MAX) throw ArgumentError("bucket_size", "too small: 2^32 or more bucket listings");
-  constexpr uint32_t kUnlisted = UINT32_MAX;
-  std::vector<uint32_t> pair_bucket;
-  std::vector<double> pair_top;
-  detail::reserve_on_huge_pages(pair_bucket, per_tri[nt]);
-  detail::reserve_on_huge_pages(pair_top, per_tri[nt]);
-  pair_bucket.resize(per_tri[nt]);
-  pair_top.resize(per_tri[nt]);
+  uint64_t pairs = 0;
+  for (size_t t = 0; t < nt; ++t) {
+    pairs += per_tri[t + 1];
+    if (pairs >= UINT32_MAX) throw ArgumentError("bucket_size", "too small: 2^32 or more bucket listings");
+    per_tri[t + 1] = static_cast<uint32_t>(pairs);
+  }
+  std::vector<float> pair_top;  // rounded up, as the listing keeps it
+  detail::reserve_on_huge_pages(pair_top, pairs);
+  pair_top.resize(pairs);
+  detail::reserve_on_huge_pages(bucket_store_, buckets + 1);
+  bucket_store_.assign(buckets + 1, {0, -INFINITY});
   tbb::parallel_for(tbb::blocked_range<size_t>(0, nt), [&](const tbb::blocked_range<size_t>& range) {
     for (size_t t = range.begin(); t != range.end(); ++t) {
       size_t k = per_tri[t];
@@ -228,15 +236,13 @@ ClearanceIndex::Layout::Layout(const Mesh& mesh, const ClearanceOptions& options
             const double x0 = gx0_ + c * cell_, y0 = gy0_ + r * cell_;
             z = clipped_top(tri, x0 - eps, x0 + cell_ + eps, y0 - eps, y0 + cell_ + eps);
           }
-          pair_bucket[k] = z > lowest ? static_cast<uint32_t>(static_cast<size_t>(r) * cols_ + c) : kUnlisted;
-          pair_top[k] = z;
+          pair_top[k] = z > lowest ? round_up(z) : -INFINITY;
+          if (z > lowest)
+            std::atomic_ref<uint32_t>(bucket_store_[static_cast<size_t>(r) * cols_ + c + 1].start)
+                .fetch_add(1, std::memory_order_relaxed);
         }
     }
   });
-  detail::reserve_on_huge_pages(bucket_store_, buckets + 1);
-  bucket_store_.assign(buckets + 1, {0, -INFINITY});
-  for (uint32_t b : pair_bucket)
-    if (b != kUnlisted) ++bucket_store_[b + 1].start;
   for (size_t b = 0; b < buckets; ++b) bucket_store_[b + 1].start += bucket_store_[b].start;
   detail::reserve_on_huge_pages(item_store_, bucket_store_[buckets].start);
   item_store_.resize(bucket_store_[buckets].start);
@@ -251,12 +257,15 @@ ClearanceIndex::Layout::Layout(const Mesh& mesh, const ClearanceOptions& options
       const LocalVertex& C = vert_store_[tris[t][2]];
       const float x0 = round_down(std::min({A.x, B.x, C.x})), x1 = round_up(std::max({A.x, B.x, C.x}));
       const float y0 = round_down(std::min({A.y, B.y, C.y})), y1 = round_up(std::max({A.y, B.y, C.y}));
-      for (size_t k = per_tri[t]; k < per_tri[t + 1]; ++k) {
-        const uint32_t b = pair_bucket[k];
-        if (b == kUnlisted) continue;
-        const uint32_t at = std::atomic_ref<uint32_t>(fill[b]).fetch_add(1, std::memory_order_relaxed);
-        item_store_[at] = {tris[t], round_up(pair_top[k]), x0, x1, y0, y1};
-      }
+      const Box box = box_of(t);
+      size_t k = per_tri[t];
+      for (int r = box.r0; r <= box.r1; ++r)
+        for (int c = box.c0; c <= box.c1; ++c, ++k) {
+          if (pair_top[k] == -INFINITY) continue;
+          const size_t b = static_cast<size_t>(r) * cols_ + c;
+          const uint32_t at = std::atomic_ref<uint32_t>(fill[b]).fetch_add(1, std::memory_order_relaxed);
+          item_store_[at] = {tris[t], pair_top[k], x0, x1, y0, y1};
+        }
     }
   });
   // Highest first: a query stops reading a bucket at the first triangle that is low enough,

@@ -2,6 +2,7 @@
 // cell-by-cell walk of the segment (Amanatides & Woo, "A Fast Voxel Traversal Algorithm for Ray
 // Tracing", Eurographics 1987) over ground that is constant on each cell. See ground.hpp.
 #include <tbb/parallel_for.h>
+#include <tbb/parallel_reduce.h>
 
 #include <algorithm>
 #include <atomic>
@@ -52,20 +53,34 @@ double GroundGrid::spread_at(double x, double y) const {
 GroundGrid GroundGrid::floor_of(const Mesh& mesh, double cell) {
   if (!(cell > 0) || !std::isfinite(cell)) throw ArgumentError("cell", "must be a positive number");
   if (mesh.triangles.empty()) return {};
-  double xmin = INFINITY, ymin = INFINITY, xmax = -INFINITY, ymax = -INFINITY;
-  for (const Triangle& t : mesh.triangles)
-    for (uint32_t i : t) {
-      const Vertex& v = mesh.vertices[i];
-      xmin = std::min(xmin, v.x), xmax = std::max(xmax, v.x), ymin = std::min(ymin, v.y), ymax = std::max(ymax, v.y);
-    }
+  struct Box {
+    double xmin = INFINITY, ymin = INFINITY, xmax = -INFINITY, ymax = -INFINITY;
+  };
+  const Box box = tbb::parallel_reduce(
+      tbb::blocked_range<size_t>(0, mesh.triangles.size()), Box{},
+      [&](const tbb::blocked_range<size_t>& range, Box b) {
+        for (size_t k = range.begin(); k != range.end(); ++k)
+          for (uint32_t i : mesh.triangles[k]) {
+            const Vertex& v = mesh.vertices[i];
+            b.xmin = std::min(b.xmin, v.x), b.xmax = std::max(b.xmax, v.x);
+            b.ymin = std::min(b.ymin, v.y), b.ymax = std::max(b.ymax, v.y);
+          }
+        return b;
+      },
+      [](const Box& a, const Box& b) {
+        return Box{std::min(a.xmin, b.xmin), std::min(a.ymin, b.ymin), std::max(a.xmax, b.xmax),
+                   std::max(a.ymax, b.ymax)};
+      });
+  const double xmin = box.xmin, ymin = box.ymin, xmax = box.xmax, ymax = box.ymax;
   const double wcells = std::floor((xmax - xmin) / cell) + 1, hcells = std::floor((ymax - ymin) / cell) + 1;
   if (!(wcells * hcells <= 4e8)) throw ArgumentError("cell", "gives more than 4e8 cells over the mesh");
   Grid floor(static_cast<int>(wcells), static_cast<int>(hcells), xmin, ymax, cell, cell);
   floor.crs = mesh.crs;
-  std::vector<double> low;
-  detail::reserve_on_huge_pages(low, floor.cells());
-  low.assign(floor.cells(), INFINITY);
-  // Parallel over triangles; a cell two triangles share keeps the lower by an atomic minimum.
+  // The lowest candidate of each cell, each rounded down to float first (rounding is monotone, so
+  // the least rounded candidate is the least candidate rounded): the grid itself is the
+  // working array, no second one of doubles. Parallel over triangles; a cell two triangles
+  // share keeps the lower by an atomic minimum.
+  std::fill(floor.z.begin(), floor.z.end(), INFINITY);
   tbb::parallel_for(tbb::blocked_range<size_t>(0, mesh.triangles.size()), [&](const tbb::blocked_range<size_t>& range) {
     for (size_t k = range.begin(); k != range.end(); ++k) {
       const Triangle& t = mesh.triangles[k];
@@ -94,19 +109,17 @@ GroundGrid GroundGrid::floor_of(const Mesh& mesh, double cell) {
                 a.z + std::min(gx * (x0 - a.x), gx * (x1 - a.x)) + std::min(gy * (y0 - a.y), gy * (y1 - a.y));
             value = std::max(value, plane);
           }
-          std::atomic_ref<double> slot(low[floor.index(col, row)]);
-          double seen = slot.load(std::memory_order_relaxed);
-          while (value < seen && !slot.compare_exchange_weak(seen, value, std::memory_order_relaxed)) {
+          float rounded = static_cast<float>(value);
+          if (rounded > value) rounded = std::nextafter(rounded, -INFINITY);  // still a lower bound
+          std::atomic_ref<float> slot(floor.z[floor.index(col, row)]);
+          float seen = slot.load(std::memory_order_relaxed);
+          while (rounded < seen && !slot.compare_exchange_weak(seen, rounded, std::memory_order_relaxed)) {
           }
         }
     }
   });
-  for (size_t i = 0; i < low.size(); ++i) {
-    if (low[i] == INFINITY) continue;  // no triangle: a hole, filled from its rim below
-    float f = static_cast<float>(low[i]);
-    if (f > low[i]) f = std::nextafter(f, -INFINITY);  // rounded down: still a lower bound
-    floor.z[i] = f;
-  }
+  for (float& z : floor.z)
+    if (z == INFINITY) z = floor.nodata;  // no triangle: a hole, filled from its rim below
   return GroundGrid(std::move(floor));
 }
 
