@@ -64,7 +64,7 @@ std::unique_ptr<Window> make_window(GridSource& source, const Point3& a, const P
   // The index covers the flight area only: nothing flies outside it.
   ClearanceOptions clearance;
   clearance.flight_area = area;
-  data.index = std::make_shared<const ClearanceIndex>(*mesh, clearance);
+  data.index = std::make_shared<const ClearanceIndex>(std::shared_ptr<const Mesh>(mesh), clearance);
   data.mesh = std::move(mesh);
   window->area = std::make_unique<FlightArea>(std::move(data));
   return window;

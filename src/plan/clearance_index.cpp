@@ -7,10 +7,12 @@
 // clipping, Ericson 8.3.4) with the height of the clipped part, highest first, so a query
 // reads only the triangles that reach up near the segment.
 #include <tbb/parallel_for.h>
+#include <tbb/parallel_reduce.h>
 
 #include <algorithm>
 #include <atomic>
 #include <cmath>
+#include <cstddef>
 #include <limits>
 #include <string>
 
@@ -107,44 +109,100 @@ inline int clamp_index(double v, int n) {
 
 }  // namespace
 
-ClearanceIndex::Layout::Layout(const Mesh& mesh, const ClearanceOptions& options) : options_(options) {
+ClearanceIndex::Layout::Layout(const Mesh& mesh, const ClearanceOptions& options, std::shared_ptr<const Mesh> keep)
+    : options_(options) {
   if (!(options.bucket_size >= 0) || !std::isfinite(options.bucket_size))
     throw ArgumentError("bucket_size", "must be a finite number >= 0, not " + short_number(options.bucket_size));
   const size_t nv = mesh.vertices.size();
-  for (size_t t = 0; t < mesh.triangles.size(); ++t) {
-    for (uint32_t i : mesh.triangles[t]) {
+  // Both scans are parallel reductions; the first offender (lowest number) is named, as a
+  // serial scan would name it.
+  struct TriangleScan {
+    Footprint box;
+    size_t bad = SIZE_MAX;  ///< first triangle naming a vertex out of range
+  };
+  const TriangleScan tri_scan = tbb::parallel_reduce(
+      tbb::blocked_range<size_t>(0, mesh.triangles.size()), TriangleScan{},
+      [&](const tbb::blocked_range<size_t>& range, TriangleScan scan) {
+        for (size_t t = range.begin(); t != range.end(); ++t) {
+          const Triangle& tri = mesh.triangles[t];
+          if (tri[0] >= nv || tri[1] >= nv || tri[2] >= nv) {
+            scan.bad = std::min(scan.bad, t);
+            continue;
+          }
+          for (uint32_t i : tri) {
+            const Vertex& v = mesh.vertices[i];
+            scan.box.xmin = std::min(scan.box.xmin, v.x), scan.box.xmax = std::max(scan.box.xmax, v.x);
+            scan.box.ymin = std::min(scan.box.ymin, v.y), scan.box.ymax = std::max(scan.box.ymax, v.y);
+          }
+        }
+        return scan;
+      },
+      [](TriangleScan a, const TriangleScan& b) {
+        a.box.xmin = std::min(a.box.xmin, b.box.xmin), a.box.xmax = std::max(a.box.xmax, b.box.xmax);
+        a.box.ymin = std::min(a.box.ymin, b.box.ymin), a.box.ymax = std::max(a.box.ymax, b.box.ymax);
+        a.bad = std::min(a.bad, b.bad);
+        return a;
+      });
+  if (tri_scan.bad != SIZE_MAX) {
+    for (uint32_t i : mesh.triangles[tri_scan.bad])
       if (i >= nv)
-        throw ArgumentError("mesh", "triangle " + std::to_string(t) + " names vertex " + std::to_string(i) + " of " +
-                                        std::to_string(nv));
-      const Vertex& v = mesh.vertices[i];
-      footprint_.xmin = std::min(footprint_.xmin, v.x), footprint_.xmax = std::max(footprint_.xmax, v.x);
-      footprint_.ymin = std::min(footprint_.ymin, v.y), footprint_.ymax = std::max(footprint_.ymax, v.y);
-    }
+        throw ArgumentError("mesh", "triangle " + std::to_string(tri_scan.bad) + " names vertex " + std::to_string(i) +
+                                        " of " + std::to_string(nv));
   }
+  footprint_ = tri_scan.box;
   if (!mesh.triangles.empty()) {
     footprint_.xmin = std::max(footprint_.xmin, options.flight_area[0]);
     footprint_.ymin = std::max(footprint_.ymin, options.flight_area[1]);
     footprint_.xmax = std::min(footprint_.xmax, options.flight_area[2]);
     footprint_.ymax = std::min(footprint_.ymax, options.flight_area[3]);
   }
-  double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
-  for (size_t i = 0; i < nv; ++i) {
-    const Vertex& v = mesh.vertices[i];
-    if (!std::isfinite(v.x) || !std::isfinite(v.y) || !std::isfinite(v.z))
-      throw ArgumentError("mesh", "vertex " + std::to_string(i) + " is not finite");
-    const double c[3] = {v.x, v.y, v.z};
-    for (int k = 0; k < 3; ++k) lo[k] = std::min(lo[k], c[k]), hi[k] = std::max(hi[k], c[k]);
-  }
+  struct VertexScan {
+    double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+    size_t bad = SIZE_MAX;  ///< first vertex that is not finite
+  };
+  const VertexScan vertex_scan = tbb::parallel_reduce(
+      tbb::blocked_range<size_t>(0, nv), VertexScan{},
+      [&](const tbb::blocked_range<size_t>& range, VertexScan scan) {
+        for (size_t i = range.begin(); i != range.end(); ++i) {
+          const Vertex& v = mesh.vertices[i];
+          if (!std::isfinite(v.x) || !std::isfinite(v.y) || !std::isfinite(v.z)) {
+            scan.bad = std::min(scan.bad, i);
+            continue;
+          }
+          const double c[3] = {v.x, v.y, v.z};
+          for (int k = 0; k < 3; ++k) scan.lo[k] = std::min(scan.lo[k], c[k]), scan.hi[k] = std::max(scan.hi[k], c[k]);
+        }
+        return scan;
+      },
+      [](VertexScan a, const VertexScan& b) {
+        for (int k = 0; k < 3; ++k) a.lo[k] = std::min(a.lo[k], b.lo[k]), a.hi[k] = std::max(a.hi[k], b.hi[k]);
+        a.bad = std::min(a.bad, b.bad);
+        return a;
+      });
+  if (vertex_scan.bad != SIZE_MAX)
+    throw ArgumentError("mesh", "vertex " + std::to_string(vertex_scan.bad) + " is not finite");
+  const double* lo = vertex_scan.lo;
+  const double* hi = vertex_scan.hi;
   const std::vector<std::array<uint32_t, 3>>& tris = mesh.triangles;
   triangles_ = tris.size();
   if (tris.empty()) return;
   // Whole units: v - origin is then exact for any coordinate on the CRS's grid.
   for (int k = 0; k < 3; ++k) origin_[k] = std::round(0.5 * (lo[k] + hi[k]));
-  detail::reserve_on_huge_pages(vert_store_, nv);
-  vert_store_.resize(nv);
-  for (size_t i = 0; i < nv; ++i) {
-    const Vertex& v = mesh.vertices[i];
-    vert_store_[i] = {v.x - origin_[0], v.y - origin_[1], v.z - origin_[2]};
+  static_assert(sizeof(Vertex) == sizeof(LocalVertex) && offsetof(Vertex, z) == offsetof(LocalVertex, z));
+  if (keep && keep.get() == &mesh) {
+    mesh_ = std::move(keep);
+    verts_ = detail::ArrayView<LocalVertex>(reinterpret_cast<const LocalVertex*>(mesh.vertices.data()), nv);
+    vertex_shift_ = origin_;
+  } else {
+    detail::reserve_on_huge_pages(vert_store_, nv);
+    vert_store_.resize(nv);
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, nv), [&](const tbb::blocked_range<size_t>& range) {
+      for (size_t i = range.begin(); i != range.end(); ++i) {
+        const Vertex& v = mesh.vertices[i];
+        vert_store_[i] = {v.x - origin_[0], v.y - origin_[1], v.z - origin_[2]};
+      }
+    });
+    verts_ = detail::ArrayView<LocalVertex>(vert_store_);
   }
   zmax_ = hi[2] - origin_[2];
   zmin_ = lo[2] - origin_[2];
@@ -193,7 +251,7 @@ ClearanceIndex::Layout::Layout(const Mesh& mesh, const ClearanceOptions& options
   auto box_of = [&](size_t t) {
     double bx0 = INFINITY, bx1 = -INFINITY, by0 = INFINITY, by1 = -INFINITY;
     for (uint32_t i : tris[t]) {
-      const LocalVertex& v = vert_store_[i];
+      const LocalVertex v = vertex(i);
       bx0 = std::min(bx0, v.x), bx1 = std::max(bx1, v.x), by0 = std::min(by0, v.y), by1 = std::max(by1, v.y);
     }
     return Box{clamp_index((bx0 - eps - gx0_) / cell_, cols_), clamp_index((bx1 + eps - gx0_) / cell_, cols_),
@@ -225,7 +283,7 @@ ClearanceIndex::Layout::Layout(const Mesh& mesh, const ClearanceOptions& options
       ClipPoint tri[3];
       double top = lowest;
       for (int i = 0; i < 3; ++i) {
-        const LocalVertex& v = vert_store_[tris[t][i]];
+        const LocalVertex v = vertex(tris[t][i]);
         tri[i] = {v.x, v.y, v.z};
         top = std::max(top, v.z);
       }
@@ -252,9 +310,9 @@ ClearanceIndex::Layout::Layout(const Mesh& mesh, const ClearanceOptions& options
   for (size_t b = 0; b < buckets; ++b) fill[b] = bucket_store_[b].start;
   tbb::parallel_for(tbb::blocked_range<size_t>(0, nt), [&](const tbb::blocked_range<size_t>& range) {
     for (size_t t = range.begin(); t != range.end(); ++t) {
-      const LocalVertex& A = vert_store_[tris[t][0]];
-      const LocalVertex& B = vert_store_[tris[t][1]];
-      const LocalVertex& C = vert_store_[tris[t][2]];
+      const LocalVertex A = vertex(tris[t][0]);
+      const LocalVertex B = vertex(tris[t][1]);
+      const LocalVertex C = vertex(tris[t][2]);
       const float x0 = round_down(std::min({A.x, B.x, C.x})), x1 = round_up(std::max({A.x, B.x, C.x}));
       const float y0 = round_down(std::min({A.y, B.y, C.y})), y1 = round_up(std::max({A.y, B.y, C.y}));
       const Box box = box_of(t);
@@ -288,7 +346,6 @@ ClearanceIndex::Layout::Layout(const Mesh& mesh, const ClearanceOptions& options
       float& top = block_top_store_[static_cast<size_t>(r / block) * block_cols_ + c / block];
       top = std::max(top, bucket_store_[static_cast<size_t>(r) * cols_ + c].top);
     }
-  verts_ = detail::ArrayView<LocalVertex>(vert_store_);
   buckets_ = detail::ArrayView<Bucket>(bucket_store_);
   items_ = detail::ArrayView<Listing>(item_store_);
   block_top_ = detail::ArrayView<float>(block_top_store_);
@@ -409,9 +466,9 @@ double ClearanceIndex::Layout::visit(const Point3& p, const Point3& q, double d)
             if (!clip_xy(px, py, ix, iy, item.x0 - reach_t, item.x1 + reach_t, item.y0 - reach_t, item.y1 + reach_t, u0,
                          u1))
               continue;
-            const LocalVertex& A = verts_[tri[0]];
-            const LocalVertex& B = verts_[tri[1]];
-            const LocalVertex& C = verts_[tri[2]];
+            const LocalVertex A = vertex(tri[0]);
+            const LocalVertex B = vertex(tri[1]);
+            const LocalVertex C = vertex(tri[2]);
             const double za = pz + u0 * dz, zb = pz + u1 * dz;
             if (std::min(za, zb) - std::max({A.z, B.z, C.z}) >= reach_t) continue;
             // Both ends of the nearby part on one side of the plane, at least d from it.
@@ -531,9 +588,9 @@ double ClearanceIndex::Layout::ground_in(size_t bucket, double X, double Y) cons
     if (item.top + origin_[2] < top) break;
     if (!box_holds(item, X, Y)) continue;
     const auto& tri = item.corners;
-    const LocalVertex& A = verts_[tri[0]];
-    const LocalVertex& B = verts_[tri[1]];
-    const LocalVertex& C = verts_[tri[2]];
+    const LocalVertex A = vertex(tri[0]);
+    const LocalVertex B = vertex(tri[1]);
+    const LocalVertex C = vertex(tri[2]);
     // Barycentric weights from edge functions relative to A, as certify() does.
     const double du1 = B.x - A.x, dv1 = B.y - A.y, du2 = C.x - A.x, dv2 = C.y - A.y;
     const double area2 = du1 * dv2 - du2 * dv1;
@@ -606,6 +663,11 @@ namespace dsmplan {
 
 ClearanceIndex::ClearanceIndex(const Mesh& mesh, const ClearanceOptions& options)
     : layout_(std::make_shared<const Layout>(mesh, options)) {}
+ClearanceIndex::ClearanceIndex(std::shared_ptr<const Mesh> mesh, const ClearanceOptions& options) {
+  if (!mesh) throw ArgumentError("mesh", "is null");
+  const Mesh& m = *mesh;
+  layout_ = std::make_shared<const Layout>(m, options, std::move(mesh));
+}
 bool ClearanceIndex::segment_clear(const Point3& p, const Point3& q, double d) const {
   return layout_->segment_clear(p, q, d);
 }

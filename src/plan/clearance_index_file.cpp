@@ -126,11 +126,18 @@ void ClearanceIndex::save(const std::string& path, const Source& source) const {
     if (l.floor_.was_hole(i)) floor_z[i] = Grid::nodata;
   Sections s{};
   sections_of(h, s);
+  // The file keeps local vertices: made here when the index reads a mesh's own (CRS) vertices.
+  std::vector<Layout::LocalVertex> local;
+  if (l.vertex_shift_ != Point3{0, 0, 0}) {
+    local.resize(l.verts_.size());
+    for (size_t i = 0; i < local.size(); ++i) local[i] = l.vertex(static_cast<uint32_t>(i));
+  }
+  const void* verts = local.empty() ? static_cast<const void*>(l.verts_.data()) : local.data();
 
   std::vector<unsigned char> head(s.verts, 0);
   std::memcpy(head.data(), &h, sizeof h);
   const std::pair<const void*, size_t> parts[] = {{head.data(), head.size()},
-                                                  {l.verts_.data(), h.verts * sizeof(Layout::LocalVertex)},
+                                                  {verts, h.verts * sizeof(Layout::LocalVertex)},
                                                   {l.buckets_.data(), h.buckets * sizeof(Layout::Bucket)},
                                                   {l.items_.data(), h.items * sizeof(Layout::Listing)},
                                                   {l.block_top_.data(), h.block_tops * sizeof(float)},

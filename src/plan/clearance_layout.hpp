@@ -30,7 +30,10 @@ struct ArrayView {
 }  // namespace detail
 
 struct ClearanceIndex::Layout {
-  Layout(const Mesh& mesh, const ClearanceOptions& options);
+  /// `keep`: the same mesh, held by the caller; its vertices are then read where they lie (in
+  /// CRS coordinates, less vertex_shift_ at every read) instead of copied: 24 bytes a vertex
+  /// of fresh memory saved, which is most of what a build costs (clearance_index.cpp).
+  Layout(const Mesh& mesh, const ClearanceOptions& options, std::shared_ptr<const Mesh> keep = nullptr);
   Layout() = default;              ///< for clearance_index_file.cpp, which fills it from a file
   Layout(const Layout&) = delete;  ///< the views would still show the other's vectors
   Layout& operator=(const Layout&) = delete;
@@ -52,6 +55,14 @@ struct ClearanceIndex::Layout {
   Point3 origin_{0, 0, 0};
   Footprint footprint_;
   detail::ArrayView<LocalVertex> verts_;
+  /// Subtracted from verts_ at every read: the origin where verts_ views a mesh's own vertices,
+  /// 0 where they are local already (a copy, or a file). The same subtraction a copy makes, so
+  /// the values, and every answer, are the same either way.
+  Point3 vertex_shift_{0, 0, 0};
+  LocalVertex vertex(uint32_t i) const {
+    const LocalVertex& v = verts_[i];
+    return {v.x - vertex_shift_[0], v.y - vertex_shift_[1], v.z - vertex_shift_[2]};
+  }
   size_t triangles_ = 0;
   double cell_ = 1, gx0_ = 0, gy0_ = 0;  ///< bucket (0,0) starts at local (gx0_, gy0_)
   int cols_ = 0, rows_ = 0;
@@ -82,6 +93,7 @@ struct ClearanceIndex::Layout {
   std::vector<Listing> item_store_;
   std::vector<float> block_top_store_;
   std::shared_ptr<const void> mapping_;
+  std::shared_ptr<const Mesh> mesh_;  ///< whose vertices verts_ views, when it does
 };
 
 }  // namespace dsmplan

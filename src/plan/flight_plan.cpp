@@ -456,7 +456,7 @@ std::shared_ptr<const ClearanceIndex> FlightArea::shared_index() const {
     }
     lazy_->obstacles =
         data_.dsm && !data_.mesh_fills_holes ? with_hole_columns(data_.mesh, *data_.dsm, columns_) : data_.mesh;
-    lazy_->index = std::make_shared<const ClearanceIndex>(*lazy_->obstacles);
+    lazy_->index = std::make_shared<const ClearanceIndex>(lazy_->obstacles);
     if (data_.keep_index) data_.keep_index(*lazy_->index, lazy_->obstacles_key());
   });
   return lazy_->index;
