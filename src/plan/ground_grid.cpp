@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <atomic>
 #include <cmath>
+#include <cstdint>
 #include <cstring>
 
 #include "core/huge_pages.hpp"
@@ -50,6 +51,21 @@ double GroundGrid::spread_at(double x, double y) const {
   return (high - low) / 2;
 }
 
+namespace {
+// The largest float <= v (v finite): std::nextafter's step down by the bits, since a call to
+// the library for every candidate cost a tenth of the floor's time.
+inline float float_at_most(double v) {
+  float f = static_cast<float>(v);
+  if (f > v) {
+    uint32_t bits;
+    std::memcpy(&bits, &f, sizeof bits);
+    bits = f > 0 ? bits - 1 : f < 0 ? bits + 1 : 0x80000001u;  // 0: the negative subnormal nearest it
+    std::memcpy(&f, &bits, sizeof f);
+  }
+  return f;
+}
+}  // namespace
+
 GroundGrid GroundGrid::floor_of(const Mesh& mesh, double cell) {
   if (!(cell > 0) || !std::isfinite(cell)) throw ArgumentError("cell", "must be a positive number");
   if (mesh.triangles.empty()) return {};
@@ -81,6 +97,8 @@ GroundGrid GroundGrid::floor_of(const Mesh& mesh, double cell) {
   // working array, no second one of doubles. Parallel over triangles; a cell two triangles
   // share keeps the lower by an atomic minimum.
   std::fill(floor.z.begin(), floor.z.end(), INFINITY);
+  float* const z = floor.z.data();
+  const int width = floor.width;
   tbb::parallel_for(tbb::blocked_range<size_t>(0, mesh.triangles.size()), [&](const tbb::blocked_range<size_t>& range) {
     for (size_t k = range.begin(); k != range.end(); ++k) {
       const Triangle& t = mesh.triangles[k];
@@ -98,24 +116,25 @@ GroundGrid GroundGrid::floor_of(const Mesh& mesh, double cell) {
       const int c1 = std::min(floor.width - 1, static_cast<int>(std::floor((bx1 - xmin) / cell)));
       const int r0 = std::max(0, static_cast<int>(std::floor((ymax - by1) / cell)));
       const int r1 = std::min(floor.height - 1, static_cast<int>(std::floor((ymax - by0) / cell)));
-      for (int row = r0; row <= r1; ++row)
+      for (int row = r0; row <= r1; ++row) {
+        // The plane is linear: over the rectangle where the cell meets the box, least at a
+        // corner; its y part is the row's.
+        const double y1 = std::min(by1, ymax - row * cell), y0 = std::max(by0, ymax - (row + 1) * cell);
+        const double low_y = std::min(gy * (y0 - a.y), gy * (y1 - a.y));
+        float* const line = z + static_cast<size_t>(row) * width;
         for (int col = c0; col <= c1; ++col) {
           double value = lowest;
           if (planar) {
-            // The plane is linear: over the rectangle where the cell meets the box, least at a corner.
             const double x0 = std::max(bx0, xmin + col * cell), x1 = std::min(bx1, xmin + (col + 1) * cell);
-            const double y1 = std::min(by1, ymax - row * cell), y0 = std::max(by0, ymax - (row + 1) * cell);
-            const double plane =
-                a.z + std::min(gx * (x0 - a.x), gx * (x1 - a.x)) + std::min(gy * (y0 - a.y), gy * (y1 - a.y));
-            value = std::max(value, plane);
+            value = std::max(value, a.z + std::min(gx * (x0 - a.x), gx * (x1 - a.x)) + low_y);
           }
-          float rounded = static_cast<float>(value);
-          if (rounded > value) rounded = std::nextafter(rounded, -INFINITY);  // still a lower bound
-          std::atomic_ref<float> slot(floor.z[floor.index(col, row)]);
+          const float rounded = float_at_most(value);
+          std::atomic_ref<float> slot(line[col]);
           float seen = slot.load(std::memory_order_relaxed);
           while (rounded < seen && !slot.compare_exchange_weak(seen, rounded, std::memory_order_relaxed)) {
           }
         }
+      }
     }
   });
   for (float& z : floor.z)
