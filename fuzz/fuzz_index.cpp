@@ -23,18 +23,20 @@ void reseal(std::vector<uint8_t>& bytes) {
   uint64_t counts[4], floor_cells = 0;
   std::memcpy(counts, bytes.data() + 208, sizeof counts);
   std::memcpy(&floor_cells, bytes.data() + 280, 8);
-  const uint64_t sizes[5] = {counts[0] * 24, counts[1] * 8, counts[2] * 32, counts[3] * 4, floor_cells * 4};
+  // Vertices, buckets, listings (16 bytes), their extents (4), block tops, floor cells.
+  const uint64_t sizes[6] = {counts[0] * 24, counts[1] * 8, counts[2] * 16,
+                             counts[2] * 4,  counts[3] * 4, floor_cells * 4};
   for (uint64_t s : sizes)
     if (s > bytes.size()) return;
   auto align = [](uint64_t v) { return (v + 63) & ~uint64_t(63); };
-  uint64_t starts[5], at = 320;
-  for (int k = 0; k < 5; ++k) {
+  uint64_t starts[6], at = 320;
+  for (int k = 0; k < 6; ++k) {
     starts[k] = at;
-    at = k < 4 ? align(at + sizes[k]) : (at + sizes[k] + 7) & ~uint64_t(7);
+    at = k < 5 ? align(at + sizes[k]) : (at + sizes[k] + 7) & ~uint64_t(7);
   }
   if (at + 8 != bytes.size()) return;
-  uint64_t hashes[6] = {dsmplan::content_hash(bytes.data(), 320)};
-  for (int k = 0; k < 5; ++k) hashes[k + 1] = dsmplan::content_hash(bytes.data() + starts[k], sizes[k]);
+  uint64_t hashes[7] = {dsmplan::content_hash(bytes.data(), 320)};
+  for (int k = 0; k < 6; ++k) hashes[k + 1] = dsmplan::content_hash(bytes.data() + starts[k], sizes[k]);
   const uint64_t sum = dsmplan::content_hash(hashes, sizeof hashes);
   std::memcpy(bytes.data() + at, &sum, 8);
 }

@@ -417,12 +417,12 @@ TEST(ClearanceIndex, GroundIsTheMeshHeight) {
 }
 
 TEST(ClearanceIndex, MemoryCountsEveryVertexListingAndBucket) {
-  // What the header promises: 24 bytes a vertex, 32 a listing, 8 a bucket, 4 a cell of the
+  // What the header promises: 24 bytes a vertex, 20 a listing, 8 a bucket, 4 a cell of the
   // floor, and nothing a triangle beyond its listings; the blocks are a sixteenth of the buckets.
   const Mesh& mesh = mesh_2m();
   const ClearanceIndex index(mesh);
   const double buckets = static_cast<double>(index.bucket_columns()) * index.bucket_rows();
-  const double expected = 24.0 * mesh.vertices.size() + 32.0 * index.bucket_listings() + 8.0 * (buckets + 1) +
+  const double expected = 24.0 * mesh.vertices.size() + 20.0 * index.bucket_listings() + 8.0 * (buckets + 1) +
                           4.0 * static_cast<double>(index.floor().grid().cells());
   EXPECT_GT(index.floor().grid().cells(), 0u);
   EXPECT_GE(static_cast<double>(index.memory_bytes()), expected);
@@ -833,12 +833,14 @@ void reseal_index(std::string& bytes) {
   std::memcpy(&floor_cells, &bytes[at_counts + 32 + 8 + 32], 8);
   auto align = [](size_t v) { return (v + 63) & ~size_t(63); };
   const size_t head = align(at_counts + 32 + 8 + 32 + 8);
-  const size_t sizes[5] = {counts[0] * 24, counts[1] * 8, counts[2] * 32, counts[3] * 4, floor_cells * 4};
-  uint64_t hashes[6] = {pieces_hash(bytes.data(), head)};
+  // Vertices, buckets, listings (16 bytes), their extents (4), block tops, floor cells.
+  const size_t sizes[6] = {counts[0] * 24, counts[1] * 8, counts[2] * 16,
+                           counts[2] * 4,  counts[3] * 4, floor_cells * 4};
+  uint64_t hashes[7] = {pieces_hash(bytes.data(), head)};
   size_t at = head;
-  for (int k = 0; k < 5; ++k) {
+  for (int k = 0; k < 6; ++k) {
     hashes[k + 1] = pieces_hash(bytes.data() + at, sizes[k]);
-    at = k < 4 ? align(at + sizes[k]) : at + sizes[k];
+    at = k < 5 ? align(at + sizes[k]) : at + sizes[k];
   }
   const uint64_t sum = XXH3_64bits(hashes, sizeof hashes);
   std::memcpy(&bytes[bytes.size() - 8], &sum, 8);
@@ -975,7 +977,7 @@ TEST(ClearanceIndexFile, StaleFilesAreNotUsedAndBadFilesAreRefused) {
   const size_t verts_at = align(at_counts + 32 + 8 + 32 + 8);
   const size_t buckets_at = align(verts_at + counts[0] * 24), items_at = align(buckets_at + counts[1] * 8);
   const uint32_t missing = static_cast<uint32_t>(counts[0]) + 3;
-  std::memcpy(&dangling[items_at + 32 * (counts[2] / 2)], &missing, 4);
+  std::memcpy(&dangling[items_at + 16 * (counts[2] / 2)], &missing, 4);
   reseal_index(dangling);
   expect_index_refused(with(dangling), 42, "names a vertex");
   std::string backwards = good;

@@ -97,9 +97,18 @@ inline float round_up(double v) {
   const float f = static_cast<float>(v);
   return f < v ? std::nextafter(f, INFINITY) : f;
 }
-inline float round_down(double v) {
-  const float f = static_cast<float>(v);
-  return f > v ? std::nextafter(f, -INFINITY) : f;
+
+// A listing's extent along an axis, in 255ths of the bucket's side (`unit`) from its corner:
+// `v` is a bound of the triangle's box less the corner. Outwards by one more than the rounding
+// (a decoded bound is a few ulps off the one encoded), and clipped to the bucket, which is all
+// the bucket answers for. Casts, not std::floor: a library call each was a tenth of a build.
+inline uint8_t extent_below(double v, double unit) {
+  const double q = std::clamp(v / unit, -2.0, 257.0);
+  return static_cast<uint8_t>(std::clamp(static_cast<int>(q + 2) - 3, 0, 255));  // floor(q) - 1
+}
+inline uint8_t extent_above(double v, double unit) {
+  const double q = std::clamp(v / unit, -2.0, 257.0);
+  return static_cast<uint8_t>(std::clamp(static_cast<int>(q + 2), 0, 255));  // floor(q) + 2 >= ceil(q) + 1
 }
 
 // A float's bits as a key that sorts the highest first (finite values and infinities).
@@ -254,21 +263,21 @@ ClearanceIndex::Layout::Layout(const Mesh& mesh, const ClearanceOptions& options
   per_tri.resize(nt + 1);
   per_tri[0] = 0;
   const double eps = margin_;
-  struct Box {
+  struct Cells {  // of the buckets a triangle's box meets
     int c0, c1, r0, r1;
   };
-  auto box_of = [&](size_t t) {
+  auto cells_of = [&](size_t t) {
     double bx0 = INFINITY, bx1 = -INFINITY, by0 = INFINITY, by1 = -INFINITY;
     for (uint32_t i : tris[t]) {
       const LocalVertex v = vertex(i);
       bx0 = std::min(bx0, v.x), bx1 = std::max(bx1, v.x), by0 = std::min(by0, v.y), by1 = std::max(by1, v.y);
     }
-    return Box{clamp_index((bx0 - eps - gx0_) / cell_, cols_), clamp_index((bx1 + eps - gx0_) / cell_, cols_),
-               clamp_index((by0 - eps - gy0_) / cell_, rows_), clamp_index((by1 + eps - gy0_) / cell_, rows_)};
+    return Cells{clamp_index((bx0 - eps - gx0_) / cell_, cols_), clamp_index((bx1 + eps - gx0_) / cell_, cols_),
+                 clamp_index((by0 - eps - gy0_) / cell_, rows_), clamp_index((by1 + eps - gy0_) / cell_, rows_)};
   };
   tbb::parallel_for(tbb::blocked_range<size_t>(0, nt), [&](const tbb::blocked_range<size_t>& range) {
     for (size_t t = range.begin(); t != range.end(); ++t) {
-      const Box b = box_of(t);
+      const Cells b = cells_of(t);
       // At most cols_ * rows_ <= 5e8 each.
       per_tri[t + 1] = static_cast<uint32_t>(size_t(b.c1 - b.c0 + 1) * size_t(b.r1 - b.r0 + 1));
     }
@@ -288,7 +297,7 @@ ClearanceIndex::Layout::Layout(const Mesh& mesh, const ClearanceOptions& options
     for (size_t t = range.begin(); t != range.end(); ++t) {
       size_t k = per_tri[t];
       const bool one_bucket = per_tri[t + 1] - k == 1;  // then no clipping: the whole triangle is in it
-      const Box b = box_of(t);
+      const Cells b = cells_of(t);
       ClipPoint tri[3];
       double top = lowest;
       for (int i = 0; i < 3; ++i) {
@@ -313,6 +322,9 @@ ClearanceIndex::Layout::Layout(const Mesh& mesh, const ClearanceOptions& options
   for (size_t b = 0; b < buckets; ++b) bucket_store_[b + 1].start += bucket_store_[b].start;
   detail::reserve_on_huge_pages(item_store_, bucket_store_[buckets].start);
   item_store_.resize(bucket_store_[buckets].start);
+  detail::reserve_on_huge_pages(extent_store_, bucket_store_[buckets].start);
+  extent_store_.resize(bucket_store_[buckets].start);
+  const double unit = cell_ / 255;
   std::vector<uint32_t> fill;
   detail::reserve_on_huge_pages(fill, buckets);
   fill.resize(buckets);
@@ -322,16 +334,19 @@ ClearanceIndex::Layout::Layout(const Mesh& mesh, const ClearanceOptions& options
       const LocalVertex A = vertex(tris[t][0]);
       const LocalVertex B = vertex(tris[t][1]);
       const LocalVertex C = vertex(tris[t][2]);
-      const float x0 = round_down(std::min({A.x, B.x, C.x})), x1 = round_up(std::max({A.x, B.x, C.x}));
-      const float y0 = round_down(std::min({A.y, B.y, C.y})), y1 = round_up(std::max({A.y, B.y, C.y}));
-      const Box box = box_of(t);
+      const double tx0 = std::min({A.x, B.x, C.x}), tx1 = std::max({A.x, B.x, C.x});
+      const double ty0 = std::min({A.y, B.y, C.y}), ty1 = std::max({A.y, B.y, C.y});
+      const Cells box = cells_of(t);
       size_t k = per_tri[t];
       for (int r = box.r0; r <= box.r1; ++r)
         for (int c = box.c0; c <= box.c1; ++c, ++k) {
           if (pair_top[k] == -INFINITY) continue;
           const size_t b = static_cast<size_t>(r) * cols_ + c;
           const uint32_t at = std::atomic_ref<uint32_t>(fill[b]).fetch_add(1, std::memory_order_relaxed);
-          item_store_[at] = {tris[t], pair_top[k], x0, x1, y0, y1};
+          item_store_[at] = {tris[t], pair_top[k]};
+          const double bx = gx0_ + c * cell_, by = gy0_ + r * cell_;
+          extent_store_[at] = {extent_below(tx0 - bx, unit), extent_above(tx1 - bx, unit), extent_below(ty0 - by, unit),
+                               extent_above(ty1 - by, unit)};
         }
     }
   });
@@ -344,19 +359,27 @@ ClearanceIndex::Layout::Layout(const Mesh& mesh, const ClearanceOptions& options
   tbb::parallel_for(tbb::blocked_range<size_t>(0, buckets), [&](const tbb::blocked_range<size_t>& range) {
     std::vector<uint64_t> keys;
     std::vector<Listing> moved;
+    std::vector<Extent> moved_extents;
     for (size_t b = range.begin(); b != range.end(); ++b) {
       Listing* const first = item_store_.data() + bucket_store_[b].start;
+      Extent* const first_extent = extent_store_.data() + bucket_store_[b].start;
       const size_t n = bucket_store_[b + 1].start - bucket_store_[b].start;
       if (n > 1) {
         keys.resize(n);
         for (size_t i = 0; i < n; ++i) keys[i] = uint64_t(highest_first(first[i].top)) << 32 | i;
         std::sort(keys.begin(), keys.end());
         moved.assign(first, first + n);
-        for (size_t i = 0; i < n; ++i) first[i] = moved[static_cast<uint32_t>(keys[i])];
+        moved_extents.assign(first_extent, first_extent + n);
+        const auto at = [&](uint64_t key) -> const Listing& { return moved[static_cast<uint32_t>(key)]; };
         for (size_t i = 0, j = 1; i < n; i = j, j = i + 1) {
-          while (j < n && first[j].top == first[i].top) ++j;  // +0 and -0 too, as the comparison has them
+          while (j < n && at(keys[j]).top == at(keys[i]).top) ++j;  // +0 and -0 too, as a comparison has them
           if (j - i > 1)
-            std::sort(first + i, first + j, [](const Listing& x, const Listing& y) { return x.corners < y.corners; });
+            std::sort(keys.begin() + i, keys.begin() + j,
+                      [&](uint64_t x, uint64_t y) { return at(x).corners < at(y).corners; });
+        }
+        for (size_t i = 0; i < n; ++i) {
+          first[i] = moved[static_cast<uint32_t>(keys[i])];
+          first_extent[i] = moved_extents[static_cast<uint32_t>(keys[i])];
         }
       }
       if (n > 0) bucket_store_[b].top = first[0].top;
@@ -373,6 +396,7 @@ ClearanceIndex::Layout::Layout(const Mesh& mesh, const ClearanceOptions& options
     }
   buckets_ = detail::ArrayView<Bucket>(bucket_store_);
   items_ = detail::ArrayView<Listing>(item_store_);
+  extents_ = detail::ArrayView<Extent>(extent_store_);
   block_top_ = detail::ArrayView<float>(block_top_store_);
 }
 
@@ -477,18 +501,11 @@ double ClearanceIndex::Layout::visit(const Point3& p, const Point3& q, double d)
             // The triangle's part in this bucket is what the bucket answers for (a point of it
             // nearest the segment lies in some bucket it is listed in); the rest are lower still.
             if (zlow - items_[k].top >= std::min(best, reach_cap) + slack) break;
-            const Listing& item = items_[k];
-            const auto& tri = item.corners;
-            if (!seen_cleared) {
-              std::fill(std::begin(seen), std::end(seen), std::array<uint32_t, 3>{UINT32_MAX, UINT32_MAX, UINT32_MAX});
-              seen_cleared = true;
-            }
-            const uint32_t slot = (tri[0] ^ (tri[1] * 0x9E3779B1u) ^ (tri[2] * 0x85EBCA77u)) >> 26;
-            if (seen[slot] == tri) continue;
-            seen[slot] = tri;
+            const auto& tri = items_[k].corners;
             const double reach_t = std::min(best, reach_cap) + slack;
             double u0 = 0, u1 = 1;
-            if (!clip_xy(px, py, ix, iy, item.x0 - reach_t, item.x1 + reach_t, item.y0 - reach_t, item.y1 + reach_t, u0,
+            const Box box = box_of(k, r, c);
+            if (!clip_xy(px, py, ix, iy, box.x0 - reach_t, box.x1 + reach_t, box.y0 - reach_t, box.y1 + reach_t, u0,
                          u1))
               continue;
             const LocalVertex A = vertex(tri[0]);
@@ -509,6 +526,16 @@ double ClearanceIndex::Layout::visit(const Point3& p, const Point3& q, double d)
                 if (s * s >= reach_t * reach_t * nn) continue;
               }
             }
+            // The tests above are of the triangle's part in this bucket (its box is clipped to
+            // the bucket), so one that fails here may pass in another: it counts as measured only
+            // from here on, where the tests are of the whole triangle.
+            if (!seen_cleared) {
+              std::fill(std::begin(seen), std::end(seen), std::array<uint32_t, 3>{UINT32_MAX, UINT32_MAX, UINT32_MAX});
+              seen_cleared = true;
+            }
+            const uint32_t slot = (tri[0] ^ (tri[1] * 0x9E3779B1u) ^ (tri[2] * 0x85EBCA77u)) >> 26;
+            if (seen[slot] == tri) continue;
+            seen[slot] = tri;
             {
               // A ball around the triangle: the segment's distance to its centroid less the
               // farthest corner's is a lower bound, a tenth of the exact distance's cost.
@@ -600,18 +627,20 @@ size_t ClearanceIndex::Layout::bucket_at(double X, double Y) const {
   return static_cast<size_t>(clamp_index(std::floor(v), rows_)) * cols_ + clamp_index(std::floor(u), cols_);
 }
 
-bool ClearanceIndex::Layout::box_holds(const Listing& item, double X, double Y) const {
-  // The box is rounded outwards; the margin covers ground_in()'s tolerance of the inside test.
-  return X >= item.x0 - margin_ && X <= item.x1 + margin_ && Y >= item.y0 - margin_ && Y <= item.y1 + margin_;
+bool ClearanceIndex::Layout::box_holds(const Box& box, double X, double Y) const {
+  // The box is rounded outwards; the margin covers ground_in()'s tolerance of the inside test,
+  // and bucket_at()'s of a point a rounding hair beyond the bucket.
+  return X >= box.x0 - margin_ && X <= box.x1 + margin_ && Y >= box.y0 - margin_ && Y <= box.y1 + margin_;
 }
 
 double ClearanceIndex::Layout::ground_in(size_t bucket, double X, double Y) const {
   double top = NAN;
+  const int r = static_cast<int>(bucket / cols_), c = static_cast<int>(bucket % cols_);
   for (uint32_t k = buckets_[bucket].start; k < buckets_[bucket + 1].start; ++k) {
     const Listing& item = items_[k];
     // Listed highest first: nothing further down can be higher than what was found.
     if (item.top + origin_[2] < top) break;
-    if (!box_holds(item, X, Y)) continue;
+    if (!box_holds(box_of(k, r, c), X, Y)) continue;
     const auto& tri = item.corners;
     const LocalVertex A = vertex(tri[0]);
     const LocalVertex B = vertex(tri[1]);
@@ -657,20 +686,22 @@ void ClearanceIndex::Layout::ground(const double* x, const double* y, double* z,
       if (at(i) != SIZE_MAX) __builtin_prefetch(&buckets_[at(i)]);
     }
     if (i >= lag && i - lag < n && at(i - lag) != SIZE_MAX) {
-      // The first eight lines of the list: about the part a point in a street scans, past the
+      // The first sixteen listings (four lines): about the part a point in a street scans, past the
       // roofs listed before it (more ties up the memory system for no gain: bench/plan_ompl).
       const char* first = reinterpret_cast<const char*>(items_.data() + buckets_[at(i - lag)].start);
       const char* last = reinterpret_cast<const char*>(items_.data() + buckets_[at(i - lag) + 1].start);
-      for (int line = 0; line < 8 && first + 64 * line < last; ++line) __builtin_prefetch(first + 64 * line);
+      for (int line = 0; line < 4 && first + 64 * line < last; ++line) __builtin_prefetch(first + 64 * line);
+      __builtin_prefetch(extents_.data() + buckets_[at(i - lag)].start);  // their 16 extents
     }
     if (i >= 2 * lag && i - 2 * lag < n && at(i - 2 * lag) != SIZE_MAX) {
       // The corners of the first triangles whose boxes hold the point: usually the answer.
       const size_t j = i - 2 * lag, b = at(j);
       const double X = x[j] - origin_[0], Y = y[j] - origin_[1];
       int found = 0;
+      const int r = static_cast<int>(b / cols_), c = static_cast<int>(b % cols_);
       for (uint32_t k = buckets_[b].start; k < buckets_[b + 1].start && found < 2; ++k) {
         const Listing& item = items_[k];
-        if (!box_holds(item, X, Y)) continue;
+        if (!box_holds(box_of(k, r, c), X, Y)) continue;
         for (uint32_t v : item.corners) __builtin_prefetch(&verts_[v]);
         ++found;
       }
@@ -718,7 +749,8 @@ const GroundGrid& ClearanceIndex::floor() const { return layout_->floor_; }
 size_t ClearanceIndex::bucket_listings() const { return layout_->items_.size(); }
 size_t ClearanceIndex::memory_bytes() const {
   const Layout& l = *layout_;
-  return l.verts_.size() * sizeof(Layout::LocalVertex) + l.items_.size() * sizeof(Layout::Listing) +
+  return l.verts_.size() * sizeof(Layout::LocalVertex) +
+         l.items_.size() * (sizeof(Layout::Listing) + sizeof(Layout::Extent)) +
          l.buckets_.size() * sizeof(Layout::Bucket) + l.block_top_.size() * sizeof(float) +
          l.floor_.grid().z.capacity() * sizeof(float);
 }

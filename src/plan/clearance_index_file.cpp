@@ -33,7 +33,7 @@ constexpr char kMagic[16] = "dsmplan index\n";
 // Raise it with every change to the layout or to what the index holds (how it is built, the
 // floor, the DSM's hole columns dsmplan plan adds to the mesh): a file of another version is
 // rebuilt, so no run uses an index an older build made differently.
-constexpr uint32_t kVersion = 1;
+constexpr uint32_t kVersion = 2;  // 2: listings of 16 bytes, their extents apart
 constexpr uint32_t kByteOrder = 0x01020304;
 
 struct FileHeader {
@@ -57,10 +57,10 @@ constexpr size_t align64(size_t at) { return (at + 63) & ~size_t(63); }
 // Where each section starts and where the checksum is, from the header's counts; false when
 // the counts overflow.
 struct Sections {
-  size_t verts, buckets, items, block_tops, floor, checksum, end;
+  size_t verts, buckets, items, extents, block_tops, floor, checksum, end;
 };
 // Bytes of a vertex, a bucket and a listing (the layout's types are private to the index).
-constexpr size_t kVertexBytes = 24, kBucketBytes = 8, kListingBytes = 32;
+constexpr size_t kVertexBytes = 24, kBucketBytes = 8, kListingBytes = 16, kExtentBytes = 4;
 bool sections_of(const FileHeader& h, Sections& s) {
   constexpr uint64_t limit = uint64_t(1) << 40;  // counts beyond any file this machine maps
   if (h.verts > limit || h.buckets > limit || h.items > limit || h.block_tops > limit || h.floor_cells > limit)
@@ -68,20 +68,21 @@ bool sections_of(const FileHeader& h, Sections& s) {
   s.verts = align64(sizeof(FileHeader));
   s.buckets = align64(s.verts + h.verts * kVertexBytes);
   s.items = align64(s.buckets + h.buckets * kBucketBytes);
-  s.block_tops = align64(s.items + h.items * kListingBytes);
+  s.extents = align64(s.items + h.items * kListingBytes);
+  s.block_tops = align64(s.extents + h.items * kExtentBytes);
   s.floor = align64(s.block_tops + h.block_tops * sizeof(float));
   s.checksum = (s.floor + h.floor_cells * sizeof(float) + 7) & ~size_t(7);
   s.end = s.checksum + sizeof(uint64_t);
   return true;
 }
 
-// The header and the five sections hashed each where it lies (the zero padding between them is
+// The header and the six sections hashed each where it lies (the zero padding between them is
 // not), then their hashes: no copy of the arrays is needed to write or to check a file.
 // `visit_listings` sees the listings' section piece by piece as it is hashed (content_hash()).
-uint64_t checksum_of(const std::pair<const void*, size_t> (&parts)[6],
+uint64_t checksum_of(const std::pair<const void*, size_t> (&parts)[7],
                      const std::function<void(const unsigned char*, size_t)>& visit_listings = {}) {
-  uint64_t hashes[6];
-  for (int k = 0; k < 6; ++k)
+  uint64_t hashes[7];
+  for (int k = 0; k < 7; ++k)
     hashes[k] = content_hash(parts[k].first, parts[k].second, k == 3 ? visit_listings : nullptr);
   return content_hash(hashes, sizeof hashes);
 }
@@ -99,7 +100,8 @@ ClearanceIndex::ClearanceIndex(std::shared_ptr<const Layout> layout) : layout_(s
 
 void ClearanceIndex::save(const std::string& path, const Source& source) const {
   static_assert(offsetof(Layout::Listing, corners) == 0 && sizeof(Layout::LocalVertex) == kVertexBytes &&
-                sizeof(Layout::Bucket) == kBucketBytes && sizeof(Layout::Listing) == kListingBytes);
+                sizeof(Layout::Bucket) == kBucketBytes && sizeof(Layout::Listing) == kListingBytes &&
+                sizeof(Layout::Extent) == kExtentBytes);
   const Layout& l = *layout_;
   FileHeader h{};
   std::memcpy(h.magic, kMagic, sizeof kMagic);
@@ -140,13 +142,14 @@ void ClearanceIndex::save(const std::string& path, const Source& source) const {
                                                   {verts, h.verts * sizeof(Layout::LocalVertex)},
                                                   {l.buckets_.data(), h.buckets * sizeof(Layout::Bucket)},
                                                   {l.items_.data(), h.items * sizeof(Layout::Listing)},
+                                                  {l.extents_.data(), h.items * sizeof(Layout::Extent)},
                                                   {l.block_top_.data(), h.block_tops * sizeof(float)},
                                                   {floor_z.data(), floor_z.size() * sizeof(float)}};
-  const size_t starts[] = {0, s.verts, s.buckets, s.items, s.block_tops, s.floor, s.checksum};
+  const size_t starts[] = {0, s.verts, s.buckets, s.items, s.extents, s.block_tops, s.floor, s.checksum};
   AtomicFile out(path);
   static const unsigned char zeros[64] = {};
   size_t at = 0;
-  for (int k = 0; k < 6; ++k) {
+  for (int k = 0; k < 7; ++k) {
     out.write(parts[k].first, parts[k].second);
     at += parts[k].second;
     out.write(zeros, starts[k + 1] - at);
@@ -184,6 +187,7 @@ std::optional<ClearanceIndex> ClearanceIndex::open(const std::string& path, uint
                                                   {bytes + s.verts, h.verts * sizeof(Layout::LocalVertex)},
                                                   {bytes + s.buckets, h.buckets * sizeof(Layout::Bucket)},
                                                   {bytes + s.items, h.items * sizeof(Layout::Listing)},
+                                                  {bytes + s.extents, h.items * sizeof(Layout::Extent)},
                                                   {bytes + s.block_tops, h.block_tops * sizeof(float)},
                                                   {bytes + s.floor, h.floor_cells * sizeof(float)}};
   // The highest vertex the listings name, found while they are hashed: a second pass over them
@@ -237,6 +241,7 @@ std::optional<ClearanceIndex> ClearanceIndex::open(const std::string& path, uint
   l.verts_ = {reinterpret_cast<const Layout::LocalVertex*>(bytes + s.verts), h.verts};
   l.buckets_ = {reinterpret_cast<const Layout::Bucket*>(bytes + s.buckets), h.buckets};
   l.items_ = {reinterpret_cast<const Layout::Listing*>(bytes + s.items), h.items};
+  l.extents_ = {reinterpret_cast<const Layout::Extent*>(bytes + s.extents), h.items};
   l.block_top_ = {reinterpret_cast<const float*>(bytes + s.block_tops), h.block_tops};
   l.mapping_ = file;
 

@@ -50,9 +50,10 @@
 //     ClearanceOptions::bucket_size overrides it (enlarged when it would make more than four
 //     buckets a triangle).
 //   - Thread-safe: every query is const and allocates nothing; share one index among threads.
-//   - Memory (memory_bytes()): 24 bytes a vertex, 32 a listing (it carries its triangle's
-//     corners, so a query reads the vertices without a second miss), 8 a bucket; the mesh's
-//     own triangle list is not kept: 123 MB for the NRW tile at 1 m.
+//   - Memory (memory_bytes()): 24 bytes a vertex (the mesh's own, when the index holds it), 20
+//     a listing (16 with its triangle's corners, so a query reads the vertices without a second
+//     miss, and 4 of where the triangle lies in the bucket), 8 a bucket; the mesh's own triangle
+//     list is not kept: 88 MB for the NRW tile at 1 m.
 //   - Kept in a file (save(), open()): building is most of what loading a mesh for planning
 //     costs (0.2 s of 0.33 s at 1 m), so the index can be saved and mapped back by later runs
 //     over the same mesh: opened in about 0.02 s, answering every query as the saved index did.
