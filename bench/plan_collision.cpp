@@ -16,7 +16,9 @@
 // thread / all threads, index / brute force, index / BVH, the bucket sizes one after another in
 // every round), at least 5; a rate is the median with its min-max, a ratio the median of the
 // per-pair ratios, and the 1-minute load average at the pairs' starts is printed. Never a best-of.
-//   build/bench/bench_plan_collision [PAIRS = 5]
+//   build/bench/bench_plan_collision [PAIRS = 5] [--queries [N = 200000]]
+// --queries: items 1 and 2 only, on N segments, for paired runs of two builds (or callgrind's
+// cache simulation of them) against each other.
 // Exit code 1 on any disagreement with brute force or the BVH.
 #include <tbb/global_control.h>
 #include <tbb/parallel_for.h>
@@ -192,6 +194,7 @@ private:
 
 int main(int argc, char** argv) {
   const int pairs = argc > 1 ? std::max(5, std::atoi(argv[1])) : 5;
+  const bool queries_only = argc > 2 && std::string(argv[2]) == "--queries";
   const unsigned cores = std::max(1u, std::thread::hardware_concurrency());
   const Grid grid = read_raster(tile);
   const Mesh mesh = triangulate_xy3(grid);
@@ -211,6 +214,7 @@ int main(int argc, char** argv) {
     const auto start = std::chrono::steady_clock::now();
     index = std::make_unique<ClearanceIndex>(mesh);
     build.add(seconds_since(start));
+    if (queries_only) continue;
     bvh.reset();
     const auto bvh_start = std::chrono::steady_clock::now();
     bvh = std::make_unique<Bvh>(mesh, index->origin());
@@ -223,7 +227,7 @@ int main(int argc, char** argv) {
   std::printf("(build paired with the BVH's: load average %s at the pairs' starts)\n\n", build_loads.text().c_str());
 
   // 2. One thread against all, per band.
-  const size_t n = 200000;
+  const size_t n = queries_only && argc > 3 ? std::max(1000, std::atoi(argv[3])) : 200000;
   const std::vector<Query> all = make_queries(*index, grid, n, 2, 120, 1);
   struct Band {
     const char* name;
@@ -249,6 +253,7 @@ int main(int argc, char** argv) {
                 one.text("%.0f").c_str(), many.text("%.0f").c_str(), ratios(many, one).text("%.2f").c_str());
   }
   std::printf("(load average %s at the pairs' starts)\n", thread_loads.text().c_str());
+  if (queries_only) return 0;
 
   // 3. Brute force: every triangle, the same exact distance, in the index's local coordinates;
   // `sample` segments in all, a slice of them in each pair, beside the index on all segments.

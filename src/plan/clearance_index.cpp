@@ -457,7 +457,7 @@ double ClearanceIndex::Layout::visit(const Point3& p, const Point3& q, double d)
     ta = std::max(ta, a), tb = std::min(tb, b);
     return ta <= tb;
   };
-  const double coarse = block * cell_;
+  const double coarse = block * cell_, unit = cell_ / 255;
   for (int R = r0 / block; R <= r1 / block; ++R) {
     double ta, tb;
     const double reach_row = std::min(best, reach_cap) + slack;
@@ -497,6 +497,9 @@ double ClearanceIndex::Layout::visit(const Point3& p, const Point3& q, double d)
           // z is linear along the segment: its least value on the clipped part is at an end.
           const double zlow = std::min(pz + t0 * dz, pz + t1 * dz);
           if (zlow - buckets_[bucket].top >= reach_b) continue;
+          // The listings' extents are an array apart: their first line is asked for now, so its
+          // miss overlaps the first listing's instead of following it.
+          __builtin_prefetch(extents_.data() + begin);
           for (uint32_t k = begin; k < end; ++k) {
             // The triangle's part in this bucket is what the bucket answers for (a point of it
             // nearest the segment lies in some bucket it is listed in); the rest are lower still.
@@ -504,7 +507,7 @@ double ClearanceIndex::Layout::visit(const Point3& p, const Point3& q, double d)
             const auto& tri = items_[k].corners;
             const double reach_t = std::min(best, reach_cap) + slack;
             double u0 = 0, u1 = 1;
-            const Box box = box_of(k, r, c);
+            const Box box = box_of(k, x0, y0, unit);
             if (!clip_xy(px, py, ix, iy, box.x0 - reach_t, box.x1 + reach_t, box.y0 - reach_t, box.y1 + reach_t, u0,
                          u1))
               continue;

@@ -81,12 +81,13 @@ struct ClearanceIndex::Layout {
   struct Box {
     double x0, x1, y0, y1;
   };
-  /// Listing k's box, in bucket (r, c).
-  Box box_of(size_t k, int r, int c) const {
+  /// Listing k's box, in the bucket whose corner is (bx, by); `unit` is cell_ / 255.
+  Box box_of(size_t k, double bx, double by, double unit) const {
     const Extent& e = extents_[k];
-    const double unit = cell_ / 255, bx = gx0_ + c * cell_, by = gy0_ + r * cell_;
     return {bx + e.x0 * unit, bx + e.x1 * unit, by + e.y0 * unit, by + e.y1 * unit};
   }
+  /// The same in bucket (r, c).
+  Box box_of(size_t k, int r, int c) const { return box_of(k, gx0_ + c * cell_, gy0_ + r * cell_, cell_ / 255); }
   struct Bucket {
     uint32_t start;  ///< bucket b lists items_[start of b, start of b + 1), highest first
     float top;       ///< highest mesh point in the bucket, rounded up (-inf when empty)
