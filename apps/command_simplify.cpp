@@ -87,11 +87,11 @@ Command simplify_command(CLI::App& app, Session& session) {
   command->add_flag("--delaunay", simplify.delaunay,
                     "Bounded mode: one global Delaunay triangulation (single-threaded) instead of tiles");
   command->add_option("--threads", simplify.threads, "Bounded mode: threads (0: every core)")->capture_default_str();
-  command->add_option("--tile-size", simplify.tile_size, "Bounded mode: cells a tile side (0: 64)")
+  command->add_option("--tile-size", simplify.tile_size, "Bounded mode: cells a tile side (0: 24)")
       ->capture_default_str();
   command
       ->add_option("--block-tiles", simplify.block_tiles,
-                   "Bounded mode: tiles a block side, the unit read and farmed out (0: 16)")
+                   "Bounded mode: tiles a block side, the unit read and farmed out (0: 42)")
       ->capture_default_str();
   command->add_option("--dsm", simplify.dsm, "With a mesh input: the DSM it was made from (for the error)");
   request->res_given =

@@ -47,8 +47,13 @@ constexpr double keep_fraction = 0.4;
 // the pre-simplified seams give greedy insertion straight lines it would not find itself.
 // NRW tile, conservative E = 0.4 m, 2 cores: tile 16 -> 427,629 vertices in 0.29 s, 64 ->
 // 430,674 in 0.31 s, 256 -> 431,853 in 0.38 s, 512 -> 432,077 in 0.52 s, one tile 432,302.
-// 64 keeps the seams few enough not to show in the mesh.
-constexpr int default_tile_size = 64;
+// 24 (issue 37: against hmm, fewer vertices on both cities): NRW 428,457 vertices and 3.89 G
+// instructions against 64's 430,674 and 4.24 G (callgrind of dsmplan simplify); Delft (AHN3,
+// 1 m, holes filled) 32,770 against 32,990, where hmm keeps 32,847 (16: 32,803; 32: 32,907).
+// What smaller tiles cost is seams: a tile's border is a polyline every tile takes as it is,
+// so a flat field keeps a vertex at every tile corner (1 in 576 cells at 24) that a larger
+// tile would not; urban surfaces need far more than that anyway.
+constexpr int default_tile_size = 24;
 
 struct Point {
   int32_t x, y;  // col, row
@@ -436,7 +441,7 @@ std::vector<int> split_points(int last, int tile) {
 }
 
 constexpr uint32_t no_id = std::numeric_limits<uint32_t>::max();
-constexpr int default_block_tiles = 16;
+constexpr int default_block_tiles = 42;  // blocks of about 1,000 cells a side, as 16 tiles of 64 were
 
 // A block's cells: tile columns [ti0, ti1) and rows [tj0, tj1), cells [cx0, cx1] x [ry0, ry1].
 struct BlockSpan {

@@ -124,8 +124,8 @@ struct BoundedSimplifyOptions {
   double max_error = 0.4;     ///< E: certified bound on |mesh - dsm|, vertical units, 0.001 to 10000
   bool conservative = false;  ///< 0 <= mesh - dsm <= E instead of |mesh - dsm| <= E
   bool delaunay = false;      ///< one global Delaunay triangulation (single-threaded)
-  int tile_size = 0;          ///< cells per tile side; 0 = automatic, 64 (ignored with delaunay)
-  int block_tiles = 0;        ///< tiles per block side (the unit read and farmed out); 0 = 16
+  int tile_size = 0;          ///< cells per tile side; 0 = automatic, 24 (ignored with delaunay)
+  int block_tiles = 0;        ///< tiles per block side (the unit read and farmed out); 0 = 42
   int threads = 0;            ///< 0 = every core
 };
 

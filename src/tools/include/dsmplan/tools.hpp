@@ -245,8 +245,8 @@ struct SimplifyJobOptions {
   bool conservative = false;             ///< the bounded mode: 0 <= mesh - DSM <= E (implied without max_error)
   std::optional<double> dz, dco;         ///< the paper's tolerances; none: PaperSimplifyOptions' 0.4 m, 1e-5 m
   bool delaunay = false;                 ///< the bounded mode: one global Delaunay triangulation (one thread)
-  int tile_size = 0;                     ///< the bounded mode: cells a tile side; 0: 64
-  int block_tiles = 0;                   ///< the bounded mode: tiles a block side (read and farmed out); 0: 16
+  int tile_size = 0;                     ///< the bounded mode: cells a tile side; 0: 24
+  int block_tiles = 0;                   ///< the bounded mode: tiles a block side (read and farmed out); 0: 42
   int threads = 0;                       ///< the bounded mode: threads; 0: every core
   /// Who makes the blocks of the bounded mode when it streams (a DSM input without --res):
   /// empty = this process, on its threads; the dsmplan binary under mpirun sets MpiFarm's.
