@@ -282,7 +282,7 @@ std::vector<CentreRow> read_centres(const std::string& path) {
     for (int k = 0; k < 3; ++k)
       if (!parse_real(fields[1 + k], row.position[k]))
         throw InputError(path, place,
-                         std::string("xyz"[k], 1) + " must be a finite number, got " + shown(fields[1 + k]));
+                         std::string(1, "xyz"[k]) + " must be a finite number, got " + shown(fields[1 + k]));
     row.image = fields[0];
     row.line = number;
     if (const auto [it, fresh] = seen.emplace(row.image, number); !fresh)
