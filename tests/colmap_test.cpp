@@ -775,10 +775,10 @@ TEST(ColmapBinary, RealColmapModelGivesTheDsmOfTheExactCameras) {
   const auto from_exact = testkit::run_cli({"stereo", "--cameras", dir.path("cameras.json"), "-o",
                                             dir.path("exact.tif"), "--res", "1", "--bounds", bounds, "-q"});
   ASSERT_EQ(from_exact.exit_code, 0) << from_exact.err;
-  const auto from_colmap =
-      testkit::run_cli({"stereo", "--colmap", dir.path("model"), "--centres", dir.path("centres.csv"), "--crs",
-                        "EPSG:25832", "--images", dir.path("images"), "-o", dir.path("colmap.tif"), "--res", "1",
-                        "--bounds", bounds, "--stats", dir.path("stats.json")});
+  // As the command line: no --images (the model's folder has images/ beside it).
+  const auto from_colmap = testkit::run_cli(
+      {"stereo", "--colmap", dir.path("model"), "--centres", dir.path("centres.csv"), "--crs", "EPSG:25832", "-o",
+       dir.path("colmap.tif"), "--res", "1", "--bounds", bounds, "--stats", dir.path("stats.json")});
   ASSERT_EQ(from_colmap.exit_code, 0) << from_colmap.err;
   const auto stats = nlohmann::json::parse(testkit::read_file(dir.path("stats.json")));
   const Grid scored = aerial::crop(truth, 15, 15, n - 30);

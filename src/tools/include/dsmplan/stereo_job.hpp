@@ -74,7 +74,7 @@ struct StereoRequest {
   std::vector<std::string> images;          ///< satellite images with RPCs (IMAGES)
   std::string cameras;                      ///< CAMERAS.json (--cameras)
   std::string colmap;                       ///< --colmap MODEL_DIR: a COLMAP text model instead of --cameras
-  std::string centres;                      ///< --centres CSV (image,x,y,z in --crs), with --colmap
+  std::string centres;                      ///< --centres CSV (image,x,y,z in --crs) or "exif", with --colmap
   std::string transform;                    ///< --transform FILE (model -> --crs), with --colmap
   std::string gcps;                         ///< --gcps CSV (x,y,z,image,u,v in --crs), with --colmap
   std::string colmap_images;                ///< --images DIR, with --colmap
