@@ -27,11 +27,21 @@ void run(const Request& request, bool quiet) {
     if (report.georeference && !quiet) {
       const Georeference& g = *report.georeference;
       std::fprintf(stderr, "dsmplan: COLMAP model in %s by the %s (scale %.6g)", request.stereo.crs.c_str(),
-                   g.method == "centres" ? "similarity fitted to the centres" : "transform given", g.scale);
+                   g.method == "centres" ? "similarity fitted to the centres"
+                   : g.method == "exif"  ? "similarity fitted to the images' EXIF GPS centres"
+                   : g.method == "gcps"  ? "similarity fitted to the ground control points"
+                                         : "transform given",
+                   g.scale);
       if (g.centres)
         std::fprintf(stderr, ": residuals at %zu centres RMS %.3f m, max %.3f m (%s), bound %.2f m", g.centres, g.rms,
                      g.max, g.worst.c_str(), g.bound);
+      if (g.gcps)
+        std::fprintf(stderr,
+                     ": residuals at %zu ground control points RMS %.3f m, max %.3f m (point %s), bound %.2f m; "
+                     "reprojection at most %.2f px",
+                     g.gcps, g.rms, g.max, g.worst.c_str(), g.bound, g.gcp_reprojection_max);
       std::fprintf(stderr, "\n");
+      if (!g.heights.empty()) std::fprintf(stderr, "dsmplan: heights: %s\n", g.heights.c_str());
     }
     write_stats(request.stats, to_json(report), {output});
   } else {
@@ -59,10 +69,15 @@ Command stereo_command(CLI::App& app, Session& session) {
                       "CAMERAS.json: CRS, cameras and images, optionally the height range (docs/stereo.md)");
   command->add_option("--colmap", stereo.colmap,
                       "COLMAP text model folder (cameras.txt, images.txt) instead of --cameras; needs --crs and "
-                      "--centres or --transform (docs/stereo.md)");
+                      "--centres, --gcps or --transform (docs/stereo.md)");
   command->add_option("--centres", stereo.centres,
-                      "With --colmap: CSV of image,x,y,z, the cameras' centres in --crs; a similarity is fitted "
+                      "With --colmap: CSV of image,x,y,z, the cameras' centres in --crs, or 'exif': the images' "
+                      "EXIF GPS (altitude taken as EGM96 height, converted by PROJ); a similarity is fitted "
                       "(Umeyama) and refused when its RMS residual exceeds max(0.5 m, 1 % of the centres' extent)");
+  command->add_option("--gcps", stereo.gcps,
+                      "With --colmap, instead of --centres: CSV of ground control points, header x,y,z,image,u,v "
+                      "(and optionally point), one row per point and image; each point seen in 2 or more images is "
+                      "triangulated and the similarity fitted to them, by the same bound");
   command->add_option("--transform", stereo.transform,
                       "With --colmap: the model -> --crs similarity: a 4x4 matrix by rows, its first 3 rows, or "
                       "scale, rotation by rows, translation");

@@ -7,7 +7,9 @@
 //   aerial_sample render OUTDIR    img_0..3.png, cameras.json (no height_range: dsmplan estimates
 //                                  it), truth.tif (the central 60 m x 60 m, 1 m cells),
 //                                  waypoints.csv (three points 10 m over the highest cell),
-//                                  bounds.txt (x0,y0,x1,y1 of truth.tif)
+//                                  bounds.txt (x0,y0,x1,y1 of truth.tif), sfm/ (six views
+//                                  without distortion and their centres.csv: image,x,y,z, for
+//                                  the COLMAP route)
 //   aerial_sample score DSM TRUTH  one line: filled, median |error|, > 1 m, > 3 m
 #include <gdal_priv.h>
 
@@ -71,6 +73,21 @@ int render(const std::string& dir) {
     json["cameras"].push_back(camera_json(cameras[i], name));
   }
   std::ofstream(dir + "/cameras.json") << json.dump(1) << "\n";
+  // The block for structure-from-motion (sfm/): six views without lens distortion in a 3 x 2
+  // grid 18 m apart, 480 x 480 px, about 100 m over the lowest cell, as colmap_test's
+  // ColmapBinary test flies them; their centres as image,x,y,z for `--colmap --centres`.
+  std::filesystem::create_directories(dir + "/sfm");
+  std::ofstream centres(dir + "/sfm/centres.csv");
+  centres << std::fixed << std::setprecision(4) << "image,x,y,z\n";
+  for (int row = 0, i = 0; row < 2; ++row)
+    for (int col = 0; col < 3; ++col, ++i) {
+      const FrameCamera c =
+          nadir_camera(480, 495, {xc + 18.0 * (col - 1), yc + 18.0 * (row - 0.5), *lo + 100 + 2.0 * col - row},
+                       0.02 * (col - 1), 0.015 * (row - 0.5));
+      const std::string name = "view_" + std::to_string(i) + ".png";
+      write_png(aerial::render(scene, c, static_cast<unsigned>(21 + i)), dir + "/sfm/" + name);
+      centres << name << "," << c.center[0] << "," << c.center[1] << "," << c.center[2] << "\n";
+    }
   dsmplan::write_geotiff(truth, dir + "/truth.tif");
   const float thi = *std::max_element(truth.z.begin(), truth.z.end());
   std::ofstream waypoints(dir + "/waypoints.csv");
@@ -80,8 +97,10 @@ int render(const std::string& dir) {
     waypoints << truth.x0 + dx << "," << truth.y0 - dy << "," << thi + 10 << "\n";
   std::ofstream(dir + "/bounds.txt") << std::fixed << truth.x0 << "," << truth.y1() << "," << truth.x1() << ","
                                      << truth.y0 << "\n";
-  std::printf("rendered 4 views of %d x %d px of the NRW sample (%d m x %d m, heights %.1f..%.1f m) into %s\n", size,
-              size, n, n, *lo, *hi, dir.c_str());
+  std::printf(
+      "rendered 4 views of %d x %d px (and 6 for structure-from-motion) of the NRW sample (%d m x %d m, heights "
+      "%.1f..%.1f m) into %s\n",
+      size, size, n, n, *lo, *hi, dir.c_str());
   return 0;
 }
 

@@ -213,6 +213,50 @@ def camera_seeds():
     hostile("cameras", "cameras_*.json")
 
 
+def colmap_seeds():
+    """COLMAP's text model and the files of its georeference, each a first byte choosing what is
+    read (fuzz_colmap.cpp: 0 a model, 1 centres, 2 GCPs, 3 a transform, 4 a model with GCPs, 5 a
+    model with centres) then its files separated by NUL bytes: three nadir cameras of each model
+    type 30 m apart (COLMAP's quaternion (0, 1, 0, 0): x east, y south, z down), their centres and
+    ground control points projected into them, a transform of each form, and the hostile fixtures."""
+    params = {"SIMPLE_PINHOLE": "800 320 240", "PINHOLE": "800 790 320 240",
+              "SIMPLE_RADIAL": "800 320 240 -0.05", "RADIAL": "800 320 240 -0.05 0.01",
+              "OPENCV": "800 790 320 240 -0.05 0.01 0.001 -0.001",
+              "FULL_OPENCV": "800 790 320 240 -0.05 0.01 0.001 -0.001 0.002 0 0 0"}
+    centres = [(0.0, 0.0, 300.0), (30.0, 0.0, 300.0), (15.0, 25.0, 300.0)]
+    images = "# Image list with two lines of data per image:\n" + "".join(
+        "%d 0 1 0 0 %r %r %r 1 view%d.tif\n%s\n" % (i + 1, -x, y, z, i, "" if i else "320.5 240.5 -1")
+        for i, (x, y, z) in enumerate(centres))
+    csv = "image,x,y,z\n" + "".join("view%d.tif,%r,%r,%r\n" % (i, 356300 + x, 5699770 + y, z)
+                                    for i, (x, y, z) in enumerate(centres))
+    gcps = "point,x,y,z,image,u,v\n"
+    for k, (px, py, pz) in enumerate([(5.0, 3.0, 60.0), (25.0, 10.0, 65.0), (12.0, 20.0, 58.0), (18.0, -4.0, 70.0)]):
+        for i, (x, y, z) in enumerate(centres):  # pinhole, f 800, centre (319.5, 239.5) in dsmplan's pixels
+            depth = z - pz
+            u, v = 319.5 + 800 * (px - x) / depth, 239.5 - 800 * (py - y) / depth
+            gcps += "P%d,%r,%r,%r,view%d.tif,%r,%r\n" % (k, 356300 + px, 5699770 + py, pz, i, u, v)
+    for model, p in params.items():
+        cameras = "# Camera list with one line of data per camera:\n1 %s 640 480 %s\n" % (model, p)
+        put("colmap", "model_%s.bin" % model.lower(), b"\x00" + cameras.encode() + b"\x00" + images.encode())
+    pinhole = "1 PINHOLE 640 480 800 800 320 240\n"
+    put("colmap", "centres.bin", b"\x01" + csv.encode())
+    put("colmap", "gcps.bin", b"\x02" + gcps.encode())
+    put("colmap", "transform_16.bin", b"\x03" + b"1 0 0 356300\n0 1 0 5699770\n0 0 1 0\n0 0 0 1\n")
+    put("colmap", "transform_13.bin", b"\x03# s, Q, T\n2\n1 0 0\n0 1 0\n0 0 1\n356300,5699770,0\n")
+    put("colmap", "model_gcps.bin", b"\x04" + pinhole.encode() + b"\x00" + images.encode() + b"\x00" + gcps.encode())
+    put("colmap", "model_centres.bin", b"\x05" + pinhole.encode() + b"\x00" + images.encode() + b"\x00" +
+        csv.encode())
+    for path in sorted(glob.glob(os.path.join(HOSTILE, "colmap_*"))):
+        name = os.path.basename(path)
+        if os.path.isdir(path) and os.path.exists(os.path.join(path, "images.txt")):
+            parts = [open(os.path.join(path, f), "rb").read() for f in ("cameras.txt", "images.txt")]
+            put("colmap", name + ".bin", b"\x00" + parts[0] + b"\x00" + parts[1])
+        elif name.endswith(".csv"):
+            put("colmap", name + ".bin", (b"\x02" if "gcps" in name else b"\x01") + open(path, "rb").read())
+        elif name.endswith(".txt"):
+            put("colmap", name + ".bin", b"\x03" + open(path, "rb").read())
+
+
 def rpc_seeds():
     """The RPC readers' seeds, each a first byte choosing the file (0 .geom, 1 .RPB, 2 _RPC.TXT)
     then its text: the four real .geom files of data/pleiades-kahramanmaras, and their models
@@ -257,5 +301,6 @@ if __name__ == "__main__":
     pipeline_seeds()
     index_seeds()
     camera_seeds()
+    colmap_seeds()
     rpc_seeds()
     airspace_seeds()

@@ -207,8 +207,14 @@ def stereo(
     allow_approximate_vertical: bool = False,
     fusion_memory: float = 1024.0,
     band_memory: float = 1024.0,
+    colmap: str | os.PathLike[str] | None = None,
+    centres: str | os.PathLike[str] | None = None,
+    gcps: str | os.PathLike[str] | None = None,
+    transform: str | os.PathLike[str] | None = None,
+    colmap_images: str | os.PathLike[str] | None = None,
 ) -> Dsm | dict[str, Any]:
     """A DSM from satellite images with RPCs (`images`) or frame cameras (`cameras`: a
     CAMERAS.json path or a dict in its schema, a dict's relative image paths taken from the
-    current directory), as `dsmplan stereo`. Returns the Dsm when `output` is None, else writes
+    current directory; or `colmap`: a COLMAP text model put in `crs` by `centres` (a CSV of
+    image,x,y,z, or "exif"), `gcps` or `transform`, its images in `colmap_images`), as `dsmplan stereo`. Returns the Dsm when `output` is None, else writes
     the GeoTIFF and returns the report of `--stats` as a dict."""

@@ -18,7 +18,8 @@
 //   dsmplan.render(dsm, output, ...), dsmplan.profile(dsm, path, output, ...)   PNGs by render_job()
 //                                       and profile_job() (files, a Dsm, a Flight as flown), returning
 //                                       the report of `--json` as a dict
-//   dsm = dsmplan.stereo(images, res=1) or dsmplan.stereo(cameras=path_or_dict, res=0.5)   `dsmplan
+//   dsm = dsmplan.stereo(images, res=1) or dsmplan.stereo(cameras=path_or_dict, res=0.5) or
+//         dsmplan.stereo(colmap=model_dir, centres=csv, crs="EPSG:25832", res=1)          `dsmplan
 //                                       stereo`: stereo_job_for()'s rules, then stereo_job() or
 //                                       satellite_stereo_job(); a Dsm, or with output= the file and
 //                                       the report of --stats as a dict
@@ -42,6 +43,7 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <tuple>
 #include <vector>
 
 #include "dsmplan/airspace_io.hpp"
@@ -547,8 +549,10 @@ auto naming_file(const std::string& file, const std::string& name, Call&& call) 
 
 py::object stereo(const py::object& images, const py::object& cameras, double res, std::optional<std::string> output,
                   const std::string& pairs, std::optional<std::array<double, 4>> bounds, const std::string& crs,
-                  bool allow_approximate_vertical, double fusion_memory, double band_memory) {
-  static const std::map<std::string, std::string> names = {{"-o", "output"}};
+                  bool allow_approximate_vertical, double fusion_memory, double band_memory, const py::object& colmap,
+                  const py::object& centres, const py::object& gcps, const py::object& transform,
+                  const py::object& colmap_images) {
+  static const std::map<std::string, std::string> names = {{"-o", "output"}, {"--images", "colmap_images"}};
   return naming_keywords(names, [&]() -> py::object {
     std::optional<TempFolder> temp;  // the dict's CAMERAS.json, the DSM returned in memory
     auto temporary = [&](const char* name) {
@@ -576,6 +580,16 @@ py::object stereo(const py::object& images, const py::object& cameras, double re
       request.bounds = text;
     }
     request.crs = crs;
+    // --colmap and its files: paths (str or os.PathLike) as the flags take them.
+    for (auto [value, field, name] :
+         {std::tuple{&colmap, &request.colmap, "colmap"}, std::tuple{&centres, &request.centres, "centres"},
+          std::tuple{&gcps, &request.gcps, "gcps"}, std::tuple{&transform, &request.transform, "transform"},
+          std::tuple{&colmap_images, &request.colmap_images, "colmap_images"}}) {
+      if (value->is_none()) continue;
+      if (!py::isinstance<py::str>(*value) && !py::hasattr(*value, "__fspath__"))
+        throw ArgumentError(name, "must be a path (str or os.PathLike)");
+      *field = py::module_::import("os").attr("fspath")(*value).cast<std::string>();
+    }
     request.allow_approximate_vertical = allow_approximate_vertical;
     request.fusion_memory_mb = fusion_memory;
     request.band_memory_mb = band_memory;
@@ -912,7 +926,8 @@ PYBIND11_MODULE(dsmplan, m) {
   m.def("stereo", &stereo, py::arg("images") = py::none(), py::kw_only(), py::arg("cameras") = py::none(),
         py::arg("res"), py::arg("output") = py::none(), py::arg("pairs") = "auto", py::arg("bounds") = py::none(),
         py::arg("crs") = "", py::arg("allow_approximate_vertical") = false, py::arg("fusion_memory") = 1024.0,
-        py::arg("band_memory") = 1024.0,
+        py::arg("band_memory") = 1024.0, py::arg("colmap") = py::none(), py::arg("centres") = py::none(),
+        py::arg("gcps") = py::none(), py::arg("transform") = py::none(), py::arg("colmap_images") = py::none(),
         "A DSM from images, as `dsmplan stereo` (the same library functions: stereo_job_for()'s rules of the "
         "flags, then stereo_job() for frame cameras or satellite_stereo_job() for satellite images): "
         "rectification, SGM, triangulation, the median per cell. Give either `images` or `cameras`. Returns "
@@ -936,5 +951,13 @@ PYBIND11_MODULE(dsmplan, m) {
         "heights through EGM96 (about 1 m off) instead of refusing.\n"
         "fusion_memory: MB for the points before the fusion spills sorted runs to $TMPDIR (or /tmp), "
         "[0.0625, 1e9).\n"
-        "band_memory: frame cameras: MB for one band of a pair's rectified images and matching, [1, 1e9).");
+        "band_memory: frame cameras: MB for one band of a pair's rectified images and matching, [1, 1e9).\n"
+        "colmap: a COLMAP text model's folder (cameras.txt, images.txt) instead of `cameras` (--colmap); needs "
+        "`crs` (the CRS of the centres or points and of the DSM) and `centres`, `gcps` or `transform`.\n"
+        "centres: with colmap: a CSV of image,x,y,z (the cameras' centres in `crs`), or \"exif\" for the "
+        "images' EXIF GPS (--centres).\n"
+        "gcps: with colmap: a CSV of ground control points, header x,y,z,image,u,v (--gcps).\n"
+        "transform: with colmap: the model -> `crs` similarity's file (--transform).\n"
+        "colmap_images: with colmap: the images' folder (--images; default: the model's project.ini, else "
+        "images/ beside the model).");
 }

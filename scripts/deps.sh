@@ -6,7 +6,8 @@ set -euo pipefail
 packages=(cmake make g++ libcgal-dev libeigen3-dev libgmp-dev libmpfr-dev libgdal-dev libproj-dev
           libcli11-dev nlohmann-json3-dev libgtest-dev libgmock-dev libtbb-dev libpng-dev libtinygltf-dev libxxhash-dev
           libopenmpi-dev openmpi-bin libcpp-httplib-dev pkgconf
-          pybind11-dev python3-dev)
+          pybind11-dev python3-dev
+          colmap)  # the real structure-from-motion of colmap_test (ColmapBinary.*) and scripts/sample.sh
 # The tests run the Khronos glTF validator (scripts/test.sh installs it with npm) and the 3D
 # viewer needs three (scripts/build.sh installs it with npm): Debian's nodejs and npm, unless a
 # node with npm is there already (NodeSource's nodejs bundles npm and conflicts with Debian's npm

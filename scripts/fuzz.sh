@@ -3,7 +3,7 @@
 # SECONDS (default 60: the short smoke run of CI) on its committed corpus fuzz/corpus/<target>/.
 #
 #   scripts/fuzz.sh [SECONDS] [TARGET...]
-#   TARGET: las xyz mesh roadmap waypoints_csv waypoints_geojson pipeline laz index cameras rpc airspace
+#   TARGET: las xyz mesh roadmap waypoints_csv waypoints_geojson pipeline laz index cameras colmap rpc airspace
 #
 # Environment: JOBS (build jobs, default 2), PARALLEL (targets fuzzed at once, default 2),
 # MERGE=1 (afterwards, minimise the corpus plus what the run found back into fuzz/corpus/<target>;
@@ -19,7 +19,7 @@ cd "$(dirname "$0")/.."
 seconds=${1:-60}
 shift || true
 targets=("$@")
-[[ ${#targets[@]} -gt 0 ]] || targets=(las xyz mesh roadmap waypoints_csv waypoints_geojson pipeline laz index cameras rpc airspace)
+[[ ${#targets[@]} -gt 0 ]] || targets=(las xyz mesh roadmap waypoints_csv waypoints_geojson pipeline laz index cameras colmap rpc airspace)
 jobs=${JOBS:-2}
 parallel=${PARALLEL:-2}
 build=build-fuzz

@@ -7,7 +7,8 @@
 # mission under a 30 m ceiling drawn from above and from the side (both limits held), and a
 # mission between the buildings of Delft under a ceiling counted from the terrain (AHN3 LiDAR),
 # and a DSM made from four aerial views rendered from the sample (dsmplan stereo), scored against
-# the sample and meshed, simplified and planned on like it.
+# the sample and meshed, simplified and planned on like it; and the same views through COLMAP's
+# structure-from-motion (dsmplan stereo --colmap) when colmap is or can be installed.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 scripts/build.sh
@@ -96,6 +97,36 @@ build/dsmplan simplify "$out/stereo_dsm.tif" --max-error 0.4 --conservative -o "
   --stats "$out/stereo_bounded.json" -q
 build/dsmplan plan "$out/stereo_bounded.ply" --waypoints "$aerial/waypoints.csv" --dsm "$out/stereo_dsm.tif" \
   --spacing 5 -o "$out/stereo_path.csv" --stats "$out/stereo_path.json" -q
+# The same views through structure-from-motion (issue 34, point 4): COLMAP finds the poses itself
+# on the CPU; dsmplan puts its model into EPSG:25832 by the cameras' centres and makes the DSM.
+echo
+colmap_route=0
+if command -v colmap > /dev/null 2>&1 || scripts/deps.sh colmap > /dev/null 2>&1; then
+  echo "From images by structure-from-motion: six more views of the same scene (3 x 2, no lens distortion; the"
+  echo "four above have a distorted one, which COLMAP given only the focal length cannot model), COLMAP on the"
+  echo "CPU (SIFT, exhaustive matching, mapper; the focal length given, the poses its own), then"
+  echo "dsmplan stereo --colmap with the cameras' centres; scored as above:"
+  sfm="$out/colmap"
+  rm -rf "$sfm" && mkdir -p "$sfm/sparse" "$sfm/model"
+  log="$sfm/colmap.log"
+  export QT_QPA_PLATFORM=offscreen
+  colmap feature_extractor --database_path "$sfm/colmap.db" --image_path "$aerial/sfm" \
+    --ImageReader.camera_model PINHOLE --ImageReader.single_camera 1 --ImageReader.camera_params 495,495,240,240 \
+    --SiftExtraction.use_gpu 0 --SiftExtraction.num_threads 2 > "$log" 2>&1
+  colmap exhaustive_matcher --database_path "$sfm/colmap.db" --SiftMatching.use_gpu 0 \
+    --SiftMatching.num_threads 2 >> "$log" 2>&1
+  colmap mapper --database_path "$sfm/colmap.db" --image_path "$aerial/sfm" --output_path "$sfm/sparse" \
+    --Mapper.num_threads 2 --Mapper.ba_refine_focal_length 0 --Mapper.ba_refine_principal_point 0 \
+    --Mapper.ba_refine_extra_params 0 >> "$log" 2>&1
+  colmap model_converter --input_path "$sfm/sparse/0" --output_path "$sfm/model" --output_type TXT >> "$log" 2>&1
+  build/dsmplan stereo --colmap "$sfm/model" --centres "$aerial/sfm/centres.csv" --crs EPSG:25832 \
+    --images "$aerial/sfm" -o "$out/colmap_dsm.tif" --res 1 --bounds "$(cat "$aerial/bounds.txt")" \
+    --stats "$out/colmap_dsm.json"
+  build/bench/aerial_sample score "$out/colmap_dsm.tif" "$aerial/truth.tif"
+  colmap_route=1
+else
+  echo "The COLMAP route (dsmplan stereo --colmap) is skipped: colmap is not installed and scripts/deps.sh colmap could not install it."
+fi
 build/dsmplan render "$dsm" --mesh "$out/bounded_1m.ply" --no-edges --roadmap "$out/bounded_1m.roadmap" \
   --path "$out/path.csv" --waypoints data/nrw-dom1/sample_waypoints.csv --zoom 2 \
   --title "path over the conservative mesh, roadmap in blue" -o "$out/path.png" -q
@@ -129,6 +160,9 @@ printf 'From images (4 rendered views, dsmplan stereo): %s of %s cells filled; X
   "$(value "$out/stereo_dsm.json" cells)" "$(value "$out/stereo_mesh.json" vertices)" \
   "$(value "$out/stereo_bounded.json" vertices_out)" "$(value "$out/stereo_path.json" path_length_m)" \
   "$(value "$out/stereo_path.json" min_clearance_dsm_m)"
+[ "$colmap_route" = 1 ] && printf 'From 6 views through COLMAP (dsmplan stereo --colmap): %s of %s cells filled; fit to the centres RMS %.3f m\n' \
+  "$(value "$out/colmap_dsm.json" valid)" "$(value "$out/colmap_dsm.json" cells)" \
+  "$(value "$out/colmap_dsm.json" residual_rms)"
 echo
 echo "Outputs in $out/:"
 ls -l "$out"

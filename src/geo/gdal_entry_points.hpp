@@ -49,6 +49,8 @@ struct GdalEntryPoints {
   decltype(&dsmplan::place_on_globe) place_on_globe;
   decltype(&dsmplan::tileset_json) tileset_json;
   decltype(&dsmplan::write_wpml_kmz) write_wpml_kmz;
+  decltype(&dsmplan::read_exif_gps) read_exif_gps;
+  decltype(&dsmplan::exif_centres) exif_centres;
   // Wgs84Transform: made in the plugin and moved out (its State is shared, so the stubs can
   // move and destroy it); its transformations run there.
   Wgs84Transform (*make_wgs84)(const Crs&, HeightReference, const VerticalOptions&, const std::array<double, 4>&);

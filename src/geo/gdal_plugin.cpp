@@ -34,6 +34,8 @@ extern "C" __attribute__((visibility("default"))) const detail::GdalEntryPoints*
       &place_on_globe,
       &tileset_json,
       &write_wpml_kmz,
+      &read_exif_gps,
+      &exif_centres,
       [](const Crs& crs, HeightReference target, const VerticalOptions& options, const std::array<double, 4>& area) {
         return Wgs84Transform(crs, target, options, area);
       },

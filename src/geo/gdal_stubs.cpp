@@ -124,6 +124,11 @@ void write_wpml_kmz(const Mission& mission, const MissionOptions& options, const
   gdal().write_wpml_kmz(mission, options, path);
 }
 
+std::optional<ExifGps> read_exif_gps(const std::string& path) { return gdal().read_exif_gps(path); }
+ImageCentres exif_centres(const std::vector<std::string>& image_paths, const std::string& crs) {
+  return gdal().exif_centres(image_paths, crs);
+}
+
 Wgs84Transform::Wgs84Transform(const Crs& crs, HeightReference target, const VerticalOptions& options,
                                const std::array<double, 4>& area)
     : Wgs84Transform(gdal().make_wgs84(crs, target, options, area)) {}

@@ -53,7 +53,9 @@ Crs cameras_crs(const CameraFile& file, bool from_flag) {
 // The cameras of the job: CAMERAS.json, or the COLMAP model put in the CRS.
 CameraFile job_cameras(const StereoJobOptions& options, std::optional<Georeference>* georeference = nullptr) {
   if (options.colmap.model.empty()) return read_camera_file(options.cameras);
-  ColmapCameras colmap = colmap_cameras(options.colmap);
+  const std::string crs = options.colmap.crs;
+  ColmapCameras colmap = colmap_cameras(
+      options.colmap, [&crs](const std::vector<std::string>& images) { return exif_centres(images, crs); });
   if (georeference) *georeference = colmap.georeference;
   return std::move(colmap.file);
 }
@@ -84,7 +86,7 @@ void check_common(const StereoRequest& request) {
   if (request.colmap.empty())
     for (const auto& [flag, value] :
          {std::pair{"--centres", &request.centres}, std::pair{"--transform", &request.transform},
-          std::pair{"--images", &request.colmap_images}})
+          std::pair{"--gcps", &request.gcps}, std::pair{"--images", &request.colmap_images}})
       if (!value->empty()) throw ArgumentError(flag, "belongs to --colmap");
   for (const auto& [flag, megabytes, least] : {std::tuple{"--fusion-memory", request.fusion_memory_mb, 0.0625},
                                                std::tuple{"--band-memory", request.band_memory_mb, 1.0}})
@@ -107,6 +109,7 @@ StereoJobOptions frame_job(const StereoRequest& request, const std::optional<std
     frame.colmap = {.model = request.colmap,
                     .centres = request.centres,
                     .transform = request.transform,
+                    .gcps = request.gcps,
                     .crs = request.crs,
                     .images = request.colmap_images};
     check(frame.colmap);
@@ -143,8 +146,10 @@ std::vector<NamedFile> stereo_job_inputs(const StereoJobOptions& options) {
   } else {
     for (const char* name : {"cameras.txt", "images.txt"})
       files.push_back({"--colmap", (std::filesystem::path(options.colmap.model) / name).string()});
-    if (!options.colmap.centres.empty()) files.push_back({"--centres", options.colmap.centres});
+    if (!options.colmap.centres.empty() && options.colmap.centres != kExifCentres)
+      files.push_back({"--centres", options.colmap.centres});
     if (!options.colmap.transform.empty()) files.push_back({"--transform", options.colmap.transform});
+    if (!options.colmap.gcps.empty()) files.push_back({"--gcps", options.colmap.gcps});
   }
   for (const NamedFile& image : camera_images(job_cameras(options))) files.push_back(image);
   return files;
@@ -229,9 +234,17 @@ Json to_json(const StereoReport& r) {
                 {"total", total}}}};
   if (r.georeference) {
     const Georeference& g = *r.georeference;
-    out["georeference"] = {{"method", g.method},       {"centres", g.centres},  {"scale", g.scale},
-                           {"residual_rms", g.rms},    {"residual_max", g.max}, {"worst_image", g.worst},
-                           {"residual_bound", g.bound}};
+    out["georeference"] = {{"method", g.method},
+                           {"centres", g.centres},
+                           {"scale", g.scale},
+                           {"residual_rms", g.rms},
+                           {"residual_max", g.max},
+                           {"worst_image", g.worst},
+                           {"residual_bound", g.bound},
+                           {"gcps", g.gcps},
+                           {"residuals_at", g.residuals_at},
+                           {"gcp_reprojection_max_px", g.gcp_reprojection_max},
+                           {"heights", g.heights}};
   }
   return out;
 }

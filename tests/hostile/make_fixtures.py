@@ -452,6 +452,52 @@ def glb_fixtures():
     out("glb_json_cut.glb", glb(with_crs, cut=40))
 
 
+# ---- COLMAP models and their georeference ----------------------------------------------------
+
+def colmap_fixtures():
+    """COLMAP text models (`stereo --colmap`) wrong in one known way, in folders colmap_*/, and the
+    files that put a model in the CRS (--centres, --gcps, --transform) wrong in one way each. The
+    good model: three nadir PINHOLE cameras 30 m apart over the block (COLMAP's world-to-camera
+    quaternion (0, 1, 0, 0): x east, y south, z down; the model frame is the CRS shifted)."""
+    def model(folder, cameras, images):
+        os.makedirs(os.path.join(HERE, folder), exist_ok=True)
+        out(os.path.join(folder, "cameras.txt"), cameras.encode())
+        out(os.path.join(folder, "images.txt"), images.encode())
+
+    good_cameras = "# CAMERA_ID MODEL WIDTH HEIGHT PARAMS[]\n1 PINHOLE 640 480 800 800 320 240\n"
+    centres = [(0, 0, 300), (30, 0, 300), (15, 25, 300)]
+
+    def image_lines(qw=0.0, qx=1.0, qy=0.0, qz=0.0, centres=centres):
+        # x_cam = R X + t with R = diag(1, -1, -1): t = -R C
+        return "".join("%d %r %r %r %r %r %r %r 1 view%d.tif\n\n" % (i + 1, qw, qx, qy, qz, -x, y, z, i)
+                       for i, (x, y, z) in enumerate(centres))
+
+    model("colmap_good", good_cameras, image_lines())
+    model("colmap_fisheye", "1 OPENCV_FISHEYE 640 480 800 800 320 240 0.1 0 0 0\n", image_lines())
+    model("colmap_zero_quaternion", good_cameras, image_lines(qx=0.0))
+    model("colmap_number_overflow", "1 PINHOLE 640 480 8e999 800 320 240\n", image_lines())
+    model("colmap_on_a_line", good_cameras, image_lines(centres=[(0, 0, 300), (30, 0, 300), (60, 0, 300)]))
+    os.makedirs(os.path.join(HERE, "colmap_binary"), exist_ok=True)
+    out(os.path.join("colmap_binary", "cameras.bin"), struct.pack("<Q", 0))
+    # Centres: the CRS is the model shifted to the block (356300, 5699770); one centre NaN; three
+    # centres on a line.
+    out("colmap_centres_nan.csv", b"image,x,y,z\nview0.tif,356300,5699770,300\nview1.tif,nan,5699770,300\n")
+    out("colmap_centres_line.csv", b"image,x,y,z\nview0.tif,356300,5699770,300\nview1.tif,356330,5699770,300\n"
+        b"view2.tif,356360,5699770,300\n")
+    # Ground control points: one seen in a single image; a header without v; a point whose two
+    # rows give other heights.
+    out("colmap_gcps_one_view.csv", b"point,x,y,z,image,u,v\nA,356310,5699760,60,view0.tif,330,230\n")
+    out("colmap_gcps_no_v.csv", b"point,x,y,z,image,u\nA,356310,5699760,60,view0.tif,330\n")
+    out("colmap_gcps_moved.csv", b"point,x,y,z,image,u,v\nA,356310,5699760,60,view0.tif,330,230\n"
+        b"A,356310,5699760,61,view1.tif,250,230\n")
+    # The good model's images as plain text (--centres exif reads their EXIF).
+    os.makedirs(os.path.join(HERE, "colmap_plain_images"), exist_ok=True)
+    for i in range(3):
+        out(os.path.join("colmap_plain_images", "view%d.tif" % i), b"not an image\n")
+    # A transform that mirrors (determinant < 0): no rotation.
+    out("colmap_transform_mirror.txt", b"1 0 0 356300\n0 1 0 5699770\n0 0 -1 0\n0 0 0 1\n")
+
+
 def main():
     if len(sys.argv) != 2:
         sys.exit(__doc__)
@@ -463,6 +509,7 @@ def main():
     waypoint_fixtures()
     zone_fixtures()
     glb_fixtures()
+    colmap_fixtures()
     plan_fixtures(os.path.abspath(sys.argv[1]))
     unit_fixtures(os.path.abspath(sys.argv[1]))
 

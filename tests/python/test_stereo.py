@@ -251,3 +251,88 @@ def test_stereo_refuses_what_the_command_line_refuses_in_the_same_words(block, t
     with pytest.raises(dsmplan.ArgumentError, match="^output: .* is the same file as"):
         dsmplan.stereo(PLEIADES, res=1, output=PLEIADES[0])
     assert os.listdir(tmp_path) == ["broken.json"]
+
+
+# ---- a COLMAP model of the block ------------------------------------------------------------------
+
+def quaternion(r):
+    """The Hamilton quaternion (w, x, y, z) of the rotation matrix r (Shepperd's method)."""
+    r = np.asarray(r)
+    w = np.sqrt(max(0.0, 1 + np.trace(r))) / 2
+    x = np.copysign(np.sqrt(max(0.0, 1 + r[0, 0] - r[1, 1] - r[2, 2])) / 2, r[2, 1] - r[1, 2])
+    y = np.copysign(np.sqrt(max(0.0, 1 - r[0, 0] + r[1, 1] - r[2, 2])) / 2, r[0, 2] - r[2, 0])
+    z = np.copysign(np.sqrt(max(0.0, 1 - r[0, 0] - r[1, 1] + r[2, 2])) / 2, r[1, 0] - r[0, 1])
+    return w, x, y, z
+
+
+def write_colmap_model(folder, spec):
+    """The block's cameras as a COLMAP text model in the frame X_model = Qᵀ (X - T) / s (COLMAP's
+    pixel centres half a pixel further), and the transform file (s, Q by rows, T) back."""
+    a, b = np.radians(30), np.radians(10)
+    q = np.array([[np.cos(a), -np.sin(a), 0], [np.sin(a), np.cos(a), 0], [0, 0, 1]]) @ \
+        np.array([[1, 0, 0], [0, np.cos(b), -np.sin(b)], [0, np.sin(b), np.cos(b)]])
+    s, t = 7.5, np.array([X0 - 100, Y0 + 50, 20.0])
+    os.makedirs(folder, exist_ok=True)
+    cameras, images = "", ""
+    for i, c in enumerate(spec["cameras"]):
+        cameras += f"{i + 1} PINHOLE {c['width']} {c['height']} {c['fx']} {c['fy']} {c['cx'] + 0.5} {c['cy'] + 0.5}\n"
+        r_model = np.asarray(c["rotation"]) @ q
+        t_model = -r_model @ (q.T @ (np.asarray(c["center"]) - t) / s)
+        values = " ".join(repr(float(v)) for v in (*quaternion(r_model), *t_model))
+        images += f"{i + 1} {values} {i + 1} {c['image']}\n\n"
+    (folder / "cameras.txt").write_text(cameras)
+    (folder / "images.txt").write_text(images)
+    (folder / "transform.txt").write_text(" ".join(repr(float(v)) for v in (s, *q.ravel(), *t)) + "\n")
+
+
+def test_colmap_model_gives_the_dsm_and_report_of_the_command_line(block, tmp_path):
+    folder, spec = block
+    model = tmp_path / "model"
+    write_colmap_model(model, spec)
+    cli, stats = str(tmp_path / "cli.tif"), str(tmp_path / "stats.json")
+    bounds = ",".join(str(v) for v in BOUNDS)
+    result = run_cli("stereo", "--colmap", str(model), "--transform", str(model / "transform.txt"), "--crs",
+                     "EPSG:25832", "--images", str(folder), "--res", "1", "--bounds", bounds, "-o", cli, "--stats",
+                     stats, "-q")
+    assert result.returncode == 0, result.stderr
+    heights = dsmplan.read_dsm(cli).heights
+    valid = ~np.isnan(heights)
+    assert valid.mean() > 0.8 and np.median(np.abs(heights - truth())[valid]) < 0.3  # the scene, not an empty DSM
+    py = str(tmp_path / "py.tif")
+    report = dsmplan.stereo(colmap=model, transform=model / "transform.txt", crs="EPSG:25832", colmap_images=folder,
+                            res=1, bounds=BOUNDS, output=py)
+    assert open(py, "rb").read() == open(cli, "rb").read()
+    assert without_seconds(report) == without_seconds(json.load(open(stats)))
+    assert report["georeference"]["method"] == "transform"
+    assert report["cameras"] == str(model / "images.txt")
+    assert abs(report["georeference"]["scale"] - 7.5) < 1e-9
+
+    # The flags' rules are the library's, worded alike; --images is `colmap_images`.
+    out = str(tmp_path / "dsm.tif")
+    cases = [
+        (["--colmap", str(model), "--transform", "t.txt"], dict(colmap=model, transform="t.txt"), "crs", "--crs"),
+        (["--colmap", str(model), "--crs", "EPSG:25832"], dict(colmap=model, crs="EPSG:25832"), "centres",
+         "--centres"),
+        (["--colmap", str(model), "--crs", "EPSG:25832", "--centres", "c.csv", "--gcps", "g.csv"],
+         dict(colmap=model, crs="EPSG:25832", centres="c.csv", gcps="g.csv"), "gcps", "--gcps"),
+        (["--cameras", "c.json", "--images", str(folder)], dict(cameras="c.json", colmap_images=folder),
+         "colmap_images", "--images"),
+        (["--cameras", "c.json", "--gcps", "g.csv"], dict(cameras="c.json", gcps="g.csv"), "gcps", "--gcps"),
+    ]
+    for flags, kwargs, keyword, flag in cases:
+        words = cli_error(run_cli("stereo", *flags, "--res", "1", "-o", out, "-q"))
+        assert words.startswith(flag + ": "), words
+        with pytest.raises(dsmplan.ArgumentError) as caught:
+            dsmplan.stereo(res=1, output=out, **kwargs)
+        assert str(caught.value) == keyword + ": " + words[len(flag) + 2:]
+    with pytest.raises(dsmplan.ArgumentError, match="^gcps: must be a path"):
+        dsmplan.stereo(colmap=model, gcps=3, crs="EPSG:25832", res=1)
+    # A model file refused: the reader's line, as the CLI says it.
+    (model / "images.txt").write_text("1 1 0 0 0 0 0 0 1\n\n")
+    words = cli_error(run_cli("stereo", "--colmap", str(model), "--transform", str(model / "transform.txt"), "--crs",
+                              "EPSG:25832", "--res", "1", "-o", out, "-q"))
+    with pytest.raises(dsmplan.InputError) as caught:
+        dsmplan.stereo(colmap=model, transform=model / "transform.txt", crs="EPSG:25832", res=1, output=out)
+    assert str(caught.value) == words
+    assert "images.txt: line 1: needs IMAGE_ID" in words
+    assert not os.path.exists(out)

@@ -5,8 +5,11 @@
 #pragma once
 
 #include <memory>
+#include <optional>
 #include <string>
+#include <vector>
 
+#include "dsmplan/colmap_model.hpp"
 #include "dsmplan/image_reader.hpp"
 #include "dsmplan/raster.hpp"
 #include "dsmplan/satellite_dsm.hpp"
@@ -45,5 +48,24 @@ SatelliteOutput satellite_output(const std::string& crs, const GeoPoint& centre,
 /// or nothing. OutputError naming `path`.
 void write_satellite_dsm(const Grid& dsm, const std::string& path, const std::string& ellipsoidal_heights,
                          const Progress& progress = {});
+
+/// The position an image's EXIF GPS tags record (exif_gps.cpp): WGS 84 degrees, and metres above
+/// sea level (GPSAltitude, negative when GPSAltitudeRef says below).
+struct ExifGps {
+  double latitude = 0, longitude = 0, altitude = 0;
+};
+/// nullopt when the image lacks GPSLatitude, GPSLongitude or GPSAltitude; the references default
+/// to N, E and above sea level when absent. InputError naming `path` and the tag ("EXIF
+/// GPSLatitude") for a value that is not degrees, minutes, seconds in range, a reference other than
+/// N/S, E/W, 0/1; naming `path` when it is not an image GDAL reads.
+std::optional<ExifGps> read_exif_gps(const std::string& path);
+
+/// --centres exif (colmap_model.hpp's ExifCentres): each image's EXIF GPS position in `crs`
+/// (read_exif_gps(); nullopt where none), the altitude taken as an EGM96 height (above mean sea
+/// level, as EXIF defines it) and the position on WGS 84, carried by PROJ (Wgs84Transform,
+/// wgs84.hpp): a 2D `crs` keeps the EGM96 heights, a compound one converts them through its geoid
+/// grid. `heights` says so and names PROJ's operation. ArgumentError("--crs") when PROJ cannot
+/// read `crs` or has only a ballpark height transformation to it; read_exif_gps()'s errors.
+ImageCentres exif_centres(const std::vector<std::string>& image_paths, const std::string& crs);
 
 }  // namespace dsmplan

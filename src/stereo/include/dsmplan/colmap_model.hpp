@@ -33,10 +33,16 @@
 // fewer than 3 centres match the model's images, when the centres lie nearly on a line (the spread
 // across it under 1 % of the spread along it: the rotation about the line is not determined), or
 // when its RMS residual exceeds max(0.5 m, 1 % of the extent of the centres, the diagonal of their
-// bounding box): a wrong centre or a model that is not the block.
+// bounding box): a wrong centre or a model that is not the block. The centres may come from the
+// images' EXIF GPS instead (--centres exif: src/geo reads and converts them, ExifCentres below),
+// or ground control points may replace them (--gcps: each point triangulated in the model's frame
+// from its pixels, Hartley & Zisserman Section 12.2, multiview_triangulate.cpp; the same fit and
+// bound over the points). docs/stereo.md has the files' layouts.
 #pragma once
 
+#include <array>
 #include <cstddef>
+#include <functional>
 #include <optional>
 #include <string>
 #include <vector>
@@ -88,6 +94,48 @@ struct CentreRow {
 /// with another number of fields, a bad number or an image given twice.
 std::vector<CentreRow> read_centres(const std::string& path);
 
+/// One point of a --gcps CSV: its position in the CRS and its pixels in the images.
+struct GcpObservation {
+  std::string image;
+  double u = 0, v = 0;  ///< pixel; the centre of the top-left pixel is (0, 0), as in CAMERAS.json
+  int line = 0;
+};
+struct GcpPoint {
+  std::string name;  ///< the `point` column, else "x,y,z" as written
+  Vec3 position{};
+  std::vector<GcpObservation> observations;  ///< in the file's order
+  int line = 0;                              ///< its first row
+};
+/// Reads a ground control points CSV: a header line naming the columns, then one row per
+/// observation (a point in one image). Columns, in any order, case-insensitive: x, y, z (the point
+/// in the CRS), image (a NAME of images.txt, or its file name), u, v (the pixel, dsmplan's
+/// convention: the centre of the top-left pixel is (0, 0), COLMAP's (0.5, 0.5) less half a pixel),
+/// and optionally point (its name); other columns are ignored. Rows of one point share its name, or
+/// without a point column the same x, y, z. '#' lines and blank lines skipped. InputError naming
+/// the file and "line N" for a header without x, y, z, image, u or v, a row with another number of
+/// fields, a bad number, a named point given other x, y, z than its first row, a point seen twice in
+/// one image; the file for no rows.
+std::vector<GcpPoint> read_gcps(const std::string& path);
+
+/// A point triangulated from its pixels in several views (multiview_triangulate.cpp).
+struct ViewTriangulation {
+  Vec3 point{};
+  bool finite = true;           ///< false: the rays are parallel (a point at infinity); point unset
+  double ray_angle = 0;         ///< the widest angle between two of its rays, radians
+  double max_reprojection = 0;  ///< pixels, the largest distance from a view's pixel to the point's projection
+  int worst = -1;               ///< the view of max_reprojection
+  int behind = -1;              ///< a view the point lies behind (max_reprojection infinite), else -1
+};
+/// The linear (DLT) triangulation of Hartley & Zisserman, Section 12.2, from the pixels (u, v) of
+/// one point in `cameras` (their distortion undone first), the world normalised to the cameras'
+/// centres. ArgumentError for fewer than two views or sizes that differ. O(views).
+ViewTriangulation triangulate_views(const std::vector<FrameCamera>& cameras,
+                                    const std::vector<std::array<double, 2>>& pixels);
+/// A ground control point is refused when its rays meet at less than this angle (radians, 0.2°)...
+constexpr double kMinGcpRayAngle = 0.2 * 3.14159265358979323846 / 180;
+/// ... or when a view's pixel lies further than this from the triangulated point's projection.
+constexpr double kMaxGcpReprojection = 10;
+
 /// Umeyama's closed form: the s, Q, T minimising Σ |to_i - (s Q from_i + T)|², Q a proper
 /// rotation. ArgumentError for fewer than 3 points or sizes that differ.
 Similarity fit_similarity(const std::vector<Vec3>& from, const std::vector<Vec3>& to);
@@ -99,26 +147,32 @@ constexpr double kFitBoundShare = 0.01;
 
 /// How the model was put in the CRS: --stats' "georeference".
 struct Georeference {
-  std::string method;       ///< "centres" (fitted), "transform" (given)
-  std::size_t centres = 0;  ///< centres matched to the model's images (0: none given)
-  double scale = 1;         ///< s
-  double rms = 0, max = 0;  ///< residuals at the centres, CRS units (0 without centres)
-  std::string worst;        ///< the image of the largest residual
-  double bound = 0;         ///< the RMS bound applied
+  std::string method;               ///< "centres", "exif" or "gcps" (fitted), "transform" (given)
+  std::size_t centres = 0;          ///< centres matched to the model's images (0: none given)
+  std::size_t gcps = 0;             ///< ground control points triangulated (0: none given)
+  double gcp_reprojection_max = 0;  ///< pixels, the largest of the GCPs' triangulations
+  std::string residuals_at;         ///< "centres", "gcps" or "" (none): where rms and max were measured
+  std::string heights;              ///< --centres exif: what the centres' heights are and how they were converted
+  double scale = 1;                 ///< s
+  double rms = 0, max = 0;          ///< residuals at the centres, CRS units (0 without centres)
+  std::string worst;                ///< the image (centres) or point (GCPs) of the largest residual
+  double bound = 0;                 ///< the RMS bound applied
 };
 
 /// What `--colmap` needs: the model, where its images are, the CRS and how to get there.
 struct ColmapOptions {
   std::string model;      ///< MODEL_DIR (cameras.txt, images.txt)
-  std::string centres;    ///< CSV of image,x,y,z in `crs`
-  std::string transform;  ///< model -> CRS (read_similarity()); with centres, the fit is checked, not made
+  std::string centres;    ///< CSV of image,x,y,z in `crs`, or kExifCentres: the images' EXIF GPS
+  std::string transform;  ///< model -> CRS (read_similarity()); with centres or GCPs, checked, not fitted
+  std::string gcps;       ///< CSV of ground control points (read_gcps()) in `crs`, instead of centres
   std::string crs;        ///< the centres' and the DSM's CRS ("EPSG:25832")
   /// The images' folder; empty: the `image_path=` of MODEL_DIR/project.ini (written by COLMAP's
   /// mapper) when that folder exists (relative: to the current directory, as COLMAP ran), else
   /// MODEL_DIR/../images when a folder, else MODEL_DIR.
   std::string images;
 };
-/// ArgumentError naming the flag: --colmap empty, --crs empty, neither --centres nor --transform.
+/// ArgumentError naming the flag: --colmap empty, --crs empty, none of --centres, --gcps and
+/// --transform, both --centres and --gcps.
 void check(const ColmapOptions& options);
 
 /// The model as the pipeline's camera list: `file.path` is MODEL_DIR/images.txt (the name the
@@ -126,10 +180,31 @@ void check(const ColmapOptions& options);
 /// the images folder; and how it was georeferenced. InputError naming the centres file for fewer
 /// than 3 matched centres (names compared with NAME, else its file name when unique), centres on a
 /// line, or residuals over the bound (the worst centre's line named); errors of the readers above.
+/// With --gcps: each point triangulated in the model's frame from its observations in the model's
+/// images (triangulate_views()), the similarity fitted from those to the points' CRS positions by
+/// the same rules (3 points, not on a line, the same bound on the RMS residual over the points'
+/// extent). InputError naming the GCP file and the point's row for a point seen in fewer than two
+/// of the model's images, rays meeting at under kMinGcpRayAngle, a point behind a camera, or a
+/// reprojection error over kMaxGcpReprojection pixels (naming the row of the worst observation).
+/// --centres exif: the camera centres are the images' EXIF GPS positions.
+constexpr const char* kExifCentres = "exif";
+/// The centres an image's metadata records, in the CRS, one per image path given (nullopt where an
+/// image records none), and what their heights are: made by src/geo (exif_centres(), stereo_io.hpp),
+/// which alone reads image metadata and converts coordinates.
+struct ImageCentres {
+  std::vector<std::optional<Vec3>> centres;
+  std::string heights;
+};
+using ExifCentres = std::function<ImageCentres(const std::vector<std::string>& image_paths)>;
+
 struct ColmapCameras {
   CameraFile file;
   Georeference georeference;
+  Similarity transform;  ///< model -> CRS, as applied
 };
-ColmapCameras colmap_cameras(const ColmapOptions& options);
+/// With --centres exif, `exif` reads the images' centres (ArgumentError when it is empty); the
+/// images without a position are left out, and fewer than 3 left is an InputError naming the
+/// images' folder; a residual over the bound names the worst image's file and "EXIF GPS".
+ColmapCameras colmap_cameras(const ColmapOptions& options, const ExifCentres& exif = {});
 
 }  // namespace dsmplan

@@ -40,7 +40,7 @@ namespace dsmplan {
 /// list CAMERAS.json would give, the height range estimated; StereoReport::georeference says how.
 struct StereoJobOptions : FrameDsmOptions {
   std::string cameras;   ///< CAMERAS.json; empty when colmap.model is set
-  ColmapOptions colmap;  ///< --colmap MODEL_DIR, --centres, --transform, --crs, --images
+  ColmapOptions colmap;  ///< --colmap MODEL_DIR, --centres, --gcps, --transform, --crs, --images
   std::string output;    ///< GeoTIFF (.tif, .tiff)
 };
 
@@ -56,8 +56,9 @@ std::vector<NamedFile> stereo_job_inputs(const StereoJobOptions& options);
 /// when it is not .tif. Nothing is written when it fails. Progress: the stage to 0.9, then the writing.
 StereoReport stereo_job(const StereoJobOptions& options, const Progress& progress = {});
 /// Keys: cameras (CAMERAS.json, or the COLMAP model's images.txt), output, georeference (--colmap only:
-/// method "centres" or "transform", centres, scale, residual_rms, residual_max (CRS units),
-/// worst_image, residual_bound), camera_count, pairs [[i,j],...] (the pairs matched), pair_details (every pair chosen:
+/// method "centres", "gcps" or "transform", centres, gcps (counts), residuals_at ("centres", "gcps" or ""), scale,
+/// residual_rms, residual_max (CRS units), worst_image (the image, or the point of a GCP), residual_bound,
+/// gcp_reprojection_max_px), camera_count, pairs [[i,j],...] (the pairs matched), pair_details (every pair chosen:
 /// cameras [i,j], used, problem (why left out, "" when used), height_range, disparity_offset (px), disparities,
 /// windows, pixels, matched_pixels, matched_share (of pixels), share_of_all_matched, window_conflicts, points),
 /// pairs_left_out, height_range, height_range_estimated, bounds, width, height,
@@ -73,8 +74,9 @@ struct StereoRequest {
   std::vector<std::string> images;          ///< satellite images with RPCs (IMAGES)
   std::string cameras;                      ///< CAMERAS.json (--cameras)
   std::string colmap;                       ///< --colmap MODEL_DIR: a COLMAP text model instead of --cameras
-  std::string centres;                      ///< --centres CSV (image,x,y,z in --crs), with --colmap
+  std::string centres;                      ///< --centres CSV (image,x,y,z in --crs) or "exif", with --colmap
   std::string transform;                    ///< --transform FILE (model -> --crs), with --colmap
+  std::string gcps;                         ///< --gcps CSV (x,y,z,image,u,v in --crs), with --colmap
   std::string colmap_images;                ///< --images DIR, with --colmap
   std::string output;                       ///< -o
   double resolution = 0;                    ///< --res
@@ -94,8 +96,8 @@ struct StereoJob {
 
 /// The rules of `dsmplan stereo`'s flags taken together, one ArgumentError naming the flag for
 /// the first broken: --bounds not four numbers; not exactly one of IMAGES, --cameras and --colmap
-/// (reported as "--cameras"); --centres, --transform or --images without --colmap; with --colmap,
-/// check(ColmapOptions) (--crs and --centres or --transform needed); --fusion-memory outside [0.0625, 1e9) MB,
+/// (reported as "--cameras"); --centres, --gcps, --transform or --images without --colmap; with --colmap,
+/// check(ColmapOptions) (--crs and --centres, --gcps or --transform needed); --fusion-memory outside [0.0625, 1e9) MB,
 /// --band-memory outside [1, 1e9) MB; with --cameras, --crs or --allow-approximate-vertical (satellite images only);
 /// with IMAGES, --pairs other than auto (frame cameras only). The options' own ranges are checked
 /// by the jobs (check(FrameDsmOptions), check(SatelliteDsmOptions)).
