@@ -27,8 +27,10 @@ if [ "${1:-}" = "--sanitize" ]; then
   # (scripts/test.sh) runs them all. Keeps CI under its 40 minutes. Nor the service's memory soak:
   # under ASan a process's resident memory is mostly the allocator's quarantine (freed blocks held
   # back to catch their use), which grows by design; the Release pass measures dsmplan's own.
+  # Nor the real COLMAP run (ColmapBinary.RealColmap...: a minute of COLMAP's own work; the
+  # COLMAP readers and the fit run under the sanitizers in the other colmap tests and the fuzz pass).
   ctest --test-dir "$dir" --output-on-failure -j"$(nproc)" -LE data \
-    -E 'OpensWhereUsersOpenIt|View\.(ScreenshotShows|PathUnderTheGround|PageLoads|PlansOnClick|ShowsTheService|Draws)|InstalledPackage|Serve\.ResidentMemoryStaysFlat'
+    -E 'OpensWhereUsersOpenIt|View\.(ScreenshotShows|PathUnderTheGround|PageLoads|PlansOnClick|ShowsTheService|Draws)|InstalledPackage|Serve\.ResidentMemoryStaysFlat|ColmapBinary\.RealColmap'
 else
   ctest --test-dir "$dir" --output-on-failure -j"$(nproc)"
 fi
