@@ -224,9 +224,14 @@ PairHeights pair_heights(const FrameCamera& ca, const GreyImage& ia, const Frame
     second = match_pair(ca, ia, cb, ib, s, bounded, options.speckle_pixels, true);
     if (second.matched) break;
   }
-  if (!second.matched) return out;
-  const PairMatch back = match_pair(cb, ib, ca, ia, s, bounded, options.speckle_pixels, true);
-  if (second.points.size() + back.points.size() < 100) return out;
+  // A bound too deep for max_disparities even at pass 1's scale (a clump of mismatches connected
+  // to the scene), or a pass 2 whose pixels nearly all search beyond the other image (a small
+  // overlap between tilted views): pass 1's own points, one way, so only the cells connected to
+  // the median count (on the 8-view blocks with 15 degree tilts, 2 pairs of 6 come back so).
+  const bool one_way = !second.matched;
+  if (one_way) second = first, s = coarse;
+  PairMatch back = one_way ? PairMatch{} : match_pair(cb, ib, ca, ia, s, bounded, options.speckle_pixels, true);
+  if (second.points.size() + back.points.size() < 100) second = first, back = PairMatch{}, s = coarse;
   out.scale = s;
   out.fine_step = std::max(second.step, back.step);
   out.points = second.points.size() + back.points.size();
@@ -295,7 +300,7 @@ HeightRangeEstimate estimate_height_range(const std::vector<FrameCamera>& camera
   HeightRangeEstimate out;
   out.low = INFINITY;
   out.high = -INFINITY;
-  std::size_t coarse_points = 0;
+  std::size_t matched_points = 0;
   for (const auto& [a, b] : pairs) {
     const FrameCamera &ca = cameras.at(a), &cb = cameras.at(b);
     const std::shared_ptr<const GreyImage> ia = image(a), ib = image(b);
@@ -304,7 +309,7 @@ HeightRangeEstimate estimate_height_range(const std::vector<FrameCamera>& camera
       throw ArgumentError("images", "camera " + std::to_string(!ia || ia->width != ca.width ? a : b) +
                                         ": image missing or of another size than the camera's");
     const PairHeights h = pair_heights(ca, *ia, cb, *ib, options);
-    coarse_points += h.points;
+    matched_points += h.points;
     if (h.medians.empty()) continue;
     // The lowest and highest heights `cluster_cells` cells share to within a fine step: a roof
     // or a street of a few cells counts, a lone cell (a mismatch the median did not outvote,
@@ -335,8 +340,8 @@ HeightRangeEstimate estimate_height_range(const std::vector<FrameCamera>& camera
   }
   if (out.pairs.empty())
     throw InputError("", "cameras",
-                     "no pair of nearest cameras matched at a coarse scale (" + std::to_string(coarse_points) +
-                         " points): the scene's height range cannot be estimated");
+                     "no pair of nearest cameras gave enough matched points (" + std::to_string(matched_points) +
+                         " in all): the scene's height range cannot be estimated");
   const double margin = options.margin_share * (out.high - out.low) + options.fine_steps * out.fine_step;
   out.min_height = out.low - margin;
   out.max_height = out.high + margin;
