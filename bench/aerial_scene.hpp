@@ -4,8 +4,9 @@
 // Traversal Algorithm for Ray Tracing", Eurographics 1987) from frame cameras
 // (dsmplan/stereo_frames.hpp), with a texture that varies in x, y and z (two octaves of
 // value noise, K. Perlin, "An Image Synthesizer", SIGGRAPH 1985, on a hashed lattice), 2 x 2 rays
-// a pixel, plus Gaussian noise. And the oracle of a DSM made from such views: completeness and
-// |error| quantiles against the DSM they were rendered from.
+// a pixel, plus Gaussian noise; optionally a low sun whose cast shadows are found by marching the
+// same DDA from each surface point towards it, and a gain and offset per view (ViewLook). And the oracle of a DSM made
+// from such views: completeness and |error| quantiles against the DSM they were rendered from.
 //
 // Deterministic: a pixel's value depends on the scene, the camera, the seed and the pixel only
 // (the noise is hashed from them), not on the number of threads.
@@ -18,6 +19,7 @@
 #include <cmath>
 #include <cstdint>
 #include <nlohmann/json.hpp>
+#include <numbers>
 #include <string>
 #include <vector>
 
@@ -140,6 +142,56 @@ struct ColumnScene {
   }
 };
 
+/// A low sun over the scene: whether the surface point p (a hit() of this scene) lies in a
+/// column's cast shadow, marching from p towards the sun (unit vector `to_sun`, z > 0) over the
+/// cells by the same DDA as hit() until the ray rises above `top`. A wall facing away from the
+/// sun is in its own column's shadow (the first step, 1 mm towards the sun, enters the column).
+struct Sun {
+  Vec3 to_sun{0, 0, 1};
+  /// The sun at `elevation` degrees over the horizon, from `azimuth` degrees (clockwise from north).
+  static Sun at(double elevation_deg, double azimuth_deg) {
+    const double e = elevation_deg * std::numbers::pi / 180, a = azimuth_deg * std::numbers::pi / 180;
+    return {{std::cos(e) * std::sin(a), std::cos(e) * std::cos(a), std::sin(e)}};
+  }
+};
+
+inline bool in_shadow(const ColumnScene& scene, const Vec3& p, const Sun& sun) {
+  const Vec3& d = sun.to_sun;
+  const Grid& dsm = scene.dsm;
+  const Vec3 s{p[0] + 1e-3 * d[0], p[1] + 1e-3 * d[1], p[2] + 1e-3 * d[2]};
+  const double gx = (s[0] - dsm.x0) / dsm.cell_x, gy = (dsm.y0 - s[1]) / dsm.cell_y;
+  const double vx = d[0] / dsm.cell_x, vy = -d[1] / dsm.cell_y;
+  int col = static_cast<int>(std::floor(gx)), row = static_cast<int>(std::floor(gy));
+  const int step_x = vx > 0 ? 1 : -1, step_y = vy > 0 ? 1 : -1;
+  double next_x = std::abs(vx) < 1e-15 ? INFINITY : (vx > 0 ? col + 1 - gx : gx - col) / std::abs(vx);
+  double next_y = std::abs(vy) < 1e-15 ? INFINITY : (vy > 0 ? row + 1 - gy : gy - row) / std::abs(vy);
+  const double dt_x = std::abs(vx) < 1e-15 ? INFINITY : 1 / std::abs(vx);
+  const double dt_y = std::abs(vy) < 1e-15 ? INFINITY : 1 / std::abs(vy);
+  double t = 0;
+  for (int guard = 0; guard < 100000; ++guard) {
+    const double z = s[2] + t * d[2];  // the ray rises: its lowest point in a cell is where it enters
+    if (z >= scene.top) return false;
+    if (z < scene.height_at(col, row)) return true;
+    if (next_x < next_y) {
+      t = next_x, col += step_x, next_x += dt_x;
+    } else {
+      t = next_y, row += step_y, next_y += dt_y;
+    }
+  }
+  return false;
+}
+
+/// How one view sees the scene besides its geometry: the camera's response (grey = gain · surface
+/// + offset, then noise, rounded and clipped to 0..255, so a bright gain saturates) and the light
+/// (without `sun` the surface is lit evenly; with it, points in cast shadow keep `shade` of their
+/// brightness, the sky's light).
+struct ViewLook {
+  double gain = 1, offset = 0;
+  double noise = 1.5;  ///< Gaussian, grey levels
+  const Sun* sun = nullptr;
+  double shade = 0.3;
+};
+
 /// A standard normal number hashed from (seed, u, v) (Box–Muller of two hashed uniforms).
 inline double hashed_gauss(unsigned seed, int u, int v) {
   const double a = (static_cast<double>(mix(u, v, 2 * std::int64_t{seed}) >> 11) + 0.5) / 9007199254740992.0;
@@ -147,9 +199,10 @@ inline double hashed_gauss(unsigned seed, int u, int v) {
   return std::sqrt(-2 * std::log(a)) * std::cos(6.283185307179586 * b);
 }
 
-/// The camera's 8-bit image of the scene (values 0..255 as floats): 2 x 2 rays per pixel, plus
-/// Gaussian noise of `noise` grey levels, rounded. Rows in parallel (TBB).
-inline GreyImage render(const ColumnScene& scene, const FrameCamera& camera, unsigned seed, double noise = 1.5) {
+/// The camera's 8-bit image of the scene (values 0..255 as floats): 2 x 2 rays per pixel, each
+/// ray's surface texture (dimmed where the look's sun casts a shadow) averaged, then the look's
+/// gain and offset and its Gaussian noise, rounded. Rows in parallel (TBB).
+inline GreyImage render(const ColumnScene& scene, const FrameCamera& camera, unsigned seed, const ViewLook& look) {
   GreyImage image;
   image.width = camera.width;
   image.height = camera.height;
@@ -159,13 +212,23 @@ inline GreyImage render(const ColumnScene& scene, const FrameCamera& camera, uns
       for (int u = 0; u < camera.width; ++u) {
         double sum = 0;
         for (double du : {-0.25, 0.25})
-          for (double dv : {-0.25, 0.25})
-            sum += texture(scene.hit(camera.center, dsmplan::pixel_ray(camera, u + du, v + dv)));
+          for (double dv : {-0.25, 0.25}) {
+            const Vec3 p = scene.hit(camera.center, dsmplan::pixel_ray(camera, u + du, v + dv));
+            sum += look.sun && in_shadow(scene, p, *look.sun) ? look.shade * texture(p) : texture(p);
+          }
+        const double grey = look.gain == 1 && look.offset == 0 ? sum / 4 : look.gain * (sum / 4) + look.offset;
         image.pixels[static_cast<size_t>(v) * camera.width + u] =
-            static_cast<float>(std::clamp(std::round(sum / 4 + noise * hashed_gauss(seed, u, v)), 0.0, 255.0));
+            static_cast<float>(std::clamp(std::round(grey + look.noise * hashed_gauss(seed, u, v)), 0.0, 255.0));
       }
   });
   return image;
+}
+
+/// The evenly lit view with `noise` grey levels of noise (gain 1, no offset).
+inline GreyImage render(const ColumnScene& scene, const FrameCamera& camera, unsigned seed, double noise = 1.5) {
+  ViewLook look;
+  look.noise = noise;
+  return render(scene, camera, seed, look);
 }
 
 /// Completeness and |error| quantiles of a DSM against the truth.

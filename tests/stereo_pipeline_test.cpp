@@ -720,9 +720,9 @@ TEST(StereoPipeline, HeightRangeEstimatedFromTheImagesAlone) {
   std::sort(z.begin(), z.end());
   const double p01 = z[z.size() / 100], p99 = z[z.size() * 99 / 100];
   std::printf(
-      "estimated height range %.1f..%.1f m (quantiles %.1f..%.1f, coarse step %.2f m, %zu points, %zu pairs, "
+      "estimated height range %.1f..%.1f m (ends %.1f..%.1f, fine step %.2f m, %zu points, %zu pairs, "
       "scale %d); truth %.1f..%.1f m, 1st-99th percentile %.1f..%.1f m\n",
-      estimate.min_height, estimate.max_height, estimate.low, estimate.high, estimate.coarse_step, estimate.points,
+      estimate.min_height, estimate.max_height, estimate.low, estimate.high, estimate.fine_step, estimate.points,
       estimate.pairs.size(), estimate.scale, scene.lo, scene.hi, p01, p99);
   EXPECT_LE(estimate.min_height, p01);
   EXPECT_GE(estimate.max_height, p99);

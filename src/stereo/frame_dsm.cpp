@@ -64,14 +64,23 @@ void find_height_range(const CameraFile& file, const ImageOpener& open, StereoRe
   out.height_range_estimated = !file.has_height_range;
   if (file.has_height_range) return;
   const auto coarse_pairs = height_range_pairs(file.cameras);
-  std::vector<GreyImage> images(file.cameras.size());
-  std::vector<bool> loaded(file.cameras.size(), false);
-  for (const auto& [a, b] : coarse_pairs)
-    for (const int i : {a, b})
-      if (!loaded[i]) images[i] = read_grey(file, i, open), loaded[i] = true;
+  // Each pair's images read when its turn comes, the last one kept (pairs share cameras): the
+  // pass holds two images at a time, whatever the block's size. Their reading counts as read.
+  std::shared_ptr<const GreyImage> last;
+  int last_camera = -1;
+  double reading = 0;
+  const auto image = [&](int i) {
+    if (i != last_camera) {
+      const auto read_start = Clock::now();
+      last = std::make_shared<const GreyImage>(read_grey(file, i, open));
+      last_camera = i;
+      reading += seconds_since(read_start);
+    }
+    return last;
+  };
   const auto start = Clock::now();
   try {
-    const HeightRangeEstimate estimate = estimate_height_range(file.cameras, images, coarse_pairs);
+    const HeightRangeEstimate estimate = estimate_height_range(file.cameras, image, coarse_pairs);
     out.min_height = estimate.min_height;
     out.max_height = estimate.max_height;
   } catch (const InputError& error) {
@@ -79,7 +88,7 @@ void find_height_range(const CameraFile& file, const ImageOpener& open, StereoRe
     if (problem.rfind("cameras: ", 0) == 0) problem = problem.substr(9);
     throw InputError(file.path, "height_range", "not given, and " + problem + "; give [lowest, highest]");
   }
-  out.seconds_height_range = seconds_since(start);
+  out.seconds_height_range = seconds_since(start) - reading;
 }
 
 // The pairs to match, before the other images are read: cameras that see nothing in common fail fast.

@@ -298,41 +298,66 @@ std::vector<std::pair<int, int>> parse_pairs(const std::string& text, int camera
 
 /// Options of estimate_height_range().
 struct HeightRangeOptions {
-  /// The coarse pass's images: both images of a pair shrunk by one whole factor s (box filter)
-  /// until their longer side is at most this.
+  /// The first pass's images: both images of a pair shrunk by one whole factor s (box filter)
+  /// until their longer side is at most this; the search covers every depth from f·B/D on.
   int coarse_side = 320;
-  int max_disparities = 256;  ///< the coarse search: disparities [0, D), all depths from f·B/D on
-  /// The heights' robust ends: these quantiles of the coarse points connected to their median
-  /// (no gap wider than a quarter of the cameras' height over it, or 10 coarse steps)...
-  double low_quantile = 0.002, high_quantile = 0.998;
-  /// ... widened on each side by this share of their difference plus `coarse_steps` times the
-  /// height of one coarse disparity step at the pair's median depth (the coarse pass's precision).
-  double margin_share = 0.1;
-  double coarse_steps = 2.0;
+  /// The second pass's images, searching only the first pass's heights: at most this side (or
+  /// coarser, down to coarse_side, while that search needs more than max_disparities).
+  int fine_side = 640;
+  int max_disparities = 256;  ///< D, one pass's search at most
+  int speckle_pixels = 25;    ///< both passes' SGM speckle filter, pixels (small roofs count)
+  /// The second pass's points are binned in cells of this many of its pixels a side; a cell with
+  /// at least cell_points points counts with its median height.
+  double cell_pixels = 3;
+  int cell_points = 4;
+  /// A pair's lowest (highest) height: the lowest (highest) median this many cells share to
+  /// within one disparity step of the second pass (a lone cell is not the scene's end).
+  int cluster_cells = 3;
+  /// The second pass runs both ways (each camera left once). A pair's cells connected to its
+  /// median cell through heights at most this many disparity steps of the second pass (plus 1 m)
+  /// apart are the scene, and so is a cluster of heights apart from them that both ways matched;
+  /// a cluster only one way matched is a clump of mismatches.
+  double cell_gap = 3;
+  /// The lowest and highest heights, widened on each side by this share of their difference
+  /// (what matching misses: a chimney above its roof, a pit below its street) plus `fine_steps`
+  /// times the height of one disparity step of the second pass (0: within the share on the
+  /// rendered blocks of tests/stereo_height_range_test.cpp).
+  double margin_share = 0.10;
+  double fine_steps = 0.0;
 };
 
 /// What estimate_height_range() found.
 struct HeightRangeEstimate {
   double min_height = 0, max_height = 0;   ///< the range to use (margins included)
-  double low = 0, high = 0;                ///< the quantiles of the coarse points (no margin)
-  double coarse_step = 0;                  ///< largest height of one coarse disparity step, world units
-  std::vector<std::pair<int, int>> pairs;  ///< the pairs that gave points
-  std::size_t points = 0;                  ///< coarse points connected to the median (used)
-  int scale = 1;                           ///< largest shrink factor used
+  double low = 0, high = 0;                ///< the cells' lowest and highest medians (no margin)
+  double search_low = 0, search_high = 0;  ///< the first pass's bound on the second's search
+  double coarse_step = 0, fine_step = 0;   ///< largest height of one disparity step of each pass
+  std::vector<std::pair<int, int>> pairs;  ///< the pairs that gave points in the second pass
+  std::size_t points = 0;                  ///< the second pass's points
+  std::size_t cells = 0;                   ///< cells with a median
+  int scale = 1;                           ///< largest shrink factor of the second pass
 };
 
-/// The pairs the coarse pass matches: for every camera its nearest other camera (centre
-/// distance), each pair once, nearest first, at most `max_pairs` of them.
-std::vector<std::pair<int, int>> height_range_pairs(const std::vector<FrameCamera>& cameras, int max_pairs = 8);
+/// The pairs estimate_height_range() matches: for every camera its nearest other camera (centre
+/// distance: the most overlap), each pair once, nearest first, at most `max_pairs` of them. Every
+/// camera is in one by default, so every part of a block is seen (at most n pairs for n views).
+std::vector<std::pair<int, int>> height_range_pairs(const std::vector<FrameCamera>& cameras,
+                                                    int max_pairs = std::numeric_limits<int>::max());
 
-/// The scene's height range from the images alone (no height known beforehand): each pair is
-/// shrunk (HeightRangeOptions::coarse_side), rectified with a search over every depth from
-/// f·B/D to infinity (RectifyOptions::unbounded_depth_disparities), matched by SGM with its
-/// left-right check, and triangulated; the heights connected to their median without a wide gap
-/// (HeightRangeOptions) are the scene, their low and high quantiles, widened by the margins, the
-/// range. images[i] must be set for the cameras of `pairs`.
-/// A pair that cannot be rectified or gives no point is skipped; InputError ("cameras: ...")
-/// when no pair gives at least 100 points. Time: one SGM of the shrunk images per pair.
+/// The scene's height range from the images alone (no height known beforehand), pair by pair:
+/// a first pass over the shrunk images (HeightRangeOptions::coarse_side) searches every depth
+/// from f·B/D to infinity (RectifyOptions::unbounded_depth_disparities) and bounds a second,
+/// finer pass (fine_side) that searches only that bound; both are SGM with its left-right check.
+/// The second pass's heights, binned in cells, give each cell's median; the lowest and highest
+/// medians of all pairs, widened by the margins, are the range. `image(i)` gives camera i's
+/// image (read when its pair's turn comes: one pair's images are held at a time).
+/// A pair that cannot be rectified or gives too few points is skipped; InputError ("cameras: ...")
+/// when none is left. Time: two SGMs of shrunk images per pair.
+using CameraImages = std::function<std::shared_ptr<const GreyImage>(int camera)>;
+HeightRangeEstimate estimate_height_range(const std::vector<FrameCamera>& cameras, const CameraImages& image,
+                                          const std::vector<std::pair<int, int>>& pairs,
+                                          const HeightRangeOptions& options = {});
+/// The same with every image in memory: images[i] must be set for the cameras of `pairs`.
 HeightRangeEstimate estimate_height_range(const std::vector<FrameCamera>& cameras, const std::vector<GreyImage>& images,
                                           const std::vector<std::pair<int, int>>& pairs,
                                           const HeightRangeOptions& options = {});

@@ -28,10 +28,11 @@ namespace dsmplan {
 /// crs, cameras and every camera key are required but "distortion" (default none) and
 /// "height_range" (the scene's lowest and highest heights, world units: it bounds the disparity
 /// search and sets the plane footprints are cut with). Without height_range it is estimated
-/// (estimate_height_range(), stereo_frames.hpp): the nearest cameras' images shrunk to about
-/// 320 px, matched over every depth, triangulated; of the heights connected to their median
-/// without a wide gap, the 0.2 % and 99.8 % quantiles widened by 10 % of their difference and two
-/// coarse disparity steps. InputError (key height_range) when no such pair matches. `image` is any GDAL raster,
+/// (estimate_height_range(), stereo_frames.hpp): every camera with its nearest, the pair's images
+/// shrunk to about 320 px and matched over every depth, which bounds a second match at about
+/// 640 px both ways; the lowest and highest of its cells' median heights (a lone cell or a clump
+/// only one way matched left out), widened by 10 % of their difference. InputError (key
+/// height_range) when no such pair matches. `image` is any GDAL raster,
 /// relative to the JSON's folder: one band (grey) or three or more (RGB taken as luminance 0.299 R + 0.587 G + 0.114
 /// B), 8 or 16 bit.
 ///
