@@ -8,5 +8,6 @@ namespace bench {
 /// Frame cameras: synthetic aerial views rendered from the real NRW DSM (bench_stereo_frames.cpp).
 /// `rounds`: timed, interleaved rounds per set-up.
 void frame_camera_table(int rounds);
+void block_table(int rounds);  ///< issue 34 point 5: the rendered blocks, dsmplan against OpenCV
 
 }  // namespace bench

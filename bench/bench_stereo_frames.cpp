@@ -20,9 +20,12 @@
 #include <string>
 #include <vector>
 
+#include "aerial_blocks.hpp"
 #include "aerial_scene.hpp"
 #include "bench_kit.hpp"
 #include "bench_stereo.hpp"
+#include "dsmplan/point_io.hpp"
+#include "dsmplan/points.hpp"
 #include "dsmplan/raster_io.hpp"
 #include "dsmplan/stereo_frames.hpp"
 #include "sgbm_matcher.hpp"
@@ -166,6 +169,97 @@ void frame_camera_table(int rounds) {
       0, 0, 0, 0, 0, 0
 #endif
   );
+}
+
+// Issue 34 point 5: the blocks of point 2 (bench/aerial_blocks.hpp: both cities, base/height
+// 0.2-0.8, tilts to 15 degrees, 2-8 views, two strips, a low sun, gains, noise), each run as
+// `dsmplan stereo` runs a block without a height range: the range estimated from the images
+// (estimate_height_range()), the pairs chosen by select_pairs_auto() on its lowest plane, then
+// stereo_dsm() once with dsmplan's SGM and once with OpenCV's MODE_HH in its place (the same
+// range, pairs, rectification, triangulation and fusion). Scored at 1 m over the cells two views
+// see (aerial::seen_by_two(): what stereo can measure at all), against the DSM rendered.
+void block_table(int rounds) {
+  const Grid nrw = dsmplan::read_raster(DSMPLAN_DATA_DIR "/nrw-dom1/dom1_32_356_5699_1_nw_2020.tif");
+  std::vector<dsmplan::PointCloud> clouds{dsmplan::read_las(DSMPLAN_DATA_DIR "/delft-ahn3/ahn3_cropped_1.las"),
+                                          dsmplan::read_las(DSMPLAN_DATA_DIR "/delft-ahn3/ahn3_cropped_2.las")};
+  dsmplan::GridPointsOptions gridding;
+  gridding.resolution = 1.0;
+  const Grid delft = dsmplan::grid_points(clouds, gridding);
+
+  std::vector<Matcher> matchers{{"dsmplan SGM", {}}};
+#ifdef DSMPLAN_HAVE_OPENCV
+  matchers.push_back({"OpenCV MODE_HH", sgbm_matcher(sgbm_hh)});
+#else
+  std::printf("OpenCV not found at configure time: dsmplan alone (apt-get install libopencv-dev)\n");
+#endif
+  struct Row {
+    std::string setup, matcher;
+    std::size_t pairs = 0;
+    double lowest = 0, highest = 0;
+    aerial::DsmErrors errors;
+    std::vector<double> seconds;
+  };
+  std::vector<Row> rows;
+  const std::string load_before = load_average();
+  for (const aerial::BlockSetup& s : aerial::block_setups()) {
+    const aerial::Block b = aerial::render_block(s, s.delft ? delft : nrw);
+    const Grid seen = aerial::seen_by_two(b);
+    double x0 = INFINITY, x1 = -INFINITY, y0 = INFINITY, y1 = -INFINITY;
+    for (int r = 0; r < seen.height; ++r)
+      for (int c = 0; c < seen.width; ++c)
+        if (seen.valid(c, r)) {
+          x0 = std::min(x0, seen.center_x(c) - 0.5), x1 = std::max(x1, seen.center_x(c) + 0.5);
+          y0 = std::min(y0, seen.center_y(r) - 0.5), y1 = std::max(y1, seen.center_y(r) + 0.5);
+        }
+    const dsmplan::HeightRangeEstimate range =
+        dsmplan::estimate_height_range(b.cameras, b.images, dsmplan::height_range_pairs(b.cameras));
+    dsmplan::PairSelectionOptions selection;
+    selection.ground_height = range.min_height;
+    const auto pairs = dsmplan::select_pairs_auto(b.cameras, selection);
+    dsmplan::FrameStereoOptions options;
+    options.rectify.min_height = range.min_height;
+    options.rectify.max_height = range.max_height;
+    const std::size_t first = rows.size();
+    const auto run = [&](const Matcher& matcher, Row& row, bool score) {
+      options.matcher = matcher.match;
+      Grid dsm = dsmplan::dsm_grid({x0, y0, x1, y1}, 1.0);
+      const auto start = std::chrono::steady_clock::now();
+      const dsmplan::FrameStereoStats stats = dsmplan::stereo_dsm(b.cameras, b.images, pairs, dsm, options);
+      const double seconds = seconds_since(start);
+      if (score) {
+        row.errors = aerial::dsm_errors(dsm, seen);
+        row.pairs = stats.pairs;
+      } else {
+        row.seconds.push_back(seconds);
+      }
+    };
+    for (const Matcher& matcher : matchers) {
+      rows.push_back({s.name, matcher.name, 0, range.min_height, range.max_height, {}, {}});
+      run(matcher, rows.back(), true);
+    }
+    for (int round = 0; round < rounds; ++round)
+      for (std::size_t k = 0; k < matchers.size(); ++k) run(matchers[k], rows[first + k], false);
+    std::printf("  %s: %zu views, %zu pairs, range %.1f..%.1f m\n", s.name, b.cameras.size(), pairs.size(),
+                range.min_height, range.max_height);
+  }
+  const std::string load_after = load_average();
+  std::printf("\nBlocks of issue 34 point 2, %d interleaved rounds per set-up, load (1 min) %s before, %s after\n\n",
+              rounds, load_before.c_str(), load_after.c_str());
+  std::printf(
+      "| set-up | pairs | matcher | filled | median abs. error | > 1 m | > 3 m | pipeline s, median (min–max) | "
+      "s / dsmplan's, per round |\n|---|---:|---|---:|---:|---:|---:|---|---|\n");
+  for (std::size_t i = 0; i < rows.size(); ++i) {
+    const Row& r = rows[i];
+    const Row& ours = rows[i - i % matchers.size()];
+    Samples mine, theirs;
+    for (double t : ours.seconds) mine.add(t);
+    for (double t : r.seconds) theirs.add(t);
+    const auto [fastest, slowest] = std::minmax_element(r.seconds.begin(), r.seconds.end());
+    std::printf("| %s | %zu | %s | %.1f %% | %.2f m | %.1f %% | %.1f %% | %.2f (%.2f–%.2f) | %s |\n", r.setup.c_str(),
+                r.pairs, r.matcher.c_str(), 100 * r.errors.completeness, r.errors.median, 100 * r.errors.over1,
+                100 * r.errors.over3, median(r.seconds), *fastest, *slowest,
+                &r == &ours ? "1" : ratios(theirs, mine).text("%.2f").c_str());
+  }
 }
 
 }  // namespace bench
