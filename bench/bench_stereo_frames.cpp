@@ -195,7 +195,6 @@ void block_table(int rounds) {
   struct Row {
     std::string setup, matcher;
     std::size_t pairs = 0;
-    double lowest = 0, highest = 0;
     aerial::DsmErrors errors;
     std::vector<double> seconds;
   };
@@ -234,7 +233,7 @@ void block_table(int rounds) {
       }
     };
     for (const Matcher& matcher : matchers) {
-      rows.push_back({s.name, matcher.name, 0, range.min_height, range.max_height, {}, {}});
+      rows.push_back({s.name, matcher.name, 0, {}, {}});
       run(matcher, rows.back(), true);
     }
     for (int round = 0; round < rounds; ++round)

@@ -140,19 +140,27 @@ Similarity write_model(const std::vector<FrameCamera>& cameras, const std::strin
   return out;
 }
 
-// `image` as an 8-bit grey PNG through GDAL.
-void write_png(const GreyImage& image, const std::string& path) {
+// `image` as an 8-bit grey band in GDAL's memory driver (null, and a test failure, if it cannot be).
+std::unique_ptr<GDALDataset> grey_in_memory(const GreyImage& image) {
   GDALAllRegister();
   GDALDriver* mem = GetGDALDriverManager()->GetDriverByName("MEM");
-  GDALDriver* png = GetGDALDriverManager()->GetDriverByName("PNG");
-  ASSERT_TRUE(mem && png);
+  EXPECT_TRUE(mem);
+  if (!mem) return nullptr;
   std::unique_ptr<GDALDataset> data(mem->Create("", image.width, image.height, 1, GDT_Byte, nullptr));
   std::vector<std::uint8_t> bytes(image.pixels.size());
   for (size_t i = 0; i < bytes.size(); ++i)
     bytes[i] = static_cast<std::uint8_t>(std::clamp(image.pixels[i], 0.0f, 255.0f));
-  ASSERT_EQ(data->GetRasterBand(1)->RasterIO(GF_Write, 0, 0, image.width, image.height, bytes.data(), image.width,
-                                             image.height, GDT_Byte, 0, 0),
-            CE_None);
+  const CPLErr written = data->GetRasterBand(1)->RasterIO(GF_Write, 0, 0, image.width, image.height, bytes.data(),
+                                                          image.width, image.height, GDT_Byte, 0, 0);
+  EXPECT_EQ(written, CE_None);
+  return written == CE_None ? std::move(data) : nullptr;
+}
+
+// `image` as an 8-bit grey PNG through GDAL.
+void write_png(const GreyImage& image, const std::string& path) {
+  GDALDriver* png = GetGDALDriverManager()->GetDriverByName("PNG");
+  const std::unique_ptr<GDALDataset> data = grey_in_memory(image);
+  ASSERT_TRUE(png && data);
   std::unique_ptr<GDALDataset> out(png->CreateCopy(path.c_str(), data.get(), FALSE, nullptr, nullptr, nullptr));
   ASSERT_TRUE(out);
 }
@@ -622,17 +630,9 @@ std::string dms(double degrees) {
 // metadata items into the EXIF segment).
 void write_jpeg_with_gps(const GreyImage& image, const std::string& path, double latitude, double longitude,
                          double altitude) {
-  GDALAllRegister();
-  GDALDriver* mem = GetGDALDriverManager()->GetDriverByName("MEM");
+  const std::unique_ptr<GDALDataset> data = grey_in_memory(image);
   GDALDriver* jpeg = GetGDALDriverManager()->GetDriverByName("JPEG");
-  ASSERT_TRUE(mem && jpeg);
-  std::unique_ptr<GDALDataset> data(mem->Create("", image.width, image.height, 1, GDT_Byte, nullptr));
-  std::vector<std::uint8_t> bytes(image.pixels.size());
-  for (size_t i = 0; i < bytes.size(); ++i)
-    bytes[i] = static_cast<std::uint8_t>(std::clamp(image.pixels[i], 0.0f, 255.0f));
-  ASSERT_EQ(data->GetRasterBand(1)->RasterIO(GF_Write, 0, 0, image.width, image.height, bytes.data(), image.width,
-                                             image.height, GDT_Byte, 0, 0),
-            CE_None);
+  ASSERT_TRUE(jpeg && data);
   data->SetMetadataItem("EXIF_GPSLatitude", dms(latitude).c_str());
   data->SetMetadataItem("EXIF_GPSLatitudeRef", latitude < 0 ? "S" : "N");
   data->SetMetadataItem("EXIF_GPSLongitude", dms(longitude).c_str());
