@@ -341,6 +341,62 @@ TEST(MeshReader, RoundTripsTheRealTileInEveryFormat) {
   }
 }
 
+// The binary reader converts a PLY's records in parallel slices: a file with two bad records far
+// apart, in different slices and rounds, is refused naming the first of them, at its byte, as
+// the record-by-record reader names it; the same file without them reads back exactly.
+TEST(MeshReader, ParallelBinaryReadNamesTheFirstBadRecord) {
+  const uint32_t side = 750;  // 562,500 vertices, 1,121,002 faces: past a round of 2^20 records
+  const uint64_t vertices = uint64_t(side) * side, faces = 2 * uint64_t(side - 1) * (side - 1);
+  const std::string header = "element vertex " + std::to_string(vertices) +
+                             "\nproperty double x\nproperty double y\nproperty double z\nelement face " +
+                             std::to_string(faces) + "\nproperty list uchar int vertex_indices\n";
+  const size_t body = little_endian_ply(header, "").size();
+  auto file = [&](uint64_t bad_vertex_a, uint64_t bad_vertex_b, uint64_t bad_face_a, uint64_t bad_face_b) {
+    std::string bytes;
+    bytes.reserve(vertices * 24 + faces * 13);
+    for (uint64_t i = 0; i < vertices; ++i) {
+      append(bytes, double(i % side));
+      append(bytes, i == bad_vertex_a ? NAN : double(i / side));
+      append(bytes, i == bad_vertex_b ? INFINITY : 0.5 * double(i % 7));
+    }
+    uint64_t face = 0;
+    for (uint32_t r = 0; r + 1 < side; ++r)
+      for (uint32_t c = 0; c + 1 < side; ++c) {
+        const int32_t a = int32_t(r * side + c), b = a + 1, d = a + int32_t(side);
+        for (const std::array<int32_t, 3>& t : {std::array<int32_t, 3>{a, b, d}, std::array<int32_t, 3>{b, d + 1, d}}) {
+          append(bytes, uint8_t(3));
+          append(bytes, face == bad_face_a ? int32_t(vertices) : t[0]);
+          append(bytes, t[1]);
+          append(bytes, face == bad_face_b ? t[1] : t[2]);
+          ++face;
+        }
+      }
+    return little_endian_ply(header, bytes);
+  };
+  testkit::TempDir dir;
+  const std::string path = dir.path("big.ply");
+  constexpr uint64_t none = UINT64_MAX;
+  testkit::write_file(path, file(none, none, none, none));
+  const Mesh good = read_mesh(path);
+  ASSERT_EQ(good.vertices.size(), vertices);
+  ASSERT_EQ(good.triangles.size(), faces);
+  EXPECT_EQ(good.vertices[123457].x, double(123457 % side));
+  EXPECT_EQ(good.vertices[vertices - 1].z, 0.5 * double((vertices - 1) % 7));
+  const uint32_t corner = (side - 2) * side + side - 2;  // the last quad's first corner
+  EXPECT_EQ(good.triangles[faces - 1], (Triangle{corner + 1, corner + side + 1, corner + side}));
+  // A bad vertex late in the first round, an earlier one in another slice: the earlier is named.
+  testkit::write_file(path, file(400'001, 37'000, none, none));
+  expect_input_error(path, "byte " + std::to_string(body + 37'000 * 24),
+                     "vertex 37000 has a coordinate that is not a finite number");
+  // Faces: one in the second round, one in the first; then only the late one.
+  const size_t faces_at = body + vertices * 24;
+  testkit::write_file(path, file(none, none, 1'100'000, 20'001));
+  expect_input_error(path, "byte " + std::to_string(faces_at + 20'001 * 13), "face 20001 names the same vertex twice");
+  testkit::write_file(path, file(none, none, 1'100'000, none));
+  expect_input_error(path, "byte " + std::to_string(faces_at + 1'100'000 * 13),
+                     "face 1100000 refers to vertex " + std::to_string(vertices));
+}
+
 TEST(MeshReader, LongWktsComeBackWholeFromTheirPieces) {
   // WKTs of every length around the piece size, with blanks and commas where a cut may fall,
   // and the real tile's own WKT.
