@@ -61,6 +61,12 @@ int run_command(CLI::App& app, const std::vector<Command>& commands, const MpiFa
   return 0;
 }
 
+void end_progress_line() {
+  if (progress_line_open) std::printf("\n");
+  progress_line_open = false;
+  std::fflush(stdout);
+}
+
 Progress terminal_progress(bool quiet) {
   if (quiet) return {};
   return [](double fraction) {

@@ -58,6 +58,9 @@ extern const char* const kCrsHelp;
 
 /// GDAL's terminal progress ("0...10...20...100 - done."), or nothing with -q.
 Progress terminal_progress(bool quiet);
+/// Before a message on stderr after a run with progress: ends an unfinished progress line and
+/// flushes stdout (the progress is there), so the message starts on a line of its own.
+void end_progress_line();
 
 /// --stats after the main output: when it cannot be written, the main output is removed too,
 /// so a run leaves all its files or none.

@@ -23,6 +23,9 @@ void run(const Request& request, bool quiet) {
     refuse_overwrites(stereo_job_inputs(*job.frame), {{"-o", output}, {"--stats", request.stats}});
     if (!request.stats.empty()) check_writable(request.stats);
     const StereoReport report = stereo_job(*job.frame, terminal_progress(quiet));
+    // The progress (stdout) ended and flushed before the lines below (stderr): they broke it
+    // ("...90dsmplan: COLMAP model ...").
+    end_progress_line();
     for (const std::string& warning : report.warnings) std::fprintf(stderr, "dsmplan: warning: %s\n", warning.c_str());
     if (report.georeference && !quiet) {
       const Georeference& g = *report.georeference;

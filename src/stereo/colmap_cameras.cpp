@@ -374,6 +374,30 @@ void check(const ColmapOptions& options) {
     throw ArgumentError("--gcps", "give --centres or --gcps, not both: the similarity is fitted to one of them");
 }
 
+namespace {
+
+// The model's images as files: a NAME relative to the images' folder (--images, else
+// default_images_folder()), an absolute one as it is.
+std::vector<std::string> image_files(const std::vector<ColmapImage>& images, const std::filesystem::path& folder) {
+  std::vector<std::string> files;
+  for (const ColmapImage& image : images) {
+    const std::filesystem::path name = image.name;
+    files.push_back((name.is_relative() ? folder / name : name).string());
+  }
+  return files;
+}
+
+std::filesystem::path images_folder(const ColmapOptions& options) {
+  return options.images.empty() ? default_images_folder(options.model) : options.images;
+}
+
+}  // namespace
+
+std::vector<std::string> colmap_image_paths(const ColmapOptions& options) {
+  check(options);
+  return image_files(read_colmap_model(options.model), images_folder(options));
+}
+
 ColmapCameras colmap_cameras(const ColmapOptions& options, const ExifCentres& exif) {
   check(options);
   const std::vector<ColmapImage> images = read_colmap_model(options.model);
@@ -381,11 +405,8 @@ ColmapCameras colmap_cameras(const ColmapOptions& options, const ExifCentres& ex
   CameraFile& file = out.file;
   file.path = (std::filesystem::path(options.model) / "images.txt").string();
   file.crs = options.crs;
-  const std::filesystem::path folder = options.images.empty() ? default_images_folder(options.model) : options.images;
-  for (const ColmapImage& image : images) {
-    const std::filesystem::path name = image.name;
-    file.images.push_back((name.is_relative() ? folder / name : name).string());
-  }
+  const std::filesystem::path folder = images_folder(options);
+  file.images = image_files(images, folder);
   Similarity transform;
   if (!options.transform.empty()) {
     transform = read_similarity(options.transform);

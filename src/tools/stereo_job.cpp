@@ -151,7 +151,14 @@ std::vector<NamedFile> stereo_job_inputs(const StereoJobOptions& options) {
     if (!options.colmap.transform.empty()) files.push_back({"--transform", options.colmap.transform});
     if (!options.colmap.gcps.empty()) files.push_back({"--gcps", options.colmap.gcps});
   }
-  for (const NamedFile& image : camera_images(job_cameras(options))) files.push_back(image);
+  // The images' names only: for --colmap, the model read without the fit (EXIF, PROJ, GCPs), which
+  // stereo_job() does once.
+  CameraFile cameras;
+  if (options.colmap.model.empty())
+    cameras = read_camera_file(options.cameras);
+  else
+    cameras.images = colmap_image_paths(options.colmap);
+  for (const NamedFile& image : camera_images(cameras)) files.push_back(image);
   return files;
 }
 

@@ -207,4 +207,9 @@ struct ColmapCameras {
 /// images' folder; a residual over the bound names the worst image's file and "EXIF GPS".
 ColmapCameras colmap_cameras(const ColmapOptions& options, const ExifCentres& exif = {});
 
+/// The model's image files as colmap_cameras() resolves them (file.images), without putting the
+/// model in the CRS: check(options), the model read, no centres, GCPs, EXIF or transform read.
+/// For listing a run's inputs before the work; the same errors as colmap_cameras() for the model.
+std::vector<std::string> colmap_image_paths(const ColmapOptions& options);
+
 }  // namespace dsmplan
