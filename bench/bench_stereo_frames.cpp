@@ -56,6 +56,19 @@ struct Matcher {
   dsmplan::DenseMatcher match;  // empty: dsmplan's SGM
 };
 
+// dsmplan's SGM, then OpenCV's MODE_HH (and MODE_SGBM_3WAY with `three_way`) where the build has it.
+std::vector<Matcher> matchers_to_compare(bool three_way) {
+  std::vector<Matcher> matchers{{"dsmplan SGM", {}}};
+#ifdef DSMPLAN_HAVE_OPENCV
+  matchers.push_back({"OpenCV MODE_HH", sgbm_matcher(sgbm_hh)});
+  if (three_way) matchers.push_back({"OpenCV MODE_SGBM_3WAY", sgbm_matcher(sgbm_3way)});
+#else
+  (void)three_way;
+  std::printf("OpenCV not found at configure time: dsmplan alone (apt-get install libopencv-dev)\n");
+#endif
+  return matchers;
+}
+
 }  // namespace
 
 void frame_camera_table(int rounds) {
@@ -91,13 +104,7 @@ void frame_camera_table(int rounds) {
       "%d x %d px, %.2f m a pixel; DSM 1 m over the central %d m x %d m\n",
       n, n, lo, hi, zc - lo, size, size, (zc - lo) / f, m, m);
 
-  std::vector<Matcher> matchers{{"dsmplan SGM", {}}};
-#ifdef DSMPLAN_HAVE_OPENCV
-  matchers.push_back({"OpenCV MODE_HH", sgbm_matcher(sgbm_hh)});
-  matchers.push_back({"OpenCV MODE_SGBM_3WAY", sgbm_matcher(sgbm_3way)});
-#else
-  std::printf("OpenCV not found at configure time: dsmplan alone (apt-get install libopencv-dev)\n");
-#endif
+  const std::vector<Matcher> matchers = matchers_to_compare(true);
 
   struct Row {
     std::string setup, matcher;
@@ -186,12 +193,7 @@ void block_table(int rounds) {
   gridding.resolution = 1.0;
   const Grid delft = dsmplan::grid_points(clouds, gridding);
 
-  std::vector<Matcher> matchers{{"dsmplan SGM", {}}};
-#ifdef DSMPLAN_HAVE_OPENCV
-  matchers.push_back({"OpenCV MODE_HH", sgbm_matcher(sgbm_hh)});
-#else
-  std::printf("OpenCV not found at configure time: dsmplan alone (apt-get install libopencv-dev)\n");
-#endif
+  const std::vector<Matcher> matchers = matchers_to_compare(false);
   struct Row {
     std::string setup, matcher;
     std::size_t pairs = 0;
