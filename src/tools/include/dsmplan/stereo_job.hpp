@@ -57,14 +57,15 @@ std::vector<NamedFile> stereo_job_inputs(const StereoJobOptions& options);
 /// when it is not .tif. Nothing is written when it fails. Progress: the stage to 0.9, then the writing.
 StereoReport stereo_job(const StereoJobOptions& options, const Progress& progress = {});
 /// Keys: cameras (CAMERAS.json, or the COLMAP model's images.txt), output, georeference (--colmap only:
-/// method "centres", "gcps" or "transform", centres, gcps (counts), residuals_at ("centres", "gcps" or ""), scale,
-/// residual_rms, residual_max (CRS units), worst_image (the image, or the point of a GCP), residual_bound,
-/// gcp_reprojection_max_px), camera_count, pairs [[i,j],...] (the pairs matched), pair_details (every pair chosen:
-/// cameras [i,j], used, problem (why left out, "" when used), height_range, disparity_offset (px), disparities,
-/// windows, pixels, matched_pixels, matched_share (of pixels), share_of_all_matched, window_conflicts, points),
-/// pairs_left_out, height_range, height_range_estimated, bounds, width, height,
-/// matched_pixels, points, points_outside_height_range, points_in_grid, fusion_runs_spilled, bands, dsm {cells, valid,
-/// nodata, holes, z_min, z_max}, seconds {read, height_range, rectify, match, triangulate, fuse, write, total}.
+/// method "centres", "exif", "gcps" or "transform", centres, gcps (counts), residuals_at ("centres", "gcps" or ""),
+/// scale, residual_rms, residual_max (CRS units), worst_image (the image, or the point of a GCP), residual_bound,
+/// gcp_reprojection_max_px, heights (--centres exif: how the centres' heights were read and converted)), camera_count,
+/// pairs [[i,j],...] (the pairs matched), pair_details (every pair chosen: cameras [i,j], used, problem (why left out,
+/// "" when used), height_range, disparity_offset (px), disparities, windows, pixels, matched_pixels, matched_share (of
+/// pixels), share_of_all_matched, window_conflicts, points), pairs_left_out, height_range, height_range_estimated,
+/// bounds, width, height, matched_pixels, points, points_outside_height_range, points_in_grid, fusion_runs_spilled,
+/// bands, dsm {cells, valid, nodata, holes, z_min, z_max}, seconds {read, height_range, rectify, match, triangulate,
+/// fuse, write, total}.
 Json to_json(const StereoReport& report);
 
 // ---- the request of `dsmplan stereo`, either pipeline ----------------------------------------
