@@ -1,12 +1,16 @@
 // Photo blocks rendered from a real DSM (issue 34, points 2 and 5): the set-ups a drone or an
 // aircraft flies over a city, each rendered by aerial_scene.hpp, and what two views of them see.
 // Shared by the height-range test (tests/stereo_height_range_test.cpp: the estimate must hold
-// the seen heights) and bench_stereo's block table (bench/bench_stereo_frames.cpp: dsmplan's SGM
-// against OpenCV's on the same renders), so both speak of the same blocks.
+// the seen heights, and cost the DSM nothing the true range would give) and bench_stereo's block
+// and range tables (bench/bench_stereo_frames.cpp: dsmplan's SGM against OpenCV's on the same
+// renders; the DSM with the estimate against the DSM given the truth), so all speak of the same
+// blocks.
 #pragma once
 
 #include <algorithm>
+#include <array>
 #include <cmath>
+#include <cstddef>
 #include <numbers>
 #include <utility>
 #include <vector>
@@ -177,6 +181,76 @@ inline Grid seen_by_two(const Block& b) {
       if (views < 2) seen.z[seen.index(c, r)] = NAN;
     }
   return seen;
+}
+
+/// The job `dsmplan stereo` runs on block `b` given the height range [min_height, max_height]
+/// (estimated, or as CAMERAS.json would give it): the pairs select_pairs_auto() chooses on the
+/// range's lowest plane, dsmplan's SGM, a 1 m DSM over the cells `seen` (seen_by_two()) holds,
+/// scored against them.
+struct RangedDsm {
+  Grid dsm;
+  std::size_t pairs = 0;
+  DsmErrors errors;
+};
+/// The box (x0, y0, x1, y1) of the cells `seen` (seen_by_two()) holds: the DSM a bench or test makes.
+inline std::array<double, 4> seen_bounds(const Grid& seen) {
+  double x0 = INFINITY, x1 = -INFINITY, y0 = INFINITY, y1 = -INFINITY;
+  for (int r = 0; r < seen.height; ++r)
+    for (int c = 0; c < seen.width; ++c)
+      if (seen.valid(c, r)) {
+        x0 = std::min(x0, seen.center_x(c) - 0.5 * seen.cell_x),
+        x1 = std::max(x1, seen.center_x(c) + 0.5 * seen.cell_x);
+        y0 = std::min(y0, seen.center_y(r) - 0.5 * seen.cell_y),
+        y1 = std::max(y1, seen.center_y(r) + 0.5 * seen.cell_y);
+      }
+  return {x0, y0, x1, y1};
+}
+
+inline RangedDsm dsm_given_range(const Block& b, const Grid& seen, double min_height, double max_height) {
+  dsmplan::PairSelectionOptions selection;
+  selection.ground_height = min_height;
+  const auto pairs = dsmplan::select_pairs_auto(b.cameras, selection);
+  dsmplan::FrameStereoOptions options;
+  options.rectify.min_height = min_height;
+  options.rectify.max_height = max_height;
+  RangedDsm out;
+  out.dsm = dsmplan::dsm_grid(seen_bounds(seen), 1.0);
+  out.pairs = dsmplan::stereo_dsm(b.cameras, b.images, pairs, out.dsm, options).pairs;
+  out.errors = dsm_errors(out.dsm, seen);
+  return out;
+}
+
+/// The widest range issue 34's bound allows, centred on the truth: the lowest and highest cell
+/// `seen` holds, widened by 7.5 % of their difference and 1.5 m a side. What a user who knows the
+/// scene would give; the yardstick for what an estimate costs the DSM.
+inline std::pair<double, double> true_range_given(const Grid& seen) {
+  double low = INFINITY, high = -INFINITY;
+  for (float z : seen.z)
+    if (!std::isnan(z)) low = std::min(low, double(z)), high = std::max(high, double(z));
+  const double widen = 0.075 * (high - low) + 1.5;
+  return {low - widen, high + widen};
+}
+
+/// The cells of `seen` whose height lies outside [min_height, max_height], how many of them `dsm`
+/// has a height for, within 1 m of the truth, and more than 1 m below it (an obstacle shown lower).
+struct Outside {
+  std::size_t cells = 0, filled = 0, within_1m = 0, low_by_1m = 0;
+};
+inline Outside outside_range(const Grid& seen, double min_height, double max_height, const Grid& dsm) {
+  Outside out;
+  for (int r = 0; r < seen.height; ++r)
+    for (int c = 0; c < seen.width; ++c) {
+      if (!seen.valid(c, r)) continue;
+      const double truth = seen.at(c, r);
+      if (truth >= min_height && truth <= max_height) continue;
+      ++out.cells;
+      int cd, rd;
+      if (!dsm.cell_at(seen.center_x(c), seen.center_y(r), cd, rd) || !dsm.valid(cd, rd)) continue;
+      ++out.filled;
+      out.within_1m += std::abs(dsm.at(cd, rd) - truth) <= 1;
+      out.low_by_1m += dsm.at(cd, rd) < truth - 1;
+    }
+  return out;
 }
 
 }  // namespace aerial

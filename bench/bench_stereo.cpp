@@ -1,9 +1,9 @@
 // bench_stereo: DSMs from images by dsmplan's stereo pipelines against the DSM they must give,
 // with dsmplan's SGM and with OpenCV's StereoSGBM in the same pipeline (issue 16 point 3(b)).
 // Each section is a function in its own file (bench_stereo.hpp, stereo_satellite.hpp). 2 threads.
-// Usage: bench_stereo [ROUNDS] [frames|satellite|blocks] (timed, interleaved rounds per set-up,
-// default 5; frames and satellite unless one is named; blocks, the rendered blocks of issue 34,
-// only when named).
+// Usage: bench_stereo [ROUNDS] [frames|satellite|blocks|ranges] (timed, interleaved rounds per
+// set-up, default 5; frames and satellite unless one is named; blocks, the rendered blocks of
+// issue 34, and ranges, what their estimated height ranges cost the DSM, only when named).
 #include <tbb/global_control.h>
 
 #include <algorithm>
@@ -32,6 +32,10 @@ int main(int argc, char** argv) {
               bench::load_average().c_str());
   if (only == "blocks") {
     bench::block_table(rounds);
+    return 0;
+  }
+  if (only == "ranges") {
+    bench::range_cost_table();
     return 0;
   }
   if (only != "satellite") bench::frame_camera_table(rounds);

@@ -9,5 +9,6 @@ namespace bench {
 /// `rounds`: timed, interleaved rounds per set-up.
 void frame_camera_table(int rounds);
 void block_table(int rounds);  ///< issue 34 point 5: the rendered blocks, dsmplan against OpenCV
+void range_cost_table();       ///< issue 34 point 2: the blocks' DSMs with the estimated range and the true one
 
 }  // namespace bench
