@@ -236,23 +236,33 @@ struct DsmErrors {
   double completeness = 0;      ///< share of the truth's cells the DSM has a height for
   double median = 0;            ///< median |DSM - truth| over those cells
   double over1 = 0, over3 = 0;  ///< share of those cells off by more than 1 m, 3 m
+  /// Share of those cells more than 3 m below the truth, and the most below (m, >= 0): an
+  /// obstacle shown lower than it is, what a planner on the DSM must not be given.
+  double low3 = 0, lowest = 0;
 };
 
 /// `dsm` against `truth` at the truth's cell centres (the DSM's cell holding each centre; cells
 /// outside the DSM count as not filled).
 inline DsmErrors dsm_errors(const Grid& dsm, const Grid& truth) {
   std::vector<double> errors;
-  std::size_t cells = 0;
+  std::size_t cells = 0, low3 = 0;
+  double lowest = 0;
   for (int r = 0; r < truth.height; ++r)
     for (int c = 0; c < truth.width; ++c) {
       if (!truth.valid(c, r)) continue;
       ++cells;
       int cd, rd;
-      if (dsm.cell_at(truth.center_x(c), truth.center_y(r), cd, rd) && dsm.valid(cd, rd))
-        errors.push_back(std::abs(dsm.at(cd, rd) - truth.at(c, r)));
+      if (dsm.cell_at(truth.center_x(c), truth.center_y(r), cd, rd) && dsm.valid(cd, rd)) {
+        const double below = truth.at(c, r) - dsm.at(cd, rd);
+        errors.push_back(std::abs(below));
+        low3 += below > 3;
+        lowest = std::max(lowest, below);
+      }
     }
   DsmErrors e;
   if (errors.empty()) return e;
+  e.low3 = low3 / static_cast<double>(errors.size());
+  e.lowest = lowest;
   std::sort(errors.begin(), errors.end());
   const double count = static_cast<double>(errors.size());
   e.completeness = count / cells;
