@@ -18,8 +18,7 @@ bool progress_line_open = false;
 
 // One line on stderr, on a line of its own; returns the exit code.
 int fail(const std::string& message, int exit_code) {
-  if (progress_line_open) std::printf("\n");
-  std::fflush(stdout);
+  end_progress_line();
   std::fprintf(stderr, "dsmplan: %s\n", message.c_str());
   return exit_code;
 }
