@@ -12,6 +12,7 @@
 #include <cmath>
 #include <cstddef>
 #include <numbers>
+#include <tuple>
 #include <utility>
 #include <vector>
 
@@ -183,15 +184,6 @@ inline Grid seen_by_two(const Block& b) {
   return seen;
 }
 
-/// The job `dsmplan stereo` runs on block `b` given the height range [min_height, max_height]
-/// (estimated, or as CAMERAS.json would give it): the pairs select_pairs_auto() chooses on the
-/// range's lowest plane, dsmplan's SGM, a 1 m DSM over the cells `seen` (seen_by_two()) holds,
-/// scored against them.
-struct RangedDsm {
-  Grid dsm;
-  std::size_t pairs = 0;
-  DsmErrors errors;
-};
 /// The box (x0, y0, x1, y1) of the cells `seen` (seen_by_two()) holds: the DSM a bench or test makes.
 inline std::array<double, 4> seen_bounds(const Grid& seen) {
   double x0 = INFINITY, x1 = -INFINITY, y0 = INFINITY, y1 = -INFINITY;
@@ -206,6 +198,15 @@ inline std::array<double, 4> seen_bounds(const Grid& seen) {
   return {x0, y0, x1, y1};
 }
 
+/// The job `dsmplan stereo` runs on block `b` given the height range [min_height, max_height]
+/// (estimated, or as CAMERAS.json would give it): the pairs select_pairs_auto() chooses on the
+/// range's lowest plane, dsmplan's SGM, a 1 m DSM over the cells `seen` (seen_by_two()) holds,
+/// scored against them.
+struct RangedDsm {
+  Grid dsm;
+  std::size_t pairs = 0;
+  DsmErrors errors;
+};
 inline RangedDsm dsm_given_range(const Block& b, const Grid& seen, double min_height, double max_height) {
   dsmplan::PairSelectionOptions selection;
   selection.ground_height = min_height;
@@ -220,15 +221,29 @@ inline RangedDsm dsm_given_range(const Block& b, const Grid& seen, double min_he
   return out;
 }
 
+/// The heights of the cells `seen` (seen_by_two()) holds: the oracle of issue 34's point 2.
+struct SeenHeights {
+  double lowest = INFINITY, highest = -INFINITY;
+  std::size_t cells = 0;
+};
+inline SeenHeights seen_heights(const Grid& seen) {
+  SeenHeights h;
+  for (float z : seen.z)
+    if (!std::isnan(z)) {
+      ++h.cells;
+      h.lowest = std::min(h.lowest, double(z));
+      h.highest = std::max(h.highest, double(z));
+    }
+  return h;
+}
+
 /// The widest range issue 34's bound allows, centred on the truth: the lowest and highest cell
 /// `seen` holds, widened by 7.5 % of their difference and 1.5 m a side. What a user who knows the
 /// scene would give; the yardstick for what an estimate costs the DSM.
 inline std::pair<double, double> true_range_given(const Grid& seen) {
-  double low = INFINITY, high = -INFINITY;
-  for (float z : seen.z)
-    if (!std::isnan(z)) low = std::min(low, double(z)), high = std::max(high, double(z));
-  const double widen = 0.075 * (high - low) + 1.5;
-  return {low - widen, high + widen};
+  const SeenHeights h = seen_heights(seen);
+  const double widen = 0.075 * (h.highest - h.lowest) + 1.5;
+  return {h.lowest - widen, h.highest + widen};
 }
 
 /// The cells of `seen` whose height lies outside [min_height, max_height], how many of them `dsm`
@@ -250,6 +265,24 @@ inline Outside outside_range(const Grid& seen, double min_height, double max_hei
       out.within_1m += std::abs(dsm.at(cd, rd) - truth) <= 1;
       out.low_by_1m += dsm.at(cd, rd) < truth - 1;
     }
+  return out;
+}
+
+/// What the height range [min_height, max_height] (an estimate) costs block `b`'s DSM: the DSM
+/// made with it and the DSM given the true range (true_range_given()), and the cells of `seen`
+/// outside it as each of the two DSMs has them.
+struct RangeCost {
+  double given_low = 0, given_high = 0;
+  RangedDsm estimated, given;
+  Outside missed, recovered;
+};
+inline RangeCost range_cost(const Block& b, const Grid& seen, double min_height, double max_height) {
+  RangeCost out;
+  std::tie(out.given_low, out.given_high) = true_range_given(seen);
+  out.estimated = dsm_given_range(b, seen, min_height, max_height);
+  out.given = dsm_given_range(b, seen, out.given_low, out.given_high);
+  out.missed = outside_range(seen, min_height, max_height, out.estimated.dsm);
+  out.recovered = outside_range(seen, min_height, max_height, out.given.dsm);
   return out;
 }
 

@@ -287,19 +287,17 @@ void range_cost_table() {
     const Grid seen = aerial::seen_by_two(b);
     const dsmplan::HeightRangeEstimate range =
         dsmplan::estimate_height_range(b.cameras, b.images, dsmplan::height_range_pairs(b.cameras));
-    const auto [low, high] = aerial::true_range_given(seen);
-    const aerial::RangedDsm estimated = aerial::dsm_given_range(b, seen, range.min_height, range.max_height);
-    const aerial::RangedDsm given = aerial::dsm_given_range(b, seen, low, high);
-    const aerial::Outside missed = aerial::outside_range(seen, range.min_height, range.max_height, estimated.dsm);
-    const aerial::Outside recovered = aerial::outside_range(seen, range.min_height, range.max_height, given.dsm);
-    const aerial::DsmErrors &e = estimated.errors, &g = given.errors;
+    const aerial::RangeCost cost = aerial::range_cost(b, seen, range.min_height, range.max_height);
+    const aerial::DsmErrors &e = cost.estimated.errors, &g = cost.given.errors;
+    const aerial::Outside &missed = cost.missed, &recovered = cost.recovered;
     std::printf(
         "| %s | %.1f..%.1f | %.1f..%.1f | %zu / %zu | %.1f / %.1f %% | %.2f / %.2f m | %.1f / %.1f %% | %zu | %zu / "
         "%zu "
         "| %zu / %zu | %zu / %zu |\n",
-        s.name, range.min_height, range.max_height, low, high, estimated.pairs, given.pairs, 100 * e.completeness,
-        100 * g.completeness, e.median, g.median, 100 * e.over1, 100 * g.over1, missed.cells, missed.filled,
-        recovered.filled, missed.within_1m, recovered.within_1m, missed.low_by_1m, recovered.low_by_1m);
+        s.name, range.min_height, range.max_height, cost.given_low, cost.given_high, cost.estimated.pairs,
+        cost.given.pairs, 100 * e.completeness, 100 * g.completeness, e.median, g.median, 100 * e.over1, 100 * g.over1,
+        missed.cells, missed.filled, recovered.filled, missed.within_1m, recovered.within_1m, missed.low_by_1m,
+        recovered.low_by_1m);
   }
 }
 

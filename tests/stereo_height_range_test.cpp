@@ -65,23 +65,6 @@ using aerial::BlockSetup;
 
 Block render_block(const BlockSetup& s) { return aerial::render_block(s, s.delft ? delft_1m() : testkit::nrw_full()); }
 
-// The oracle: the lowest and highest of the cells two views see (aerial::seen_by_two()).
-struct Truth {
-  double lowest = INFINITY, highest = -INFINITY;
-  size_t cells = 0;
-};
-Truth seen_heights(const Block& b) {
-  const Grid seen = aerial::seen_by_two(b);
-  Truth t;
-  for (float z : seen.z)
-    if (!std::isnan(z)) {
-      ++t.cells;
-      t.lowest = std::min(t.lowest, double(z));
-      t.highest = std::max(t.highest, double(z));
-    }
-  return t;
-}
-
 class HeightRangeOnRenderedBlocks : public testing::TestWithParam<BlockSetup> {};
 
 TEST_P(HeightRangeOnRenderedBlocks, ContainsTheSeenHeightsAndIsTight) {
@@ -96,7 +79,7 @@ TEST_P(HeightRangeOnRenderedBlocks, ContainsTheSeenHeightsAndIsTight) {
       ASSERT_TRUE(p[0] > b.truth.x0 && p[0] < b.truth.x1() && p[1] > b.truth.y1() && p[1] < b.truth.y0)
           << "a corner of a view sees beyond the scene";
     }
-  const Truth truth = seen_heights(b);
+  const aerial::SeenHeights truth = aerial::seen_heights(aerial::seen_by_two(b));
   ASSERT_GT(truth.cells, 1000u);
   const auto start = std::chrono::steady_clock::now();
   const HeightRangeEstimate e = estimate_height_range(b.cameras, b.images, height_range_pairs(b.cameras));
@@ -127,15 +110,13 @@ TEST_P(HeightRangeOnRenderedBlocks, CostsTheDsmNothingTheTrueRangeWouldGive) {
   const Block b = render_block(s);
   const Grid seen = aerial::seen_by_two(b);
   const HeightRangeEstimate e = estimate_height_range(b.cameras, b.images, height_range_pairs(b.cameras));
-  const auto [low, high] = aerial::true_range_given(seen);
-  const aerial::RangedDsm estimated = aerial::dsm_given_range(b, seen, e.min_height, e.max_height);
-  const aerial::RangedDsm given = aerial::dsm_given_range(b, seen, low, high);
-  const aerial::Outside missed = aerial::outside_range(seen, e.min_height, e.max_height, estimated.dsm);
-  const aerial::Outside recovered = aerial::outside_range(seen, e.min_height, e.max_height, given.dsm);
+  const aerial::RangeCost cost = aerial::range_cost(b, seen, e.min_height, e.max_height);
+  const aerial::RangedDsm &estimated = cost.estimated, &given = cost.given;
+  const aerial::Outside &missed = cost.missed, &recovered = cost.recovered;
   std::printf(
       "%-24s estimate %.1f..%.1f m, given %.1f..%.1f m: filled %.1f / %.1f %%, off by > 1 m %.1f / %.1f %%; %zu cells "
       "outside the estimate, within 1 m %zu / %zu\n",
-      s.name, e.min_height, e.max_height, low, high, 100 * estimated.errors.completeness,
+      s.name, e.min_height, e.max_height, cost.given_low, cost.given_high, 100 * estimated.errors.completeness,
       100 * given.errors.completeness, 100 * estimated.errors.over1, 100 * given.errors.over1, missed.cells,
       missed.within_1m, recovered.within_1m);
   ASSERT_GT(given.errors.completeness, 0.5) << "the DSM given the true range is not a yardstick";
