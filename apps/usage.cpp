@@ -28,31 +28,6 @@ CLI::App* command_of(CLI::App& app, int argc, char** argv) {
 
 }  // namespace
 
-size_t edit_distance(const std::string& a, const std::string& b) {
-  std::vector<size_t> row(b.size() + 1);
-  for (size_t j = 0; j <= b.size(); ++j) row[j] = j;
-  for (size_t i = 1; i <= a.size(); ++i) {
-    size_t diagonal = row[0];
-    row[0] = i;
-    for (size_t j = 1; j <= b.size(); ++j) {
-      const size_t up = row[j];
-      row[j] = std::min({row[j] + 1, row[j - 1] + 1, diagonal + (a[i - 1] == b[j - 1] ? 0 : 1)});
-      diagonal = up;
-    }
-  }
-  return row[b.size()];
-}
-
-std::string nearest(const std::string& typed, const std::vector<std::string>& names) {
-  std::string best;
-  size_t best_distance = std::max<size_t>(1, typed.size() / 3) + 1;
-  for (const std::string& name : names) {
-    const size_t d = edit_distance(typed, name);
-    if (d < best_distance) best = name, best_distance = d;
-  }
-  return best;
-}
-
 // An unknown command or long option, refused before parsing (CLI11 would first complain about
 // a missing required option), with the nearest name when it looks like a typo.
 void refuse_unknown_names(CLI::App& app, int argc, char** argv) {
@@ -65,7 +40,7 @@ void refuse_unknown_names(CLI::App& app, int argc, char** argv) {
   if (first[0] == '-') return;  // --help, --version, or CLI11's own error
   CLI::App* command = command_of(app, argc, argv);
   if (!command) {
-    const std::string best = nearest(first, commands);
+    const std::string best = nearest_name(first, commands);
     throw CLI::ValidationError("unknown command '" + first + "'" +
                                (best.empty() ? " (the commands: " + list + ")" : " (did you mean '" + best + "'?)"));
   }
@@ -75,7 +50,7 @@ void refuse_unknown_names(CLI::App& app, int argc, char** argv) {
     if (arg.rfind("--", 0) != 0 || arg == "--") continue;
     const std::string name = arg.substr(2, arg.find('=') == std::string::npos ? std::string::npos : arg.find('=') - 2);
     if (std::find(names.begin(), names.end(), name) != names.end()) continue;
-    const std::string best = nearest(name, names);
+    const std::string best = nearest_name(name, names);
     throw CLI::ValidationError("unknown option --" + name + " for " + command->get_name() +
                                (best.empty() ? " (dsmplan " + command->get_name() + " --help lists them)"
                                              : " (did you mean --" + best + "?)"));
@@ -130,6 +105,7 @@ std::string flag_message(const ArgumentError& error) {
       {"max_agl", "--max-agl"},
       {"snap", "--snap"},
       {"waypoint_heights", "--waypoint-heights"},
+      {"no_fly_blocking", "--no-fly-blocking"},
       {"width", "--width"},
       {"height", "--height"},
       {"vertical_crs", "--vertical-crs"},

@@ -11,11 +11,6 @@
 
 namespace dsmplan::cli {
 
-/// Levenshtein distance of two names.
-size_t edit_distance(const std::string& a, const std::string& b);
-/// The name among `names` nearest `typed` when near enough to be a typo (at most a third of
-/// its letters, at least one, changed); empty otherwise.
-std::string nearest(const std::string& typed, const std::vector<std::string>& names);
 /// An unknown command or long option on the command line, refused before parsing (CLI11 would
 /// first complain of a missing required option), with the nearest name.
 void refuse_unknown_names(CLI::App& app, int argc, char** argv);

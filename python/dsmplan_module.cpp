@@ -39,6 +39,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <future>
 #include <map>
 #include <memory>
 #include <optional>
@@ -78,6 +79,32 @@ py::array read_only(py::array view) {
 struct PyDsm {
   Grid grid;
 };
+
+// Runs `work` (which must not touch Python) on a thread of its own with the GIL released, while
+// this thread asks Python every 50 ms whether a signal came: on Ctrl-C the work's `stop` is
+// requested, the work ends within a few validity checks (core.hpp: StopToken), and the
+// KeyboardInterrupt is raised here. A call from another thread than Python's main one cannot see
+// Ctrl-C (Python runs its handlers there only) and just runs to its end.
+template <typename Work>
+auto interruptible(StopToken& stop, Work&& work) -> decltype(work()) {
+  auto task = std::async(std::launch::async, std::forward<Work>(work));
+  for (;;) {
+    {
+      py::gil_scoped_release release;
+      if (task.wait_for(std::chrono::milliseconds(50)) == std::future_status::ready) break;
+    }
+    if (PyErr_CheckSignals() != 0) {
+      py::error_already_set interrupted;  // takes Python's KeyboardInterrupt (or a handler's error)
+      stop.request_stop();
+      {
+        py::gil_scoped_release release;
+        task.wait();
+      }
+      throw interrupted;
+    }
+  }
+  return task.get();  // the work's result, or its exception
+}
 
 struct PyMesh {
   Mesh mesh;
@@ -156,17 +183,19 @@ std::shared_ptr<PyDsm> dsm_from_array(py::array_t<float, py::array::c_style | py
 // The zone files into the flight's data, in its mesh's CRS, and which restrictions block.
 void read_zones(FlightData& data, const std::vector<std::string>& no_fly,
                 const std::optional<std::vector<std::string>>& blocking, const VerticalOptions& vertical) {
+  if (blocking) data.airspace.blocking = *blocking;
+  check_airspace_options(data.airspace);  // before the files are read, as the CLI
   for (const std::string& file : no_fly) {
     const std::vector<AirspaceZone> zones = read_airspace(file, data.mesh->crs, vertical);
     data.no_fly.insert(data.no_fly.end(), zones.begin(), zones.end());
   }
-  if (blocking) data.airspace.blocking = *blocking;
 }
 
 // The data and limits plan() and plan_routes() take alike. The data are shared with the Python
 // objects, not copied: the arrays handed out are read-only.
 void share_data(FlightData& data, const std::shared_ptr<PyMesh>& mesh, const std::shared_ptr<PyDsm>& dsm,
                 const std::shared_ptr<PyDsm>& dtm) {
+  if (!mesh) throw ArgumentError("mesh", "must be a Mesh (dsmplan.simplify() or dsmplan.mesh()), got None");
   data.mesh = std::shared_ptr<const Mesh>(mesh, &mesh->mesh);
   if (dsm) data.dsm = std::shared_ptr<const Grid>(dsm, &dsm->grid);
   if (dtm) data.dtm = std::shared_ptr<const Grid>(dtm, &dtm->grid);
@@ -209,9 +238,9 @@ std::shared_ptr<PyFlight> plan(const std::shared_ptr<PyMesh>& mesh,
   set_limits(request, safety, max_agl, spacing, planner, snap, waypoint_heights);
   share_data(request, mesh, dsm, dtm);
   if (!mission && (home || end)) throw ArgumentError("home", "home and end belong to a mission (mission=True)");
-  FlightPlan planned;
-  {
-    py::gil_scoped_release release;
+  const auto stop = std::make_shared<StopToken>();
+  request.options.stop = stop;
+  FlightPlan planned = interruptible(*stop, [&] {
     require_projected(mesh->mesh.crs, "mesh", centre_of(mesh->mesh));  // as `dsmplan plan` does
     read_zones(request, no_fly, no_fly_blocking, VerticalOptions{vertical_crs, allow_approximate_vertical});
     std::optional<Wgs84Transform> to_msl;
@@ -226,8 +255,8 @@ std::shared_ptr<PyFlight> plan(const std::shared_ptr<PyMesh>& mesh,
       };
       request.mission = ends;
     }
-    planned = plan_flight(request);
-  }
+    return plan_flight(request);
+  });
   return flight_of(std::move(planned), mesh->mesh.crs, {request.no_fly, request.airspace}, request.dtm, safety,
                    max_agl);
 }
@@ -248,17 +277,17 @@ py::list plan_routes_of(const std::shared_ptr<PyMesh>& mesh,
   set_limits(common, safety, max_agl, spacing, planner, snap, waypoint_heights);
   std::vector<std::vector<Point3>> points;
   for (const auto& route : routes) points.push_back(points_of(route));
-  RoutesPlan planned;
   std::shared_ptr<const Grid> terrain = data.dtm;
   ZoneLayer zones;
-  {
-    py::gil_scoped_release release;
+  const auto stop = std::make_shared<StopToken>();
+  common.options.stop = stop;
+  RoutesPlan planned = interruptible(*stop, [&] {
     require_projected(mesh->mesh.crs, "mesh", centre_of(mesh->mesh));
     read_zones(data, no_fly, no_fly_blocking, VerticalOptions{vertical_crs, allow_approximate_vertical});
     zones = {data.no_fly, data.airspace};
     const FlightArea area(std::move(data));
-    planned = plan_routes(area, points, common);
-  }
+    return plan_routes(area, points, common);
+  });
   const py::object input_error = py::module_::import("dsmplan").attr("InputError");
   py::list out;
   for (RouteResult& route : planned.routes) {
@@ -380,6 +409,7 @@ void paths_and_flights(const py::object& given, std::vector<std::string>& files,
 // Zone files to draw, read as plan() reads them.
 ZoneFiles zone_files(const std::vector<std::string>& no_fly, std::optional<std::vector<std::string>> blocking,
                      const std::string& vertical_crs, bool allow_approximate_vertical) {
+  if (blocking) check_airspace_options({*blocking});  // [] too: ZoneFiles reads an empty list as the default
   return {no_fly, blocking.value_or(std::vector<std::string>{}), {vertical_crs, allow_approximate_vertical}};
 }
 
@@ -645,7 +675,7 @@ PYBIND11_MODULE(dsmplan, m) {
 
   py::class_<PyDsm, std::shared_ptr<PyDsm>>(
       m, "Dsm", "A DSM raster in memory: read_dsm(), grid(), or a numpy array (Dsm(heights, transform, crs)).")
-      .def(py::init(&dsm_from_array), py::arg("heights"), py::arg("transform"), py::arg("crs") = "",
+      .def(py::init(&dsm_from_array), py::arg("heights").none(false), py::arg("transform"), py::arg("crs") = "",
            py::arg("nodata") = py::none(),
            "A DSM from a numpy array, as rasterio holds one. The heights are copied.\n\n"
            "heights: rows x columns array (row 0 north); NaN, infinite or `nodata` heights are holes.\n"
@@ -738,7 +768,7 @@ PYBIND11_MODULE(dsmplan, m) {
       py::arg("path"),
       "Reads a DSM raster.\n\n"
       "path: any GDAL raster or VRT, with a CRS, x, y and heights in metres.");
-  m.def("grid", &grid, py::arg("points"), py::arg("res"), py::kw_only(), py::arg("crs") = "",
+  m.def("grid", &grid, py::arg("points").none(false), py::arg("res"), py::kw_only(), py::arg("crs") = "",
         py::arg("fusion") = "median", py::arg("classes") = std::vector<int>{}, py::arg("drop_classes") = py::none(),
         py::arg("keep_all_classes") = false, py::arg("fill_holes") = 0.0,
         "Point clouds to a DSM in memory, as `dsmplan grid` (the same library function, grid_point_files()): "
@@ -761,11 +791,11 @@ PYBIND11_MODULE(dsmplan, m) {
         out->mesh = triangulate_xy3(dsm.grid, options);
         return out;
       },
-      py::arg("dsm"), py::arg("zstep") = 0.1,
+      py::arg("dsm").none(false), py::arg("zstep") = 0.1,
       "The XY-3 Delaunay mesh of the DSM (the paper's Section 3), as `dsmplan mesh`.\n\n"
       "dsm: the Dsm to mesh.\n"
       "zstep: heights rounded to steps of this size (0 keeps them).");
-  m.def("simplify", &simplify, py::arg("dsm"), py::arg("max_error") = 0.4, py::arg("conservative") = true,
+  m.def("simplify", &simplify, py::arg("dsm").none(false), py::arg("max_error") = 0.4, py::arg("conservative") = true,
         py::arg("delaunay") = false,
         "The bounded simplification of `dsmplan simplify --max-error`, its error certified cell by cell "
         "(Mesh.certified).\n\n"
@@ -817,10 +847,10 @@ PYBIND11_MODULE(dsmplan, m) {
           "vertical_crs: the heights' vertical CRS when the mesh's CRS has none (e.g. \"EPSG:7837\").\n"
           "allow_approximate_vertical: take heights of an unknown or grid-less vertical datum as EGM96 "
           "(about 1 m off).");
-  m.def("plan", &plan, py::arg("mesh"), py::arg("waypoints"), py::arg("dsm") = nullptr, py::arg("dtm") = nullptr,
-        py::arg("safety") = 2.0, py::arg("max_agl") = 120.0, py::arg("spacing") = 20.0, py::arg("planner") = "prm",
-        py::arg("mission") = false, py::arg("home") = py::none(), py::arg("end") = py::none(),
-        py::arg("vertical_crs") = "", py::arg("no_fly") = std::vector<std::string>{},
+  m.def("plan", &plan, py::arg("mesh").none(false), py::arg("waypoints").none(false), py::arg("dsm") = nullptr,
+        py::arg("dtm") = nullptr, py::arg("safety") = 2.0, py::arg("max_agl") = 120.0, py::arg("spacing") = 20.0,
+        py::arg("planner") = "prm", py::arg("mission") = false, py::arg("home") = py::none(),
+        py::arg("end") = py::none(), py::arg("vertical_crs") = "", py::arg("no_fly") = std::vector<std::string>{},
         py::arg("no_fly_blocking") = py::none(), py::arg("allow_approximate_vertical") = false, py::arg("snap") = 0.0,
         py::arg("waypoint_heights") = "crs",
         "A collision-free path through the waypoints by the plan stage's plan_flight(), with every check of "
@@ -848,9 +878,9 @@ PYBIND11_MODULE(dsmplan, m) {
         "straight up first; each move in Flight.report[\"snapped\"].\n"
         "waypoint_heights: \"crs\" (z in the mesh's CRS) or \"agl\" (z above the ground: the DTM, else the "
         "DSM, else the mesh's floor).");
-  m.def("plan_routes", &plan_routes_of, py::arg("mesh"), py::arg("routes"), py::kw_only(), py::arg("dsm") = nullptr,
-        py::arg("dtm") = nullptr, py::arg("safety") = 2.0, py::arg("max_agl") = 120.0, py::arg("spacing") = 20.0,
-        py::arg("planner") = "prm", py::arg("no_fly") = std::vector<std::string>{},
+  m.def("plan_routes", &plan_routes_of, py::arg("mesh").none(false), py::arg("routes").none(false), py::kw_only(),
+        py::arg("dsm") = nullptr, py::arg("dtm") = nullptr, py::arg("safety") = 2.0, py::arg("max_agl") = 120.0,
+        py::arg("spacing") = 20.0, py::arg("planner") = "prm", py::arg("no_fly") = std::vector<std::string>{},
         py::arg("no_fly_blocking") = py::none(), py::arg("vertical_crs") = "",
         py::arg("allow_approximate_vertical") = false, py::arg("snap") = 0.0, py::arg("waypoint_heights") = "crs",
         "Many routes over one roadmap, as `dsmplan plan --routes` (the same library function, plan_routes()): the "
@@ -871,7 +901,7 @@ PYBIND11_MODULE(dsmplan, m) {
         "allow_approximate_vertical: take heights of an unknown or grid-less vertical datum as EGM96.\n"
         "snap: metres (0: off): a refused waypoint moved to the nearest valid point within it, as plan().\n"
         "waypoint_heights: \"crs\" or \"agl\" (z above the ground), as plan().");
-  m.def("render", &render, py::arg("dsm"), py::arg("output"), py::kw_only(), py::arg("meshes") = py::none(),
+  m.def("render", &render, py::arg("dsm").none(false), py::arg("output"), py::kw_only(), py::arg("meshes") = py::none(),
         py::arg("titles") = py::none(), py::arg("paths") = py::none(), py::arg("waypoints") = py::none(),
         py::arg("roadmap") = py::none(), py::arg("window") = py::none(), py::arg("zoom") = 4.0, py::arg("edges") = true,
         py::arg("res") = py::none(), py::arg("band") = 1, py::arg("crs") = "",
@@ -898,7 +928,7 @@ PYBIND11_MODULE(dsmplan, m) {
         "no_fly_blocking: the restrictions drawn as blocking (default PROHIBITED and REQ_AUTHORISATION).\n"
         "vertical_crs: the heights' vertical CRS for the zones' AMSL limits when the DSM's CRS has none.\n"
         "allow_approximate_vertical: take heights of an unknown or grid-less vertical datum as EGM96.");
-  m.def("profile", &profile, py::arg("dsm"), py::arg("path"), py::arg("output"), py::kw_only(),
+  m.def("profile", &profile, py::arg("dsm").none(false), py::arg("path").none(false), py::arg("output"), py::kw_only(),
         py::arg("dtm") = py::none(), py::arg("waypoints") = py::none(), py::arg("safety") = py::none(),
         py::arg("max_agl") = py::none(), py::arg("title") = "", py::arg("width") = 1200, py::arg("height") = 500,
         py::arg("no_fly") = std::vector<std::string>{}, py::arg("no_fly_blocking") = py::none(),

@@ -28,6 +28,7 @@
 #include <limits>
 #include <map>
 #include <nlohmann/json.hpp>
+#include <set>
 #include <sstream>
 #include <string>
 #include <tuple>
@@ -1599,7 +1600,7 @@ TEST(CliPlan, OfOverridesTheExtensionAndJsonPrintsTheStatistics) {
   TempDir none;
   expect_clean_failure(
       run_cli({"plan", f.mesh, "--waypoints", f.waypoints, "-o", none.path("p.csv"), "--of", "shp", "-q"}), none,
-      "--of", {"unknown path format"});
+      "--of", {"must be csv, geojson, plan, waypoints, kmz or kml, got 'shp'"});
 }
 
 TEST(CliPlan, DsmClearanceIsReportedWithTheDsm) {
@@ -2786,8 +2787,24 @@ TEST(CliNoFly, WaypointInAZoneAndAFloorUnderEveryWaypointAreRefused) {
   expect_clean_failure(run, out, f.waypoints, {"waypoint 1: inside no-fly zone 'everywhere'"});
   // Not blocking when its restriction is not one of --no-fly-blocking: planned through.
   run = run_cli({"plan", f.mesh, "--waypoints", f.waypoints, "--dsm", dsm, "--no-fly", zones, "--no-fly-blocking",
-                 "PROHIBITED_ONLY_BY_NAME", "-o", out.path("p.csv"), "-q"});
+                 "NONE", "-o", out.path("p.csv"), "-q"});
   EXPECT_EQ(run.exit_code, 0) << run.err;
+  // A restriction no zone can have would unblock them all: a typo, a case, an empty value, or a
+  // list that is empty is refused, naming the nearest restriction, before anything is read.
+  for (const auto& [value, said] : std::vector<std::pair<std::string, std::string>>{
+           {"PROHIBTED", "(did you mean PROHIBITED?)"},
+           {"prohibited", "(did you mean PROHIBITED?)"},
+           {"", "got ''"},
+           {"NONE,PROHIBITED", "NONE stands alone"},
+           {"REQ_AUTHORISATION,CONDITINAL", "(did you mean CONDITIONAL?)"}}) {
+    run = run_cli({"plan", f.mesh, "--waypoints", f.waypoints, "--dsm", dsm, "--no-fly", zones, "--no-fly-blocking",
+                   value, "-o", out.path("typo.csv"), "-q"});
+    EXPECT_EQ(run.exit_code, 2) << value << ": " << run.err;
+    EXPECT_NE(run.err.find("--no-fly-blocking: "), std::string::npos) << run.err;
+    EXPECT_NE(run.err.find(said), std::string::npos) << value << ": " << run.err;
+    EXPECT_EQ(std::count(run.err.begin(), run.err.end(), '\n'), 1) << run.err;
+    EXPECT_FALSE(std::filesystem::exists(out.path("typo.csv")));
+  }
 }
 
 // ---- dsmplan plan --routes ---------------------------------------------------------------------
@@ -2891,6 +2908,96 @@ std::vector<std::string> altitude_modes(const CPLXMLNode* node) {
 }
 
 }  // namespace
+
+// Zone names and ids from a corpus of hostile strings (terminal escapes, BEL, markup, a NUL, a
+// right-to-left override, line breaks, 5,000 bytes, CDATA's end): every output stays well-formed
+// for the program that reads it (libkml for the KML, a JSON parser for --stats, the PNGs), and no
+// control character reaches the terminal raw (shown as "\x1b").
+TEST(CliNoFly, HostileZoneNamesLeaveEveryOutputWellFormed) {
+  NoFlyFixture f;
+  f.write_waypoints(f.corners());
+  TempDir out;
+  const std::vector<std::string> corpus = {"\x1b[31mred\x1b[0m",
+                                           "bell\a",
+                                           "<zone & \"name\" 'x'>",
+                                           "]]></name><x>",
+                                           std::string("nul\0byte", 8),
+                                           "\u202eright to left",
+                                           "tab\tand\nnewline\r",
+                                           std::string(5000, 'a'),
+                                           "ünïcödé 日本",
+                                           "\\x1b as text"};
+  const GdalTransform to_wgs84("EPSG:25832", "EPSG:4326");
+  json features = json::array();
+  for (size_t i = 0; i < corpus.size(); ++i) {
+    const double cx = 356420 + 25.0 * double(i), cy = 5699420, h = 5;
+    json ring = json::array();
+    for (const auto& [dx, dy] : std::vector<std::pair<double, double>>{{-h, -h}, {h, -h}, {h, h}, {-h, h}, {-h, -h}}) {
+      double x = cx + dx, y = cy + dy;
+      EXPECT_TRUE(to_wgs84(x, y));
+      ring.push_back({x, y});
+    }
+    features.push_back({{"type", "Feature"},
+                        {"id", corpus[i]},
+                        {"properties", {{"name", corpus[i]}, {"restriction", "CONDITIONAL"}}},
+                        {"geometry", {{"type", "Polygon"}, {"coordinates", {ring}}}}});
+  }
+  const std::string zones = f.in.path("hostile_zones.geojson");
+  testkit::write_file(zones, json{{"type", "FeatureCollection"}, {"features", features}}.dump());
+  const std::string kml = out.path("p.kml"), stats = out.path("s.json");
+  const auto run = run_cli({"plan",
+                            f.mesh,
+                            "--waypoints",
+                            f.waypoints,
+                            "--no-fly",
+                            zones,
+                            "--vertical-crs",
+                            "EPSG:7837",
+                            "--allow-approximate-vertical",
+                            "-o",
+                            kml,
+                            "-o",
+                            out.path("p.csv"),
+                            "--stats",
+                            stats,
+                            "--dsm",
+                            testkit::data_path(kSample),
+                            "--render",
+                            out.path("r.png"),
+                            "--profile",
+                            out.path("s.png")});
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  for (const std::string* text : {&run.out, &run.err})
+    for (const char c : *text)
+      EXPECT_FALSE((static_cast<unsigned char>(c) < 0x20 && c != '\n' && c != '\r') || c == 0x7f)
+          << "a control character " << int(c) << " on the terminal: " << *text;
+  EXPECT_NE(run.out.find("nearest no-fly zone: zone '"), std::string::npos) << run.out;
+  // --stats: JSON that parses, each zone's name as the file gave it (JSON escapes what it must).
+  const json report = json::parse(testkit::read_file(stats));
+  std::set<std::string> named;
+  for (const auto& zone : report["no_fly_zones"]) named.insert(zone["name"].get<std::string>());
+  for (const std::string& name : corpus) EXPECT_TRUE(named.count(name)) << name;
+  // The KML: libkml reads it, every zone a placemark named visibly.
+  GDALAllRegister();
+  const char* libkml[] = {"LIBKML", nullptr};
+  GDALDatasetH ds = GDALOpenEx(kml.c_str(), GDAL_OF_VECTOR, libkml, nullptr, nullptr);
+  ASSERT_TRUE(ds) << "libkml cannot read the KML";
+  std::set<std::string> placemarks;
+  for (int l = 0; l < GDALDatasetGetLayerCount(ds); ++l) {
+    OGRLayerH layer = GDALDatasetGetLayer(ds, l);
+    while (OGRFeatureH feature = OGR_L_GetNextFeature(layer)) {
+      placemarks.insert(OGR_F_GetFieldAsString(feature, OGR_F_GetFieldIndex(feature, "Name")));
+      OGR_F_Destroy(feature);
+    }
+  }
+  GDALClose(ds);
+  EXPECT_TRUE(placemarks.count("\\x1b[31mred\\x1b[0m"));
+  EXPECT_TRUE(placemarks.count("<zone & \"name\" 'x'>"));
+  EXPECT_TRUE(placemarks.count("]]></name><x>"));
+  EXPECT_TRUE(placemarks.count("nul\\x00byte"));
+  EXPECT_TRUE(placemarks.count(corpus[8]));                              // UTF-8 kept as it is
+  EXPECT_EQ(placemarks.size(), corpus.size() + 1 + f.corners().size());  // the zones, the path, the waypoints
+}
 
 TEST(CliNoFly, KmlCarriesEveryZoneWhereTheFileDrawsIt) {
   NoFlyFixture f;
@@ -3202,7 +3309,7 @@ TEST(CliPlan, SnapMovesAWaypointBesideAWallToTheNearestValidPoint) {
 
   const auto bad = f.plan_points({wall, second}, out.path("never.csv"), {"--snap", "60", "-q"});
   EXPECT_EQ(bad.exit_code, 2);
-  EXPECT_EQ(bad.err.rfind("dsmplan: --snap: must lie in [0, 50.00]", 0), 0u) << bad.err;
+  EXPECT_EQ(bad.err.rfind("dsmplan: --snap: must lie in [0, 50] m (0: off), got 60", 0), 0u) << bad.err;
 }
 
 // --snap moves a mission's home too: a home against a wall (its climb passes nearer than the

@@ -12,6 +12,8 @@
 #include <nlohmann/json.hpp>
 #include <optional>
 
+#include "core/json_parse.hpp"
+#include "core/text.hpp"
 #include "dsmplan/airspace_io.hpp"
 
 namespace dsmplan {
@@ -45,6 +47,10 @@ public:
     if (doc.is_object() && doc.contains("features") && doc["features"].is_array()) features = &doc["features"];
     if (!features) fail("", "neither an ED-269 zone file nor a GeoJSON FeatureCollection: no 'features' array");
     for (size_t k = 0; k < features->size(); ++k) feature((*features)[k], k);
+    if (zones_.empty())
+      fail("",
+           "holds no zone (its 'features' array is empty): a plan would keep out of nothing; leave the file "
+           "out to plan without zones");
     return std::move(zones_);
   }
 
@@ -60,11 +66,13 @@ private:
     std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
     if (in.bad()) fail("", "cannot read the no-fly zone file");
     try {
-      return Json::parse(bytes);
+      return parse_json_strict<Json>(bytes);
     } catch (const Json::parse_error& e) {
       fail("byte " + std::to_string(e.byte), "not JSON");
     } catch (const Json::out_of_range&) {
       fail("", "a number beyond the range of a double");
+    } catch (const DuplicateJsonKey& twice) {
+      fail("", "the key " + shown(twice.key) + " twice in one object: which one is meant is not said");
     }
   }
 
@@ -164,10 +172,11 @@ private:
   // ---- shared ----------------------------------------------------------------------------
 
   void check_restriction(const std::string& value, const std::string& place, const char* key) const {
-    for (const char* known : {"PROHIBITED", "REQ_AUTHORISATION", "CONDITIONAL", "NO_RESTRICTION"})
+    for (const std::string& known : zone_restrictions())
       if (value == known) return;
-    fail(place, std::string("'") + key +
-                    "' must be PROHIBITED, REQ_AUTHORISATION, CONDITIONAL or NO_RESTRICTION, got '" + value + "'");
+    const std::string best = nearest_name(value, zone_restrictions());
+    fail(place, std::string("'") + key + "' must be " + choice_list(zone_restrictions()) + ", got " + shown(value) +
+                    (best.empty() ? "" : " (did you mean " + best + "?)"));
   }
 
   // Metres per unit of the file's `key`: "M" or "FT"; absent: metres when `optional`.

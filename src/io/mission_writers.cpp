@@ -35,6 +35,7 @@
 #include <cstdio>
 #include <string>
 
+#include "core/text.hpp"
 #include "dsmplan/mission.hpp"
 
 namespace dsmplan {
@@ -135,9 +136,11 @@ int mav_autopilot(Firmware firmware) {
   }
 }
 
+// Markup escaped, and what XML 1.0 cannot hold at all (control characters, bytes that are not
+// UTF-8) shown as "\x1b" (visible_text()): the file stays well-formed whatever a name holds.
 std::string xml_escaped(const std::string& text) {
   std::string out;
-  for (const char c : text) {
+  for (const char c : visible_text(text)) {
     switch (c) {
       case '&':
         out += "&amp;";

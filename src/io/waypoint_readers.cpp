@@ -11,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "core/json_parse.hpp"
 #include "core/text.hpp"
 #include "dsmplan/waypoints.hpp"
 
@@ -88,7 +89,7 @@ std::string read_waypoint_bytes(const std::string& path) {
 
 void check_count(const std::string& path, size_t count) {
   if (count > kMaxWaypoints)
-    throw InputError(path, "", std::to_string(count) + " waypoints: at most 100000 a mission (split it into several)");
+    throw InputError(path, "", std::to_string(count) + " waypoints: at most 100000 a file (split it into several)");
 }
 
 // Whether a CSV header's column `k` (0-based) is named "agl": heights above the ground.
@@ -135,11 +136,13 @@ std::vector<Point3> parse_waypoints_geojson(const std::string& bytes, const std:
     throw InputError(path, "", "more than 64 MB: not a waypoint list (at most 100000 waypoints a mission)");
   Json doc;
   try {
-    doc = Json::parse(bytes);
+    doc = parse_json_strict<Json>(bytes);
   } catch (const Json::parse_error& e) {
     throw InputError(path, "byte " + std::to_string(e.byte), "not JSON");
   } catch (const Json::out_of_range&) {  // e.g. 1e400: valid JSON, but no double holds it (found by fuzzing)
     throw InputError(path, "", "a number beyond the range of a double");
+  } catch (const DuplicateJsonKey& twice) {
+    throw InputError(path, "", "the key " + shown(twice.key) + " twice in one object: which one is meant is not said");
   }
   std::vector<Point3> points;
   // The positions of one geometry: a Point gives one waypoint, MultiPoint and LineString theirs in order.
@@ -192,8 +195,18 @@ std::vector<Point3> parse_waypoints_geojson(const std::string& bytes, const std:
 namespace {
 
 // The route named `id`, made at its first row: routes keep the order of their first rows.
+// A route's id as every output shows it (visible_text(): control characters and bytes that are
+// not UTF-8 as "\x1b"), at most kMaxRouteId bytes: it names the route's file in a folder, and a
+// longer name fails only when that file is written, after the others.
+constexpr size_t kMaxRouteId = 200;
+
 std::vector<Point3>& route_named(std::vector<Route>& routes, std::map<std::string, size_t>& index,
-                                 const std::string& id) {
+                                 const std::string& raw, const std::string& path, const std::string& place) {
+  const std::string id = visible_text(raw);
+  if (id.size() > kMaxRouteId)
+    throw InputError(path, place,
+                     "a route id of " + std::to_string(id.size()) + " bytes; at most " + std::to_string(kMaxRouteId) +
+                         " (it names the route's file): " + shown(id));
   const auto [it, added] = index.emplace(id, routes.size());
   if (added) routes.push_back({id, {}});
   return routes[it->second].waypoints;
@@ -208,6 +221,7 @@ std::vector<Route> read_routes_csv(const std::string& path, bool* agl) {
   std::map<std::string, size_t> index;
   std::string line;
   bool first = true;
+  size_t total = 0;
   for (size_t number = 1; std::getline(in, line); ++number) {
     const std::string text = trim(line);
     if (text.empty() || text[0] == '#') continue;
@@ -215,9 +229,9 @@ std::vector<Route> read_routes_csv(const std::string& path, bool* agl) {
     const std::string id = trim(text.substr(0, comma));
     Point3 p;
     if (comma != std::string::npos && !id.empty() && parse_point(text.substr(comma + 1), p)) {
-      std::vector<Point3>& waypoints = route_named(routes, index, id);
+      std::vector<Point3>& waypoints = route_named(routes, index, id, path, "line " + std::to_string(number));
       waypoints.push_back(p);
-      check_count(path, waypoints.size());
+      check_count(path, ++total);  // the file's, as a waypoint file's: not a route's
     } else if (!first) {
       throw InputError(path, "line " + std::to_string(number),
                        "expected 'route,x,y,z' (an id and three numbers), got '" + text.substr(0, 60) + "'");
@@ -234,17 +248,20 @@ std::vector<Route> read_routes_geojson(const std::string& path) {
   const std::string bytes = read_waypoint_bytes(path);
   Json doc;
   try {
-    doc = Json::parse(bytes);
+    doc = parse_json_strict<Json>(bytes);
   } catch (const Json::parse_error& e) {
     throw InputError(path, "byte " + std::to_string(e.byte), "not JSON");
   } catch (const Json::out_of_range&) {
     throw InputError(path, "", "a number beyond the range of a double");
+  } catch (const DuplicateJsonKey& twice) {
+    throw InputError(path, "", "the key " + shown(twice.key) + " twice in one object: which one is meant is not said");
   }
   if (!doc.is_object() || doc.value("type", Json()) != "FeatureCollection" || !doc.contains("features") ||
       !doc["features"].is_array())
     throw InputError(path, "", "routes are a GeoJSON FeatureCollection of LineString features");
   std::vector<Route> routes;
   std::map<std::string, size_t> index;
+  size_t total = 0;
   for (size_t i = 0; i < doc["features"].size(); ++i) {
     const Json& f = doc["features"][i];
     const std::string place = "feature " + std::to_string(i + 1);
@@ -261,16 +278,17 @@ std::vector<Route> read_routes_geojson(const std::string& path) {
     const std::string name = !id               ? "route " + std::to_string(i + 1)
                              : id->is_string() ? id->get<std::string>()
                                                : brief(*id);
-    if (index.count(name)) throw InputError(path, place, "a second route with the id '" + name + "'");
-    std::vector<Point3>& waypoints = route_named(routes, index, name);
+    if (index.count(visible_text(name)))
+      throw InputError(path, place, "a second route with the id '" + visible_text(name) + "'");
+    std::vector<Point3>& waypoints = route_named(routes, index, name, path, place);
     const Json& c = (*geometry)["coordinates"];
     for (size_t k = 0; k < c.size(); ++k) {
       Point3 p;
       const std::string problem = position(c[k], p);
       if (!problem.empty()) throw InputError(path, place + ", position " + std::to_string(k + 1), problem);
       waypoints.push_back(p);
+      check_count(path, ++total);
     }
-    check_count(path, waypoints.size());
   }
   if (routes.empty()) throw InputError(path, "", "no route: the FeatureCollection has no feature");
   return routes;

@@ -140,7 +140,8 @@ struct AirspaceConstraint::State {
   }
 };
 
-AirspaceConstraint::AirspaceConstraint(AirspaceZone zone, double safety, std::shared_ptr<const GroundGrid> ground) {
+AirspaceConstraint::AirspaceConstraint(AirspaceZone zone, double safety, std::shared_ptr<const GroundGrid> ground,
+                                       const std::array<double, 4>* asked) {
   check_zone(zone);
   if (!(safety >= 0) || !std::isfinite(safety)) throw ArgumentError("safety", "must be a number >= 0");
   auto s = std::make_unique<State>();
@@ -169,8 +170,12 @@ AirspaceConstraint::AirspaceConstraint(AirspaceZone zone, double safety, std::sh
     const Grid& g = s->ground->grid();
     // The crop: the cells the zone's box widened by reach touches, and one more around; the
     // window: reach, plus two cells (a point on a cell's side touches the cell beyond).
-    const double x0 = s->xmin + s->origin[0], x1 = s->xmax + s->origin[0];
-    const double y0 = s->ymin + s->origin[1], y1 = s->ymax + s->origin[1];
+    double x0 = s->xmin + s->origin[0], x1 = s->xmax + s->origin[0];
+    double y0 = s->ymin + s->origin[1], y1 = s->ymax + s->origin[1];
+    if (asked) {  // only where it will be asked: the box holds every point, so no window reaches past it by more
+      x0 = std::max(x0, (*asked)[0] - s->reach), y0 = std::max(y0, (*asked)[1] - s->reach);
+      x1 = std::min(x1, (*asked)[2] + s->reach), y1 = std::min(y1, (*asked)[3] + s->reach);
+    }
     const double c0 = std::max(0.0, std::floor((x0 - g.x0) / g.cell_x) - 1);
     const double c1 = std::min(double(g.width), std::floor((x1 - g.x0) / g.cell_x) + 2);
     const double r0 = std::max(0.0, std::floor((g.y0 - y1) / g.cell_y) - 1);
@@ -193,6 +198,10 @@ AirspaceConstraint::~AirspaceConstraint() = default;
 
 const AirspaceZone& AirspaceConstraint::zone() const { return state_->zone; }
 double AirspaceConstraint::safety() const { return state_->safety; }
+std::array<double, 4> AirspaceConstraint::box() const {
+  const State& s = *state_;
+  return {s.xmin + s.origin[0], s.ymin + s.origin[1], s.xmax + s.origin[0], s.ymax + s.origin[1]};
+}
 std::string AirspaceConstraint::name() const { return "no-fly " + zone_label(state_->zone); }
 
 bool AirspaceConstraint::state_valid(const Point3& p) const {
@@ -257,10 +266,11 @@ std::vector<std::shared_ptr<const FlightConstraint>> airspace_constraints(const 
                                                                           double safety,
                                                                           std::shared_ptr<const GroundGrid> ground,
                                                                           const AirspaceOptions& options) {
-  std::vector<std::shared_ptr<const FlightConstraint>> out;
+  std::vector<std::shared_ptr<const AirspaceConstraint>> blocking;
   for (const AirspaceZone& zone : zones)
-    if (zone_blocks(zone, options)) out.push_back(std::make_shared<AirspaceConstraint>(zone, safety, ground));
-  return out;
+    if (zone_blocks(zone, options)) blocking.push_back(std::make_shared<AirspaceConstraint>(zone, safety, ground));
+  if (blocking.size() >= kZoneSetFrom) return {std::make_shared<ZoneSet>(std::move(blocking))};
+  return {blocking.begin(), blocking.end()};
 }
 
 }  // namespace dsmplan

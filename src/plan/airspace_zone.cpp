@@ -4,16 +4,19 @@
 #include <algorithm>
 #include <cmath>
 
+#include "core/text.hpp"
 #include "dsmplan/airspace.hpp"
 #include "plan/airspace_rings.hpp"
 
 namespace dsmplan {
 
 std::string zone_label(const AirspaceZone& zone) {
+  // Shown as visible_text(): a name with ESC or BEL in it must not reach a terminal raw.
+  const std::string name = visible_text(zone.name), id = visible_text(zone.id);
   std::string label = "zone";
-  if (!zone.name.empty()) label += " '" + zone.name + "'";
-  if (!zone.id.empty()) label += zone.name.empty() ? " '" + zone.id + "'" : " (" + zone.id + ")";
-  if (!zone.source_file.empty()) label += " of " + zone.source_file;
+  if (!name.empty()) label += " '" + name + "'";
+  if (!id.empty()) label += name.empty() ? " '" + id + "'" : " (" + id + ")";
+  if (!zone.source_file.empty()) label += " of " + visible_text(zone.source_file);
   return label;
 }
 
@@ -36,7 +39,28 @@ void check_zone(const AirspaceZone& zone) {
     refuse("its lower limit lies above its upper limit");
 }
 
+const std::vector<std::string>& zone_restrictions() {
+  static const std::vector<std::string> names{"PROHIBITED", "REQ_AUTHORISATION", "CONDITIONAL", "NO_RESTRICTION"};
+  return names;
+}
+
+void check_airspace_options(const AirspaceOptions& options) {
+  if (options.blocking == std::vector<std::string>{kNoZoneBlocks}) return;  // said on purpose
+  if (options.blocking.empty())
+    throw ArgumentError("no_fly_blocking", "names no restriction; give one or more of " +
+                                               choice_list(zone_restrictions()) + ", or " + kNoZoneBlocks +
+                                               " to draw the zones without avoiding any");
+  std::vector<std::string> names = zone_restrictions();
+  names.push_back(kNoZoneBlocks);
+  for (const std::string& name : options.blocking) {
+    require_choice("no_fly_blocking", name, names);
+    if (name == kNoZoneBlocks)
+      throw ArgumentError("no_fly_blocking", std::string(kNoZoneBlocks) + " stands alone: no zone blocks");
+  }
+}
+
 bool zone_blocks(const AirspaceZone& zone, const AirspaceOptions& options) {
+  check_airspace_options(options);
   return std::find(options.blocking.begin(), options.blocking.end(), zone.restriction) != options.blocking.end();
 }
 

@@ -55,12 +55,33 @@ void require_beside(const Grid& grid, const std::string& name, const char* what,
 
 namespace {
 
+// The library's own guard of the unit every distance is in (the faces say more first, with PROJ:
+// metric_problem() in raster_io.hpp): data without a CRS, in degrees or in another unit than the
+// metre are refused, so that no face plans a safety distance of 2 ft, or of 2 degrees, as 2 m.
+void require_metres(const Crs& crs, const std::string& name, const char* what, bool required) {
+  const auto refuse = [&](const std::string& problem) { throw InputError(name, "", problem); };
+  if (!crs.known()) {
+    if (!required) return;
+    refuse(std::string("the ") + what +
+           " has no CRS, so the unit of its coordinates is unknown: dsmplan measures in metres and plans "
+           "only on data that say so (give the DSM its CRS, e.g. EPSG:25832, and mesh it again)");
+  }
+  if (crs.geographic)
+    refuse(std::string("the ") + what + "'s CRS" + (crs.name.empty() ? "" : " '" + crs.name + "'") +
+           " is geographic (degrees): dsmplan measures in metres; reproject it to a projected CRS first");
+  if (crs.linear_unit_m > 0 && std::abs(crs.linear_unit_m - 1) > 1e-9)
+    refuse(std::string("the ") + what + "'s CRS" + (crs.name.empty() ? "" : " '" + crs.name + "'") + " measures in " +
+           (crs.linear_unit.empty() ? "units of " + short_number(crs.linear_unit_m) + " m" : crs.linear_unit) +
+           ": dsmplan measures in metres; reproject it first");
+}
+
 // Every waypoint closer than the safety distance to the DSM's columns, with the column that
 // stands nearest.
-std::vector<PlanResult::Invalid> near_columns(const std::vector<Point3>& waypoints, const Grid& columns,
-                                              double safety) {
+std::vector<PlanResult::Invalid> near_columns(const std::vector<Point3>& waypoints, const Grid& columns, double safety,
+                                              const StopToken* stop) {
   std::vector<PlanResult::Invalid> problems;
   for (size_t i = 0; i < waypoints.size(); ++i) {
+    check_stop(stop);  // a waypoint's search grows with the square of the safety distance
     const NearestColumn c = nearest_column(columns, waypoints[i], safety);
     if (!c.found || c.distance >= safety) continue;
     const std::string where =
@@ -156,10 +177,17 @@ void check_query(const FlightQuery& query, const FlightNames& names) {
   check_plan_options(query.options);
   if (!(query.snap >= 0 && query.snap <= kMaxSnap))
     throw ArgumentError("snap",
-                        "must lie in [0, " + two_decimals(kMaxSnap) + "] m (0: off), got " + two_decimals(query.snap));
+                        "must lie in [0, " + short_number(kMaxSnap) + "] m (0: off), got " + short_number(query.snap));
   if (query.waypoints.size() < 2)
     throw InputError(names.waypoints, "",
                      "a path needs at least two waypoints, the file has " + std::to_string(query.waypoints.size()));
+  for (size_t i = 0; i < query.waypoints.size(); ++i) {  // before any rule measures one
+    const Point3& p = query.waypoints[i];
+    if (!std::isfinite(p[0]) || !std::isfinite(p[1]) || !std::isfinite(p[2]))
+      throw InputError(names.waypoints, "waypoint " + std::to_string(i + 1),
+                       "x, y and z must be finite numbers, got " + short_number(p[0]) + ", " + short_number(p[1]) +
+                           ", " + short_number(p[2]));
+  }
 }
 
 // Every waypoint above the ceiling or near a column, refused before the work on the mesh, in
@@ -170,16 +198,17 @@ std::vector<PlanResult::Invalid> refused_before_planning(const FlightArea& area,
   const double max_agl = options.max_agl;
   std::vector<PlanResult::Invalid> refused;
   if (area.columns() && !area.terrain()) refused = above_ceiling(waypoints, area.ground(), max_agl);
-  if (refused.empty() && area.columns()) refused = near_columns(waypoints, *area.columns(), options.safety);
+  if (refused.empty() && area.columns())
+    refused = near_columns(waypoints, *area.columns(), options.safety, options.stop.get());
   if (refused.empty() && area.terrain()) refused = above_ceiling(waypoints, *area.terrain(), max_agl);
   return refused;
 }
 
 // Every waypoint inside a no-fly zone that blocks, naming the zone and its file.
 std::vector<PlanResult::Invalid> inside_zones(const std::vector<Point3>& waypoints, const FlightData& data,
-                                              const GroundGrid* ground) {
+                                              const GroundGrid* ground, const StopToken* stop) {
   std::vector<PlanResult::Invalid> refused;
-  for (size_t i = 0; i < waypoints.size(); ++i)
+  for (size_t i = 0; i < waypoints.size(); ++i, check_stop(stop))
     for (const AirspaceZone& zone : data.no_fly)
       if (zone_blocks(zone, data.airspace) && zone_contains(zone, waypoints[i], ground)) {
         refused.push_back({i, "inside no-fly " + zone_label(zone)});
@@ -202,9 +231,10 @@ struct WaypointRules {
 
   // Why `p` cannot be a waypoint, or empty when it can.
   std::string refusal(const Point3& p) const {
+    check_stop(options.stop.get());
     const std::vector<Point3> one{p};
     std::vector<PlanResult::Invalid> found = refused_before_planning(area, one, options);
-    if (found.empty()) found = inside_zones(one, area.data(), &area.ground());
+    if (found.empty()) found = inside_zones(one, area.data(), &area.ground(), options.stop.get());
     if (!found.empty()) return found.front().reason;
     PlanResult result;
     return detail::invalid_waypoints(one, space, result) ? result.reason : std::string();
@@ -216,6 +246,10 @@ struct WaypointRules {
   const PlanOptions plan;  // the planner's: the safety widened on the mesh, the zones added
   const FlightSpace space;
 };
+
+// The stages a Cancelled names (core.hpp: in_stage()), as a service's 504 says them.
+constexpr const char* kCheckingWaypoints = "checking the waypoints";
+constexpr const char* kNamingNearest = "searching the nearest valid point to a refused waypoint";
 
 constexpr double kClimbStep = 0.1;   // m: the steps straight up
 constexpr double kWiderSearch = 50;  // m: how far a refusal looks for the nearest valid point
@@ -290,8 +324,10 @@ std::string nearest_in_words(const Point3& p, const WaypointRules& rules) {
 // Each refusal with the nearest valid point to the refused one (`points[waypoint]`).
 std::vector<PlanResult::Invalid> naming_nearest(std::vector<PlanResult::Invalid> invalid,
                                                 const std::vector<Point3>& points, const WaypointRules& rules) {
-  for (PlanResult::Invalid& one : invalid)
-    if (one.waypoint < points.size()) one.reason += nearest_in_words(points[one.waypoint], rules);
+  // Only for those the message names (waypoint_problems()): 3,000 waypoints under the ground cost
+  // 79 s of searches before, whose answers nobody read.
+  for (size_t k = 0; k < invalid.size() && k <= kListedWaypoints; ++k)
+    if (invalid[k].waypoint < points.size()) invalid[k].reason += nearest_in_words(points[invalid[k].waypoint], rules);
   return invalid;
 }
 
@@ -322,14 +358,15 @@ std::vector<PlanResult::Invalid> snap_waypoints(std::vector<Point3>& waypoints, 
 void measure_zones(FlightPlan& out, const FlightData& data, const FlightRules& rules, const GroundGrid& ground) {
   const std::vector<Point3>& path = out.path;
   for (size_t k = 1; k < path.size(); ++k)
-    for (const FlightConstraint* zone : rules.constraints)
-      if (!zone->motion_valid(path[k - 1], path[k]))
+    for (const FlightConstraint* rule : rules.constraints)
+      if (const FlightConstraint* zone = rule->refused_by(path[k - 1], path[k]))
         throw InputError(data.names.mesh, "",
                          "the path enters " + zone->name() + " or comes closer to it than --safety (segment " +
                              std::to_string(k) + "): a bug, please report it; nothing written");
   for (const AirspaceZone& zone : data.no_fly)
-    out.report.no_fly_zones.push_back({zone_label(zone), zone.id, zone.name, zone.source_file,
-                                       zone_blocks(zone, data.airspace), zone_distance(zone, path, &ground)});
+    check_stop(rules.stop),
+        out.report.no_fly_zones.push_back({zone_label(zone), zone.id, zone.name, zone.source_file,
+                                           zone_blocks(zone, data.airspace), zone_distance(zone, path, &ground)});
 }
 
 PlanResult refused(std::vector<PlanResult::Invalid> invalid) {
@@ -356,7 +393,8 @@ void measure_flight(FlightPlan& out, const FlightArea& area, const FlightQuery& 
   const double cap = query.options.safety + query.options.max_agl;
   for (double reach = std::min(cap, query.options.safety + 1);; reach = std::min(cap, 2 * reach)) {
     double least = reach;
-    for (size_t k = 1; k < path.size(); ++k) least = out.index->clearance(path[k - 1], path[k], least);
+    for (size_t k = 1; k < path.size(); ++k)
+      check_stop(query.options.stop.get()), least = out.index->clearance(path[k - 1], path[k], least);
     report.min_clearance_m = least;
     if (least < reach || reach >= cap) break;
   }
@@ -412,6 +450,10 @@ struct FlightArea::Lazy {
 FlightArea::FlightArea(FlightData data) : data_(std::move(data)), lazy_(std::make_unique<Lazy>()) {
   const FlightNames& names = data_.names;
   if (!data_.mesh) throw ArgumentError("mesh", "a flight needs the mesh (with a kept index, at least its CRS)");
+  check_airspace_options(data_.airspace);
+  require_metres(data_.mesh->crs, names.mesh, "mesh", true);
+  if (data_.dsm) require_metres(data_.dsm->crs, names.dsm, "DSM", false);
+  if (data_.dtm) require_metres(data_.dtm->crs, names.dtm, "DTM", false);
   const bool indexed = data_.index && !data_.dsm;  // the mesh's triangles are in the index
   if (!indexed && data_.mesh->triangles.empty()) throw InputError(names.mesh, "", "the mesh has no triangles");
   Extent e;
@@ -555,12 +597,14 @@ FlightAttempt attempt_flight(const FlightArea& area, const FlightQuery& query, c
       },
       data.names.waypoints, area.ground_name());
   out.waypoints = waypoints;
-  std::vector<PlanResult::Invalid> early = refused_before_planning(area, waypoints, query.options);
+  std::vector<PlanResult::Invalid> early =
+      in_stage(kCheckingWaypoints, [&] { return refused_before_planning(area, waypoints, query.options); });
   // Refused without --snap: before the index is built, unless it is needed to name the nearest
   // valid point (the planner's own check is one of the rules).
   if (!early.empty() && query.snap <= 0) {
     const WaypointRules rules(area, query.options);
-    attempt.failure = refused(naming_nearest(std::move(early), waypoints, rules));
+    attempt.failure =
+        refused(in_stage(kNamingNearest, [&] { return naming_nearest(std::move(early), waypoints, rules); }));
     return attempt;
   }
   report.index_reused = data.index != nullptr;
@@ -574,8 +618,11 @@ FlightAttempt attempt_flight(const FlightArea& area, const FlightQuery& query, c
   const std::shared_ptr<const GroundGrid> ground_held = area.shared_ground();
   const GroundGrid& ground = *ground_held;
   std::vector<PlanResult::Invalid> invalid =
-      query.snap > 0 ? snap_waypoints(waypoints, query.snap, checks, report)
-                     : naming_nearest(inside_zones(waypoints, data, &ground), waypoints, checks);
+      query.snap > 0
+          ? in_stage("snapping the waypoints", [&] { return snap_waypoints(waypoints, query.snap, checks, report); })
+          : in_stage(kNamingNearest, [&] {
+              return naming_nearest(inside_zones(waypoints, data, &ground, plan.stop.get()), waypoints, checks);
+            });
   out.waypoints = waypoints;
   if (!invalid.empty()) {
     attempt.failure = refused(std::move(invalid));
@@ -585,7 +632,7 @@ FlightAttempt attempt_flight(const FlightArea& area, const FlightQuery& query, c
   const std::unique_ptr<ObstacleClearance> clearance =
       area.columns() ? std::unique_ptr<ObstacleClearance>(std::make_unique<ColumnsClearance>(*area.columns(), safety))
                      : std::make_unique<MeshClearance>(index, safety);
-  FlightRules rules{clearance.get(), &ground, plan.max_agl, {}};
+  FlightRules rules{clearance.get(), &ground, plan.max_agl, {}, plan.stop.get()};
   for (const std::shared_ptr<const FlightConstraint>& constraint : plan.constraints)
     rules.constraints.push_back(constraint.get());
 
@@ -617,10 +664,11 @@ FlightAttempt attempt_flight(const FlightArea& area, const FlightQuery& query, c
 
   const FlightStore& store = query.store;
   const uint64_t roadmap_key = store.kept_roadmap ? area.roadmap_key() : 0;
-  PlanResult result = run_planner(index, route, plan, store, roadmap_key, report, clock, progress);
+  PlanResult result = in_stage(
+      "planning", [&] { return run_planner(index, route, plan, store, roadmap_key, report, clock, progress); });
   take_planner_figures(result, report);
   if (result.status == PlanStatus::InvalidWaypoint && !result.invalid.empty()) {  // the planner's check: where instead
-    result.invalid = naming_nearest(std::move(result.invalid), route, checks);
+    result.invalid = in_stage(kNamingNearest, [&] { return naming_nearest(std::move(result.invalid), route, checks); });
     result.reason = result.invalid.front().reason;
   }
   if (result.status != PlanStatus::Solved) {
@@ -629,10 +677,13 @@ FlightAttempt attempt_flight(const FlightArea& area, const FlightQuery& query, c
   }
   // A mission flies straight from item to item: as few items as keep the limits on those lines
   // (before the clearance below is measured on them).
-  if (site || query.straight_legs) result.path = merge_straight_legs(result.path, route, rules);
+  if (site || query.straight_legs)
+    result.path = in_stage("merging straight legs", [&] { return merge_straight_legs(result.path, route, rules); });
   out.path = std::move(result.path);
-  measure_flight(out, area, query);
-  measure_zones(out, data, rules, ground);
+  in_stage("measuring the path", [&] {
+    measure_flight(out, area, query);
+    measure_zones(out, data, rules, ground);
+  });
   attempt.solved = true;
   return attempt;
 }

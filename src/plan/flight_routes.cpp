@@ -52,6 +52,8 @@ RouteResult plan_one(const FlightArea& area, const FlightQuery& query) {
       out.place = words.place, out.why = words.why;
     }
     out.plan = std::move(attempt.plan);
+  } catch (const Cancelled&) {
+    throw;                        // the whole run was given up on, not this route
   } catch (const Error& error) {  // this route's own refusal (its home, its terrain): not the others'
     out.why = error.what();
   }

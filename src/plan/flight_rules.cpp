@@ -14,6 +14,7 @@ double ColumnsClearance::clearance(const Point3& p, const Point3& q) const {
 double MeshClearance::clearance(const Point3& p, const Point3& q) const { return index_.clearance(p, q, safety()); }
 
 bool FlightRules::keeps(const Point3& p, const Point3& q) const {
+  check_stop(stop);
   if (ground && std::isfinite(max_agl) && !ground->below_ceiling(p, q, max_agl)) return false;
   for (const FlightConstraint* constraint : constraints)
     if (!constraint->motion_valid(p, q)) return false;

@@ -85,8 +85,8 @@ void check_vertical(const Point3& top, double ground, const FlightRules& limits,
       throw ArgumentError(flag, std::string("the ") + what + " rises above --max-agl " + two_decimals(limits.max_agl));
     // A zone holds from the ground up: a drone on the ground is in it too.
     const Point3 foot{top[0], top[1], std::min(top[2], ground)};
-    for (const FlightConstraint* zone : limits.constraints)
-      if (!zone->motion_valid(foot, top))
+    for (const FlightConstraint* rule : limits.constraints)
+      if (const FlightConstraint* zone = rule->refused_by(foot, top))
         throw ArgumentError(flag, std::string("the ") + what + " at x " + two_decimals(top[0]) + ", y " +
                                       two_decimals(top[1]) + " enters " + zone->name() +
                                       " or comes closer to it than --safety " + two_decimals(safety));

@@ -10,13 +10,13 @@
 namespace dsmplan::detail {
 
 /// The flight space of a plan (flight_space.hpp): the index, options.ground (else the mesh's
-/// floor), the safety distance, the ceiling and options.constraints.
+/// floor), the safety distance, the ceiling, options.constraints and options.stop.
 inline FlightSpace flight_space(const ClearanceIndex& index, const PlanOptions& options) {
   std::vector<const FlightConstraint*> rules;
   for (const auto& rule : options.constraints)
     if (rule) rules.push_back(rule.get());
   return FlightSpace(index, options.ground ? *options.ground : index.floor(), options.safety, options.max_agl,
-                     std::move(rules));
+                     std::move(rules), options.stop.get());
 }
 
 inline double distance(const Point3& a, const Point3& b) { return std::hypot(a[0] - b[0], a[1] - b[1], a[2] - b[2]); }

@@ -55,7 +55,10 @@ std::string waypoint_problem(const Point3& w, const FlightSpace& space) {
                              : "above the ceiling: " + format_number(above) + " m above the ground, --max-agl " +
                                    format_number(space.max_agl());
   }
-  if (const FlightConstraint* rule = space.broken_by(w)) return "inside the " + rule->name();
+  if (const FlightConstraint* rule = space.broken_by(w)) {
+    const FlightConstraint* named = rule->refused_by(w, w);  // a set's member, by its own name
+    return "inside the " + (named ? named : rule)->name();
+  }
   return {};
 }
 
@@ -196,7 +199,7 @@ std::string PlanResult::place() const {
 
 std::string waypoint_problems(const std::vector<PlanResult::Invalid>& invalid,
                               const std::function<std::string(size_t)>& name) {
-  constexpr size_t kListed = 10;
+  constexpr size_t kListed = kListedWaypoints;
   if (invalid.empty()) return {};
   std::string text = invalid.front().reason;
   for (size_t k = 1; k < invalid.size() && k <= kListed; ++k)

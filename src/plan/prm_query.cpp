@@ -537,6 +537,7 @@ private:
           const int ci = std::min(cols - 1, static_cast<int>((x - e.xmin) / c));
           const int cj = std::min(rows - 1, static_cast<int>((y - e.ymin) / c));
           if (!region[static_cast<size_t>(cj) * cols + ci]) continue;
+          space_.check_stop();
           taken[off] = 1;  // decided once: a sample of this index is the same point every time
           Point3 p;
           if (space_.place(x, y, index_.ground(x, y), detail::halton(i, 5), p) && !space_.broken_by(p) &&

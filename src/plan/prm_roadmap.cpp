@@ -73,6 +73,7 @@ Roadmap build_roadmap(const ClearanceIndex& index, const PlanOptions& options, c
       index.ground(x, y, g, r.size());
       for (size_t i = r.begin(); i < r.end(); ++i) {
         const size_t k = i - r.begin();
+        space.check_stop();  // a sample's check grows with the safety distance: stopped between two
         if (std::isnan(g[k])) continue;
         // Under the ceiling by construction; kept when the constraints allow it and it is clear
         // of the mesh.
@@ -156,6 +157,7 @@ Roadmap build_roadmap(const ClearanceIndex& index, const PlanOptions& options, c
       std::vector<Near>& near = buffers.local();
       std::vector<uint32_t>& edges = chunk_edges[chunk];
       for (size_t member = chunk * grain; member < std::min(m, (chunk + 1) * grain); ++member) {
+        space.check_stop();
         const uint32_t i = members[member].id;
         const Point3& p = members[member].p;
         const int64_t cx = coord(p, 0), cy = coord(p, 1), cz = coord(p, 2);

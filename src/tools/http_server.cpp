@@ -75,8 +75,9 @@ public:
     return true;
   }
 
-  void begin_request(Clock::time_point deadline) {
+  void begin_request(Clock::time_point deadline, std::function<bool()> stopped) {
     deadline_ = deadline;
+    stopped_ = std::move(stopped);
     head_ = body_ = 0;
     last_four_ = 0;
     head_done_ = replied_ = false;
@@ -91,9 +92,17 @@ public:
   ssize_t read(char* ptr, size_t size) override {
     if (failed_) return -1;
     if (off_ == end_) {
-      // No byte within the read timeout, or the deadline passed: 408 either way.
-      const long ms = read_wait_ms();
-      if (ms == 0 || wait(POLLIN, ms) <= 0) return fail(408, "Request Timeout");
+      // No byte within the read timeout, or the deadline passed: 408 either way. Waited in steps
+      // of 100 ms, to see whether the server is stopping (503: a slow client does not hold it).
+      const Clock::time_point give_up = Clock::now() + std::chrono::milliseconds(read_wait_ms());
+      for (;;) {
+        if (stopped_ && stopped_()) return fail(503, "Service Unavailable");
+        const long ms = milliseconds_until(give_up);
+        if (ms == 0) return fail(408, "Request Timeout");
+        const int ready = wait(POLLIN, std::min(ms, 100L));
+        if (ready < 0) return fail(408, "Request Timeout");
+        if (ready > 0) break;
+      }
       ssize_t n;
       do n = ::recv(sock_, buffer_, sizeof buffer_, 0);
       while (n < 0 && errno == EINTR);
@@ -161,6 +170,7 @@ private:
   char buffer_[4096];
   size_t off_ = 0, end_ = 0;  // buffer_[off_, end_) not yet read
   Clock::time_point deadline_ = Clock::now();
+  std::function<bool()> stopped_;  // the server is stopping
   size_t head_ = 0, body_ = 0;
   uint32_t last_four_ = 0;  // the head's last four bytes
   bool head_done_ = false, replied_ = false, failed_ = false;
@@ -197,7 +207,7 @@ bool DeadlineServer::process_and_close_socket(socket_t sock) {
     if (!stream.wait_for_request(std::chrono::seconds(keep_alive_timeout_sec_),
                                  [this] { return svr_sock_ == INVALID_SOCKET; }))
       break;
-    stream.begin_request(Clock::now() + limits_.deadline);
+    stream.begin_request(Clock::now() + limits_.deadline, [this] { return svr_sock_ == INVALID_SOCKET; });
     bool connection_closed = false;
     ret = process_request(stream, count == 1, connection_closed, nullptr);
     if (!ret || connection_closed || stream.failed()) break;

@@ -51,7 +51,7 @@ bool is_geojson(const std::string& path) {
 }  // namespace
 
 WaypointHeights parse_waypoint_heights(const std::string& name) {
-  if (name != "crs" && name != "agl") throw ArgumentError("waypoint_heights", "must be crs or agl, got '" + name + "'");
+  require_choice("waypoint_heights", name, {"crs", "agl"});
   return name == "agl" ? WaypointHeights::agl : WaypointHeights::crs;
 }
 
@@ -92,7 +92,7 @@ OutputKind output_kind(const std::string& output, const std::string& format) {
   kind.mission = kind.ext == "plan" || kind.ext == "waypoints" || kind.ext == "kmz";
   kind.msl = kind.mission || kind.ext == "kml";
   if (!format.empty() && kind.ext != "csv" && !kind.geojson && !kind.msl)
-    throw ArgumentError("--of", "unknown path format '" + format + "' (use csv, geojson, plan, waypoints, kmz or kml)");
+    require_choice("--of", format, {"csv", "geojson", "plan", "waypoints", "kmz", "kml"});
   if (kind.ext != "csv" && !kind.geojson && !kind.msl)
     throw ArgumentError("-o",
                         "the path is written as .csv (x,y,z in the mesh's CRS), .geojson (WGS 84), .plan "
@@ -161,11 +161,12 @@ MissionEnds mission_ends(const MissionJobOptions& options, const Transforms& t) 
 
 // The no-fly zones' files, in the mesh's CRS, and which restrictions block.
 void read_no_fly(const PlanJobOptions& options, const Crs& crs, FlightData& data) {
+  if (!options.no_fly_blocking.empty()) data.airspace.blocking = options.no_fly_blocking;
+  check_airspace_options(data.airspace);  // before the files are read: a typo is the first thing said
   for (const std::string& file : options.no_fly) {
     std::vector<AirspaceZone> zones = read_airspace(file, crs, options.vertical);
     data.no_fly.insert(data.no_fly.end(), zones.begin(), zones.end());
   }
-  if (!options.no_fly_blocking.empty()) data.airspace.blocking = options.no_fly_blocking;
 }
 
 // The flight planned, in the CRS of its data, and what its pictures draw beside it.
@@ -403,23 +404,24 @@ PlanReport plan_job(const PlanJobOptions& options, const Progress& progress) {
 
 namespace {
 
-// One of a field's named values, else ArgumentError listing them.
+// One of a field's named values, else ArgumentError listing them (require_choice(): with the
+// nearest name when the value looks like a typo).
 template <typename T>
 T parse_choice(const char* field, const std::string& value, const std::vector<std::pair<std::string, T>>& choices) {
-  std::string names;
+  std::vector<std::string> names;
   for (const auto& [name, choice] : choices) {
     if (name == value) return choice;
-    names += (names.empty() ? "" : ", ") + name;
+    names.push_back(name);
   }
-  throw ArgumentError(field, "must be one of " + names + ", got '" + value + "'");
+  require_choice(field, value, names);
+  return choices.front().second;  // not reached: require_choice() threw
 }
 
 }  // namespace
 
 PlannerKind parse_planner(const std::string& name) {
-  if (name != "prm" && name != "rrtconnect")
-    throw ArgumentError("planner", "must be prm or rrtconnect, got '" + name + "'");
-  return name == "rrtconnect" ? PlannerKind::rrt_connect : PlannerKind::prm;
+  return parse_choice<PlannerKind>("planner", name,
+                                   {{"prm", PlannerKind::prm}, {"rrtconnect", PlannerKind::rrt_connect}});
 }
 
 MissionEnd parse_mission_end(const std::string& name) {

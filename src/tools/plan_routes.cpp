@@ -65,6 +65,15 @@ std::string file_name_of(const std::string& id) {
   return name.empty() || name[0] == '.' ? "_" + name : name;
 }
 
+// Every route's file name in a folder, before anything is planned or written: two ids that make
+// one name are refused now, not after the files of the routes before them were replaced.
+void check_route_files(const std::vector<Route>& routes) {
+  std::map<std::string, std::string> taken;  // file name -> id
+  for (const Route& route : routes)
+    if (const auto [it, added] = taken.emplace(file_name_of(route.id), route.id); !added)
+      throw ArgumentError("--routes", "the ids '" + it->second + "' and '" + route.id + "' make one file name");
+}
+
 Json route_figures(const Route& route, const RouteResult& result) {
   Json p{{"id", route.id}, {"solved", result.solved}, {"waypoints", route.waypoints.size()}};
   if (!result.solved) {
@@ -138,15 +147,12 @@ void write_routes_folder(const std::vector<Route>& routes, const RoutesPlan& pla
   make_transforms(t, area.crs(), false, plan_outputs(one), options.vertical, transformation);
   const OutputKind kind = output_kind(one.output, "");
   const ZoneLayer zones{area.data().no_fly, area.data().airspace};
-  std::map<std::string, std::string> taken;  // file name -> id: two ids may make one name
   Json all = Json::array();
   for (size_t i = 0; i < routes.size(); ++i) {
     const RouteResult& result = planned.routes[i];
     all.push_back(route_figures(routes[i], result));
     if (!result.solved) continue;
-    const std::string name = file_name_of(routes[i].id);
-    if (const auto [it, added] = taken.emplace(name, routes[i].id); !added)
-      throw ArgumentError("--routes", "the ids '" + it->second + "' and '" + routes[i].id + "' make one file name");
+    const std::string name = file_name_of(routes[i].id);  // unique: check_route_files()
     const std::string file = (folder / (name + "." + ext)).string();
     if (ext == "csv") {
       write_text_file(file, path_to_csv(result.plan.path));
@@ -155,6 +161,7 @@ void write_routes_folder(const std::vector<Route>& routes, const RoutesPlan& pla
     PlanReport report;
     write_flight_as(one, file, kind, {result.plan, result.plan.waypoints, area.crs(), zones}, t, report);
   }
+  // Last: a run stopped before it leaves the old routes.json, which names the old files.
   write_text_file((folder / "routes.json").string(), all.dump(2) + "\n");
 }
 
@@ -166,6 +173,7 @@ RoutesReport plan_routes_job(const PlanJobOptions& options, const Progress& prog
   bool agl_column = false;
   std::vector<Route> routes = is_geojson_name(options.routes) ? read_routes_geojson(options.routes)
                                                               : read_routes_csv(options.routes, &agl_column);
+  if (is_folder(options.output)) check_route_files(routes);
   ReadRequest read = read_flight_request(options, {}, sub_progress(progress, 0, 0.1));
   FlightRequest& request = read.request;
   const Crs crs = request.mesh->crs;

@@ -18,6 +18,7 @@
 #include "core/text.hpp"
 #include "dsmplan/serve.hpp"
 #include "http_server.hpp"
+#include "tools/serve_parts.hpp"
 
 namespace dsmplan {
 
@@ -26,13 +27,20 @@ namespace {
 using Clock = std::chrono::steady_clock;
 
 // One request on its way through the pool: the connection's thread waits for `answer` until the
-// deadline; past it the worker is told (`abandoned`) and the planning is cancelled.
+// deadline. Every search of the request checks `stop` (core.hpp), whose deadline is the budget's,
+// so the worker is free within a few validity checks of it; SIGTERM stops it sooner.
 struct Job {
+  explicit Job(Clock::time_point deadline) : deadline(deadline), stop(std::make_shared<StopToken>(deadline)) {}
   std::string body;
   Clock::time_point deadline;
-  std::atomic<bool> abandoned{false};
+  std::shared_ptr<StopToken> stop;
+  std::atomic<bool> shutting_down{false};  // stopped by SIGTERM, not by its budget
   std::promise<PlanService::Answer> answer;
 };
+
+// How long a connection waits past the budget for the worker's own 504, which names the stage it
+// was stopped in (a worker notices its stop within a few validity checks: milliseconds).
+constexpr auto kStageWait = std::chrono::milliseconds(200);
 
 // A fixed pool of workers over a bounded queue.
 class WorkerPool {
@@ -51,10 +59,22 @@ public:
   /// False when the queue is full (503): the request is not taken. A free worker takes it at once.
   bool submit(std::shared_ptr<Job> job) {
     std::lock_guard<std::mutex> lock(mutex_);
-    if (closed_ || queue_.size() >= capacity_ + idle_) return false;
+    if (closed_ || stopping_ || queue_.size() >= capacity_ + idle_) return false;
     queue_.push_back(std::move(job));
     ready_.notify_one();
     return true;
+  }
+  /// Stops every request waiting or being planned (each answers 503 within a few validity checks).
+  void stop_all() {
+    std::lock_guard<std::mutex> lock(mutex_);
+    stopping_ = true;
+    for (const std::shared_ptr<Job>& job : queue_) job->shutting_down = true, job->stop->request_stop();
+    for (const std::shared_ptr<Job>& job : running_) job->shutting_down = true, job->stop->request_stop();
+  }
+  /// Requests waiting or being planned.
+  size_t busy() {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return queue_.size() + running_.size();
   }
 
 private:
@@ -70,13 +90,16 @@ private:
         if (queue_.empty()) return;  // closed, and nothing left
         job = std::move(queue_.front());
         queue_.pop_front();
+        running_.push_back(job);
       }
-      const Job& j = *job;
-      const Progress in_budget = [&j](double) { return !j.abandoned && Clock::now() < j.deadline; };
+      const StopToken& stop = *job->stop;
+      const Progress in_budget = [&stop](double) { return !stop.stop_requested(); };
       if (!in_budget(0))
         job->answer.set_value({504, ""});  // waited past its budget: not planned (the connection answers)
       else
-        job->answer.set_value(service_.plan(job->body, *worker, in_budget));
+        job->answer.set_value(service_.plan(job->body, *worker, in_budget, job->stop));
+      std::lock_guard<std::mutex> lock(mutex_);
+      running_.erase(std::find(running_.begin(), running_.end(), job));
     }
   }
 
@@ -85,7 +108,8 @@ private:
   std::mutex mutex_;
   std::condition_variable ready_;
   std::deque<std::shared_ptr<Job>> queue_;
-  bool closed_ = false;
+  std::vector<std::shared_ptr<Job>> running_;
+  bool closed_ = false, stopping_ = false;
   std::vector<std::thread> threads_;
 };
 
@@ -111,31 +135,41 @@ struct Routes {
   std::string token;
   std::atomic<bool>& draining;
 
+  // RFC 7235: the scheme's name is case-insensitive ("bearer" too); the token itself is not.
   bool admitted(const httplib::Request& request, httplib::Response& response) const {
-    if (token.empty() || same_secret(request.get_header_value("Authorization"), "Bearer " + token)) return true;
+    if (token.empty()) return true;
+    const std::string given = request.get_header_value("Authorization");
+    if (given.size() > 7 && lower_case(given.substr(0, 7)) == "bearer " && same_secret(given.substr(7), token))
+      return true;
     response.set_header("WWW-Authenticate", "Bearer");
     answer_json(response, 401, error_body("a bearer token is required: Authorization: Bearer <token>"));
     return false;
   }
 
-  void plan(const httplib::Request& request, httplib::Response& response) const {
+  void plan(const httplib::Request& request, const std::string& body, httplib::Response& response) const {
     if (!admitted(request, response)) return;
     const double budget = service.options().budget_seconds;
     if (draining) return answer_json(response, 503, error_body("the server is shutting down"));
-    auto job = std::make_shared<Job>();
-    job->body = request.body;
-    job->deadline = Clock::now() + std::chrono::microseconds(std::llround(budget * 1e6));
+    auto job = std::make_shared<Job>(Clock::now() + std::chrono::microseconds(std::llround(budget * 1e6)));
+    job->body = body;
     std::future<PlanService::Answer> answer = job->answer.get_future();
     if (!pool.submit(job))
-      return answer_json(response, 503,
-                         error_body("the queue is full (" + std::to_string(service.options().queue) +
-                                    " requests waiting): try again later"));
-    if (answer.wait_until(job->deadline) == std::future_status::ready) {
-      PlanService::Answer a = answer.get();
-      if (a.status != 504) return answer_json(response, a.status, a.body);
+      return draining ? answer_json(response, 503, error_body("the server is shutting down"))
+                      : answer_json(response, 503,
+                                    error_body("the queue is full (" + std::to_string(service.options().queue) +
+                                               " requests waiting): try again later"));
+    // Past the budget the worker stops itself (the token's deadline); its 504 names the stage.
+    if (answer.wait_until(job->deadline) != std::future_status::ready) {
+      job->stop->request_stop();
+      answer.wait_for(kStageWait);
     }
-    job->abandoned = true;
-    answer_json(response, 504, error_body("past the request's time budget of " + short_number(budget) + " s"));
+    if (answer.wait_for(std::chrono::seconds(0)) == std::future_status::ready) {
+      PlanService::Answer a = answer.get();
+      if (job->shutting_down && a.status == 504)
+        return answer_json(response, 503, error_body("the server is shutting down: the request was stopped"));
+      if (!a.body.empty()) return answer_json(response, a.status, a.body);
+    }
+    answer_json(response, 504, error_body(budget_message(budget, "")));
   }
 };
 
@@ -187,14 +221,26 @@ void serve_plans(const PlanService& service, const std::function<void(const std:
   std::atomic<bool> draining{false};
   WorkerPool pool(service, options.threads, static_cast<size_t>(options.queue));
   const Routes routes{service, pool, read_token(options.token_file), draining};
-  server.Post("/v1/plan", [&routes](const httplib::Request& q, httplib::Response& r) { routes.plan(q, r); });
+  // The body read here, whatever its Content-Type: httplib would otherwise parse a form-encoded
+  // one (what `curl -d` sends) under its own 8 KB cap, and answer 413 under a 1 MiB --max-body.
+  server.Post("/v1/plan",
+              [&routes](const httplib::Request& q, httplib::Response& r, const httplib::ContentReader& read) {
+                std::string body;
+                read([&body](const char* data, size_t size) {
+                  body.append(data, size);
+                  return true;
+                });
+                routes.plan(q, body, r);
+              });
   server.Get("/v1/health", [&](const httplib::Request& q, httplib::Response& r) {
     if (routes.admitted(q, r)) answer_json(r, 200, draining ? R"({"status":"stopping"})" : R"({"status":"ok"})");
   });
   server.Get("/v1/info", [&](const httplib::Request& q, httplib::Response& r) {
     if (routes.admitted(q, r)) answer_json(r, 200, service.info());
   });
-  server.set_error_handler([](const httplib::Request&, httplib::Response& r) {
+  server.set_error_handler([&routes](const httplib::Request& q, httplib::Response& r) {
+    // Behind the token too: without it, a client learns nothing, not even which routes exist.
+    if (r.status == 404 && !routes.admitted(q, r)) return;
     if (r.body.empty())
       answer_json(r, r.status,
                   error_body(r.status == 404 ? "no such route: POST /v1/plan, GET "
@@ -206,7 +252,11 @@ void serve_plans(const PlanService& service, const std::function<void(const std:
     int signal = 0;
     sigwait(&signals, &signal);
     draining = true;
-    server.stop();  // no new connection; those in flight finish (ConnectionThreads::shutdown)
+    server.stop();  // no new connection; those in flight are answered (ConnectionThreads::shutdown)
+    // Those being planned get a grace to finish, then are stopped: the service ends within 2 s.
+    const Clock::time_point grace = Clock::now() + std::chrono::milliseconds(std::lround(kStopGraceSeconds * 1000));
+    while (pool.busy() > 0 && Clock::now() < grace) std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    pool.stop_all();
   });
   const std::string host = options.host.find(':') != std::string::npos ? "[" + options.host + "]" : options.host;
   listening("http://" + host + ":" + std::to_string(port));

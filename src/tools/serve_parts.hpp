@@ -33,6 +33,9 @@ PlanRequest parse_plan_request(const std::string& body, const ServeOptions& serv
 /// -> "mission.home"); the field itself when it has none.
 std::string request_key(const std::string& field);
 
+/// The 504's words: "past the request's time budget of B s (--budget), stopped while STAGE".
+std::string budget_message(double budget_seconds, const std::string& stage);
+
 /// The roadmaps in memory: the server's own (pinned), and a few built for requests with another
 /// safety or ceiling, the least recently used dropped past `capacity`. Thread-safe.
 class RoadmapShelf {

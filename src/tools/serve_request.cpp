@@ -4,6 +4,7 @@
 #include <map>
 #include <string>
 
+#include "core/json_parse.hpp"
 #include "core/text.hpp"
 #include "dsmplan/tools.hpp"
 #include "dsmplan/waypoints.hpp"
@@ -69,7 +70,8 @@ void read_waypoints(const Json& value, PlanRequest& request) {
       const Json& p = value[i];
       const std::string key = "waypoints[" + std::to_string(i) + "]";
       if (!p.is_array() || p.size() != 3) throw ArgumentError(key, "must be [x, y, z] in the mesh's CRS");
-      request.waypoints.push_back({number(p[0], key), number(p[1], key), number(p[2], key)});
+      // Each coordinate named by its own place: "waypoints[3][2]" is the fourth waypoint's z.
+      request.waypoints.push_back({number(p[0], key + "[0]"), number(p[1], key + "[1]"), number(p[2], key + "[2]")});
     }
   } else {
     throw ArgumentError("waypoints", "must be [[x, y, z], ...] in the mesh's CRS or a GeoJSON object in WGS 84");
@@ -148,11 +150,13 @@ PlanRequest parse_plan_request(const std::string& body, const ServeOptions& serv
   if (nesting(body) > kMaxDepth) throw ArgumentError("body", "nested deeper than 32 arrays or objects");
   Json doc;
   try {
-    doc = Json::parse(body);
+    doc = parse_json_strict<Json>(body);
   } catch (const Json::parse_error& e) {
     throw ArgumentError("body", "not JSON (byte " + std::to_string(e.byte) + ")");
   } catch (const Json::exception&) {  // e.g. 1e400: valid JSON, but no double holds it
     throw ArgumentError("body", "a number beyond the range of a double");
+  } catch (const DuplicateJsonKey& twice) {
+    throw ArgumentError(twice.key, "given twice: which one is meant is not said");
   }
   if (!doc.is_object()) throw ArgumentError("body", "must be a JSON object with 'waypoints'");
   PlanRequest request;

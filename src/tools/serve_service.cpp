@@ -71,7 +71,24 @@ std::string kmz_bytes(const PlanJobOptions& job, const OutputKind& kind, const F
       fs::remove(file, ignored);
     }
   } remove{file};
-  write_flight_as(job, file.string(), kind, out, t, report);
+  // A message names the file by what the client asked for, never the server's temporary path.
+  const auto named = [&](const std::string& text) {
+    std::string shown = text;
+    for (size_t at; (at = shown.find(file.string())) != std::string::npos;)
+      shown.replace(at, file.string().size(), "path.kmz");
+    return shown;
+  };
+  try {
+    write_flight_as(job, file.string(), kind, out, t, report);
+  } catch (const Cancelled&) {
+    throw;
+  } catch (const ArgumentError& e) {
+    throw ArgumentError(e.field(), named(e.problem()));
+  } catch (const InputError& e) {
+    throw InputError("", "", named(e.what()));
+  } catch (const Error& e) {
+    throw OutputError("", named(e.what()));
+  }
   std::ifstream in(file, std::ios::binary);
   std::ostringstream bytes;
   bytes << in.rdbuf();
@@ -124,8 +141,8 @@ void prepare(PlanService::State& state, FlightData data, const Progress& progres
 
 // The answer to a request read: the flight planned over the area and written as `dsmplan plan`
 // writes it.
-std::string plan_answer(const PlanService::State& state, PlanRequest& request, Transforms& t,
-                        const Progress& progress) {
+std::string plan_answer(const PlanService::State& state, PlanRequest& request, Transforms& t, const Progress& progress,
+                        std::shared_ptr<const StopToken> stop) {
   const FlightArea& area = *state.area;
   const Crs& crs = area.crs();
   const Outputs outputs = plan_outputs(request.job);
@@ -139,6 +156,7 @@ std::string plan_answer(const PlanService::State& state, PlanRequest& request, T
   FlightQuery query;
   query.waypoints = request.waypoints;
   query.options = request.job.plan;
+  query.options.stop = std::move(stop);
   query.heights = heights;
   query.snap = request.job.snap;
   if (outputs.mission) {
@@ -164,6 +182,11 @@ std::string plan_answer(const PlanService::State& state, PlanRequest& request, T
 }  // namespace
 
 std::string error_body(const std::string& message) { return dump(Json{{"error", message}}); }
+
+std::string budget_message(double budget_seconds, const std::string& stage) {
+  return "past the request's time budget of " + short_number(budget_seconds) + " s (--budget)" +
+         (stage.empty() ? "" : ", stopped while " + stage);
+}
 
 PlanService::PlanService(const ServeOptions& options, const Progress& progress) : state_(std::make_unique<State>()) {
   options.check();
@@ -205,13 +228,13 @@ std::shared_ptr<PlanService::Worker> PlanService::worker() const { return std::m
 
 const ServeOptions& PlanService::options() const { return state_->options; }
 
-PlanService::Answer PlanService::plan(const std::string& body, Worker& worker, const Progress& progress) const {
+PlanService::Answer PlanService::plan(const std::string& body, Worker& worker, const Progress& progress,
+                                      std::shared_ptr<const StopToken> stop) const {
   try {
-    PlanRequest request = parse_plan_request(body, state_->options);
-    return {200, plan_answer(*state_, request, worker.transforms, progress)};
-  } catch (const Cancelled&) {
-    return {504, error_body("past the request's time budget of " + short_number(state_->options.budget_seconds) +
-                            " s (--budget)")};
+    PlanRequest request = in_stage("reading the request", [&] { return parse_plan_request(body, state_->options); });
+    return {200, plan_answer(*state_, request, worker.transforms, progress, std::move(stop))};
+  } catch (const Cancelled& cancelled) {
+    return {504, error_body(budget_message(state_->options.budget_seconds, cancelled.stage()))};
   } catch (const ArgumentError& e) {
     const std::string key = request_key(e.field());
     return {400, error_body(key.empty() ? e.problem() : key + ": " + e.problem())};

@@ -312,6 +312,9 @@ def unit_fixtures(dsmplan):
     header = ply[:end].decode()
     vertical = [line for line in header.split("\n") if line.startswith("comment vertical ")][0]
     out("mesh_feet_vertical.ply", header.replace(vertical, "comment vertical unknown (ft)").encode() + ply[end:])
+    # The same mesh with its CRS lost: no unit to measure a safety distance in (issue 49).
+    bare = "\n".join(line for line in header.split("\n") if not line.startswith(("comment crs_", "comment vertical ")))
+    out("mesh_no_crs.ply", bare.encode() + ply[end:])
 
 
 def waypoint_fixtures():
@@ -322,6 +325,9 @@ def waypoint_fixtures():
     out("wp_under_ground.csv", (head + a + "356305,5699760,40\n" + b).encode())  # ground at 50 m
     out("wp_outside_extent.csv", (head + a + "356900,5699770,60\n" + b).encode())
     out("wp_too_high.csv", (head + a + "356310,5699760,400\n" + b).encode())  # far above --max-agl
+    # Routes: a second route whose id is 300 characters (it names a file: refused before any is written).
+    long_id = "r" * 300
+    out("routes_long_id.csv", ("route,x,y,z\nfirst," + a + "first," + b + long_id + "," + a + long_id + "," + b).encode())
     # Coordinates nested 100,000 arrays deep: the message once dumped them, recursing off the stack.
     out("wp_deep.geojson", (b'{"type": "FeatureCollection", "features": [{"type": "Feature", "geometry": '
                             b'{"type": "Point", "coordinates": ' + b"[" * 100000 + b"]" * 100000 + b"}}]}"))

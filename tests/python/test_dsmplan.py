@@ -382,7 +382,7 @@ def test_pictures_of_a_flight_are_the_command_lines(sample_plan, tmp_path):
     assert report["max_above_ground_m"] == flight.report["max_agl_m"] == drawn["max_agl_m"]
     assert report["ground"] == "dtm" and report["max_agl_m"] == 30
     # Without the flight's zones the picture differs: they were drawn.
-    dsmplan.profile(SAMPLE, flight, py_side, title="Height profile: " + title, no_fly_blocking=[], no_fly=[])
+    dsmplan.profile(SAMPLE, flight, py_side, title="Height profile: " + title, no_fly=[])
     bare = dsmplan.plan(mesh, read_waypoints(LOW_WAYPOINTS), dsm=dsm, dtm=dtm, max_agl=30, spacing=10, mission=True)
     bare_side = str(tmp_path / "bare_side.png")
     dsmplan.profile(SAMPLE, bare, bare_side, title="Height profile: " + title)

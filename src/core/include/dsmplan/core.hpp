@@ -15,10 +15,14 @@
 #pragma once
 
 #include <array>
+#include <atomic>
+#include <chrono>
 #include <cstdint>
 #include <functional>
 #include <stdexcept>
 #include <string>
+#include <utility>
+#include <vector>
 
 namespace dsmplan {
 
@@ -64,10 +68,73 @@ public:
   OutputError(const std::string& file, const std::string& problem) : Error(located_message(file, "", problem)) {}
 };
 
+/// Thrown when a Progress callback asked to stop. `stage` says what was stopped ("planning",
+/// "naming the nearest valid point"), as in_stage() adds it; empty when no stage said.
 class Cancelled : public Error {
 public:
-  Cancelled() : Error("cancelled") {}
+  explicit Cancelled(std::string stage = {})
+      : Error(stage.empty() ? "cancelled" : "cancelled while " + stage), stage_(std::move(stage)) {}
+  const std::string& stage() const { return stage_; }
+
+private:
+  std::string stage_;
 };
+
+/// Runs `work()`; a Cancelled without a stage that it throws is thrown again naming `stage`
+/// (the innermost stage named wins).
+template <typename Work>
+auto in_stage(const char* stage, Work&& work) -> decltype(work()) {
+  try {
+    return work();
+  } catch (const Cancelled& cancelled) {
+    if (!cancelled.stage().empty()) throw;
+    throw Cancelled(stage);
+  }
+}
+
+/// Choices. An option whose value is one of a list (a planner, a format, a restriction) is
+/// checked by require_choice() on every face, so a typo is refused with the nearest name rather
+/// than read as another choice or as none.
+/// Levenshtein distance of two names.
+size_t edit_distance(const std::string& a, const std::string& b);
+/// The name among `names` nearest `typed` when near enough to be a typo: the same but for case,
+/// else at most a third of its letters (at least one) changed; empty otherwise.
+std::string nearest_name(const std::string& typed, const std::vector<std::string>& names);
+/// "a, b or c".
+std::string choice_list(const std::vector<std::string>& names);
+/// ArgumentError(field, "must be A, B or C, got 'x' (did you mean A?)") unless `value` is one of
+/// `names` (exact, case-sensitive: the names are what files and other tools write).
+void require_choice(const std::string& field, const std::string& value, const std::vector<std::string>& names);
+
+/// Stopping a request. A request that may be given up on (a service's time budget, Ctrl-C in
+/// Python) carries a StopToken: whoever gives up calls request_stop(), or the token's deadline
+/// passes; every search the request starts (the planners through their validity checker, the
+/// refusals' nearest-point search, snapping, the zones) calls check() between its steps, which
+/// throws Cancelled. Thread-safe; check() costs an atomic load and, with a deadline, a clock read.
+class StopToken {
+public:
+  using Clock = std::chrono::steady_clock;
+  StopToken() = default;
+  explicit StopToken(Clock::time_point deadline) : deadline_(deadline) {}
+  void request_stop() noexcept { stopped_.store(true, std::memory_order_relaxed); }
+  bool stop_requested() const noexcept {
+    return stopped_.load(std::memory_order_relaxed) ||
+           (deadline_ != Clock::time_point::max() && Clock::now() >= deadline_);
+  }
+  /// Throws Cancelled when a stop was requested or the deadline passed.
+  void check() const {
+    if (stop_requested()) throw Cancelled();
+  }
+
+private:
+  std::atomic<bool> stopped_{false};
+  Clock::time_point deadline_ = Clock::time_point::max();
+};
+
+/// check() when there is a token.
+inline void check_stop(const StopToken* stop) {
+  if (stop) stop->check();
+}
 
 /// Fraction done in [0, 1]; return false to cancel.
 using Progress = std::function<bool(double fraction)>;

@@ -66,7 +66,18 @@ void check_zone(const AirspaceZone& zone);
 struct AirspaceOptions {
   std::vector<std::string> blocking = {"PROHIBITED", "REQ_AUTHORISATION"};
 };
-/// True when the zone's restriction is one of options.blocking (exact, case-sensitive).
+/// ED-269's four restrictions, in its order.
+const std::vector<std::string>& zone_restrictions();
+/// AirspaceOptions::blocking = {"NONE"}: no zone blocks, every one is drawn, none avoided.
+constexpr const char* kNoZoneBlocks = "NONE";
+/// ArgumentError("no_fly_blocking") unless options.blocking is {kNoZoneBlocks}, or names at
+/// least one restriction and every entry is one of zone_restrictions() (exact, with the nearest
+/// name for a typo): a value no zone can have would silently unblock the zones it was meant to
+/// name.
+void check_airspace_options(const AirspaceOptions& options);
+/// True when the zone's restriction is one of options.blocking (exact, case-sensitive). Checks
+/// the options first (check_airspace_options()): every face's answer to "does it block" goes
+/// through here.
 bool zone_blocks(const AirspaceZone& zone, const AirspaceOptions& options = {});
 
 /// True when `p` (CRS) lies in the zone's volume, boundary included, with no safety distance:
@@ -95,7 +106,11 @@ bool zone_contains(const AirspaceZone& zone, const Point3& p, const GroundGrid* 
 /// or not finite safety. motion_valid() O(corners + ground cells crossed over the area).
 class AirspaceConstraint : public FlightConstraint {
 public:
-  AirspaceConstraint(AirspaceZone zone, double safety, std::shared_ptr<const GroundGrid> ground);
+  /// `asked`, when given: the box (xmin, ymin, xmax, ymax, CRS) holding every point the
+  /// constraint will be asked about; the AGL envelopes are then made over it alone (a zone far
+  /// from a path needs only its near side: zone_distance()). Points beyond it are refused.
+  AirspaceConstraint(AirspaceZone zone, double safety, std::shared_ptr<const GroundGrid> ground,
+                     const std::array<double, 4>* asked = nullptr);
   ~AirspaceConstraint() override;
   bool state_valid(const Point3& p) const override;
   bool motion_valid(const Point3& p, const Point3& q) const override;
@@ -103,14 +118,40 @@ public:
   std::string name() const override;
   const AirspaceZone& zone() const;
   double safety() const;
+  /// The x, y box (xmin, ymin, xmax, ymax, CRS) outside which every point and motion is allowed:
+  /// the zone's, widened by the safety distance.
+  std::array<double, 4> box() const;
 
 private:
   struct State;
   std::unique_ptr<const State> state_;
 };
 
-/// One AirspaceConstraint at `safety` for each zone that blocks (zone_blocks()), in order; what
-/// PlanOptions::constraints takes. Errors as AirspaceConstraint.
+/// Many zones as one FlightConstraint: each point or motion is tested against the zones whose
+/// box() it reaches only, found through a uniform grid of their boxes (cells about the size of a
+/// zone), so a check costs what the zones near it cost, whatever their number (20,000 zones: the
+/// same path as with the zones one by one, issue 49). The same answers as its members asked one
+/// by one; refused_by() names the member. Thread-safe (immutable).
+class ZoneSet : public FlightConstraint {
+public:
+  explicit ZoneSet(std::vector<std::shared_ptr<const AirspaceConstraint>> zones);
+  ~ZoneSet() override;
+  bool state_valid(const Point3& p) const override;
+  bool motion_valid(const Point3& p, const Point3& q) const override;
+  /// "N no-fly zones".
+  std::string name() const override;
+  const FlightConstraint* refused_by(const Point3& p, const Point3& q) const override;
+  const std::vector<std::shared_ptr<const AirspaceConstraint>>& zones() const;
+
+private:
+  struct Grid;
+  std::unique_ptr<const Grid> grid_;
+};
+
+/// One AirspaceConstraint at `safety` for each zone that blocks (zone_blocks()), in order, or
+/// past kZoneSetFrom zones one ZoneSet of them all; what PlanOptions::constraints takes. Errors
+/// as AirspaceConstraint.
+constexpr size_t kZoneSetFrom = 16;
 std::vector<std::shared_ptr<const FlightConstraint>> airspace_constraints(const std::vector<AirspaceZone>& zones,
                                                                           double safety,
                                                                           std::shared_ptr<const GroundGrid> ground,
@@ -122,7 +163,12 @@ std::vector<std::shared_ptr<const FlightConstraint>> airspace_constraints(const 
 /// that the constraint at safety d lets every segment pass, so the true 3D distance is at least
 /// the result, and at most sqrt(2) times it (+1 cm or 1 %) where the nearest approach is diagonal to an edge of the
 /// volume (exact when it is straight beside or above it). +infinity for an empty path; capped
-/// at 100 km. O(bisection steps x (the zone's envelope + path x corners)).
+/// at 100 km. A zone without vertical limits gets its horizontal distance to the path, the exact
+/// distance. Other zones 10 m or more away get a lower bound made of each segment's horizontal
+/// distance and its height gap to the lowest floor (highest ceiling) the zone has over its area
+/// (not within sqrt(2) then; a figure to read, the constraint keeps the distance); nearer ones
+/// are bisected as above, the envelopes made over the path's box alone. O(path x corners + bisection steps x
+/// (the envelope near the path + path x corners)).
 double zone_distance(const AirspaceZone& zone, const std::vector<Point3>& path, const GroundGrid* ground);
 
 }  // namespace dsmplan

@@ -408,6 +408,7 @@ struct FlightRules {
   const GroundGrid* ground = nullptr;  ///< null: no ceiling
   double max_agl = INFINITY;
   std::vector<const FlightConstraint*> constraints;
+  const StopToken* stop = nullptr;  ///< the request's stop: keeps() throws Cancelled once it is requested
   bool keeps(const Point3& p, const Point3& q) const;
 };
 

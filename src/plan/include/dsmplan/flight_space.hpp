@@ -40,6 +40,11 @@ public:
   virtual bool motion_valid(const Point3& p, const Point3& q) const = 0;
   /// What it is, for messages: "no-fly zone 'stadium'".
   virtual std::string name() const = 0;
+  /// The constraint a message should name for the motion p-q (p = q: the point): this one when it
+  /// refuses the motion, null when it allows it; a set of rules (ZoneSet) names its member.
+  virtual const FlightConstraint* refused_by(const Point3& p, const Point3& q) const {
+    return motion_valid(p, q) ? nullptr : this;
+  }
 };
 
 /// A no-fly zone: the vertical prism over a simple polygon (x, y in the mesh's CRS, either
@@ -65,12 +70,19 @@ private:
 };
 
 /// The flight volume a plan runs in: the mesh's clearance, the ceiling over the ground, the
-/// constraints. Holds references: the index, the ground and the constraints must outlive it.
+/// constraints. Holds references: the index, the ground, the constraints and `stop` must outlive
+/// it. With a `stop` (core.hpp), every check below first calls stop->check(), which throws
+/// Cancelled once the request is given up on: so every search over this space can be stopped.
 class FlightSpace {
 public:
   FlightSpace(const ClearanceIndex& index, const GroundGrid& ground, double safety, double max_agl,
-              std::vector<const FlightConstraint*> constraints = {})
-      : index_(index), ground_(ground), safety_(safety), max_agl_(max_agl), constraints_(std::move(constraints)) {}
+              std::vector<const FlightConstraint*> constraints = {}, const StopToken* stop = nullptr)
+      : index_(index),
+        ground_(ground),
+        safety_(safety),
+        max_agl_(max_agl),
+        constraints_(std::move(constraints)),
+        stop_(stop) {}
 
   const ClearanceIndex& index() const { return index_; }
   const GroundGrid& ground() const { return ground_; }
@@ -103,8 +115,16 @@ public:
   }
   /// Everything but the mesh: under the ceiling and allowed by every constraint (the roadmap
   /// proves most edges clear of the mesh without a segment check, never these).
-  bool within_limits(const Point3& p) const { return below_ceiling(p) && !broken_by(p); }
-  bool within_limits(const Point3& p, const Point3& q) const { return below_ceiling(p, q) && !broken_by(p, q); }
+  bool within_limits(const Point3& p) const {
+    check_stop();
+    return below_ceiling(p) && !broken_by(p);
+  }
+  bool within_limits(const Point3& p, const Point3& q) const {
+    check_stop();
+    return below_ceiling(p, q) && !broken_by(p, q);
+  }
+  /// Throws Cancelled when the request was given up on (no-op without a stop).
+  void check_stop() const { dsmplan::check_stop(stop_); }
 
   bool state_valid(const Point3& p) const { return within_limits(p) && index_.point_clear(p, safety_); }
   /// The ceiling and the constraints first: a walk over a few cells costs less than the clearance.
@@ -120,6 +140,7 @@ public:
   /// from above it must cross (the floor's holes, cells no triangle meets, are left out). False
   /// proves nothing. O(cells crossed).
   bool surely_invalid(const Point3& p, const Point3& q) const {
+    check_stop();
     return index_.floor().dips_below(p, q, safety_) || ground_.rises_above(p, q, max_agl_);
   }
   /// motion_valid(p, q) with surely_invalid(p, q) asked first: the same answer between valid
@@ -131,6 +152,7 @@ private:
   const GroundGrid& ground_;
   double safety_, max_agl_;
   std::vector<const FlightConstraint*> constraints_;
+  const StopToken* stop_;
 };
 
 }  // namespace dsmplan

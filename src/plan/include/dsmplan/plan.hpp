@@ -157,6 +157,10 @@ struct PlanOptions {
   std::shared_ptr<const GroundGrid> ground;
   /// Further rules every point of every path keeps (flight_space.hpp: NoFlyZone, or your own).
   std::vector<std::shared_ptr<const FlightConstraint>> constraints;
+  /// The request's stop (core.hpp): once it is requested (or its deadline passes) every planner
+  /// and every search of plan_flight() throws Cancelled within a few validity checks. Null: runs
+  /// to the end. Not part of the roadmap's key: a roadmap is the same however it may be stopped.
+  std::shared_ptr<const StopToken> stop;
 };
 
 /// Throws ArgumentError naming the option ("--safety", "--spacing", "--max-edge", "--max-agl",
@@ -235,8 +239,12 @@ struct PlanResult {
   std::string problems(const std::function<std::string(size_t)>& name = {}) const;
 };
 
+/// How many refused waypoints a line names after the first (waypoint_problems()); the rest are
+/// counted. plan_flight() searches the nearest valid point for those named only.
+constexpr size_t kListedWaypoints = 10;
+
 /// One line naming every waypoint refused: the first one's reason, then "; also <name(k)>:
-/// <reason>" for the others (at most ten, then how many more). `name` (default "waypoint k+1")
+/// <reason>" for the others (at most kListedWaypoints, then how many more). `name` (default "waypoint k+1")
 /// names a 0-based waypoint as the caller's user numbers them. The planner's refusals and the
 /// tools' own checks against the DSM list theirs with it.
 std::string waypoint_problems(const std::vector<PlanResult::Invalid>& invalid,

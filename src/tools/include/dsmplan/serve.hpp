@@ -69,12 +69,15 @@ public:
 
   struct Answer {
     int status = 200;  ///< 200; 400 a bad request (naming the key); 422 no path or waypoints that cannot be flown;
-                       ///< 504 cancelled by `progress`; 500 an internal error
+                       ///< 504 cancelled by `progress` or `stop`, naming the stage it was in; 500 an internal error
     std::string body;  ///< JSON: {"format", "path" | "path_base64", "stats"}, or {"error": one line}
   };
   /// POST /v1/plan: the request body (JSON) to the answer. Never throws; never crashes on any
-  /// bytes (fuzz/fuzz_serve.cpp). `progress` returning false cancels (504).
-  Answer plan(const std::string& body, Worker& worker, const Progress& progress = {}) const;
+  /// bytes (fuzz/fuzz_serve.cpp). `progress` returning false cancels (504); so does `stop`
+  /// (core.hpp), which every search of the request checks between its steps: once it is
+  /// requested or its deadline passes, plan() returns within a few validity checks.
+  Answer plan(const std::string& body, Worker& worker, const Progress& progress = {},
+              std::shared_ptr<const StopToken> stop = nullptr) const;
   /// GET /v1/info: the CRS, the extent, the vertical reference, what was loaded, the limits.
   std::string info() const;
   const ServeOptions& options() const;
@@ -95,8 +98,11 @@ void block_stopping_signals();
 
 /// Serves `service` over HTTP (DeadlineServer) on options.host:port with options.threads workers
 /// and the bounded queue: POST /v1/plan, GET /v1/health, GET /v1/info. Calls `listening` with
-/// the address once bound; returns after SIGTERM, SIGINT or SIGHUP, once the requests in flight
-/// are answered (new ones are refused). ArgumentError("--port") when the port cannot be bound.
+/// the address once bound; returns after SIGTERM, SIGINT or SIGHUP: new requests are refused,
+/// those in flight get until kStopGraceSeconds to finish and are then stopped (504), so the
+/// service ends within 2 s whatever runs. ArgumentError("--port") when the port cannot be bound.
+constexpr double kStopGraceSeconds = 1;
+
 void serve_plans(const PlanService& service, const std::function<void(const std::string& url)>& listening);
 
 }  // namespace dsmplan
