@@ -50,7 +50,8 @@ Fusion parse_fusion(const std::string& name) {
   for (Fusion fusion : {Fusion::Median, Fusion::Max}) {
     if (name == to_string(fusion)) return fusion;
   }
-  throw ArgumentError("fusion", "unknown rule '" + name + "' (use median or max)");
+  require_choice("fusion", name, {"median", "max"});
+  return Fusion::Median;  // not reached: require_choice() threw
 }
 
 void choose_classes(GridPointsOptions& options, const std::vector<int>& keep,

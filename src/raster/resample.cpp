@@ -32,7 +32,8 @@ Resampling parse_resampling(const std::string& name) {
        {Resampling::Median, Resampling::Max, Resampling::Mean, Resampling::Min, Resampling::Nearest}) {
     if (name == to_string(method)) return method;
   }
-  throw ArgumentError("resampling", "unknown method '" + name + "' (use median, max, mean, min or nearest)");
+  require_choice("resampling", name, {"median", "max", "mean", "min", "nearest"});
+  return Resampling::Median;  // not reached: require_choice() threw
 }
 
 namespace {

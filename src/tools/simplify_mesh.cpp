@@ -118,7 +118,8 @@ const char* to_string(SimplifyMethod method) {
 SimplifyMethod parse_simplify_method(const std::string& name) {
   for (SimplifyMethod method : {SimplifyMethod::Variant1, SimplifyMethod::Variant2, SimplifyMethod::Bounded})
     if (name == to_string(method)) return method;
-  throw ArgumentError("--method", "must be variant1, variant2 or bounded, got '" + name + "'");
+  require_choice("--method", name, {"variant1", "variant2", "bounded"});
+  return SimplifyMethod::Bounded;  // not reached: require_choice() threw
 }
 
 void SimplifyJobOptions::check() const {
