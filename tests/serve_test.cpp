@@ -378,8 +378,9 @@ TEST(Serve, ManyRefusedWaypointsAreAnsweredAtOnce) {
   EXPECT_EQ(error.rfind("waypoints: waypoint 1: under the surface", 0), 0u) << error;
   EXPECT_NE(error.find("valid point"), std::string::npos) << error;    // the nearest, or none within 50 m
   EXPECT_NE(error.find("and 2989 more"), std::string::npos) << error;  // the first 11 named
-  // The nearest point is searched for the 11 named only: a fraction of a second, not 79 s.
-  EXPECT_LT(std::chrono::duration<double>(Clock::now() - start).count(), 5.0);
+  // The nearest point is searched for the 11 named only: a second, not 79 s (20 s leaves room
+  // for the sanitizers' build).
+  EXPECT_LT(std::chrono::duration<double>(Clock::now() - start).count(), 20.0);
 }
 
 TEST(Serve, SigtermStopsTheRequestsInFlightWithinTwoSeconds) {
@@ -420,7 +421,7 @@ TEST(Serve, ARequestPastItsBudgetFreesItsWorkerAndSaysTheStage) {
   EXPECT_EQ(given_up.status, 504) << given_up.body;
   const std::string error = given_up.json()["error"].get<std::string>();
   EXPECT_NE(error.find("time budget of 1 s (--budget), stopped while "), std::string::npos) << error;
-  EXPECT_LT(answered, 1.5);
+  EXPECT_LT(answered, 2.5);  // the budget and its answer; the work would take minutes
   // The one worker is free at once: before, it computed on for minutes and this one got 504 too.
   const Reply next = post(server.port(), Json{{"waypoints", waypoints_json(kPoints)}}.dump());
   EXPECT_EQ(next.status, 200) << next.body;

@@ -36,7 +36,7 @@ FUZZ = SMALL_CITY + textwrap.dedent("""
     out = lambda name: os.path.join(folder, name)
     hostile = [None, 0, -1, 1e308, float("nan"), "", "\\x00", "\\x1b[31m", [], {}, (), object(), b"bytes",
                np.zeros((0, 3)), np.zeros((0,)), np.zeros((3,)), np.zeros((2, 2, 2)), np.full((2, 3), np.nan),
-               np.zeros((2, 3), dtype=object), np.zeros((200000, 3)), [np.zeros((2, 3))] * 300,
+               np.zeros((2, 3), dtype=object), np.zeros((50000, 3)), [np.zeros((2, 3))] * 300,
                np.zeros((1, 1), dtype=np.float32), dsm, mesh, flight]
     # Each public call with arguments that work, by position then by keyword.
     calls = [
