@@ -20,11 +20,13 @@
 #include <algorithm>
 #include <array>
 #include <cctype>
+#include <chrono>
 #include <cmath>
 #include <csignal>
 #include <cstdint>
 #include <cstring>
 #include <filesystem>
+#include <iostream>
 #include <limits>
 #include <map>
 #include <nlohmann/json.hpp>
@@ -2888,6 +2890,94 @@ TEST(CliRoutes, EachRouteIsTheSingleRunsPathAndAFailedRouteStopsNoOther) {
   const auto both = run_cli({"plan", f.mesh, "--routes", routes_file, "--waypoints", f.waypoints, "-o", folder, "-q"});
   EXPECT_EQ(both.exit_code, 2);
   EXPECT_NE(both.err.find("--routes"), std::string::npos) << both.err;
+}
+
+namespace {
+
+// Every file under `folder`, hidden ones too, by its path inside it, with its bytes (routes.json
+// without its timings, which differ from run to run).
+std::map<std::string, std::string> folder_contents(const std::filesystem::path& folder) {
+  std::map<std::string, std::string> files;
+  for (const auto& e : std::filesystem::recursive_directory_iterator(folder)) {
+    const std::string name = std::filesystem::relative(e.path(), folder).string();
+    if (e.is_directory()) {
+      files[name + "/"] = "";
+      continue;
+    }
+    files[name] = testkit::read_file(e.path());
+    if (name != "routes.json") continue;
+    json listed = json::parse(files[name]);
+    for (json& route : listed) route.erase("seconds_query"), route.erase("seconds_smooth");
+    files[name] = listed.dump();
+  }
+  return files;
+}
+
+}  // namespace
+
+// A --routes run into a folder that holds an earlier run's outputs, stopped by SIGINT at times
+// spread over its whole run, leaves the earlier outputs or its own, never a mix of the two (nor a
+// file of a route now without a path, nor a temporary file).
+TEST(CliRoutes, AnInterruptedRunLeavesTheOldOutputsOrTheNewNeverAMix) {
+  NoFlyFixture f;
+  const auto c = f.corners();
+  const auto routes_of = [&](size_t from, size_t to, bool gone_solved) {
+    std::ostringstream rows;
+    rows.precision(17);
+    rows << "route,x,y,z\n";
+    for (int r = 0; r < 300; ++r)
+      for (const size_t k : {from, to}) rows << "r" << r << "," << c[k][0] << "," << c[k][1] << "," << c[k][2] << "\n";
+    rows << "gone," << c[0][0] << "," << c[0][1] << "," << (gone_solved ? c[0][2] : 0.0) << "\n"
+         << "gone," << c[1][0] << "," << c[1][1] << "," << c[1][2] << "\n";
+    return rows.str();
+  };
+  const std::string old_routes = f.in.path("old.csv"), new_routes = f.in.path("new.csv");
+  testkit::write_file(old_routes, routes_of(0, 1, true));
+  testkit::write_file(new_routes, routes_of(1, 2, false));
+  const std::string dsm = testkit::data_path(kSample), roadmap = f.in.path("kept.roadmap");
+  const auto args_of = [&](const std::string& routes, const std::filesystem::path& folder) {
+    return std::vector<std::string>{
+        "plan", f.mesh, "--routes", routes, "--dsm", dsm, "--roadmap", roadmap, "-o", folder.string() + "/", "-q"};
+  };
+  TempDir out;
+  ASSERT_EQ(run_cli(args_of(old_routes, out.dir() / "old")).exit_code, 0);
+  const auto started = std::chrono::steady_clock::now();
+  std::vector<std::string> timed = args_of(new_routes, out.dir() / "new");
+  timed.insert(timed.end(), {"--stats", out.path("new.json")});
+  ASSERT_EQ(run_cli(timed).exit_code, 4);  // "gone" has no path
+  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+  const double writing = json::parse(testkit::read_file(out.path("new.json")))["seconds_write"];
+  const auto old_files = folder_contents(out.dir() / "old"), new_files = folder_contents(out.dir() / "new");
+  ASSERT_TRUE(old_files.count("gone.csv"));
+  ASSERT_FALSE(new_files.count("gone.csv"));
+  ASSERT_NE(old_files.at("r0.csv"), new_files.at("r0.csv"));
+  int olds = 0, news = 0;
+  // Most stops where the outputs are written: from a little before to a little after.
+  for (int k = 1; k <= 12; ++k) {
+    const std::filesystem::path folder = out.dir() / ("run" + std::to_string(k));
+    std::filesystem::copy(out.dir() / "old", folder);
+    std::vector<std::string> args = args_of(new_routes, folder);
+    std::vector<char*> argv{const_cast<char*>(DSMPLAN_CLI)};
+    for (std::string& a : args) argv.push_back(a.data());
+    argv.push_back(nullptr);
+    const pid_t pid = fork();
+    if (pid == 0) {
+      const int null = ::open("/dev/null", O_WRONLY);
+      ::dup2(null, 1), ::dup2(null, 2);
+      ::execv(DSMPLAN_CLI, argv.data());
+      ::_exit(127);
+    }
+    const double from = std::max(0.0, seconds - 2 * writing), to = seconds * 1.1;
+    ::usleep(static_cast<useconds_t>((from + (to - from) * k / 12) * 1e6));
+    ::kill(pid, SIGINT);
+    int status = 0;
+    ::waitpid(pid, &status, 0);
+    const auto left = folder_contents(folder);
+    EXPECT_TRUE(left == old_files || left == new_files) << "a mix after " << k << "/12 of the run";
+    olds += left == old_files, news += left == new_files;
+  }
+  std::cout << "interrupted runs of " << seconds << " s (" << writing << " s writing): " << olds
+            << " left the old outputs, " << news << " the new\n";
 }
 
 // ---- zones seen: KML, render and profile -----------------------------------------------------

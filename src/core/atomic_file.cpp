@@ -43,10 +43,23 @@ void forget(int slot) {
   if (slot >= 0) slot_state[slot].store(kFree);
 }
 
-extern "C" void remove_temporaries_and_exit(int signal) {
+// While a SignalsHeld lives, a signal is kept here and acted on when the last one ends.
+std::atomic<int> holds{0};
+std::atomic<int> held_signal{0};
+
+void remove_temporaries_and_exit_now(int signal) {
   for (int i = 0; i < kSlots; ++i)
     if (slot_state[i].load() == kReady) ::unlink(temp_paths[i]);
   ::_exit(128 + signal);
+}
+
+extern "C" void remove_temporaries_and_exit(int signal) {
+  if (holds.load() > 0) {
+    int none = 0;
+    held_signal.compare_exchange_strong(none, signal);
+    return;
+  }
+  remove_temporaries_and_exit_now(signal);
 }
 
 }  // namespace
@@ -56,6 +69,13 @@ void remove_partial_outputs_on_signals() {
   action.sa_handler = remove_temporaries_and_exit;
   sigemptyset(&action.sa_mask);
   for (int signal : {SIGINT, SIGTERM, SIGHUP}) ::sigaction(signal, &action, nullptr);
+}
+
+SignalsHeld::SignalsHeld() { holds.fetch_add(1); }
+
+SignalsHeld::~SignalsHeld() {
+  if (holds.fetch_sub(1) == 1)
+    if (const int signal = held_signal.exchange(0); signal != 0) remove_temporaries_and_exit_now(signal);
 }
 
 AtomicFile::AtomicFile(std::string path) : path_(std::move(path)) {

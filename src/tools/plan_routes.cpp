@@ -5,6 +5,9 @@
 #include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
 
+#include <cerrno>
+#include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <map>
 #include <memory>
@@ -133,11 +136,43 @@ std::string routes_geojson(const std::vector<Route>& routes, const RoutesPlan& p
   return doc;
 }
 
-// One file a solved route, and routes.json with every route's figures or reason.
+// A hidden folder inside the output folder (so that renaming from it is atomic), removed with
+// whatever is left in it when it goes.
+class StagingFolder {
+public:
+  explicit StagingFolder(const std::filesystem::path& folder) {
+    std::string pattern = (folder / ".routes.partial-XXXXXX").string();
+    if (!::mkdtemp(pattern.data()))
+      throw OutputError(folder.string(), std::string("cannot write: ") + std::strerror(errno));
+    path_ = pattern;
+  }
+  ~StagingFolder() {
+    std::error_code ignored;
+    std::filesystem::remove_all(path_, ignored);
+  }
+  StagingFolder(const StagingFolder&) = delete;
+  StagingFolder& operator=(const StagingFolder&) = delete;
+  const std::filesystem::path& path() const { return path_; }
+
+private:
+  std::filesystem::path path_;
+};
+
+void move_into(const std::filesystem::path& from, const std::filesystem::path& to) {
+  std::error_code ec;
+  std::filesystem::rename(from, to, ec);
+  if (ec) throw OutputError(to.string(), "cannot write: " + ec.message());
+}
+
+// One file a solved route, and routes.json with every route's figures or reason. The folder is
+// replaced whole: every file is written into a staging folder first, then moved into place, the
+// files of routes without a path now removed, routes.json last; the signals that end a run are
+// held meanwhile (they act once the move is done). An error while writing leaves the old outputs.
 void write_routes_folder(const std::vector<Route>& routes, const RoutesPlan& planned, const FlightArea& area,
                          const PlanJobOptions& options) {
-  const std::filesystem::path folder(options.output);
-  std::filesystem::create_directories(folder);
+  namespace fs = std::filesystem;
+  const fs::path folder(options.output);
+  fs::create_directories(folder);
   const std::string ext = options.format.empty() ? "csv" : lower_case(options.format);
   // The transformations once for every route (each costs PROJ's database, milliseconds).
   PlanJobOptions one = options;
@@ -147,13 +182,16 @@ void write_routes_folder(const std::vector<Route>& routes, const RoutesPlan& pla
   make_transforms(t, area.crs(), false, plan_outputs(one), options.vertical, transformation);
   const OutputKind kind = output_kind(one.output, "");
   const ZoneLayer zones{area.data().no_fly, area.data().airspace};
+  const SignalsHeld held;
+  const StagingFolder staging(folder);
   Json all = Json::array();
+  std::vector<std::string> names;  // of the solved routes' files
   for (size_t i = 0; i < routes.size(); ++i) {
     const RouteResult& result = planned.routes[i];
     all.push_back(route_figures(routes[i], result));
     if (!result.solved) continue;
-    const std::string name = file_name_of(routes[i].id);  // unique: check_route_files()
-    const std::string file = (folder / (name + "." + ext)).string();
+    names.push_back(file_name_of(routes[i].id) + "." + ext);  // unique: check_route_files()
+    const std::string file = (staging.path() / names.back()).string();
     if (ext == "csv") {
       write_text_file(file, path_to_csv(result.plan.path));
       continue;
@@ -161,8 +199,14 @@ void write_routes_folder(const std::vector<Route>& routes, const RoutesPlan& pla
     PlanReport report;
     write_flight_as(one, file, kind, {result.plan, result.plan.waypoints, area.crs(), zones}, t, report);
   }
-  // Last: a run stopped before it leaves the old routes.json, which names the old files.
-  write_text_file((folder / "routes.json").string(), all.dump(2) + "\n");
+  write_text_file((staging.path() / "routes.json").string(), all.dump(2) + "\n");
+  for (const std::string& name : names) move_into(staging.path() / name, folder / name);
+  // A route without a path now has no file: one left by an earlier run would contradict routes.json.
+  for (size_t i = 0; i < routes.size(); ++i) {
+    std::error_code ignored;
+    if (!planned.routes[i].solved) fs::remove(folder / (file_name_of(routes[i].id) + "." + ext), ignored);
+  }
+  move_into(staging.path() / "routes.json", folder / "routes.json");
 }
 
 }  // namespace

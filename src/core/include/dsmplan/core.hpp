@@ -167,6 +167,18 @@ void require_memory(const std::string& file, const std::string& place, double by
 /// whole). For programs such as the dsmplan binary; a library does not take a process's signals.
 void remove_partial_outputs_on_signals();
 
+/// While one lives, those handlers keep a signal instead of acting on it, and act when the last
+/// one ends (the outputs committed by then stay): a set of outputs that must be replaced together
+/// (plan --routes' folder) is replaced whole. Hold them only over work that ends by itself, in
+/// seconds; without those handlers installed it does nothing.
+class SignalsHeld {
+public:
+  SignalsHeld();
+  ~SignalsHeld();
+  SignalsHeld(const SignalsHeld&) = delete;
+  SignalsHeld& operator=(const SignalsHeld&) = delete;
+};
+
 /// A coordinate reference system as the data declared it. The core only carries it along;
 /// the I/O layer (GDAL/PROJ) resolves `definition` into the descriptive fields.
 using Point3 = std::array<double, 3>;  ///< x, y, z
