@@ -797,3 +797,74 @@ TEST(ColmapBinary, RealColmapModelGivesTheDsmOfTheExactCameras) {
   EXPECT_LE(std::abs(m.completeness - e.completeness), 0.02);
   EXPECT_LE(std::abs(m.median - e.median), 0.05);
 }
+
+// A model's mistakes named as what they are: a missing image as a missing image, a model without
+// its 2D points lines refused (not read as half its images), centres in degrees with a metric
+// CRS refused (not made a DSM of one cell).
+TEST(Colmap, ModelMistakesAreNamedAsWhatTheyAre) {
+  const Scene& s = scene();
+  testkit::TempDir dir;
+  const std::string model = dir.path("project/sparse"), centres = dir.path("centres.csv");
+  write_model(s.cameras, model, centres);
+  std::filesystem::create_directories(dir.path("project/images"));
+  for (int i = 0; i < 2; ++i)  // img_2.png missing
+    write_png(aerial::render(aerial::ColumnScene{s.truth, s.lo, s.hi}, s.cameras[i], 1 + i),
+              dir.path("project/images/img_" + std::to_string(i) + ".png"));
+  const std::string bounds =
+      number(s.truth.x0) + "," + number(s.truth.y1()) + "," + number(s.truth.x1()) + "," + number(s.truth.y0);
+  const auto stereo = [&](std::vector<std::string> more) {
+    std::vector<std::string> args{"stereo", "--colmap",          model,   "--centres", centres, "--crs", "EPSG:25832",
+                                  "-o",     dir.path("dsm.tif"), "--res", "1",         "-q"};
+    args.insert(args.end(), more.begin(), more.end());
+    return testkit::run_cli(args);
+  };
+  for (const auto& more : {std::vector<std::string>{}, std::vector<std::string>{"--bounds", bounds}}) {
+    const auto missing = stereo(more);
+    EXPECT_EQ(missing.exit_code, 1) << missing.err;
+    EXPECT_EQ(missing.err, "dsmplan: " + dir.path("project/images/img_2.png") + ": camera 2: missing (an image of " +
+                               model + "/images.txt)\n");
+    EXPECT_EQ(missing.err.find("height"), std::string::npos) << missing.err;
+    EXPECT_FALSE(std::filesystem::exists(dir.path("dsm.tif")));
+  }
+  write_png(aerial::render(aerial::ColumnScene{s.truth, s.lo, s.hi}, s.cameras[2], 3),
+            dir.path("project/images/img_2.png"));
+
+  // images.txt without its 2D points lines: the second image's line would be read as the first's
+  // points, and the model as half its images.
+  const std::string images_txt = testkit::read_file(model + "/images.txt");
+  {
+    std::string rebuilt;
+    std::istringstream in(images_txt);
+    for (std::string line; std::getline(in, line);)
+      if (line.rfind("#", 0) == 0 || std::count(line.begin(), line.end(), ' ') == 9) rebuilt += line + "\n";
+    testkit::write_file(model + "/images.txt", rebuilt);
+  }
+  try {
+    read_colmap_model(model);
+    ADD_FAILURE() << "a model without its 2D points lines was read";
+  } catch (const InputError& error) {
+    const std::string what = error.what();
+    EXPECT_NE(what.find(model + "/images.txt: line "), std::string::npos) << what;
+    EXPECT_NE(what.find("2D points"), std::string::npos) << what;
+  }
+  testkit::write_file(model + "/images.txt", images_txt);
+
+  // The centres as longitude and latitude, the CRS metric: refused, naming the centres file.
+  const auto lonlat = [&](const std::string& path) {
+    std::string csv = "image,x,y,z\n";
+    for (int i = 0; i < 3; ++i)
+      csv += "img_" + std::to_string(i) + ".png," + number(6.95 + 1e-5 * (s.cameras[i].center[0] - 356000)) + "," +
+             number(51.43 + 1e-5 * (s.cameras[i].center[1] - 5699000)) + "," + number(s.cameras[i].center[2]) + "\n";
+    testkit::write_file(path, csv);
+  };
+  lonlat(dir.path("lonlat.csv"));
+  const auto degrees = testkit::run_cli({"stereo", "--colmap", model, "--centres", dir.path("lonlat.csv"), "--crs",
+                                         "EPSG:25832", "-o", dir.path("dsm.tif"), "--res", "1", "-q"});
+  EXPECT_EQ(degrees.exit_code, 1) << degrees.err;
+  EXPECT_EQ(degrees.err.rfind("dsmplan: " + dir.path("lonlat.csv") + ": ", 0), 0u) << degrees.err;
+  EXPECT_NE(degrees.err.find("degrees"), std::string::npos) << degrees.err;
+  EXPECT_FALSE(std::filesystem::exists(dir.path("dsm.tif")));
+  // The true centres still make a DSM.
+  const auto made = stereo({"--bounds", bounds});
+  EXPECT_EQ(made.exit_code, 0) << made.err;
+}

@@ -992,7 +992,7 @@ TEST(StereoCli, BadInputOneLineNoOutput) {
   {
     nlohmann::json j = good;
     j["cameras"][1]["image"] = "missing.png";
-    cases.push_back({"missing image", j, {}, "missing.png: camera 1: image does not exist"});
+    cases.push_back({"missing image", j, {}, "missing.png: camera 1: missing (an image of "});
   }
   {
     nlohmann::json j = good;

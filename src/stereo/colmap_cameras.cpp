@@ -155,6 +155,23 @@ MatchedCentres triangulate_gcps(const std::string& path, const std::vector<Colma
   return out;
 }
 
+// Positions in longitude and latitude where the CRS is metric (a geographic --crs is refused by
+// the job): every one within +-180, +-90 and all within a metre of each other horizontally, which
+// no flight's centres or control points are. Fitted, they would make a DSM of a cell or two.
+void refuse_degrees(const std::string& path, const MatchedCentres& matched, const std::string& crs) {
+  double x0 = matched.crs[0][0], x1 = x0, y0 = matched.crs[0][1], y1 = y0;
+  for (const Vec3& p : matched.crs) {
+    if (!(std::abs(p[0]) <= 180 && std::abs(p[1]) <= 90)) return;
+    x0 = std::min(x0, p[0]), x1 = std::max(x1, p[0]), y0 = std::min(y0, p[1]), y1 = std::max(y1, p[1]);
+  }
+  if (std::hypot(x1 - x0, y1 - y0) >= 1) return;
+  throw InputError(path, "",
+                   "the " + std::string(matched.what) + " lie within " + short_number(std::hypot(x1 - x0, y1 - y0)) +
+                       " of each other in x and y and within +-180, +-90: longitude and latitude in degrees? "
+                       "give x, y in " +
+                       crs + "'s metres (e.g. with `cs2cs EPSG:4326 " + crs + "`), or --centres exif");
+}
+
 // The spread of the points across their best line, as a share of the spread along it.
 double across_line_share(const std::vector<Vec3>& points) {
   Eigen::Vector3d mean = Eigen::Vector3d::Zero();
@@ -452,6 +469,7 @@ ColmapCameras colmap_cameras(const ColmapOptions& options, const ExifCentres& ex
                              "NAME, or its file name)");
       out.georeference.centres = matched.crs.size();
     }
+    if (!from_exif) refuse_degrees(path, matched, options.crs);
     if (options.transform.empty()) {
       const double share = across_line_share(matched.model);
       if (!(share >= 0.01))

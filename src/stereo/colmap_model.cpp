@@ -195,8 +195,18 @@ std::vector<ColmapImage> read_colmap_model(const std::string& model_dir) {
       throw InputError(path, line.place(),
                        "image " + shown(image.name) + " (IMAGE_ID " + std::to_string(image.id) + ") given twice");
     images.push_back(std::move(image));
-    std::getline(in, text);  // its 2D points, skipped (COLMAP's reader takes this line whatever it holds)
-    ++number;
+    const int image_line = number;
+    // Its 2D points, not read: X Y POINT3D_ID triples, or an empty line. COLMAP's reader takes
+    // this line whatever it holds; a model written without these lines would be read as every
+    // other image, the next image's line (10 fields) taken for points, so the count is checked.
+    if (std::getline(in, text)) {
+      ++number;
+      if (const std::size_t fields = split_fields(text).size(); fields % 3 != 0)
+        throw InputError(path, "line " + std::to_string(number),
+                         "expected the 2D points of image " + shown(images.back().name) + " (line " +
+                             std::to_string(image_line) + "): X Y POINT3D_ID triples or an empty line, got " +
+                             std::to_string(fields) + " fields (images.txt has two lines per image)");
+    }
   }
   if (images.size() < 2)
     throw InputError(path, "", "holds " + std::to_string(images.size()) + " image(s); stereo needs at least two");

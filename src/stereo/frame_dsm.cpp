@@ -22,11 +22,15 @@ std::string pair_name(const FramePairStats& p) {
   return "cameras " + std::to_string(p.left) + " and " + std::to_string(p.right);
 }
 
+InputError missing_image(const CameraFile& file, int i) {
+  return InputError(file.images[i], camera_name(i), "missing (an image of " + file.path + ")");
+}
+
 // Camera i's image opened and checked (a raster, 8 or 16 bit, the camera's size), not read.
 std::unique_ptr<ImageReader> open_checked(const CameraFile& file, int i, const ImageOpener& open) {
   const std::string& path = file.images[i];
   const FrameCamera& camera = file.cameras[i];
-  if (!std::filesystem::exists(path)) throw InputError(path, camera_name(i), "image does not exist");
+  if (!std::filesystem::exists(path)) throw missing_image(file, i);
   std::unique_ptr<ImageReader> image = open(path, camera_name(i));
   const int w = image->width(), h = image->height();
   if (w != camera.width || h != camera.height)
@@ -84,8 +88,9 @@ void find_height_range(const CameraFile& file, const ImageOpener& open, StereoRe
     out.min_height = estimate.min_height;
     out.max_height = estimate.max_height;
   } catch (const InputError& error) {
-    std::string problem = error.what();  // "cameras: ..."
-    if (problem.rfind("cameras: ", 0) == 0) problem = problem.substr(9);
+    std::string problem = error.what();  // "cameras: ...", or an image's own error, passed on
+    if (problem.rfind("cameras: ", 0) != 0) throw;
+    problem = problem.substr(9);
     throw InputError(file.path, "height_range", "not given, and " + problem + "; give [lowest, highest]");
   }
   out.seconds_height_range = seconds_since(start) - reading;
@@ -214,6 +219,9 @@ StereoReport frame_dsm(const CameraFile& file, const Crs& crs, const ImageOpener
   out.camera_count = file.cameras.size();
   const int n = static_cast<int>(file.cameras.size());
   if (options.pairs != "auto") parse_pairs(options.pairs, n, "--pairs");  // a bad --pairs fails fast
+  // Every image there before any is read: a missing one is named, not met halfway.
+  for (int i = 0; i < static_cast<int>(file.images.size()); ++i)
+    if (!std::filesystem::exists(file.images[i])) throw missing_image(file, i);
   find_height_range(file, open, out);
   report(progress, 0.03 / 0.9);
   const auto chosen = choose_pairs(file, options.pairs, out.min_height);
