@@ -27,6 +27,7 @@
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <sstream>
+#include <tuple>
 #include <vector>
 
 #include "dsmplan/airspace_io.hpp"
@@ -1440,6 +1441,37 @@ TEST(Wgs84Transform, HorizontalAgreesWithGdalAndRoundTripsWithinAMillimetre) {
     EXPECT_LT(g[2] - p[2], 55);
     const Point3 back = t.from_wgs84(g);
     EXPECT_LT(std::hypot(back[0] - p[0], back[1] - p[1], back[2] - p[2]), 1e-3);
+  }
+}
+
+// The x, y-only transformation (zones' corners): GDAL's own 2D answer for a projected CRS and
+// for the same CRS with a vertical part, the heights passed through untouched, no vertical
+// reference needed.
+TEST(Wgs84Transform, HorizontalOnlyAgreesWithGdalAndLeavesHeights) {
+  for (const auto& [definition, epsg, point] : {std::tuple{"EPSG:25832", 25832, Point3{356800.25, 5699745.5, 160}},
+                                                std::tuple{"EPSG:25832+7837", 25832, Point3{356320, 5699270, 130}},
+                                                std::tuple{"EPSG:28992", 28992, Point3{84853.25, 446871.5, 12}}}) {
+    dsmplan::Crs crs;
+    crs.definition = definition;
+    dsmplan::resolve_crs(crs);
+    const Wgs84Transform t = Wgs84Transform::horizontal_only(crs);
+    OGRSpatialReference from, wgs;
+    from.importFromEPSG(epsg);
+    wgs.importFromEPSG(4326);
+    wgs.SetAxisMappingStrategy(OAMS_TRADITIONAL_GIS_ORDER);
+    from.SetAxisMappingStrategy(OAMS_TRADITIONAL_GIS_ORDER);
+    std::unique_ptr<OGRCoordinateTransformation> gdal(OGRCreateCoordinateTransformation(&from, &wgs));
+    ASSERT_TRUE(gdal);
+    double x = point[0], y = point[1];
+    ASSERT_TRUE(gdal->Transform(1, &x, &y));
+    const Point3 g = t.to_wgs84(point);
+    EXPECT_NEAR(g[0], x, 1e-8) << definition;
+    EXPECT_NEAR(g[1], y, 1e-8) << definition;
+    EXPECT_EQ(g[2], point[2]) << definition;
+    std::vector<Point3> back{g};
+    t.from_wgs84(back);
+    EXPECT_LT(std::hypot(back[0][0] - point[0], back[0][1] - point[1]), 1e-3) << definition;
+    EXPECT_EQ(back[0][2], point[2]) << definition;
   }
 }
 

@@ -229,11 +229,7 @@ private:
   }
 
   const Wgs84Transform& horizontal() {
-    if (!horizontal_) {
-      VerticalOptions any = vertical_;
-      any.allow_approximate_vertical = true;  // only x, y are used: exact whatever the heights
-      horizontal_.emplace(crs_, HeightReference::Ellipsoid, any);
-    }
+    if (!horizontal_) horizontal_.emplace(Wgs84Transform::horizontal_only(crs_));  // x, y only: no heights
     return *horizontal_;
   }
 

@@ -211,6 +211,38 @@ Wgs84Transform::Wgs84Transform(const Crs& crs, HeightReference target, const Ver
   if (!state_->operation) throw ArgumentError("crs", "PROJ cannot order the axes longitude first" + last_error(ctx));
 }
 
+Wgs84Transform Wgs84Transform::horizontal_only(const Crs& crs, const std::array<double, 4>& area) {
+  Wgs84Transform t;
+  t.state_ = std::make_shared<State>();
+  PJ_CONTEXT* ctx = t.state_->ctx.get();
+  proj_log_level(ctx, PJ_LOG_NONE);
+  const std::string text = !crs.wkt.empty() ? crs.wkt : crs.definition;
+  if (text.empty()) throw ArgumentError("crs", "the data has no coordinate reference system");
+  Pj source(proj_create(ctx, text.c_str()));
+  if (!source) throw ArgumentError("crs", "PROJ cannot read the data's CRS" + last_error(ctx));
+  if (proj_get_type(source.get()) == PJ_TYPE_COMPOUND_CRS) source.reset(proj_crs_get_sub_crs(ctx, source.get(), 0));
+  if (source) source.reset(proj_crs_demote_to_2D(ctx, nullptr, source.get()));
+  Pj destination(proj_create(ctx, "EPSG:4326"));
+  if (!source || !destination)
+    throw ArgumentError("crs", "PROJ cannot take the CRS's horizontal part" + last_error(ctx));
+  PJ_OPERATION_FACTORY_CONTEXT* factory = proj_create_operation_factory_context(ctx, nullptr);
+  proj_operation_factory_context_set_grid_availability_use(ctx, factory,
+                                                           PROJ_GRID_AVAILABILITY_DISCARD_OPERATION_IF_MISSING_GRID);
+  proj_operation_factory_context_set_spatial_criterion(ctx, factory, PROJ_SPATIAL_CRITERION_PARTIAL_INTERSECTION);
+  if (std::isfinite(area[0]))
+    proj_operation_factory_context_set_area_of_interest(ctx, factory, area[0], area[1], area[2], area[3]);
+  PJ_OBJ_LIST* list = proj_create_operations(ctx, source.get(), destination.get(), factory);
+  proj_operation_factory_context_destroy(factory);
+  Pj best(list && proj_list_get_count(list) > 0 ? proj_list_get(ctx, list, 0) : nullptr);  // sorted best first
+  if (list) proj_list_destroy(list);
+  if (!best) throw ArgumentError("crs", "PROJ has no transformation from the data's CRS to WGS 84" + last_error(ctx));
+  t.description_ = std::string(proj_get_name(best.get()) ? proj_get_name(best.get()) : "unnamed") +
+                   "; horizontal only (heights not transformed)";
+  t.state_->operation.reset(proj_normalize_for_visualization(ctx, best.get()));
+  if (!t.state_->operation) throw ArgumentError("crs", "PROJ cannot order the axes longitude first" + last_error(ctx));
+  return t;
+}
+
 Point3 Wgs84Transform::apply(const Point3& p, bool forward) const {
   PJ_COORD c = proj_coord(p[0], p[1], p[2], 0);
   const PJ_COORD out = proj_trans(state_->operation.get(), forward ? PJ_FWD : PJ_INV, c);
