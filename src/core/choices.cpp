@@ -8,6 +8,9 @@
 
 namespace dsmplan {
 
+namespace {
+
+// Levenshtein distance of two names.
 size_t edit_distance(const std::string& a, const std::string& b) {
   std::vector<size_t> row(b.size() + 1);
   for (size_t j = 0; j <= b.size(); ++j) row[j] = j;
@@ -22,6 +25,8 @@ size_t edit_distance(const std::string& a, const std::string& b) {
   }
   return row[b.size()];
 }
+
+}  // namespace
 
 std::string nearest_name(const std::string& typed, const std::vector<std::string>& names) {
   // A value that differs only in case is the likeliest typo of all ("prohibited").

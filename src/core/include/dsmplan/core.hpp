@@ -95,8 +95,6 @@ auto in_stage(const char* stage, Work&& work) -> decltype(work()) {
 /// Choices. An option whose value is one of a list (a planner, a format, a restriction) is
 /// checked by require_choice() on every face, so a typo is refused with the nearest name rather
 /// than read as another choice or as none.
-/// Levenshtein distance of two names.
-size_t edit_distance(const std::string& a, const std::string& b);
 /// The name among `names` nearest `typed` when near enough to be a typo: the same but for case,
 /// else at most a third of its letters (at least one) changed; empty otherwise.
 std::string nearest_name(const std::string& typed, const std::vector<std::string>& names);
