@@ -10,6 +10,7 @@
 #include <proj.h>
 #include <proj_experimental.h>
 
+#include <array>
 #include <cmath>
 #include <memory>
 #include <string>
@@ -43,6 +44,38 @@ const char* target_code(HeightReference target) {
   return "EPSG:4979";
 }
 
+// The data's CRS as PROJ reads it (its WKT, else its definition).
+Pj read_crs(PJ_CONTEXT* ctx, const Crs& crs) {
+  const std::string text = !crs.wkt.empty() ? crs.wkt : crs.definition;
+  if (text.empty()) throw ArgumentError("crs", "the data has no coordinate reference system");
+  Pj source(proj_create(ctx, text.c_str()));
+  if (!source) throw ArgumentError("crs", "PROJ cannot read the data's CRS" + last_error(ctx));
+  return source;
+}
+
+// The first of the operations PROJ lists from `from` to `to` (sorted best first) over `area`
+// (west, south, east, north; NaN = anywhere), grids used as `grids` says; null when none.
+Pj first_operation(PJ_CONTEXT* ctx, PJ* from, PJ* to, const std::array<double, 4>& area,
+                   PROJ_GRID_AVAILABILITY_USE grids) {
+  PJ_OPERATION_FACTORY_CONTEXT* factory = proj_create_operation_factory_context(ctx, nullptr);
+  proj_operation_factory_context_set_grid_availability_use(ctx, factory, grids);
+  proj_operation_factory_context_set_spatial_criterion(ctx, factory, PROJ_SPATIAL_CRITERION_PARTIAL_INTERSECTION);
+  if (std::isfinite(area[0]))
+    proj_operation_factory_context_set_area_of_interest(ctx, factory, area[0], area[1], area[2], area[3]);
+  PJ_OBJ_LIST* list = proj_create_operations(ctx, from, to, factory);
+  proj_operation_factory_context_destroy(factory);
+  Pj first(list && proj_list_get_count(list) > 0 ? proj_list_get(ctx, list, 0) : nullptr);
+  if (list) proj_list_destroy(list);
+  return first;
+}
+
+// The best operation whose grids are all installed; ArgumentError("crs") when there is none.
+Pj best_operation(PJ_CONTEXT* ctx, PJ* from, PJ* to, const std::array<double, 4>& area) {
+  Pj best = first_operation(ctx, from, to, area, PROJ_GRID_AVAILABILITY_DISCARD_OPERATION_IF_MISSING_GRID);
+  if (!best) throw ArgumentError("crs", "PROJ has no transformation from the data's CRS to WGS 84" + last_error(ctx));
+  return best;
+}
+
 }  // namespace
 
 struct Wgs84Transform::State {
@@ -58,10 +91,7 @@ Wgs84Transform::Wgs84Transform(const Crs& crs, HeightReference target, const Ver
     : state_(std::make_shared<State>()) {
   PJ_CONTEXT* ctx = state_->ctx.get();
   proj_log_level(ctx, PJ_LOG_NONE);
-  const std::string horizontal_text = !crs.wkt.empty() ? crs.wkt : crs.definition;
-  if (horizontal_text.empty()) throw ArgumentError("crs", "the data has no coordinate reference system");
-  Pj source(proj_create(ctx, horizontal_text.c_str()));
-  if (!source) throw ArgumentError("crs", "PROJ cannot read the data's CRS" + last_error(ctx));
+  Pj source = read_crs(ctx, crs);
   // Heights above the ellipsoid: a projected or geographic CRS with a third axis (ellipsoidal
   // height, as PROJ's promote_to_3D makes and GeoTIFF 1.1's VerticalGeoKey 4979 states).
   const auto three_axes = [&](PJ* crs) {
@@ -112,35 +142,12 @@ Wgs84Transform::Wgs84Transform(const Crs& crs, HeightReference target, const Ver
   Pj destination(proj_create(ctx, target_code(target)));
   if (!destination) throw ArgumentError("crs", "PROJ cannot build the WGS 84 target" + last_error(ctx));
 
-  const auto best_operation = [&](PJ* from) {
-    PJ_OPERATION_FACTORY_CONTEXT* factory = proj_create_operation_factory_context(ctx, nullptr);
-    proj_operation_factory_context_set_grid_availability_use(ctx, factory,
-                                                             PROJ_GRID_AVAILABILITY_DISCARD_OPERATION_IF_MISSING_GRID);
-    proj_operation_factory_context_set_spatial_criterion(ctx, factory, PROJ_SPATIAL_CRITERION_PARTIAL_INTERSECTION);
-    if (std::isfinite(area[0]))
-      proj_operation_factory_context_set_area_of_interest(ctx, factory, area[0], area[1], area[2], area[3]);
-    PJ_OBJ_LIST* list = proj_create_operations(ctx, from, destination.get(), factory);
-    proj_operation_factory_context_destroy(factory);
-    const int count = list ? proj_list_get_count(list) : 0;
-    Pj best(count > 0 ? proj_list_get(ctx, list, 0) : nullptr);  // sorted best first
-    if (list) proj_list_destroy(list);
-    if (!best) throw ArgumentError("crs", "PROJ has no transformation from the data's CRS to WGS 84" + last_error(ctx));
-    return best;
-  };
   // The grids the best operation would use were every grid installed, those PROJ lacks: what
   // to install instead of a ballpark (e.g. "nl_nsgi_nlgeo2018.tif" for NAP, us_nga_egm08_25.tif
   // for EGM2008).
   const auto missing_grids = [&](PJ* from) {
-    PJ_OPERATION_FACTORY_CONTEXT* factory = proj_create_operation_factory_context(ctx, nullptr);
-    proj_operation_factory_context_set_grid_availability_use(ctx, factory, PROJ_GRID_AVAILABILITY_IGNORED);
-    proj_operation_factory_context_set_spatial_criterion(ctx, factory, PROJ_SPATIAL_CRITERION_PARTIAL_INTERSECTION);
-    if (std::isfinite(area[0]))
-      proj_operation_factory_context_set_area_of_interest(ctx, factory, area[0], area[1], area[2], area[3]);
-    PJ_OBJ_LIST* list = proj_create_operations(ctx, from, destination.get(), factory);
-    proj_operation_factory_context_destroy(factory);
     std::string names;
-    Pj ideal(list && proj_list_get_count(list) > 0 ? proj_list_get(ctx, list, 0) : nullptr);
-    if (list) proj_list_destroy(list);
+    const Pj ideal = first_operation(ctx, from, destination.get(), area, PROJ_GRID_AVAILABILITY_IGNORED);
     const int grids = ideal ? proj_coordoperation_get_grid_used_count(ctx, ideal.get()) : 0;
     for (int i = 0; i < grids; ++i) {
       const char *short_name = nullptr, *url = nullptr;
@@ -155,7 +162,7 @@ Wgs84Transform::Wgs84Transform(const Crs& crs, HeightReference target, const Ver
   };
   Pj best;
   if (why_egm96.empty()) {
-    best = best_operation(source.get());
+    best = best_operation(ctx, source.get(), destination.get(), area);
     if (proj_coordoperation_has_ballpark_transformation(ctx, best.get())) {
       const std::string name = proj_get_name(best.get()) ? proj_get_name(best.get()) : "unnamed";
       const std::string grids = missing_grids(source.get());
@@ -181,7 +188,7 @@ Wgs84Transform::Wgs84Transform(const Crs& crs, HeightReference target, const Ver
       throw ArgumentError("crs", "PROJ cannot build the EGM96 height reference" + last_error(ctx));
     source.reset(proj_create_compound_crs(ctx, "data as EGM96", horizontal.get(), egm96.get()));
     if (!source) throw ArgumentError("crs", "PROJ cannot combine the data's CRS with EGM96" + last_error(ctx));
-    best = best_operation(source.get());
+    best = best_operation(ctx, source.get(), destination.get(), area);
     if (proj_coordoperation_has_ballpark_transformation(ctx, best.get()))
       throw ArgumentError("allow_approximate_vertical",
                           "PROJ has no EGM96 grid (egm96_15.gtx, Debian's proj-data) to take the heights through");
@@ -216,26 +223,13 @@ Wgs84Transform Wgs84Transform::horizontal_only(const Crs& crs, const std::array<
   t.state_ = std::make_shared<State>();
   PJ_CONTEXT* ctx = t.state_->ctx.get();
   proj_log_level(ctx, PJ_LOG_NONE);
-  const std::string text = !crs.wkt.empty() ? crs.wkt : crs.definition;
-  if (text.empty()) throw ArgumentError("crs", "the data has no coordinate reference system");
-  Pj source(proj_create(ctx, text.c_str()));
-  if (!source) throw ArgumentError("crs", "PROJ cannot read the data's CRS" + last_error(ctx));
+  Pj source = read_crs(ctx, crs);
   if (proj_get_type(source.get()) == PJ_TYPE_COMPOUND_CRS) source.reset(proj_crs_get_sub_crs(ctx, source.get(), 0));
   if (source) source.reset(proj_crs_demote_to_2D(ctx, nullptr, source.get()));
   Pj destination(proj_create(ctx, "EPSG:4326"));
   if (!source || !destination)
     throw ArgumentError("crs", "PROJ cannot take the CRS's horizontal part" + last_error(ctx));
-  PJ_OPERATION_FACTORY_CONTEXT* factory = proj_create_operation_factory_context(ctx, nullptr);
-  proj_operation_factory_context_set_grid_availability_use(ctx, factory,
-                                                           PROJ_GRID_AVAILABILITY_DISCARD_OPERATION_IF_MISSING_GRID);
-  proj_operation_factory_context_set_spatial_criterion(ctx, factory, PROJ_SPATIAL_CRITERION_PARTIAL_INTERSECTION);
-  if (std::isfinite(area[0]))
-    proj_operation_factory_context_set_area_of_interest(ctx, factory, area[0], area[1], area[2], area[3]);
-  PJ_OBJ_LIST* list = proj_create_operations(ctx, source.get(), destination.get(), factory);
-  proj_operation_factory_context_destroy(factory);
-  Pj best(list && proj_list_get_count(list) > 0 ? proj_list_get(ctx, list, 0) : nullptr);  // sorted best first
-  if (list) proj_list_destroy(list);
-  if (!best) throw ArgumentError("crs", "PROJ has no transformation from the data's CRS to WGS 84" + last_error(ctx));
+  const Pj best = best_operation(ctx, source.get(), destination.get(), area);
   t.description_ = std::string(proj_get_name(best.get()) ? proj_get_name(best.get()) : "unnamed") +
                    "; horizontal only (heights not transformed)";
   t.state_->operation.reset(proj_normalize_for_visualization(ctx, best.get()));
