@@ -35,7 +35,7 @@ struct Request {
   PlanJobOptions options;
   std::vector<std::string> outputs;  // -o, repeated: the first is options.output
   std::string stats;
-  std::string planner = "prm";
+  std::string planner = "prm", objective = "low";
   int64_t seed = 1;  // signed: CLI11 would wrap -3 round to 2^64 - 3 as an unsigned
   bool json = false;
   std::string home, end, altitude_frame = "relative", firmware = "generic";
@@ -59,6 +59,7 @@ void run(Request& request, Session& session) {
   plan.output = request.outputs.front();
   plan.more_outputs.assign(request.outputs.begin() + 1, request.outputs.end());
   plan.plan.planner = parse_planner(request.planner);
+  plan.plan.objective = parse_objective(request.objective);
   if (request.seed < 0) throw ArgumentError("--seed", "must be >= 0, got " + std::to_string(request.seed));
   plan.plan.seed = static_cast<uint64_t>(request.seed);
   plan.mission.home = parse_home(request.home);
@@ -150,7 +151,13 @@ Command plan_command(CLI::App& app, Session& session) {
   command->add_option("--threads", plan.plan.threads, "Threads (0: every core)")->capture_default_str();
   // Checked in run(), not by CLI::IsMember: CLI11 adds a second line ("Run with --help") to its errors.
   command
-      ->add_option("--planner", request->planner, "prm (Halton roadmap, A*) or rrtconnect (RRT-Connect, single query)")
+      ->add_option("--planner", request->planner,
+                   "prm (Halton roadmap, A*), rrtconnect (RRT-Connect, single query) or freespace (a search over the "
+                   "free airspace's cells: low paths, and a proof when none exists)")
+      ->capture_default_str();
+  command
+      ->add_option("--objective", request->objective,
+                   "freespace: low (climb only where it pays) or shortest (over low roofs where shorter)")
       ->capture_default_str();
   command->add_option("--seed", request->seed, "Random seed of rrtconnect (>= 0): the same seed, the same path")
       ->capture_default_str();

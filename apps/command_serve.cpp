@@ -13,7 +13,7 @@ namespace {
 
 struct Request {
   ServeOptions options;
-  std::string planner = "prm";
+  std::string planner = "prm", objective = "low";
 };
 
 bool loopback(const std::string& host) { return host == "127.0.0.1" || host == "localhost" || host == "::1"; }
@@ -21,6 +21,7 @@ bool loopback(const std::string& host) { return host == "127.0.0.1" || host == "
 void run(Request& request, bool quiet) {
   ServeOptions& options = request.options;
   options.plan.planner = parse_planner(request.planner);
+  options.plan.objective = parse_objective(request.objective);
   block_stopping_signals();  // before the index's and roadmap's threads start: serve_plans() takes them
   const PlanService service(options, terminal_progress(quiet));
   serve_plans(service, [&options](const std::string& url) {
@@ -82,7 +83,10 @@ Command serve_command(CLI::App& app, Session& session) {
   command->add_option("--max-edge", serve.plan.max_edge, "Longest roadmap edge (m)")->capture_default_str();
   command->add_option("--refine-rounds", serve.plan.refine_rounds, "Refinement rounds where the roadmap fails a leg")
       ->capture_default_str();
-  command->add_option("--planner", request->planner, "The default planner: prm or rrtconnect")->capture_default_str();
+  command->add_option("--planner", request->planner, "The default planner: prm, rrtconnect or freespace")
+      ->capture_default_str();
+  command->add_option("--objective", request->objective, "The default objective of freespace: low or shortest")
+      ->capture_default_str();
   command->add_option("--vertical-crs", serve.vertical.vertical_crs,
                       "Vertical CRS of the mesh's heights when the file does not say (e.g. EPSG:7837)");
   command->add_flag("--allow-approximate-vertical", serve.vertical.allow_approximate_vertical,

@@ -86,6 +86,7 @@ std::string flag_message(const ArgumentError& error) {
   static const std::map<std::string, std::string> flags = {
       {"dz", "--dz"},
       {"planner", "--planner"},
+      {"objective", "--objective"},
       {"end", "--end"},
       {"firmware", "--firmware"},
       {"altitude_frame", "--altitude-frame"},

@@ -127,6 +127,7 @@ def plan(
     allow_approximate_vertical: bool = False,
     snap: float = 0.0,
     waypoint_heights: str = "crs",
+    objective: str = "low",
 ) -> Flight:
     """A collision-free path through the waypoints with every check of `dsmplan plan`."""
 
@@ -146,6 +147,7 @@ def plan_routes(
     allow_approximate_vertical: bool = False,
     snap: float = 0.0,
     waypoint_heights: str = "crs",
+    objective: str = "low",
 ) -> list[Flight | InputError]:
     """Many routes over one roadmap, as `dsmplan plan --routes`: a Flight a route, or the
     InputError plan() would raise for it (returned, not raised: one route stops no other)."""

@@ -201,11 +201,12 @@ void share_data(FlightData& data, const std::shared_ptr<PyMesh>& mesh, const std
   if (dtm) data.dtm = std::shared_ptr<const Grid>(dtm, &dtm->grid);
 }
 void set_limits(FlightQuery& query, double safety, double max_agl, double spacing, const std::string& planner,
-                double snap, const std::string& waypoint_heights) {
+                double snap, const std::string& waypoint_heights, const std::string& objective) {
   query.options.safety = safety;
   query.options.max_agl = max_agl;
   query.options.spacing = spacing;
   query.options.planner = parse_planner(planner);
+  query.options.objective = parse_objective(objective);
   query.snap = snap;
   query.heights = parse_waypoint_heights(waypoint_heights);
 }
@@ -231,11 +232,11 @@ std::shared_ptr<PyFlight> plan(const std::shared_ptr<PyMesh>& mesh,
                                std::optional<std::array<double, 2>> home, std::optional<std::string> end,
                                const std::string& vertical_crs, const std::vector<std::string>& no_fly,
                                std::optional<std::vector<std::string>> no_fly_blocking, bool allow_approximate_vertical,
-                               double snap, const std::string& waypoint_heights) {
+                               double snap, const std::string& waypoint_heights, const std::string& objective) {
   FlightRequest request;
   request.waypoints = points_of(waypoints);
   request.names = {"mesh", "waypoints", "dsm", "dtm"};
-  set_limits(request, safety, max_agl, spacing, planner, snap, waypoint_heights);
+  set_limits(request, safety, max_agl, spacing, planner, snap, waypoint_heights, objective);
   share_data(request, mesh, dsm, dtm);
   if (!mission && (home || end)) throw ArgumentError("home", "home and end belong to a mission (mission=True)");
   const auto stop = std::make_shared<StopToken>();
@@ -269,12 +270,12 @@ py::list plan_routes_of(const std::shared_ptr<PyMesh>& mesh,
                         double max_agl, double spacing, const std::string& planner,
                         const std::vector<std::string>& no_fly, std::optional<std::vector<std::string>> no_fly_blocking,
                         const std::string& vertical_crs, bool allow_approximate_vertical, double snap,
-                        const std::string& waypoint_heights) {
+                        const std::string& waypoint_heights, const std::string& objective) {
   FlightData data;
   data.names = {"mesh", "routes", "dsm", "dtm"};
   share_data(data, mesh, dsm, dtm);
   FlightQuery common;
-  set_limits(common, safety, max_agl, spacing, planner, snap, waypoint_heights);
+  set_limits(common, safety, max_agl, spacing, planner, snap, waypoint_heights, objective);
   std::vector<std::vector<Point3>> points;
   for (const auto& route : routes) points.push_back(points_of(route));
   std::shared_ptr<const Grid> terrain = data.dtm;
@@ -852,7 +853,7 @@ PYBIND11_MODULE(dsmplan, m) {
         py::arg("planner") = "prm", py::arg("mission") = false, py::arg("home") = py::none(),
         py::arg("end") = py::none(), py::arg("vertical_crs") = "", py::arg("no_fly") = std::vector<std::string>{},
         py::arg("no_fly_blocking") = py::none(), py::arg("allow_approximate_vertical") = false, py::arg("snap") = 0.0,
-        py::arg("waypoint_heights") = "crs",
+        py::arg("waypoint_heights") = "crs", py::arg("objective") = "low",
         "A collision-free path through the waypoints by the plan stage's plan_flight(), with every check of "
         "`dsmplan plan`; returns a Flight. Raises InputError when there is no path, naming the waypoint.\n\n"
         "mesh: the obstacle Mesh (simplify(..., conservative=True)), in metres.\n"
@@ -863,7 +864,8 @@ PYBIND11_MODULE(dsmplan, m) {
         "safety: the least distance from the mesh (and the DSM's columns), metres.\n"
         "max_agl: the ceiling above the ground (the DTM, else the DSM, else the mesh's floor), metres.\n"
         "spacing: the roadmap's sample spacing, metres.\n"
-        "planner: \"prm\" or \"rrtconnect\".\n"
+        "planner: \"prm\", \"rrtconnect\" or \"freespace\" (the free airspace's cells: low paths, a proof "
+        "when none exists).\n"
         "mission: plan a mission: a takeoff from `home` and the `end`, written as .plan, .waypoints, .kmz.\n"
         "home: missions: x, y in the CRS or lon, lat in degrees (default: under the first waypoint).\n"
         "end: missions: \"rtl\", \"land\" or \"none\".\n"
@@ -877,12 +879,15 @@ PYBIND11_MODULE(dsmplan, m) {
         "snap: metres (0: off, at most 50): a refused waypoint moved to the nearest valid point within it, "
         "straight up first; each move in Flight.report[\"snapped\"].\n"
         "waypoint_heights: \"crs\" (z in the mesh's CRS) or \"agl\" (z above the ground: the DTM, else the "
-        "DSM, else the mesh's floor).");
+        "DSM, else the mesh's floor).\n"
+        "objective: freespace only: \"low\" (climb only where it pays) or \"shortest\" (over low roofs where "
+        "shorter).");
   m.def("plan_routes", &plan_routes_of, py::arg("mesh").none(false), py::arg("routes").none(false), py::kw_only(),
         py::arg("dsm") = nullptr, py::arg("dtm") = nullptr, py::arg("safety") = 2.0, py::arg("max_agl") = 120.0,
         py::arg("spacing") = 20.0, py::arg("planner") = "prm", py::arg("no_fly") = std::vector<std::string>{},
         py::arg("no_fly_blocking") = py::none(), py::arg("vertical_crs") = "",
         py::arg("allow_approximate_vertical") = false, py::arg("snap") = 0.0, py::arg("waypoint_heights") = "crs",
+        py::arg("objective") = "low",
         "Many routes over one roadmap, as `dsmplan plan --routes` (the same library function, plan_routes()): the "
         "roadmap built once, every route a query against it, in parallel, each held to every rule of plan() and "
         "verified. Returns a list in the routes' order: a Flight for a route with a path, else the InputError "
@@ -894,13 +899,15 @@ PYBIND11_MODULE(dsmplan, m) {
         "safety: the least distance from the mesh (and the DSM's columns), metres.\n"
         "max_agl: the ceiling above the ground, metres.\n"
         "spacing: the roadmap's sample spacing, metres.\n"
-        "planner: \"prm\" (one roadmap for all) or \"rrtconnect\" (trees per route).\n"
+        "planner: \"prm\" (one roadmap for all), \"rrtconnect\" (trees per route) or \"freespace\" (one "
+        "free airspace for all).\n"
         "no_fly: files of no-fly zones (ED-269 JSON or GeoJSON), as plan().\n"
         "no_fly_blocking: the restrictions that block (default PROHIBITED and REQ_AUTHORISATION).\n"
         "vertical_crs: the heights' vertical CRS for the zones' AMSL and WGS 84 limits, as plan().\n"
         "allow_approximate_vertical: take heights of an unknown or grid-less vertical datum as EGM96.\n"
         "snap: metres (0: off): a refused waypoint moved to the nearest valid point within it, as plan().\n"
-        "waypoint_heights: \"crs\" or \"agl\" (z above the ground), as plan().");
+        "waypoint_heights: \"crs\" or \"agl\" (z above the ground), as plan().\n"
+        "objective: freespace only: \"low\" or \"shortest\", as plan().");
   m.def("render", &render, py::arg("dsm").none(false), py::arg("output"), py::kw_only(), py::arg("meshes") = py::none(),
         py::arg("titles") = py::none(), py::arg("paths") = py::none(), py::arg("waypoints") = py::none(),
         py::arg("roadmap") = py::none(), py::arg("window") = py::none(), py::arg("zoom") = 4.0, py::arg("edges") = true,

@@ -1732,7 +1732,9 @@ TEST(CliBadInput, PlanUnknownPlannerOrNegativeSeed) {
     args.insert(args.end(), extra.begin(), extra.end());
     return run_cli(args);
   };
-  expect_clean_failure(plan({"--planner", "bogus"}), out, "--planner", {"prm or rrtconnect"});
+  expect_clean_failure(plan({"--planner", "bogus"}), out, "--planner", {"rrtconnect or freespace"});
+  expect_clean_failure(plan({"--planner", "freespace", "--objective", "lowest"}), out, "--objective",
+                       {"low or shortest"});
   expect_clean_failure(plan({"--planner", "rrtconnect", "--seed", "-1"}), out, "--seed", {">= 0"});
 }
 
@@ -1881,6 +1883,50 @@ struct MissionFixture : PlanFixture {
     return {NAN, NAN};
   }
 };
+
+// The planner on the free airspace (issue 48), as a user runs it: held to the DSM's columns (not
+// the mesh with the safety widened), measured here on the written path against the DSM itself;
+// low (no higher above the ground than the PRM's path); and a leg between enclosed regions
+// refused with both regions named, nothing written.
+TEST(CliPlan, FreespaceKeepsTheColumnsFliesLowAndProvesARefusal) {
+  MissionFixture f;
+  TempDir out;
+  const dsmplan::Grid dsm = dsmplan::read_raster(testkit::data_path(kSample));
+  const dsmplan::GroundGrid ground(dsm);
+  double highest[2] = {0, 0};
+  for (const std::string planner : {"freespace", "prm"}) {
+    const std::string path = out.path(planner + ".csv");
+    const auto planned = f.plan(path, {"--planner", planner, "--stats", path + ".json"});
+    ASSERT_EQ(planned.exit_code, 0) << planned.err;
+    const auto points = read_path_csv(path);
+    ASSERT_GE(points.size(), 4u);
+    double& high = highest[planner == std::string("prm")];
+    for (size_t k = 1; k < points.size(); ++k) {
+      const dsmplan::Point3 p{points[k - 1][0], points[k - 1][1], points[k - 1][2]};
+      const dsmplan::Point3 q{points[k][0], points[k][1], points[k][2]};
+      EXPECT_GE(dsmplan::column_clearance(dsm, p, q, 3), 2 - 0.01) << planner << " segment " << k;
+      high = std::max(high, ground.max_height_above(p, q));
+    }
+    EXPECT_LE(high, 30 + 0.01);
+    const auto stats = nlohmann::json::parse(testkit::read_file(path + ".json"));
+    EXPECT_EQ(stats["planner"], planner);
+  }
+  EXPECT_LT(highest[0], highest[1]) << "freespace flies lower than the PRM";
+  testkit::write_file(out.path("apart.csv"), "x,y,z\n356681.5,5699302.5,127.44\n356570.5,5699579.5,127.15\n");
+  const std::vector<std::string> refused{"plan",        f.bounded,
+                                         "--waypoints", out.path("apart.csv"),
+                                         "-o",          out.path("apart_path.csv"),
+                                         "--dsm",       testkit::data_path(kSample),
+                                         "--max-agl",   "10",
+                                         "--planner",   "freespace",
+                                         "-q"};
+  const auto result = run_cli(refused);
+  EXPECT_EQ(result.exit_code, 1);
+  EXPECT_NE(result.err.find("lies in a region of"), std::string::npos) << result.err;
+  EXPECT_NE(result.err.find("no path exists at the DSM's resolution"), std::string::npos) << result.err;
+  EXPECT_EQ(std::count(result.err.begin(), result.err.end(), '\n'), 1) << result.err;
+  EXPECT_FALSE(std::filesystem::exists(out.path("apart_path.csv")));
+}
 
 // One definition of each measure (issue 32): the height above the ground `plan` verifies and
 // reports is the one `profile` reports for the same path, to the last bit: over the DSM, over a

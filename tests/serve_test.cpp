@@ -277,8 +277,9 @@ TEST(Serve, RefusesBadRequestsWithTheStatusAndOneLine) {
          "format: must be csv, geojson, plan, waypoints, kmz or kml, got 'shp'");
   expect("{\"waypoints\":" + wp + ",\"format\":\"geojsn\"}", 400, "(did you mean geojson?)");
   expect("{\"waypoints\":" + wp + ",\"mission\":{\"end\":\"land\"}}", 400, "mission.end: applies to missions");
-  expect("{\"waypoints\":" + wp + ",\"planner\":\"astar\"}", 400, "planner: must be prm or rrtconnect");
+  expect("{\"waypoints\":" + wp + ",\"planner\":\"astar\"}", 400, "planner: must be prm, rrtconnect or freespace");
   expect("{\"waypoints\":" + wp + ",\"planner\":\"rrtconect\"}", 400, "(did you mean rrtconnect?)");
+  expect("{\"waypoints\":" + wp + ",\"objective\":\"lowest\"}", 400, "objective: must be low or shortest");
   expect("{\"waypoints\":" + wp + ",\"mission\":{\"firmware\":\"PX4\"},\"format\":\"plan\"}", 400,
          "mission.firmware: must be px4, ardupilot or generic, got 'PX4' (did you mean px4?)");
   expect("{\"waypoints\":{\"type\":\"Point\"}}", 400, "waypoints");

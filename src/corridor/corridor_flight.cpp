@@ -86,7 +86,7 @@ FlightPlan plan_flight_along(GridSource& city, const CorridorRequest& request, c
     require_beside(*request.dtm, names.dtm, "DTM", frame.crs, frame.x0, frame.y1(), frame.x1(), frame.y0);
     along.terrain = std::make_shared<GroundGrid>(*request.dtm);
   }
-  report.planner = request.options.planner == PlannerKind::prm ? "prm" : "rrtconnect";
+  report.planner = planner_name(request.options.planner);
   report.waypoint_count = request.waypoints.size();
   report.ground = along.terrain ? "dtm" : "dsm";
   const GroundGrid* terrain = along.terrain.get();

@@ -12,6 +12,7 @@
 #include "core/text.hpp"
 #include "dsmplan/columns.hpp"
 #include "dsmplan/flight.hpp"
+#include "dsmplan/free_airspace.hpp"
 #include "plan/nearest_spot.hpp"
 #include "plan/path_parts.hpp"
 
@@ -236,6 +237,9 @@ struct WaypointRules {
     std::vector<PlanResult::Invalid> found = refused_before_planning(area, one, options);
     if (found.empty()) found = inside_zones(one, area.data(), &area.ground(), options.stop.get());
     if (!found.empty()) return found.front().reason;
+    // The free-airspace planner holds a waypoint to the DSM's columns themselves (checked above),
+    // not to the mesh with the safety widened.
+    if (options.planner == PlannerKind::free_space && area.columns()) return {};
     PlanResult result;
     return detail::invalid_waypoints(one, space, result) ? result.reason : std::string();
   }
@@ -440,6 +444,9 @@ struct FlightArea::Lazy {
   // so that every query at that distance holds the same constraints (and shares a roadmap).
   std::mutex zones_mutex;
   std::map<double, std::vector<std::shared_ptr<const FlightConstraint>>> zones_at;
+  // The free airspace (free_airspace.hpp) per safety distance and ceiling asked, as the zones.
+  std::mutex air_mutex;
+  std::map<std::pair<double, double>, std::shared_ptr<const FreeAirspace>> air_at;
   // O(mesh), once: after the index is built (it makes `obstacles`).
   uint64_t obstacles_key() {
     std::call_once(keyed, [&] { key = mesh_fingerprint(*obstacles); });
@@ -536,6 +543,43 @@ std::vector<std::shared_ptr<const FlightConstraint>> FlightArea::zone_constraint
   return lazy_->zones_at.emplace(safety, std::move(made)).first->second;  // the first made, if two raced
 }
 
+const char* planner_name(PlannerKind kind) {
+  switch (kind) {
+    case PlannerKind::prm:
+      return "prm";
+    case PlannerKind::rrt_connect:
+      return "rrtconnect";
+    case PlannerKind::free_space:
+      return "freespace";
+  }
+  return "?";
+}
+
+const char* objective_name(Objective objective) { return objective == Objective::low ? "low" : "shortest"; }
+
+std::shared_ptr<const FreeAirspace> FlightArea::free_airspace(double safety, double max_agl,
+                                                              const StopToken* stop) const {
+  constexpr size_t kKept = 4;  // a 1 km tile's airspace is 13 MB
+  const std::pair<double, double> key{safety, max_agl};
+  {
+    const std::lock_guard<std::mutex> lock(lazy_->air_mutex);
+    if (const auto found = lazy_->air_at.find(key); found != lazy_->air_at.end()) return found->second;
+  }
+  // Over a mesh alone, the columns that enclose it on its floor's cells.
+  std::optional<Grid> enclosing;
+  if (!columns()) {
+    if (data_.mesh->triangles.empty() && index().triangles() > 0)
+      throw ArgumentError("--planner",
+                          "freespace over a mesh alone needs its triangles, not only a kept index; "
+                          "give --dsm, or plan without the kept index");
+    enclosing = mesh_columns(*data_.mesh, index().floor().grid());
+  }
+  auto made = dsmplan::free_airspace(columns() ? *columns() : *enclosing, ground(), safety, max_agl, stop);
+  const std::lock_guard<std::mutex> lock(lazy_->air_mutex);
+  if (lazy_->air_at.size() >= kKept) return made;
+  return lazy_->air_at.emplace(key, std::move(made)).first->second;  // the first made, if two raced
+}
+
 PlanOptions FlightArea::planner_options(const PlanOptions& options) const {
   PlanOptions plan = options;
   plan.ground = terrain_ ? terrain_ : dsm_ground_;
@@ -583,7 +627,7 @@ FlightAttempt attempt_flight(const FlightArea& area, const FlightQuery& query, c
   FlightAttempt attempt;
   FlightPlan& out = attempt.plan;
   FlightReport& report = out.report;
-  report.planner = query.options.planner == PlannerKind::prm ? "prm" : "rrtconnect";
+  report.planner = planner_name(query.options.planner);
   report.waypoint_count = query.waypoints.size();
   report.ground = area.ground_name();
   report.safety_margin_m = data.dsm ? area.safety_margin() : NAN;
@@ -664,8 +708,20 @@ FlightAttempt attempt_flight(const FlightArea& area, const FlightQuery& query, c
 
   const FlightStore& store = query.store;
   const uint64_t roadmap_key = store.kept_roadmap ? area.roadmap_key() : 0;
-  PlanResult result = in_stage(
-      "planning", [&] { return run_planner(index, route, plan, store, roadmap_key, report, clock, progress); });
+  PlanResult result = in_stage("planning", [&] {
+    if (plan.planner != PlannerKind::free_space)
+      return run_planner(index, route, plan, store, roadmap_key, report, clock, progress);
+    const FreeAirspaceRules air_rules{[&rules](const Point3& p, const Point3& q) { return rules.keeps(p, q); },
+                                      rules.constraints, plan.stop.get(),
+                                      plan.objective == Objective::low ? 1.0 : 0.25};
+    const auto air = area.free_airspace(safety, plan.max_agl, plan.stop.get());
+    report.seconds_roadmap = clock.lap();
+    PlanResult planned = plan_free_airspace(*air, route, air_rules);
+    planned.seconds_roadmap = report.seconds_roadmap;
+    planned.roadmap_nodes = air->open_cells();  // the free airspace's cells are its nodes
+    planned.roadmap_edges = 0;
+    return planned;
+  });
   take_planner_figures(result, report);
   if (result.status == PlanStatus::InvalidWaypoint && !result.invalid.empty()) {  // the planner's check: where instead
     result.invalid = in_stage(kNamingNearest, [&] { return naming_nearest(std::move(result.invalid), route, checks); });

@@ -663,6 +663,10 @@ PlanResult query_roadmap(const Roadmap& map, const ClearanceIndex& index, const 
 PlanResult plan_path(const ClearanceIndex& index, const std::vector<Point3>& waypoints, const PlanOptions& options,
                      const Progress& progress) {
   if (options.planner == PlannerKind::rrt_connect) return plan_rrt_connect(index, waypoints, options, progress);
+  if (options.planner == PlannerKind::free_space)
+    throw ArgumentError("--planner",
+                        "freespace plans over the data through plan_flight(); plan_path() runs prm or "
+                        "rrtconnect");
   check_plan_options(options);
   detail::check_waypoint_list(waypoints);
   if (PlanResult invalid; detail::invalid_waypoints(waypoints, detail::flight_space(index, options), invalid))

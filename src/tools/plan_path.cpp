@@ -364,7 +364,8 @@ PlanReport plan_job(const PlanJobOptions& options, const Progress& progress) {
   for (const auto& [output, kind] : outputs.files)
     check_writable(output);  // a missing folder is known now, not after the planning
   if (!options.roadmap.empty() && options.plan.planner != PlannerKind::prm)
-    throw ArgumentError("--roadmap", "only the prm planner keeps a roadmap; rrtconnect grows its trees per query");
+    throw ArgumentError("--roadmap", std::string("only the prm planner keeps a roadmap; ") +
+                                         planner_name(options.plan.planner) + " keeps none");
   // A DSM (raster, VRT mosaic) instead of a mesh: planned along a corridor, window by window.
   const bool corridor = !is_mesh_file(options.mesh);
   if (corridor && !options.index.empty())
@@ -419,9 +420,14 @@ T parse_choice(const char* field, const std::string& value, const std::vector<st
 
 }  // namespace
 
+Objective parse_objective(const std::string& name) {
+  return parse_choice<Objective>("objective", name, {{"low", Objective::low}, {"shortest", Objective::shortest}});
+}
+
 PlannerKind parse_planner(const std::string& name) {
-  return parse_choice<PlannerKind>("planner", name,
-                                   {{"prm", PlannerKind::prm}, {"rrtconnect", PlannerKind::rrt_connect}});
+  return parse_choice<PlannerKind>(
+      "planner", name,
+      {{"prm", PlannerKind::prm}, {"rrtconnect", PlannerKind::rrt_connect}, {"freespace", PlannerKind::free_space}});
 }
 
 MissionEnd parse_mission_end(const std::string& name) {
@@ -548,8 +554,11 @@ std::string to_text(const PlanReport& r) {
              std::to_string(r.min_clearance_dsm_m).substr(0, std::to_string(r.min_clearance_dsm_m).find('.') + 3) +
              " m to the DSM's columns")
                 .c_str(),
-      r.planner == "prm" ? "roadmap" : "trees", r.roadmap_nodes, r.roadmap_edges, r.seconds_roadmap,
-      r.roadmap_reused ? ", reused" : "", r.seconds_query, r.seconds_smooth);
+      r.planner == "prm"         ? "roadmap"
+      : r.planner == "freespace" ? "free airspace: open cells as"
+                                 : "trees",
+      r.roadmap_nodes, r.roadmap_edges, r.seconds_roadmap, r.roadmap_reused ? ", reused" : "", r.seconds_query,
+      r.seconds_smooth);
   std::string text = buffer;
   if (std::isfinite(r.max_agl_m)) {
     char ceiling[160];

@@ -56,7 +56,8 @@ void check_routes_options(const PlanJobOptions& options) {
     throw ArgumentError("-o", "--routes writes a .geojson FeatureCollection or a folder (a name ending in '/'), got '" +
                                   options.output + "'");
   if (!options.roadmap.empty() && options.plan.planner != PlannerKind::prm)
-    throw ArgumentError("--roadmap", "only the prm planner keeps a roadmap; rrtconnect grows its trees per query");
+    throw ArgumentError("--roadmap", std::string("only the prm planner keeps a roadmap; ") +
+                                         planner_name(options.plan.planner) + " keeps none");
   check_plan_options(options.plan);
 }
 

@@ -171,6 +171,8 @@ PlanRequest parse_plan_request(const std::string& body, const ServeOptions& serv
       read_waypoints(value, request);
     } else if (key == "planner") {
       job.plan.planner = parse_planner(text(value, key));
+    } else if (key == "objective") {
+      job.plan.objective = parse_objective(text(value, key));
     } else if (key == "seed") {
       if (!value.is_number_unsigned()) throw ArgumentError("seed", "must be an integer >= 0");
       job.plan.seed = value.get<uint64_t>();
@@ -190,9 +192,10 @@ PlanRequest parse_plan_request(const std::string& body, const ServeOptions& serv
       job.waypoint_heights = text(value, key);
       parse_waypoint_heights(job.waypoint_heights);  // refused now, naming the key
     } else if (key != "safety" && key != "max_agl") {
-      throw ArgumentError(key,
-                          "unknown key (waypoints, safety, max_agl, planner, seed, format, stats, mission, extrude, "
-                          "snap_m, waypoint_heights)");
+      throw ArgumentError(
+          key,
+          "unknown key (waypoints, safety, max_agl, planner, objective, seed, format, stats, mission, extrude, "
+          "snap_m, waypoint_heights)");
     }
   }
   read_limits(doc, server.plan, job.plan);

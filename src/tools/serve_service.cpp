@@ -257,7 +257,7 @@ std::string PlanService::info() const {
               {"spacing_m", o.plan.spacing},
               {"max_edge_m", o.plan.max_edge},
               {"refine_rounds", o.plan.refine_rounds},
-              {"planner", o.plan.planner == PlannerKind::prm ? "prm" : "rrtconnect"},
+              {"planner", planner_name(o.plan.planner)},
               {"formats", {"geojson", "csv", "kml", "plan", "waypoints", "kmz"}},
               {"max_body_bytes", o.max_body_bytes},
               {"budget_seconds", o.budget_seconds},

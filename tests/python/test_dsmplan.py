@@ -294,6 +294,36 @@ def test_plan_in_python_writes_what_the_command_line_writes(sample_plan):
         flight.write(str(folder / "not_a_mission.plan"))
 
 
+def test_the_free_airspace_planner_gives_the_command_lines_path_and_refusal(sample_plan, tmp_path):
+    """planner="freespace" and objective= through plan_flight(), as `--planner freespace`: the same
+    bytes for both objectives, and the same one-line proof for a leg between enclosed regions."""
+    _, mesh_file, _, _ = sample_plan
+    dsm = dsmplan.read_dsm(SAMPLE)
+    mesh = dsmplan.simplify(dsm, max_error=0.4, conservative=True)
+    waypoints = read_waypoints(LOW_WAYPOINTS)
+    for objective in ("low", "shortest"):
+        cli_csv = str(tmp_path / f"cli_{objective}.csv")
+        result = run_cli("plan", mesh_file, "--waypoints", LOW_WAYPOINTS, "--dsm", SAMPLE, "--max-agl", "30",
+                         "--planner", "freespace", "--objective", objective, "-o", cli_csv, "-q")
+        assert result.returncode == 0, result.stderr
+        flight = dsmplan.plan(mesh, waypoints, dsm=dsm, max_agl=30, planner="freespace", objective=objective)
+        assert flight.report["planner"] == "freespace" and flight.report["min_clearance_dsm_m"] >= 2.0 - 0.01
+        py_csv = str(tmp_path / f"py_{objective}.csv")
+        flight.write(py_csv)
+        assert open(py_csv, "rb").read() == open(cli_csv, "rb").read()
+    apart = np.array([[356681.5, 5699302.5, 127.44], [356570.5, 5699579.5, 127.15]])
+    apart_csv = str(tmp_path / "apart.csv")
+    np.savetxt(apart_csv, apart, delimiter=",", header="x,y,z", comments="", fmt="%.2f")
+    result = run_cli("plan", mesh_file, "--waypoints", apart_csv, "--dsm", SAMPLE, "--max-agl", "10",
+                     "--planner", "freespace", "-o", str(tmp_path / "apart_path.csv"), "-q")
+    assert result.returncode == 1 and "no path exists at the DSM's resolution" in result.stderr
+    with pytest.raises(dsmplan.InputError) as refused:
+        dsmplan.plan(mesh, apart, dsm=dsm, max_agl=10, planner="freespace")
+    assert str(refused.value).split(": ", 1)[1] in result.stderr
+    with pytest.raises(dsmplan.ArgumentError, match="objective: must be low or shortest"):
+        dsmplan.plan(mesh, waypoints, dsm=dsm, planner="freespace", objective="lowest")
+
+
 def test_a_waypoint_under_a_roof_is_refused_in_the_same_words(sample_plan, tmp_path):
     folder, mesh_file, _, _ = sample_plan
     waypoints = read_waypoints(LOW_WAYPOINTS)

@@ -34,6 +34,7 @@
 #include "dsmplan/clearance.hpp"
 #include "dsmplan/core.hpp"
 #include "dsmplan/flight_space.hpp"
+#include "dsmplan/free_airspace.hpp"
 #include "dsmplan/ground.hpp"
 #include "dsmplan/mesh.hpp"
 #include "dsmplan/plan.hpp"
@@ -192,6 +193,12 @@ public:
   /// The options the planner runs with: `options` with the ground set, the safety widened, and
   /// the zones that block (zone_constraints()) added to its constraints.
   PlanOptions planner_options(const PlanOptions& options) const;
+  /// The free airspace (free_airspace.hpp) over the DSM's columns, or over a mesh alone the
+  /// columns enclosing it on its floor's cells, under `max_agl` over ground(), keeping `safety`:
+  /// made on first use, then kept (4 kept). ArgumentError("--planner") over a mesh whose
+  /// triangles were not read (a kept index alone).
+  std::shared_ptr<const FreeAirspace> free_airspace(double safety, double max_agl,
+                                                    const StopToken* stop = nullptr) const;
   /// The no-fly zones that block, kept at `safety` (airspace_constraints()); the same objects for
   /// the same distance (16 distances kept), so that queries share a roadmap.
   std::vector<std::shared_ptr<const FlightConstraint>> zone_constraints(double safety) const;

@@ -122,12 +122,26 @@ namespace dsmplan {
 // Every segment of a returned path satisfies segment_clear(p, q, safety) and the ceiling (checked once more
 // before it is returned; tests/plan_test.cpp re-verifies it by brute force over all triangles).
 
-/// Which planner plan_path() runs: the paper's roadmap (multi-query, see above) or RRT-Connect
-/// (single-query, see plan_rrt_connect() below).
-enum class PlannerKind { prm, rrt_connect };
+/// Which planner runs: the paper's roadmap (multi-query, see above), RRT-Connect (single-query,
+/// see plan_rrt_connect() below), or the search over the free airspace's cells (free_airspace.hpp;
+/// plan_flight() runs it, plan_path() does not).
+enum class PlannerKind { prm, rrt_connect, free_space };
+
+/// "prm", "rrtconnect", "freespace": the name every face gives the planner.
+const char* planner_name(PlannerKind kind);
+
+/// What the freespace planner minimises (free_airspace.hpp). `low`: each metre of climb or
+/// descent between the cells' floors costs as a metre flown, so the path keeps as low as the
+/// safety distance allows and climbs only where that saves as much as it costs; `shortest`: a
+/// quarter, so the path goes over a low roof where that is shorter.
+enum class Objective { low, shortest };
+
+/// "low", "shortest": the name every face gives the objective.
+const char* objective_name(Objective objective);
 
 struct PlanOptions {
   PlannerKind planner = PlannerKind::prm;  ///< what plan_path() runs
+  Objective objective = Objective::low;    ///< freespace only: what its search minimises
   double safety = 2;                       ///< least distance to the mesh, CRS units (the paper's 2 m)
   double spacing = 20;                     ///< relative sample distance: samples = volume / spacing^3
   double max_edge = 34.5;                  ///< longest roadmap edge, CRS units

@@ -120,7 +120,8 @@ PlanReport plan_job(const PlanJobOptions& options, const Progress& progress = {}
 /// The names every face takes for the plan's choices (the CLI's flags, Python's keywords), one
 /// ArgumentError naming the field ("planner", "end", "firmware", "altitude_frame": the CLI
 /// shows --planner, ...) and listing the names otherwise.
-PlannerKind parse_planner(const std::string& name);               ///< prm, rrtconnect
+PlannerKind parse_planner(const std::string& name);               ///< prm, rrtconnect, freespace
+Objective parse_objective(const std::string& name);               ///< low, shortest
 MissionEnd parse_mission_end(const std::string& name);            ///< rtl, land, none
 Firmware parse_firmware(const std::string& name);                 ///< px4, ardupilot, generic
 AltitudeFrame parse_altitude_frame(const std::string& name);      ///< relative, amsl
