@@ -1,6 +1,8 @@
 // The planner on the free airspace (free_airspace.hpp), checked against what it does not use:
 // column_clearance() measured point by point over the cells' squares, and an independent voxel
 // search of the free airspace on a real crop (NRW DOM1).
+#include "dsmplan/free_airspace.hpp"
+
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -10,7 +12,6 @@
 #include <vector>
 
 #include "dsmplan/columns.hpp"
-#include "dsmplan/free_airspace.hpp"
 #include "dsmplan/ground.hpp"
 #include "testkit.hpp"
 
@@ -89,8 +90,10 @@ TEST(FreeAirspace, SolvesEveryRouteAnIndependentVoxelSearchSolvesAndIsNoLonger) 
     for (int c = 1; c < w - 1; ++c) {
       const double x = g.center_x(c), y = g.center_y(r);
       double ceiling = INFINITY;
-      for (const auto& [dx, dy] : std::vector<std::pair<double, double>>{{0, 0}, {-.5, -.5}, {-.5, .5}, {.5, -.5}, {.5, .5}})
-        ceiling = std::min(ceiling, low + max_agl - ground.height_above({x + dx * g.cell_x, y + dy * g.cell_y, low}) + 0);
+      for (const auto& [dx, dy] :
+           std::vector<std::pair<double, double>>{{0, 0}, {-.5, -.5}, {-.5, .5}, {.5, -.5}, {.5, .5}})
+        ceiling =
+            std::min(ceiling, low + max_agl - ground.height_above({x + dx * g.cell_x, y + dy * g.cell_y, low}) + 0);
       for (int k = 0; k < levels; ++k) {
         const Point3 p{x, y, low + k * step};
         if (p[2] > ceiling) break;
@@ -138,9 +141,8 @@ TEST(FreeAirspace, SolvesEveryRouteAnIndependentVoxelSearchSolvesAndIsNoLonger) 
     return Point3{g.center_x(c), g.center_y(r), low + k * step};
   };
   const FreeAirspaceRules rules{[&](const Point3& p, const Point3& q) {
-                                  return column_clearance(g, p, q, safety) >= safety &&
-                                         ground.below_ceiling(p, q, max_agl);
-                                }};
+    return column_clearance(g, p, q, safety) >= safety && ground.below_ceiling(p, q, max_agl);
+  }};
   int joined = 0, apart = 0;
   double worst = 0;
   for (size_t n = 0; n + 1 < 40; n += 2) {
@@ -172,7 +174,8 @@ TEST(FreeAirspace, ALegBetweenEnclosedRegionsIsRefusedNamingBoth) {
   // The two largest regions: a waypoint in each, on a cell of its own.
   std::vector<uint32_t> order(air->region_cells.size());
   for (uint32_t k = 0; k < order.size(); ++k) order[k] = k;
-  std::sort(order.begin(), order.end(), [&](uint32_t a, uint32_t b) { return air->region_cells[a] > air->region_cells[b]; });
+  std::sort(order.begin(), order.end(),
+            [&](uint32_t a, uint32_t b) { return air->region_cells[a] > air->region_cells[b]; });
   ASSERT_GE(order.size(), 2u);
   std::vector<Point3> ends;
   for (uint32_t region : {order[1], order[0]})
@@ -191,4 +194,23 @@ TEST(FreeAirspace, ALegBetweenEnclosedRegionsIsRefusedNamingBoth) {
   EXPECT_NE(result.reason.find("waypoint 1 lies in a region of"), std::string::npos) << result.reason;
   EXPECT_NE(result.reason.find("no path exists"), std::string::npos) << result.reason;
   EXPECT_EQ(result.lattice_nodes, 0u) << "refused from the regions alone, without a search";
+}
+
+// The floors' cost grows with the safety distance squared: beyond the bound the request is refused
+// before any work, naming --safety and the cost (issue 49: a cost that grows with safety is bounded
+// before the work starts).
+TEST(FreeAirspace, ASafetyWhoseCostPassesTheBoundIsRefusedBeforeTheWork) {
+  const Grid& tile = testkit::nrw_full();
+  const GroundGrid ground(tile);
+  try {
+    free_airspace(tile, ground, 900, 1000);
+    FAIL() << "a 900 m safety over a million cells was not refused";
+  } catch (const ArgumentError& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("--safety"), std::string::npos) << what;
+    EXPECT_NE(what.find("billion column comparisons"), std::string::npos) << what;
+  }
+  EXPECT_THROW(free_airspace(tile, ground, 30, 120), ArgumentError);
+  const auto air = free_airspace(tile, ground, 10, 120);  // within the bound: made
+  EXPECT_GT(air->open_cells(), 0u);
 }

@@ -104,13 +104,14 @@ std::string region_in_words(const FreeAirspace& air, size_t cell) {
 std::string no_path_words(const FreeAirspace& air, const std::vector<Join>& from, const std::vector<Join>& to,
                           size_t leg) {
   const std::string a = "waypoint " + std::to_string(leg + 1), b = "waypoint " + std::to_string(leg + 2);
-  const std::string limits = " (" + short_number(air.safety) + " m from the obstacles, under the " +
-                             short_number(air.max_agl) + " m ceiling)";
+  const std::string limits =
+      " (" + short_number(air.safety) + " m from the obstacles, under the " + short_number(air.max_agl) + " m ceiling)";
   if (from.empty() || to.empty())
     return "no open cell within " + std::to_string(kJoinReach) + " cells of " + (from.empty() ? a : b) +
            " is reachable in a straight line" + limits + " (the free airspace at the DSM's resolution)";
   // The smaller region first: it is the one the obstacles and the ceiling enclose.
-  const bool start_smaller = air.region_cells[air.region[from.front().cell]] <= air.region_cells[air.region[to.front().cell]];
+  const bool start_smaller =
+      air.region_cells[air.region[from.front().cell]] <= air.region_cells[air.region[to.front().cell]];
   const Join &small = start_smaller ? from.front() : to.front(), &large = start_smaller ? to.front() : from.front();
   return (start_smaller ? a : b) + " lies in a region of " + region_in_words(air, small.cell) + " of free airspace" +
          limits + " that obstacles and the ceiling enclose; " + (start_smaller ? b : a) + "'s region is " +
@@ -149,11 +150,11 @@ Leg search(const FreeAirspace& air, const Point3& a, const Point3& b, const std:
   };
   double reach = 0;
   for (const Join& j : to)
-    reach = std::max(reach, octile(static_cast<int>(j.cell % f.width) - goal_col,
-                                   static_cast<int>(j.cell / f.width) - goal_row));
+    reach = std::max(
+        reach, octile(static_cast<int>(j.cell % f.width) - goal_col, static_cast<int>(j.cell / f.width) - goal_row));
   auto h = [&](size_t i) {
-    return std::max(0.0, octile(static_cast<int>(i % f.width) - goal_col, static_cast<int>(i / f.width) - goal_row) -
-                             reach);
+    return std::max(0.0,
+                    octile(static_cast<int>(i % f.width) - goal_col, static_cast<int>(i / f.width) - goal_row) - reach);
   };
   constexpr uint32_t kRoot = UINT32_MAX;
   for (const Join& j : from) {
@@ -188,7 +189,8 @@ Leg search(const FreeAirspace& air, const Point3& a, const Point3& b, const std:
           const Point3 p{here[0], here[1], level}, q{there[0], there[1], level};
           bool allowed = true;
           for (const FlightConstraint* rule : rules.constraints)
-            allowed = allowed && rule->motion_valid(here, p) && rule->motion_valid(p, q) && rule->motion_valid(q, there);
+            allowed =
+                allowed && rule->motion_valid(here, p) && rule->motion_valid(p, q) && rule->motion_valid(q, there);
           if (!allowed) continue;
         }
         buf.stamp[j] = buf.now, buf.g[j] = g, buf.parent[j] = i;

@@ -542,23 +542,23 @@ const FlightReport::ZoneFigure* nearest_zone(const FlightReport& r) {
 }  // namespace
 
 std::string to_text(const PlanReport& r) {
+  // Each clearance measured: to the mesh (none for freespace over the DSM's columns, which plans
+  // without the mesh), to the DSM's columns.
+  std::vector<std::string> clearances;
+  if (!std::isnan(r.min_clearance_m)) clearances.push_back(two_decimals(r.min_clearance_m) + " m to the mesh");
+  if (!std::isnan(r.min_clearance_dsm_m))
+    clearances.push_back(two_decimals(std::floor(r.min_clearance_dsm_m * 100) / 100) + " m to the DSM's columns");
+  std::string clearance = clearances.empty() ? "" : ", min clearance " + clearances.front();
+  if (clearances.size() > 1) clearance += ", " + clearances[1];
   char buffer[512];
-  std::snprintf(
-      buffer, sizeof buffer,
-      "%s: %zu points, %.1f m, min clearance %.2f m to the mesh%s; %s %zu nodes, %zu edges "
-      "(%.2f s%s), query %.3f s, smoothing %.3f s\n",
-      r.output.c_str(), r.path_points, r.path_length_m, r.min_clearance_m,
-      std::isnan(r.min_clearance_dsm_m)
-          ? ""
-          : (", " +
-             std::to_string(r.min_clearance_dsm_m).substr(0, std::to_string(r.min_clearance_dsm_m).find('.') + 3) +
-             " m to the DSM's columns")
-                .c_str(),
-      r.planner == "prm"         ? "roadmap"
-      : r.planner == "freespace" ? "free airspace: open cells as"
-                                 : "trees",
-      r.roadmap_nodes, r.roadmap_edges, r.seconds_roadmap, r.roadmap_reused ? ", reused" : "", r.seconds_query,
-      r.seconds_smooth);
+  std::snprintf(buffer, sizeof buffer,
+                "%s: %zu points, %.1f m%s; %s %zu nodes, %zu edges (%.2f s%s), query %.3f s, smoothing %.3f s\n",
+                r.output.c_str(), r.path_points, r.path_length_m, clearance.c_str(),
+                r.planner == "prm"         ? "roadmap"
+                : r.planner == "freespace" ? "free airspace: open cells as"
+                                           : "trees",
+                r.roadmap_nodes, r.roadmap_edges, r.seconds_roadmap, r.roadmap_reused ? ", reused" : "",
+                r.seconds_query, r.seconds_smooth);
   std::string text = buffer;
   if (std::isfinite(r.max_agl_m)) {
     char ceiling[160];

@@ -182,8 +182,10 @@ public:
   const GroundGrid& ground() const;
   std::shared_ptr<const GroundGrid> shared_ground() const;
   const char* ground_name() const;
-  /// Added to the safety distance on the mesh so that it holds against the columns (0 without a DSM).
-  double safety_margin() const { return margin_; }
+  /// Added to the safety distance on the mesh so that it holds against the columns (0 without a
+  /// DSM): column_margin(), measured on first use (the free-airspace planner over the columns
+  /// never asks).
+  double safety_margin() const;
   /// The clearance index: the data's, or built now (the first call) from the mesh and the holes' columns.
   const ClearanceIndex& index() const;
   std::shared_ptr<const ClearanceIndex> shared_index() const;
@@ -207,14 +209,14 @@ public:
   uint64_t roadmap_key() const;
   /// With a DSM: the mesh's certified depth below it, and the most a column rises above the mesh
   /// (column_margin()'s two measures); NaN without.
-  double mesh_max_below_dsm() const { return mesh_max_below_; }
-  double column_max_above_mesh() const { return column_max_above_; }
+  double mesh_max_below_dsm() const;
+  double column_max_above_mesh() const;
 
 private:
   FlightData data_;
   Grid columns_;
   std::shared_ptr<const GroundGrid> terrain_, dsm_ground_;
-  double margin_ = 0, mesh_max_below_ = NAN, column_max_above_ = NAN;
+  void measure_margin() const;
   struct Lazy;
   std::unique_ptr<Lazy> lazy_;
 };
