@@ -185,7 +185,10 @@ CorridorResult plan_corridor(GridSource& dsm, const std::vector<Point3>& waypoin
       return out;
     }
     const std::vector<Point3>& path = piece.plan.path;
-    out.min_clearance_m = std::min(out.min_clearance_m, figures.min_clearance_m);
+    // Not measured on a window (freespace over the DSM's columns plans without the mesh): not
+    // measured at all, rather than the cap.
+    out.min_clearance_m =
+        std::isnan(figures.min_clearance_m) ? NAN : std::min(out.min_clearance_m, figures.min_clearance_m);
     out.min_clearance_dsm_m = std::min(out.min_clearance_dsm_m, figures.min_clearance_dsm_m);
     out.max_agl_m = std::max(out.max_agl_m, figures.max_agl_m);
     if (out.no_fly_zones.empty()) out.no_fly_zones = figures.no_fly_zones;
@@ -195,7 +198,8 @@ CorridorResult plan_corridor(GridSource& dsm, const std::vector<Point3>& waypoin
     const size_t skip = result.path.empty() ? 0 : 1;  // the joint is the previous piece's end
     result.path.insert(result.path.end(), path.begin() + skip, path.end());
     out.mesh_error.merge(current->error);
-    out.safety_margin_m = std::max(out.safety_margin_m, current->area->safety_margin());
+    if (!std::isnan(figures.safety_margin_m))  // measured only when the planner used the mesh
+      out.safety_margin_m = std::max(out.safety_margin_m, current->area->safety_margin());
     out.largest_window_cells = std::max(out.largest_window_cells, current->area->data().dsm->cells());
     ++out.windows;
     current = std::move(next);
