@@ -236,7 +236,7 @@ struct WaypointRules {
     if (!found.empty()) return found.front().reason;
     // The free-airspace planner holds a waypoint to the DSM's columns themselves (checked above),
     // not to the mesh with the safety widened.
-    if (options.planner == PlannerKind::free_space && area.columns()) return {};
+    if (area.plans_on_columns(options)) return {};
     if (!space) space.emplace(detail::flight_space(area.index(), plan));  // the index, built now if not yet
     PlanResult result;
     return detail::invalid_waypoints(one, *space, result) ? result.reason : std::string();
@@ -567,6 +567,8 @@ const char* planner_name(PlannerKind kind) {
 
 const char* objective_name(Objective objective) { return objective == Objective::low ? "low" : "shortest"; }
 
+double climb_weight(Objective objective) { return objective == Objective::low ? 1.0 : 0.25; }
+
 std::shared_ptr<const FreeAirspace> FlightArea::free_airspace(double safety, double max_agl,
                                                               const StopToken* stop) const {
   constexpr size_t kKept = 4;  // a 1 km tile's airspace is 13 MB
@@ -593,8 +595,7 @@ std::shared_ptr<const FreeAirspace> FlightArea::free_airspace(double safety, dou
 PlanOptions FlightArea::planner_options(const PlanOptions& options) const {
   PlanOptions plan = options;
   plan.ground = terrain_ ? terrain_ : dsm_ground_;
-  // The free-airspace planner over the DSM's columns plans on them: nothing to widen.
-  if (!(options.planner == PlannerKind::free_space && columns())) plan.safety += safety_margin();
+  if (!plans_on_columns(options)) plan.safety += safety_margin();  // on the columns: nothing to widen
   for (std::shared_ptr<const FlightConstraint>& zone : zone_constraints(options.safety))
     plan.constraints.push_back(std::move(zone));
   return plan;
@@ -643,7 +644,7 @@ FlightAttempt attempt_flight(const FlightArea& area, const FlightQuery& query, c
   report.ground = area.ground_name();
   // The free-airspace planner over the DSM's columns needs neither the mesh's index nor its margin
   // (1.1 s and 0.4 s of 1.5 s for a first plan on the NRW tile).
-  const bool on_columns = query.options.planner == PlannerKind::free_space && area.columns();
+  const bool on_columns = area.plans_on_columns(query.options);
   if (data.dsm && !on_columns) {
     report.safety_margin_m = area.safety_margin();
     report.mesh_max_below_dsm_m = area.mesh_max_below_dsm();
@@ -727,8 +728,7 @@ FlightAttempt attempt_flight(const FlightArea& area, const FlightQuery& query, c
     if (plan.planner != PlannerKind::free_space)
       return run_planner(*out.index, route, plan, store, roadmap_key, report, clock, progress);
     const FreeAirspaceRules air_rules{[&rules](const Point3& p, const Point3& q) { return rules.keeps(p, q); },
-                                      rules.constraints, plan.stop.get(),
-                                      plan.objective == Objective::low ? 1.0 : 0.25};
+                                      rules.constraints, plan.stop.get(), climb_weight(plan.objective)};
     const auto air = area.free_airspace(safety, plan.max_agl, plan.stop.get());
     report.seconds_roadmap = clock.lap();
     PlanResult planned = plan_free_airspace(*air, route, air_rules);

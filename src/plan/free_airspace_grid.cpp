@@ -10,8 +10,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <queue>
-#include <stdexcept>
 
 #include "core/text.hpp"
 #include "dsmplan/free_airspace.hpp"

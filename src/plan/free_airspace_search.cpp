@@ -3,8 +3,9 @@
 // Each leg: its ends are joined to the open cells within a few cells that a straight segment (or
 // a climb, then a straight segment) reaches, checked exactly; A* (Hart, Nilsson & Raphael 1968)
 // over the joined cells from the start's to the end's, a step costing its horizontal length plus
-// the climb or descent between the floors, the heuristic the horizontal distance to the end
-// (admissible: no step is shorter), ties to the deeper node; then the path through the cells'
+// the climb or descent between the floors times FreeAirspaceRules::climb_weight, the heuristic the
+// octile distance to the end's cell less its joins' reach (admissible: no chain of steps is
+// shorter), ties to the deeper node; then the path through the cells'
 // centres at their floors, each change of floor a vertical step at the lower cell's centre, pulled
 // tight: from each kept point the farthest later point that a straight segment reaches under the
 // exact check, found by galloping then bisection (the post-smoothing of any-angle search: Daniel,

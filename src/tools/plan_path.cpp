@@ -421,13 +421,16 @@ T parse_choice(const char* field, const std::string& value, const std::vector<st
 }  // namespace
 
 Objective parse_objective(const std::string& name) {
-  return parse_choice<Objective>("objective", name, {{"low", Objective::low}, {"shortest", Objective::shortest}});
+  return parse_choice<Objective>(
+      "objective", name,
+      {{objective_name(Objective::low), Objective::low}, {objective_name(Objective::shortest), Objective::shortest}});
 }
 
 PlannerKind parse_planner(const std::string& name) {
-  return parse_choice<PlannerKind>(
-      "planner", name,
-      {{"prm", PlannerKind::prm}, {"rrtconnect", PlannerKind::rrt_connect}, {"freespace", PlannerKind::free_space}});
+  return parse_choice<PlannerKind>("planner", name,
+                                   {{planner_name(PlannerKind::prm), PlannerKind::prm},
+                                    {planner_name(PlannerKind::rrt_connect), PlannerKind::rrt_connect},
+                                    {planner_name(PlannerKind::free_space), PlannerKind::free_space}});
 }
 
 MissionEnd parse_mission_end(const std::string& name) {

@@ -192,8 +192,13 @@ public:
   /// What kept files are named by: mesh_fingerprint() of the obstacles (O(mesh), once), or the
   /// kept index's.
   uint64_t obstacles_key() const;
-  /// The options the planner runs with: `options` with the ground set, the safety widened, and
-  /// the zones that block (zone_constraints()) added to its constraints.
+  /// True when `options` plan over the DSM's columns themselves (the freespace planner with a
+  /// DSM): the mesh's index and the safety's widening are then never needed.
+  bool plans_on_columns(const PlanOptions& options) const {
+    return options.planner == PlannerKind::free_space && columns();
+  }
+  /// The options the planner runs with: `options` with the ground set, the safety widened (not
+  /// when plans_on_columns()), and the zones that block (zone_constraints()) added to its constraints.
   PlanOptions planner_options(const PlanOptions& options) const;
   /// The free airspace (free_airspace.hpp) over the DSM's columns, or over a mesh alone the
   /// columns enclosing it on its floor's cells, under `max_agl` over ground(), keeping `safety`:

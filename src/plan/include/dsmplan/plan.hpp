@@ -138,6 +138,8 @@ enum class Objective { low, shortest };
 
 /// "low", "shortest": the name every face gives the objective.
 const char* objective_name(Objective objective);
+/// What a metre of climb or descent costs the freespace search, in metres flown: 1 (low), 0.25 (shortest).
+double climb_weight(Objective objective);
 
 struct PlanOptions {
   PlannerKind planner = PlannerKind::prm;  ///< what plan_path() runs
