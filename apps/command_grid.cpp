@@ -32,14 +32,14 @@ std::vector<int> parse_classes(const char* flag, const std::string& text) {
   return classes;
 }
 
-struct Request {
+struct GridArguments {
   GridOptions options;
   std::string fusion = "median", drop_classes, classes, of;
   bool json = false;
 };
 
 // The class lists as the library takes them: an empty --drop-classes word is the default.
-void run(Request& request, bool quiet) {
+void run_grid(GridArguments& request, bool quiet) {
   GridOptions& grid = request.options;
   grid.grid.fusion = parse_fusion(request.fusion);
   const std::vector<int> drop_classes = parse_classes("--drop-classes", request.drop_classes);
@@ -56,7 +56,7 @@ void run(Request& request, bool quiet) {
 }  // namespace
 
 Command grid_command(CLI::App& app, Session& session) {
-  auto request = std::make_shared<Request>();
+  auto request = std::make_shared<GridArguments>();
   GridOptions& grid = request->options;
   CLI::App* command =
       app.add_subcommand("grid", "Grid point clouds (LAS, XYZ) into a GeoTIFF DSM, median height per cell");
@@ -79,7 +79,7 @@ Command grid_command(CLI::App& app, Session& session) {
   command->add_flag("--json", request->json, "Print the DSM's counts and height range as JSON");
   command->add_option("--of", request->of, "Output format: gtiff (the only one)");
 
-  return {command, [request, &session] { run(*request, session.quiet); }};
+  return {command, [request, &session] { run_grid(*request, session.quiet); }};
 }
 
 }  // namespace dsmplan::cli

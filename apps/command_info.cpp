@@ -8,13 +8,13 @@ namespace dsmplan::cli {
 
 namespace {
 
-struct Request {
+struct InfoArguments {
   InfoOptions options;
   bool json = false;
   std::string of;
 };
 
-void run(const Request& request) {
+void run_info(const InfoArguments& request) {
   const RasterReport report = describe_raster(request.options);
   if (request.json || parse_info_format(request.of) == InfoFormat::Json)
     print_json(to_json(report));
@@ -25,7 +25,7 @@ void run(const Request& request) {
 }  // namespace
 
 Command info_command(CLI::App& app, Session& session) {
-  auto request = std::make_shared<Request>();
+  auto request = std::make_shared<InfoArguments>();
   InfoOptions& info = request->options;
   CLI::App* command =
       app.add_subcommand("info", "Describe a DSM raster: size, resolution, extent, CRS, nodata, heights");
@@ -35,7 +35,7 @@ Command info_command(CLI::App& app, Session& session) {
   command->add_option("--crs", info.read.assign_crs, kCrsHelp);
   command->add_option("--of", request->of, "Output format: text or json (as --json)");
   command->add_flag("-q,--quiet", session.quiet, "Accepted for every command; info has no progress to silence");
-  return {command, [request] { run(*request); }};
+  return {command, [request] { run_info(*request); }};
 }
 
 }  // namespace dsmplan::cli

@@ -9,7 +9,7 @@ namespace dsmplan::cli {
 
 namespace {
 
-struct Request {
+struct MeshArguments {
   MeshJobOptions options;
   double resolution = 0;
   CLI::Option* res = nullptr;  // given or not: without --res the DSM keeps its own
@@ -17,7 +17,7 @@ struct Request {
   bool json = false;
 };
 
-void run(Request& request, bool quiet) {
+void run_mesh(MeshArguments& request, bool quiet) {
   MeshJobOptions& mesh = request.options;
   if (request.res->count()) mesh.resolution = request.resolution;
   mesh.resampling = parse_resampling(request.resampling);
@@ -33,7 +33,7 @@ void run(Request& request, bool quiet) {
 }  // namespace
 
 Command mesh_command(CLI::App& app, Session& session) {
-  auto request = std::make_shared<Request>();
+  auto request = std::make_shared<MeshArguments>();
   MeshJobOptions& mesh = request->options;
   CLI::App* command =
       app.add_subcommand("mesh", "Build the XY-3 Delaunay mesh of a DSM (PLY, OBJ, OFF or GLB by extension)");
@@ -58,7 +58,7 @@ Command mesh_command(CLI::App& app, Session& session) {
   add_tileset_options(command, mesh.tileset, mesh.vertical);
   command->add_flag("-q,--quiet", session.quiet, "No progress output");
   command->add_flag("--json", request->json, "Print the statistics as JSON");
-  return {command, [request, &session] { run(*request, session.quiet); }};
+  return {command, [request, &session] { run_mesh(*request, session.quiet); }};
 }
 
 }  // namespace dsmplan::cli

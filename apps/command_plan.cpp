@@ -31,7 +31,7 @@ std::array<double, 2> parse_home(const std::string& text) {
   }
 }
 
-struct Request {
+struct PlanArguments {
   PlanJobOptions options;
   std::vector<std::string> outputs;  // -o, repeated: the first is options.output
   std::string stats;
@@ -43,7 +43,7 @@ struct Request {
 };
 
 // --routes: many routes in one run; a route without a path is reported and exits 4.
-void run_routes(const Request& request, Session& session) {
+void run_routes(const PlanArguments& request, Session& session) {
   const RoutesReport report = plan_routes_job(request.options, terminal_progress(session.quiet));
   write_stats(request.stats, to_json(report), request.outputs);
   if (request.json)
@@ -53,7 +53,7 @@ void run_routes(const Request& request, Session& session) {
   if (!report.failed.empty()) session.exit_code = 4;
 }
 
-void run(Request& request, Session& session) {
+void run_plan(PlanArguments& request, Session& session) {
   const bool quiet = session.quiet;
   PlanJobOptions& plan = request.options;
   plan.output = request.outputs.front();
@@ -96,7 +96,7 @@ void run(Request& request, Session& session) {
 }  // namespace
 
 Command plan_command(CLI::App& app, Session& session) {
-  auto request = std::make_shared<Request>();
+  auto request = std::make_shared<PlanArguments>();
   PlanJobOptions& plan = request->options;
   CLI::App* command = app.add_subcommand("plan",
                                          "Plan a collision-free path through waypoints over an obstacle mesh (Halton "
@@ -149,7 +149,7 @@ Command plan_command(CLI::App& app, Session& session) {
                    "samples (0: neither)")
       ->capture_default_str();
   command->add_option("--threads", plan.plan.threads, "Threads (0: every core)")->capture_default_str();
-  // Checked in run(), not by CLI::IsMember: CLI11 adds a second line ("Run with --help") to its errors.
+  // Checked in run_plan(), not by CLI::IsMember: CLI11 adds a second line ("Run with --help") to its errors.
   command
       ->add_option("--planner", request->planner,
                    "prm (Halton roadmap, A*), rrtconnect (RRT-Connect, single query) or freespace (a search over the "
@@ -211,7 +211,7 @@ Command plan_command(CLI::App& app, Session& session) {
                     "KML: a wall from the path and the waypoints down to the ground");
   command->add_option("--hover-speed", request->hover_speed,
                       "Missions: the .plan's hoverSpeed (m/s, (0, 100]); default --speed");
-  return {command, [request, &session] { run(*request, session); }};
+  return {command, [request, &session] { run_plan(*request, session); }};
 }
 
 }  // namespace dsmplan::cli

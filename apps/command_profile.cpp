@@ -10,13 +10,13 @@ namespace dsmplan::cli {
 
 namespace {
 
-struct Request {
+struct ProfileArguments {
   ProfileJobOptions options;
   bool json = false;
   std::string of;
 };
 
-void run(const Request& request, bool quiet) {
+void run_profile(const ProfileArguments& request, bool quiet) {
   const ProfileJobOptions& profile = request.options;
   std::vector<NamedFile> inputs{
       {"DSM", profile.dsm}, {"--path", profile.path}, {"--dtm", profile.dtm}, {"--waypoints", profile.waypoints}};
@@ -33,7 +33,7 @@ void run(const Request& request, bool quiet) {
 }  // namespace
 
 Command profile_command(CLI::App& app, Session& session) {
-  auto request = std::make_shared<Request>();
+  auto request = std::make_shared<ProfileArguments>();
   ProfileJobOptions& profile = request->options;
   CLI::App* command = app.add_subcommand(
       "profile", "Draw a path's height profile over the DSM below it, the terrain and the ceiling, as a PNG");
@@ -55,7 +55,7 @@ Command profile_command(CLI::App& app, Session& session) {
   command->add_flag("-q,--quiet", session.quiet, "No progress output and no summary line");
   command->add_flag("--json", request->json, "Print the summary as JSON");
   command->add_option("--of", request->of, "Output format: png (the only one)");
-  return {command, [request, &session] { run(*request, session.quiet); }};
+  return {command, [request, &session] { run_profile(*request, session.quiet); }};
 }
 
 }  // namespace dsmplan::cli

@@ -10,7 +10,7 @@ namespace dsmplan::cli {
 
 namespace {
 
-struct Request {
+struct RenderArguments {
   RenderJobOptions options;
   double resolution = 0;
   CLI::Option* res = nullptr;  // given or not: without --res the DSM keeps its own
@@ -18,7 +18,7 @@ struct Request {
   bool no_edges = false, json = false;
 };
 
-void run(Request& request, bool quiet) {
+void run_render(RenderArguments& request, bool quiet) {
   RenderJobOptions& render = request.options;
   if (request.res->count()) render.resolution = request.resolution;
   if (!request.window.empty()) render.render.window = parse_window(request.window);
@@ -36,7 +36,7 @@ void run(Request& request, bool quiet) {
 }  // namespace
 
 Command render_command(CLI::App& app, Session& session) {
-  auto request = std::make_shared<Request>();
+  auto request = std::make_shared<RenderArguments>();
   RenderJobOptions& render = request->options;
   CLI::App* command = app.add_subcommand(
       "render", "Draw a DSM from above, hillshaded, with meshes' edges over it, side by side, as a PNG");
@@ -57,7 +57,7 @@ Command render_command(CLI::App& app, Session& session) {
   command->add_flag("-q,--quiet", session.quiet, "No progress output");
   command->add_flag("--json", request->json, "Print the picture's size as JSON");
   command->add_option("--of", request->of, "Output format: png (the only one)");
-  return {command, [request, &session] { run(*request, session.quiet); }};
+  return {command, [request, &session] { run_render(*request, session.quiet); }};
 }
 
 }  // namespace dsmplan::cli

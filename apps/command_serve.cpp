@@ -11,14 +11,14 @@ namespace dsmplan::cli {
 
 namespace {
 
-struct Request {
+struct ServeArguments {
   ServeOptions options;
   std::string planner = "prm", objective = "low";
 };
 
 bool loopback(const std::string& host) { return host == "127.0.0.1" || host == "localhost" || host == "::1"; }
 
-void run(Request& request, bool quiet) {
+void run_serve(ServeArguments& request, bool quiet) {
   ServeOptions& options = request.options;
   options.plan.planner = parse_planner(request.planner);
   options.plan.objective = parse_objective(request.objective);
@@ -39,7 +39,7 @@ void run(Request& request, bool quiet) {
 }  // namespace
 
 Command serve_command(CLI::App& app, Session& session) {
-  auto request = std::make_shared<Request>();
+  auto request = std::make_shared<ServeArguments>();
   ServeOptions& serve = request->options;
   CLI::App* command = app.add_subcommand(
       "serve", "Hold a mesh in memory and answer path requests over HTTP (POST /v1/plan) until SIGTERM");
@@ -92,7 +92,7 @@ Command serve_command(CLI::App& app, Session& session) {
   command->add_flag("--allow-approximate-vertical", serve.vertical.allow_approximate_vertical,
                     "Heights of an unknown or grid-less vertical datum taken as EGM96 heights (about 1 m off)");
   command->add_flag("-q,--quiet", session.quiet, "No progress output while loading");
-  return {command, [request, &session] { run(*request, session.quiet); }};
+  return {command, [request, &session] { run_serve(*request, session.quiet); }};
 }
 
 }  // namespace dsmplan::cli

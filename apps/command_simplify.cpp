@@ -12,7 +12,7 @@ namespace {
 
 // What CLI11 parses into, and whether each flag with a default was given: the library tells a
 // parameter given from its default (SimplifyJobOptions::check()).
-struct Request {
+struct SimplifyArguments {
   SimplifyJobOptions options;
   std::string method = "bounded", resampling = "median", stats, of;
   CLI::Option *method_given = nullptr, *max_error_given = nullptr, *dz_given = nullptr, *dco_given = nullptr,
@@ -31,7 +31,7 @@ struct ReleaseWorkers {
 
 // The numbers given, as the options hold them: none throws, so that a worker rank takes them
 // too (its blocks need max_error) without refusing anything itself.
-void take_given_numbers(Request& request) {
+void take_given_numbers(SimplifyArguments& request) {
   SimplifyJobOptions& simplify = request.options;
   if (request.res_given->count()) simplify.resolution = request.resolution;
   if (request.max_error_given->count()) simplify.max_error = request.max_error;
@@ -39,7 +39,7 @@ void take_given_numbers(Request& request) {
   if (request.dco_given->count()) simplify.dco = request.dco;
 }
 
-void run(Request& request, const Session& session) {
+void run_simplify(SimplifyArguments& request, const Session& session) {
   const ReleaseWorkers release{session.farm};
   take_given_numbers(request);
   SimplifyJobOptions& simplify = request.options;
@@ -62,7 +62,7 @@ void run(Request& request, const Session& session) {
 }  // namespace
 
 Command simplify_command(CLI::App& app, Session& session) {
-  auto request = std::make_shared<Request>();
+  auto request = std::make_shared<SimplifyArguments>();
   SimplifyJobOptions& simplify = request->options;
   CLI::App* command = app.add_subcommand(
       "simplify", "Simplify a DSM's mesh: the paper's variant one or two, or the bounded mode (--max-error)");
@@ -106,7 +106,7 @@ Command simplify_command(CLI::App& app, Session& session) {
   add_tileset_options(command, simplify.tileset, simplify.vertical);
   command->add_flag("-q,--quiet", session.quiet, "No progress output");
   // A worker rank makes blocks for rank 0 and says nothing.
-  return {command, [request, &session] { run(*request, session); },
+  return {command, [request, &session] { run_simplify(*request, session); },
           [request, &session] {
             take_given_numbers(*request);
             session.farm.serve(request->options);

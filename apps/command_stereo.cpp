@@ -11,12 +11,12 @@ namespace dsmplan::cli {
 
 namespace {
 
-struct Request {
+struct StereoArguments {
   StereoRequest stereo;
   std::string stats;
 };
 
-void run(const Request& request, bool quiet) {
+void run_stereo(const StereoArguments& request, bool quiet) {
   const StereoJob job = stereo_job_for(request.stereo);  // the flags' rules, as every caller gets them
   const std::string& output = request.stereo.output;
   if (job.frame) {
@@ -58,7 +58,7 @@ void run(const Request& request, bool quiet) {
 }  // namespace
 
 Command stereo_command(CLI::App& app, Session& session) {
-  auto request = std::make_shared<Request>();
+  auto request = std::make_shared<StereoArguments>();
   StereoRequest& stereo = request->stereo;
   CLI::App* command = app.add_subcommand(
       "stereo",
@@ -110,7 +110,7 @@ Command stereo_command(CLI::App& app, Session& session) {
       ->capture_default_str();
   command->add_flag("-q,--quiet", session.quiet, "No progress output");
 
-  return {command, [request, &session] { run(*request, session.quiet); }};
+  return {command, [request, &session] { run_stereo(*request, session.quiet); }};
 }
 
 }  // namespace dsmplan::cli

@@ -9,12 +9,12 @@ namespace dsmplan::cli {
 
 namespace {
 
-struct Request {
+struct ViewArguments {
   ViewOptions options;
   bool json = false;
 };
 
-void run(const Request& request) {
+void run_view(const ViewArguments& request) {
   serve_view(request.options, [json = request.json](const std::string& url) {
     // Flushed: a script or test reading stdout through a pipe needs the URL now.
     if (json)
@@ -28,7 +28,7 @@ void run(const Request& request) {
 }  // namespace
 
 Command view_command(CLI::App& app, Session& session) {
-  auto request = std::make_shared<Request>();
+  auto request = std::make_shared<ViewArguments>();
   ViewOptions& view = request->options;
   CLI::App* command = app.add_subcommand(
       "view", "Show a GLB mesh and a path in 3D in the browser: serves the three.js viewer on localhost until Ctrl-C");
@@ -47,7 +47,7 @@ Command view_command(CLI::App& app, Session& session) {
   add_zone_options(command, view.no_fly);
   command->add_flag("--json", request->json, "Print the viewer's address as JSON ({\"url\": ...})");
   command->add_flag("-q,--quiet", session.quiet, "Accepted for every command; the address is still printed");
-  return {command, [request] { run(*request); }};
+  return {command, [request] { run_view(*request); }};
 }
 
 }  // namespace dsmplan::cli
