@@ -612,6 +612,9 @@ PlanResult query_roadmap(const Roadmap& map, const ClearanceIndex& index, const 
     links[i] = detail::roadmap_links(waypoints[i], map, grid, space, options);
   std::unique_ptr<Refinement> refinement;  // made when a leg first needs it
   for (size_t i = 0; i + 1 < waypoints.size(); ++i) {
+    // A leg's search over the roadmap checks nothing against the space: stopped between legs,
+    // or a 20,000-waypoint request computed on for seconds past its budget.
+    space.check_stop();
     const Point3 &a = waypoints[i], &b = waypoints[i + 1];
     std::vector<Point3> leg;
     if (distance(a, b) < options.max_edge && space.motion_valid(a, b)) {
