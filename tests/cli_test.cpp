@@ -36,6 +36,7 @@
 #include <tuple>
 #include <vector>
 
+#include "dsmplan/clearance.hpp"
 #include "dsmplan/columns.hpp"
 #include "dsmplan/export.hpp"
 #include "dsmplan/plan.hpp"
@@ -1926,6 +1927,40 @@ TEST(CliPlan, FreespaceKeepsTheColumnsFliesLowAndProvesARefusal) {
   EXPECT_NE(result.err.find("no path exists at the DSM's resolution"), std::string::npos) << result.err;
   EXPECT_EQ(std::count(result.err.begin(), result.err.end(), '\n'), 1) << result.err;
   EXPECT_FALSE(std::filesystem::exists(out.path("apart_path.csv")));
+}
+
+// Over a mesh alone (no --dsm), freespace plans on the columns that enclose the mesh
+// (mesh_columns()) and holds the path to the mesh itself: every segment keeps --safety from every
+// triangle (brute force over all of them, not the clearance index the report measures with), and
+// the report says the same, under the ceiling over the mesh's floor.
+TEST(CliPlan, FreespaceOverTheMeshAloneKeepsTheSafetyFromEveryTriangle) {
+  MissionFixture f;
+  TempDir out;
+  const dsmplan::Mesh mesh = dsmplan::read_mesh(f.bounded);
+  const std::string path = out.path("mesh_alone.csv"), stats = path + ".json";
+  const auto planned = run_cli({"plan", f.bounded, "--waypoints", f.low, "-o", path, "--max-agl", "30", "--planner",
+                                "freespace", "--stats", stats, "-q"});
+  ASSERT_EQ(planned.exit_code, 0) << planned.err;
+  const auto points = read_path_csv(path);
+  ASSERT_GE(points.size(), 4u);
+  double least = INFINITY;
+  for (size_t k = 1; k < points.size(); ++k) {
+    const dsmplan::Point3 p{points[k - 1][0], points[k - 1][1], points[k - 1][2]};
+    const dsmplan::Point3 q{points[k][0], points[k][1], points[k][2]};
+    for (const dsmplan::Triangle& t : mesh.triangles) {
+      const auto corner = [&](int i) {
+        const dsmplan::Vertex& v = mesh.vertices[t[i]];
+        return dsmplan::Point3{v.x, v.y, v.z};
+      };
+      least = std::min(least, dsmplan::segment_triangle_distance(p, q, corner(0), corner(1), corner(2)));
+    }
+  }
+  EXPECT_GE(least, 2 - 0.01);  // two decimals written
+  const auto report = nlohmann::json::parse(testkit::read_file(stats));
+  EXPECT_EQ(report["planner"], "freespace");
+  EXPECT_NEAR(report["min_clearance_m"].get<double>(), least, 0.01);
+  EXPECT_LE(report["max_agl_m"].get<double>(), 30 + 0.01);
+  RecordProperty("least_clearance_m", std::to_string(least));
 }
 
 // One definition of each measure (issue 32): the height above the ground `plan` verifies and
