@@ -195,7 +195,7 @@ def profile(
 ) -> dict[str, Any]:
     """A path's height profile as `dsmplan profile`, to a PNG: a path CSV, or a Flight as flown
     with its waypoints, zones, DTM, safety and ceiling unless given; returns the report of
-    `--json` (length_m, min_above_dsm_m, max_above_ground_m, ground, max_agl_m, ...)."""
+    `--json` (length_m, min_above_dsm_m, min_above_lowest_clear_m, max_above_ground_m, ground, max_agl_m, ...)."""
 
 def stereo(
     images: str | Sequence[str] | None = None,

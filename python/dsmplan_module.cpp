@@ -942,7 +942,8 @@ PYBIND11_MODULE(dsmplan, m) {
         py::arg("vertical_crs") = "", py::arg("allow_approximate_vertical") = false,
         "A path's height profile over the DSM below it, the terrain and the ceiling, as `dsmplan profile` (the "
         "same library function, profile_job()); returns the report of `dsmplan profile --json` as a dict "
-        "(length_m, min_above_dsm_m, max_above_ground_m, ground, max_agl_m, ...), measured as plan() "
+        "(length_m, min_above_dsm_m, min_above_lowest_clear_m, max_above_ground_m, ground, max_agl_m, ...), "
+        "measured as plan() "
         "verifies.\n\n"
         "dsm: the DSM the path was planned over: a raster file, or a Dsm.\n"
         "path: the path CSV (Flight.write(\"path.csv\")), in the DSM's CRS, or a Flight: drawn as flown (home "

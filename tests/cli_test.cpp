@@ -1963,6 +1963,38 @@ TEST(CliPlan, FreespaceOverTheMeshAloneKeepsTheSafetyFromEveryTriangle) {
   RecordProperty("least_clearance_m", std::to_string(least));
 }
 
+// `profile` draws the free airspace's floor under the path, the lowest height that keeps the
+// safety from the DSM's columns (issue 48, point 7), and reports the path's least height above
+// it: a path planned with --dsm at that safety never goes under it (its clearance to the columns,
+// measured by column_clearance(), is at least the safety), and a straight line at street level
+// between the same ends does.
+TEST(CliProfile, DrawsTheLowestClearHeightThatAPlannedPathKeepsAboveAndAStraightOneDoesNot) {
+  MissionFixture f;
+  TempDir out;
+  const std::string path = out.path("planned.csv");
+  const auto planned = f.plan(path, {"--planner", "freespace"});
+  ASSERT_EQ(planned.exit_code, 0) << planned.err;
+  const auto points = read_path_csv(path);
+  const auto profile = [&](const std::string& csv) {
+    const auto run = run_cli({"profile", testkit::data_path(kSample), "--path", csv, "-o", csv + ".png", "--safety",
+                              "2", "--max-agl", "30", "--json", "-q"});
+    EXPECT_EQ(run.exit_code, 0) << run.err;
+    return json::parse(run.out);
+  };
+  const json kept = profile(path);
+  EXPECT_GE(kept["min_above_lowest_clear_m"].get<double>(), -1e-6) << kept.dump();
+  const dsmplan::Point3 a{points.front()[0], points.front()[1], points.front()[2]};
+  const dsmplan::Point3 b{points.back()[0], points.back()[1], points.front()[2]};
+  testkit::write_file(out.path("straight.csv"), "x,y,z\n" + std::to_string(a[0]) + "," + std::to_string(a[1]) + "," +
+                                                    std::to_string(a[2]) + "\n" + std::to_string(b[0]) + "," +
+                                                    std::to_string(b[1]) + "," + std::to_string(b[2]) + "\n");
+  const json straight = profile(out.path("straight.csv"));
+  const dsmplan::Grid dsm = dsmplan::read_raster(testkit::data_path(kSample));
+  const double clearance = dsmplan::column_clearance(dsm, a, b, 3);
+  ASSERT_LT(clearance, 2.0) << "the straight line should pass near a building";
+  EXPECT_LT(straight["min_above_lowest_clear_m"].get<double>(), 0) << straight.dump();
+}
+
 // One definition of each measure (issue 32): the height above the ground `plan` verifies and
 // reports is the one `profile` reports for the same path, to the last bit: over the DSM, over a
 // DTM, and over a DTM with a hole where the path is highest above it (which the two counted apart

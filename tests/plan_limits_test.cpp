@@ -491,6 +491,27 @@ TEST(PlanLimits, NearestColumnIsTheOneAtTheClearance) {
   EXPECT_GT(found, 100);
 }
 
+// lowest_clear_height() is where the free airspace starts above a place: a point a hair above it
+// keeps the safety from the columns and one a millimetre below does not, by this file's own
+// segment-box checker (ternary search), at random places on the crop and two safety distances.
+TEST(PlanLimits, TheLowestClearHeightIsWhereTheColumnsDistanceReachesTheSafety) {
+  const Grid& dsm = testkit::nrw_crop();
+  std::mt19937_64 rng(78);
+  std::uniform_real_distribution<double> u(0, 1);
+  for (const double safety : {2.0, 5.0})
+    for (int k = 0; k < 200; ++k) {
+      const double x = dsm.x0 + 10 + u(rng) * (dsm.width - 20), y = dsm.y0 - 10 - u(rng) * (dsm.height - 20);
+      const double lowest = lowest_clear_height(dsm, x, y, safety);
+      ASSERT_TRUE(std::isfinite(lowest)) << k;  // the crop has no holes: cells all around
+      EXPECT_GE(lowest, dsm.height_at(x, y) + 0.0);
+      EXPECT_GE(columns_distance(dsm, {x, y, lowest + 1e-6}, {x, y, lowest + 1e-6}, safety + 1), safety - 1e-6) << k;
+      EXPECT_LT(columns_distance(dsm, {x, y, lowest - 1e-3}, {x, y, lowest - 1e-3}, safety + 1), safety) << k;
+    }
+  EXPECT_THROW(lowest_clear_height(dsm, NAN, dsm.y0, 2), ArgumentError);
+  EXPECT_THROW(lowest_clear_height(dsm, dsm.x0, dsm.y0, -1), ArgumentError);
+  EXPECT_EQ(lowest_clear_height(dsm, dsm.x0 - 100, dsm.y0 + 100, 2), -INFINITY);  // no cell within
+}
+
 TEST(PlanLimits, ColumnsAboveTheMeshAreMeasuredExactly) {
   // A DSM of 1 m with buildings, the mesh through the cell centres: the most a column rises
   // above it, against a dense sampling (a lower bound that approaches it).

@@ -36,9 +36,10 @@ constexpr double kMaxSide = 30000;
 constexpr double kMaxPixels = double(1 << 26);
 
 constexpr Rgb kSilhouette{0.66f, 0.66f, 0.66f};
-constexpr Rgb kTerrain{0.55f, 0.32f, 0.10f};  // brown
-constexpr Rgb kCeiling{0.86f, 0.08f, 0.08f};  // red
-constexpr Rgb kPath{1.0f, 0.0f, 1.0f};        // #ff00ff, as the 3D viewer's tube
+constexpr Rgb kTerrain{0.55f, 0.32f, 0.10f};      // brown
+constexpr Rgb kCeiling{0.86f, 0.08f, 0.08f};      // red
+constexpr Rgb kLowestClear{0.10f, 0.20f, 0.60f};  // dark blue
+constexpr Rgb kPath{1.0f, 0.0f, 1.0f};            // #ff00ff, as the 3D viewer's tube
 constexpr Rgb kGridLine{0.90f, 0.90f, 0.90f};
 constexpr Rgb kWaypoint{1.0f, 210 / 255.0f, 0.0f};  // render_view's waypoint yellow
 constexpr Rgb kOutline{0.1f, 0.1f, 0.1f};
@@ -239,7 +240,7 @@ void fill_column(Canvas& canvas, int x, double top, double bottom, Rgb colour, f
 }
 
 struct LegendEntry {
-  enum Kind { Fill, Line, Dashed, Band, Disc, Zone } kind;
+  enum Kind { Fill, Line, Dashed, Dotted, Band, Disc, Zone } kind;
   Rgb colour;
   std::string label;
   double width = 1;  ///< of a line, pixels
@@ -292,6 +293,11 @@ Image render_profile(const std::vector<Point3>& path, const Grid& dsm, const Gri
                     std::string("ceiling: ") + (dtm ? "DTM" : "DSM") + " + " + number(max_agl) + " m", line_width});
   legend.push_back({LegendEntry::Line, kPath, "path", path_width});
   if (safety > 0) legend.push_back({LegendEntry::Band, kPath, "safety +/-" + number(safety) + " m", path_width});
+  const bool lowest_clear = std::any_of(options.lowest_clear.begin(), options.lowest_clear.end(),
+                                        [](const std::array<double, 2>& p) { return std::isfinite(p[1]); });
+  if (lowest_clear)
+    legend.push_back(
+        {LegendEntry::Dotted, kLowestClear, "lowest clear height (" + number(safety) + " m from the DSM)", line_width});
   if (!options.waypoints.empty()) legend.push_back({LegendEntry::Disc, kWaypoint, "waypoints"});
   if (blocking_zone) legend.push_back({LegendEntry::Zone, rgb(kZoneBlocking), "no-fly zone", line_width});
   if (other_zone) legend.push_back({LegendEntry::Zone, rgb(kZoneOther), "zone, not blocking", line_width});
@@ -328,6 +334,7 @@ Image render_profile(const std::vector<Point3>& path, const Grid& dsm, const Gri
   for (const ProfileStep& step : profile.dtm) span(step.z);
   for (const ProfileStep& step : ground) span(step.z + max_agl);
   for (const Point3& p : path) span(p[2] - safety), span(p[2] + safety);
+  for (const auto& p : options.lowest_clear) span(p[1]);
   if (!zone_parts.empty()) {  // the zones' limits near the flight; far higher ones leave by the top
     const double cap_lo = lo - max_agl, cap_hi = hi + max_agl;
     for (const auto& pieces : zone_parts)
@@ -434,6 +441,13 @@ Image render_profile(const std::vector<Point3>& path, const Grid& dsm, const Gri
         draw_line(plot, line[k - 1][0], line[k - 1][1], line[k][0], line[k][1], kTerrain, 1, line_width);
   for (const auto& line : step_lines(ground, max_agl, px, py))
     draw_dashed(plot, line, kCeiling, line_width, 9 * s, 6 * s);
+  std::vector<std::array<double, 2>> clear_line;  // the lowest clear height, dotted, broken at gaps
+  for (size_t k = 0; k <= options.lowest_clear.size(); ++k) {
+    const bool gap = k == options.lowest_clear.size() || !std::isfinite(options.lowest_clear[k][1]);
+    if (!gap) clear_line.push_back({px(options.lowest_clear[k][0]), py(options.lowest_clear[k][1])});
+    if (gap && clear_line.size() > 1) draw_dashed(plot, clear_line, kLowestClear, line_width, 2 * s, 3 * s);
+    if (gap) clear_line.clear();
+  }
   for (size_t k = 1; k < path.size(); ++k)
     draw_line(plot, px(profile.distance[k - 1]), py(path[k - 1][2]), px(profile.distance[k]), py(path[k][2]), kPath, 1,
               path_width);
@@ -491,6 +505,9 @@ Image render_profile(const std::vector<Point3>& path, const Grid& dsm, const Gri
           break;
         case LegendEntry::Dashed:
           draw_dashed(canvas, {{double(x), mid}, {double(x + swatch), mid}}, e.colour, e.width, 9 * s, 6 * s);
+          break;
+        case LegendEntry::Dotted:
+          draw_dashed(canvas, {{double(x), mid}, {double(x + swatch), mid}}, e.colour, e.width, 2 * s, 3 * s);
           break;
         case LegendEntry::Band:
           canvas.fill(x, legend_y - s, x + swatch, legend_y + glyph + s, e.colour, kBandAlpha);

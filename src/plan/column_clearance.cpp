@@ -124,4 +124,29 @@ NearestColumn nearest_column(const Grid& dsm, const Point3& p, double max_d) {
   return nearest;
 }
 
+double lowest_clear_height(const Grid& dsm, double x, double y, double safety) {
+  if (!std::isfinite(x) || !std::isfinite(y)) throw ArgumentError("place", "x and y must be finite numbers");
+  if (!(safety >= 0) || !std::isfinite(safety)) throw ArgumentError("safety", "must be a finite number >= 0");
+  double lowest = -INFINITY;
+  if (dsm.cells() == 0) return lowest;
+  const auto cell = [](double v, int count) {
+    return static_cast<int>(std::clamp(std::floor(v), -1.0, double(count)));
+  };
+  const int c0 = std::max(0, cell((x - safety - dsm.x0) / dsm.cell_x, dsm.width));
+  const int c1 = std::min(dsm.width - 1, cell((x + safety - dsm.x0) / dsm.cell_x, dsm.width));
+  const int r0 = std::max(0, cell((dsm.y0 - (y + safety)) / dsm.cell_y, dsm.height));
+  const int r1 = std::min(dsm.height - 1, cell((dsm.y0 - (y - safety)) / dsm.cell_y, dsm.height));
+  for (int row = r0; row <= r1; ++row)
+    for (int col = c0; col <= c1; ++col) {
+      const float h = dsm.at(col, row);
+      if (std::isnan(h) || h + safety <= lowest) continue;
+      const double x0 = dsm.x0 + col * dsm.cell_x, y1 = dsm.y0 - row * dsm.cell_y;
+      const double dx = std::max({x0 - x, 0.0, x - (x0 + dsm.cell_x)});
+      const double dy = std::max({(y1 - dsm.cell_y) - y, 0.0, y - y1});
+      const double d2 = dx * dx + dy * dy;
+      if (d2 <= safety * safety) lowest = std::max(lowest, h + std::sqrt(safety * safety - d2));
+    }
+  return lowest;
+}
+
 }  // namespace dsmplan

@@ -6,6 +6,7 @@
 #include <filesystem>
 
 #include "core/text.hpp"
+#include "dsmplan/columns.hpp"
 #include "dsmplan/flight.hpp"
 #include "dsmplan/ground.hpp"
 #include "dsmplan/picture.hpp"
@@ -143,6 +144,38 @@ ProfileReport report_of(const Image& image, const PathProfile& profile, const Pr
   return result;
 }
 
+// The free airspace's floor under the path (lowest_clear_height(), the plan stage's rule) every
+// half cell along its x,y projection and at each of its points: (distance, height), -infinity
+// (no column within the safety) as NaN, a gap in the line; and the path's least height above it
+// at those places, and where. Empty for a safety of 0.
+struct LowestClear {
+  std::vector<std::array<double, 2>> line;
+  double least_above = NAN, least_above_at = NAN;
+};
+LowestClear lowest_clear_along(const std::vector<Point3>& path, const Grid& dsm, double safety) {
+  LowestClear out;
+  if (!(safety > 0)) return out;
+  const double step = 0.5 * std::min(dsm.cell_x, dsm.cell_y);
+  double walked = 0;
+  const auto add = [&](const Point3& p, double at) {
+    const double z = lowest_clear_height(dsm, p[0], p[1], safety);
+    out.line.push_back({at, std::isfinite(z) ? z : NAN});
+    if (std::isfinite(z) && !(p[2] - z >= out.least_above)) out.least_above = p[2] - z, out.least_above_at = at;
+  };
+  for (size_t k = 0; k + 1 < path.size(); ++k) {
+    const Point3 &a = path[k], &b = path[k + 1];
+    const double leg = std::hypot(b[0] - a[0], b[1] - a[1]);
+    const int pieces = std::max(1, static_cast<int>(std::ceil(leg / step)));
+    for (int i = 0; i < pieces; ++i) {
+      const double t = double(i) / pieces;
+      add({a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1]), a[2] + t * (b[2] - a[2])}, walked + t * leg);
+    }
+    walked += leg;
+  }
+  add(path.back(), walked);
+  return out;
+}
+
 }  // namespace
 
 std::pair<Image, ProfileReport> profile_picture(const ProfileJobOptions& options, const Progress& progress) {
@@ -168,7 +201,9 @@ std::pair<Image, ProfileReport> profile_picture(const ProfileJobOptions& options
   report(progress, 0.05);
 
   int c0 = 0, r0 = 0, c1 = 0, r1 = 0;
-  cells_around(frame, box.xmin, box.ymin, box.xmax, box.ymax, c0, r0, c1, r1);  // the path is inside: never empty
+  const double reach = options.profile.safety;  // the columns within the safety of the path: its lowest clear height
+  cells_around(frame, box.xmin - reach, box.ymin - reach, box.xmax + reach, box.ymax + reach, c0, r0, c1,
+               r1);  // the path is inside: never empty
   require_memory(options.dsm, "", 4.0 * (c1 - c0) * (r1 - r0));
   const Grid dsm = read_window(*dsm_source, c0, r0, c1 - c0, r1 - r0);
   report(progress, 0.45);
@@ -182,6 +217,8 @@ std::pair<Image, ProfileReport> profile_picture(const ProfileJobOptions& options
 
   ProfileOptions drawing = options.profile;
   drawing.waypoints = waypoints;
+  const LowestClear clear = lowest_clear_along(path, dsm, options.profile.safety);
+  drawing.lowest_clear = clear.line;
   drawing.zones = std::move(zones);
   if (drawing.title.empty())
     drawing.title = "Height profile: " + file_name(options.path) + " over " + file_name(options.dsm);
@@ -197,6 +234,8 @@ std::pair<Image, ProfileReport> profile_picture(const ProfileJobOptions& options
                                     ? NAN
                                     : highest_point_at(path, ground, measured.max_agl_segment, profile.distance);
   ProfileReport result = report_of(image, profile, options, terrain != nullptr);
+  result.min_above_lowest_clear = clear.least_above;
+  result.min_above_lowest_clear_at = clear.least_above_at;
   return {std::move(image), result};
 }
 
@@ -239,6 +278,8 @@ Json to_json(const ProfileReport& r) {
           {"length_m", r.length},
           {"min_above_dsm_m", number(r.min_above_dsm)},
           {"min_above_dsm_at_m", number(r.min_above_dsm_at)},
+          {"min_above_lowest_clear_m", number(r.min_above_lowest_clear)},
+          {"min_above_lowest_clear_at_m", number(r.min_above_lowest_clear_at)},
           {"max_above_ground_m", number(r.max_above_ground)},
           {"max_above_ground_at_m", number(r.max_above_ground_at)},
           {"ground", r.ground_is_dtm ? "dtm" : "dsm"},

@@ -168,6 +168,10 @@ struct ProfileOptions {
   /// zone's finite floors and ceilings along the path that lie at most max_agl above the
   /// highest ceiling of the path (higher ones are cut by the plot's top).
   ZoneLayer zones;
+  /// The free airspace's floor along the path: (distance along the path, the lowest height that
+  /// keeps `safety` from the DSM's columns there; NaN: a gap), drawn as a dark blue dotted line
+  /// where the path may not go below (empty: not drawn). profile_job() fills it.
+  std::vector<std::array<double, 2>> lowest_clear;
 };
 
 /// A picture of the path's height profile: distance along the path (x axis, 0 to the path's
@@ -175,6 +179,7 @@ struct ProfileOptions {
 ///   - the DSM under the path (profile_path().dsm) as a filled grey silhouette (buildings as steps),
 ///   - the DTM (when given) as a brown step line, gaps where it has no data,
 ///   - the ceiling, ground + max_agl (ground: the DTM, else the DSM below), a red dashed line,
+///   - the lowest clear height (options.lowest_clear), a dark blue dotted line,
 ///   - the safety band, path height +-safety, translucent magenta, and the path, thick magenta
 ///     (#ff00ff),
 ///   - each waypoint as a numbered yellow disc on the path where the path passes nearest it (3D),

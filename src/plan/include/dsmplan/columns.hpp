@@ -32,6 +32,15 @@ struct NearestColumn {
 };
 NearestColumn nearest_column(const Grid& dsm, const Point3& p, double max_d);
 
+/// L_s(x, y): the least height at which the point (x, y, z) keeps `safety` from every column of
+/// `dsm` (column_clearance() >= safety exactly when z >= it, the columns reaching down without
+/// end): the largest, over the valid cells within `safety` of (x, y), of the cell's height plus
+/// sqrt(safety^2 - d^2), d the horizontal distance to the cell's square; -infinity when none lies
+/// within. The free airspace's floor at a place (free_airspace.hpp), and what `profile` draws
+/// under a path. ArgumentError for a place that is not finite or a safety that is not >= 0.
+/// O((safety / cell)^2).
+double lowest_clear_height(const Grid& dsm, double x, double y, double safety);
+
 // ---- holding a mesh plan to the DSM's columns ---------------------------------------------
 //
 // With the DSM known, dsmplan guarantees more than clearance to its mesh: every point of the

@@ -84,6 +84,10 @@ struct ProfileReport {
   double length = 0;                                         ///< the path's x,y length
   double min_above_dsm = NAN, min_above_dsm_at = NAN;        ///< least height above the DSM cell below, where
   double max_above_ground = NAN, max_above_ground_at = NAN;  ///< greatest above the ground, where
+  /// Least height above the lowest clear height (the height that keeps `safety` from the DSM's
+  /// columns: negative where the path comes nearer), every half cell along the path, and where;
+  /// NaN with a safety of 0 or no DSM cell within it.
+  double min_above_lowest_clear = NAN, min_above_lowest_clear_at = NAN;
   bool ground_is_dtm = false;
   double max_agl = 0;  ///< the ceiling above the ground
 };
@@ -98,8 +102,8 @@ ProfileReport profile_job(const ProfileJobOptions& options, const Progress& prog
 /// at most 25.60 m above the DSM (at 294.8 m), ceiling DSM + 30 m kept with 4.40 m to spare"
 /// ("EXCEEDED by X m" when the path rises above the ceiling).
 std::string to_text(const ProfileReport& report);
-/// output, width, height, length_m, min_above_dsm_m (and _at_m), max_above_ground_m (and _at_m),
-/// ground ("dtm" or "dsm"), max_agl_m.
+/// output, width, height, length_m, min_above_dsm_m (and _at_m), min_above_lowest_clear_m (and
+/// _at_m; null without), max_above_ground_m (and _at_m), ground ("dtm" or "dsm"), max_agl_m.
 Json to_json(const ProfileReport& report);
 
 }  // namespace dsmplan
