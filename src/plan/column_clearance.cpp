@@ -55,6 +55,22 @@ double segment_box_squared(const Point3& p, const Point3& d, const Point3& lo, c
   return best;
 }
 
+// The cells whose squares may meet the box [xmin - r, xmax + r] x [ymin - r, ymax + r], clamped
+// to the grid (none when c0 > c1 or r0 > r1). Indices clamped as doubles first: a place far off
+// the grid is billions of cells away, beyond an int (fuzz_pipeline).
+struct CellWindow {
+  int c0, c1, r0, r1;
+};
+CellWindow cells_near(const Grid& dsm, double xmin, double ymin, double xmax, double ymax, double r) {
+  const auto cell = [](double v, int count) {
+    return static_cast<int>(std::clamp(std::floor(v), -1.0, double(count)));
+  };
+  return {std::max(0, cell((xmin - r - dsm.x0) / dsm.cell_x, dsm.width)),
+          std::min(dsm.width - 1, cell((xmax + r - dsm.x0) / dsm.cell_x, dsm.width)),
+          std::max(0, cell((dsm.y0 - (ymax + r)) / dsm.cell_y, dsm.height)),
+          std::min(dsm.height - 1, cell((dsm.y0 - (ymin - r)) / dsm.cell_y, dsm.height))};
+}
+
 }  // namespace
 
 double column_clearance(const Grid& dsm, const Point3& p_, const Point3& q_, double max_d) {
@@ -73,18 +89,10 @@ double column_clearance(const Grid& dsm, const Point3& p_, const Point3& q_, dou
   double best2 = max_d * max_d;
   // Search the cells within r of the segment's box, r doubling: a cell outside lies more than
   // r away, so once the best is within r it is the answer.
-  // Cell indices clamped as doubles first: a segment far off the grid is billions of cells away,
-  // beyond an int (fuzz_pipeline).
-  const auto cell = [](double v, int count) {
-    return static_cast<int>(std::clamp(std::floor(v), -1.0, double(count)));
-  };
   for (double r = std::min(max_d, 2 * std::max(dsm.cell_x, dsm.cell_y));; r = std::min(max_d, 2 * r)) {
-    const int c0 = std::max(0, cell((xmin - r - dsm.x0) / dsm.cell_x, dsm.width));
-    const int c1 = std::min(dsm.width - 1, cell((xmax + r - dsm.x0) / dsm.cell_x, dsm.width));
-    const int r0 = std::max(0, cell((dsm.y0 - (ymax + r)) / dsm.cell_y, dsm.height));
-    const int r1 = std::min(dsm.height - 1, cell((dsm.y0 - (ymin - r)) / dsm.cell_y, dsm.height));
-    for (int row = r0; row <= r1; ++row)
-      for (int col = c0; col <= c1; ++col) {
+    const CellWindow w = cells_near(dsm, xmin, ymin, xmax, ymax, r);
+    for (int row = w.r0; row <= w.r1; ++row)
+      for (int col = w.c0; col <= w.c1; ++col) {
         const float h = dsm.at(col, row);
         if (std::isnan(h)) continue;
         const double below = zlow - h;  // the segment is at least this far above the column
@@ -102,15 +110,9 @@ NearestColumn nearest_column(const Grid& dsm, const Point3& p, double max_d) {
   NearestColumn nearest;
   if (dsm.cells() == 0 || !(max_d >= 0)) return nearest;
   double best = max_d;
-  const auto cell = [](double v, int count) {
-    return static_cast<int>(std::clamp(std::floor(v), -1.0, double(count)));
-  };
-  const int c0 = std::max(0, cell((p[0] - max_d - dsm.x0) / dsm.cell_x, dsm.width));
-  const int c1 = std::min(dsm.width - 1, cell((p[0] + max_d - dsm.x0) / dsm.cell_x, dsm.width));
-  const int r0 = std::max(0, cell((dsm.y0 - (p[1] + max_d)) / dsm.cell_y, dsm.height));
-  const int r1 = std::min(dsm.height - 1, cell((dsm.y0 - (p[1] - max_d)) / dsm.cell_y, dsm.height));
-  for (int row = r0; row <= r1; ++row)
-    for (int col = c0; col <= c1; ++col) {
+  const CellWindow w = cells_near(dsm, p[0], p[1], p[0], p[1], max_d);
+  for (int row = w.r0; row <= w.r1; ++row)
+    for (int col = w.c0; col <= w.c1; ++col) {
       const float h = dsm.at(col, row);
       if (std::isnan(h)) continue;
       const double x0 = dsm.x0 + col * dsm.cell_x, y1 = dsm.y0 - row * dsm.cell_y;
@@ -129,15 +131,9 @@ double lowest_clear_height(const Grid& dsm, double x, double y, double safety) {
   if (!(safety >= 0) || !std::isfinite(safety)) throw ArgumentError("safety", "must be a finite number >= 0");
   double lowest = -INFINITY;
   if (dsm.cells() == 0) return lowest;
-  const auto cell = [](double v, int count) {
-    return static_cast<int>(std::clamp(std::floor(v), -1.0, double(count)));
-  };
-  const int c0 = std::max(0, cell((x - safety - dsm.x0) / dsm.cell_x, dsm.width));
-  const int c1 = std::min(dsm.width - 1, cell((x + safety - dsm.x0) / dsm.cell_x, dsm.width));
-  const int r0 = std::max(0, cell((dsm.y0 - (y + safety)) / dsm.cell_y, dsm.height));
-  const int r1 = std::min(dsm.height - 1, cell((dsm.y0 - (y - safety)) / dsm.cell_y, dsm.height));
-  for (int row = r0; row <= r1; ++row)
-    for (int col = c0; col <= c1; ++col) {
+  const CellWindow w = cells_near(dsm, x, y, x, y, safety);
+  for (int row = w.r0; row <= w.r1; ++row)
+    for (int col = w.c0; col <= w.c1; ++col) {
       const float h = dsm.at(col, row);
       if (std::isnan(h) || h + safety <= lowest) continue;
       const double x0 = dsm.x0 + col * dsm.cell_x, y1 = dsm.y0 - row * dsm.cell_y;
