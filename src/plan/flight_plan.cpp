@@ -242,10 +242,6 @@ struct WaypointRules {
     return detail::invalid_waypoints(one, *space, result) ? result.reason : std::string();
   }
   bool valid(const Point3& p) const { return refusal(p).empty(); }
-  // The largest safety distance a check measures with: the columns' own, or the mesh's widened.
-  double checked_safety() const {
-    return area.plans_on_columns(options) ? options.safety : std::max(options.safety, plan.safety);
-  }
 
   const FlightArea& area;
   const PlanOptions& options;
@@ -301,7 +297,9 @@ Spot nearest_valid_point(const Point3& p, double radius, bool up_first, const Wa
                          size_t max_tries = SIZE_MAX) {
   Spot spot;
   size_t tries = 0;
-  max_tries = tries_for_safety(max_tries, rules.checked_safety());
+  // The planner's safety is the largest a check measures with: the mesh's widened, or on the
+  // columns the columns' own (planner_options() widens only off them).
+  max_tries = tries_for_safety(max_tries, rules.plan.safety);
   for (int m = 1; m * kClimbStep <= radius + 1e-9 && !spot.found; ++m) {
     if (++tries > max_tries) {
       spot.bound = max_tries;
