@@ -34,7 +34,10 @@ Command view_command(CLI::App& app, Session& session) {
       "view", "Show a GLB mesh and a path in 3D in the browser: serves the three.js viewer on localhost until Ctrl-C");
   command->add_option("MESH", view.mesh, "Mesh: .glb (dsmplan mesh|simplify -o MESH.glb)")->required();
   command->add_option("--path", view.path, "Path CSV (dsmplan plan -o PATH.csv): x,y,z in the mesh's CRS");
-  command->add_option("--waypoints", view.waypoints, "Waypoint CSV: x,y,z in the mesh's CRS");
+  command->add_option("--waypoints", view.waypoints,
+                      "Waypoint CSV: x,y,z in the mesh's CRS, or x,y,agl (heights above --dtm, else --dsm)");
+  command->add_option("--dtm", view.dtm, "Terrain raster an x,y,agl waypoint file's heights are measured from");
+  command->add_option("--dsm", view.dsm, "DSM raster an x,y,agl waypoint file's heights are measured from (no --dtm)");
   command->add_option("--port", view.port, "TCP port (0: any free one)")->capture_default_str();
   command->add_option("--host", view.host, "Address to listen on")->capture_default_str();
   command->add_option("--viewer-dir", view.viewer_dir,

@@ -3714,3 +3714,69 @@ TEST(CliNoFly, SnapMovesAWaypointOutOfAZoneAndItsSafetyDistance) {
   EXPECT_EQ(read_path_csv(csv).front(), to);
   EXPECT_GE(sampled_square_distance(read_path_csv(csv), centre, 15), 2 - 0.01);
 }
+
+// Issue 52: `render` and `profile` read an x,y,agl waypoint file as `plan` does, its heights above
+// the DSM cell under each waypoint (the DTM's with --dtm): the picture is byte for byte the one of
+// the x,y,z file of those heights (each height from the raster's own cells, the oracle). An agl
+// waypoint over no ground is refused in one line naming the file and the waypoint.
+TEST(CliProfile, AnAglWaypointFileIsDrawnWhereThePlanFliesIt) {
+  TempDir out;
+  const std::string dsm_path = testkit::data_path(kSample);
+  dsmplan::Grid terrain = dsmplan::read_raster(dsm_path);
+  const dsmplan::Grid dsm = terrain;
+  for (float& z : terrain.z) z -= 8;
+  const std::string dtm = out.path("dtm.tif");
+  dsmplan::write_geotiff(terrain, dtm);
+  const auto cell = [](const dsmplan::Grid& g, double x, double y) {
+    return double(g.z[size_t(std::floor((g.y0 - y) / g.cell_y)) * g.width + size_t(std::floor((x - g.x0) / g.cell_x))]);
+  };
+  const std::vector<std::array<double, 2>> places{{356320.5, 5699270.5}, {356561.2, 5699499.7}, {356780.0, 5699730.9}};
+  const std::vector<double> above{25, 31.5, 40};
+  const auto write = [&](const std::string& name, const std::string& header, auto&& height) {
+    std::string text = header + "\n";
+    char line[96];
+    for (size_t i = 0; i < places.size(); ++i) {
+      std::snprintf(line, sizeof line, "%.3f,%.3f,%.17g\n", places[i][0], places[i][1], height(i));
+      text += line;
+    }
+    testkit::write_file(out.path(name), text);
+    return out.path(name);
+  };
+  const std::string agl = write("agl.csv", "x,y,agl", [&](size_t i) { return above[i]; });
+  const std::string over_dsm =
+      write("over_dsm.csv", "x,y,z", [&](size_t i) { return cell(dsm, places[i][0], places[i][1]) + above[i]; });
+  const std::string over_dtm =
+      write("over_dtm.csv", "x,y,z", [&](size_t i) { return cell(terrain, places[i][0], places[i][1]) + above[i]; });
+  const std::string path = write("path.csv", "x,y,z", [&](size_t i) { return 180.0 + i; });
+  const auto profile = [&](const std::string& waypoints, const std::string& png, bool with_dtm) {
+    std::vector<std::string> args{"profile", dsm_path, "--path",      path, "--waypoints",
+                                  waypoints, "-o",     out.path(png), "-q"};
+    if (with_dtm) args.insert(args.end(), {"--dtm", dtm});
+    const auto run = run_cli(args);
+    EXPECT_EQ(run.exit_code, 0) << run.err;
+    return testkit::read_file(out.path(png));
+  };
+  const std::string drawn = profile(agl, "agl.png", false);
+  EXPECT_FALSE(drawn.empty());
+  EXPECT_TRUE(drawn == profile(over_dsm, "over_dsm.png", false)) << "the agl waypoints are not where the z ones are";
+  EXPECT_FALSE(drawn == profile(over_dtm, "over_dtm_no_dtm.png", false)) << "the waypoints do not change the picture";
+  EXPECT_TRUE(profile(agl, "agl_dtm.png", true) == profile(over_dtm, "over_dtm.png", true));
+
+  for (const auto& [waypoints, png] : {std::pair{agl, "r_agl.png"}, std::pair{over_dsm, "r_z.png"}}) {
+    const auto run = run_cli({"render", dsm_path, "--waypoints", waypoints, "-o", out.path(png), "-q"});
+    EXPECT_EQ(run.exit_code, 0) << run.err;
+  }
+  EXPECT_TRUE(testkit::read_file(out.path("r_agl.png")) == testkit::read_file(out.path("r_z.png")));
+
+  testkit::write_file(out.path("beyond.csv"), "x,y,agl\n356320.5,5699270.5,25\n357900,5699270.5,25\n");
+  for (const char* command : {"render", "profile"}) {
+    std::vector<std::string> args{command, dsm_path,           "--waypoints", out.path("beyond.csv"),
+                                  "-o",    out.path("no.png"), "-q"};
+    if (std::string(command) == "profile") args.insert(args.end(), {"--path", path});
+    const auto run = run_cli(args);
+    EXPECT_EQ(run.exit_code, 1) << command;
+    EXPECT_EQ(std::count(run.err.begin(), run.err.end(), '\n'), 1) << run.err;
+    EXPECT_NE(run.err.find("beyond.csv: waypoint 2: x 357900.00"), std::string::npos) << run.err;
+    EXPECT_FALSE(std::filesystem::exists(out.path("no.png"))) << command;
+  }
+}

@@ -1282,3 +1282,42 @@ TEST(View, DrawsGeoJsonZonesFromTheGroundToTheClampedTopAndRepeatsNoFly) {
   EXPECT_NEAR(std::stod(value(items[1], "thickness-min")), 60, 1e-6);
   EXPECT_NEAR(std::stod(value(items[1], "thickness-max")), 60, 1e-6);
 }
+
+// Issue 52: an x,y,agl waypoint file is drawn where `dsmplan plan` flies it: each sphere at its
+// height above the DSM cell under it (GDAL's read of the DSM, the oracle), and refused in one line
+// when nothing is given to measure from.
+TEST(View, DrawsAnAglWaypointFileAtItsHeightAboveTheDsm) {
+  testkit::TempDir dir;
+  const std::string glb = dir.path("m.glb"), agl = dir.path("agl.csv");
+  ASSERT_EQ(testkit::run_cli({"mesh", testkit::data_path(kDsm), "--res", "25", "-o", glb, "-q"}).exit_code, 0);
+  const std::vector<std::array<double, 3>> asked{{356412.3, 5699321.7, 20}, {356655.5, 5699604.1, 35.5}};
+  std::string text = "x,y,agl\n";
+  for (const auto& p : asked)
+    text += std::to_string(p[0]) + "," + std::to_string(p[1]) + "," + std::to_string(p[2]) + "\n";
+  testkit::write_file(agl, text);
+
+  const auto refused = testkit::run_cli({"view", glb, "--waypoints", agl});
+  EXPECT_EQ(refused.exit_code, 1);
+  EXPECT_EQ(std::count(refused.err.begin(), refused.err.end(), '\n'), 1) << refused.err;
+  EXPECT_NE(refused.err.find(agl + ": line 1: its header names the height column agl"), std::string::npos)
+      << refused.err;
+  EXPECT_NE(refused.err.find("give --dtm or --dsm"), std::string::npos) << refused.err;
+
+  const Dsm dsm = read_dsm();
+  ViewServer server(dir, {glb, "--waypoints", agl, "--dsm", testkit::data_path(kDsm)});
+  ASSERT_FALSE(server.url().empty());
+  httplib::Client client("127.0.0.1", server.port());
+  const auto served = client.Get("/data/waypoints.csv");
+  ASSERT_TRUE(served);
+  ASSERT_EQ(served->status, 200);
+  const auto drawn = read_xyz(served->body);
+  ASSERT_EQ(drawn.size(), asked.size()) << served->body;
+  for (size_t i = 0; i < asked.size(); ++i) {
+    const int col = int(std::floor((asked[i][0] - dsm.x0) / dsm.dx)),
+              row = int(std::floor((asked[i][1] - dsm.y0) / dsm.dy));
+    const double ground = dsm.z[size_t(row) * dsm.width + col];
+    EXPECT_NEAR(drawn[i][0], asked[i][0], 1e-3);
+    EXPECT_NEAR(drawn[i][1], asked[i][1], 1e-3);
+    EXPECT_NEAR(drawn[i][2], ground + asked[i][2], 1e-3) << "waypoint " << i + 1;
+  }
+}

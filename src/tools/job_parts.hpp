@@ -22,6 +22,14 @@
 
 namespace dsmplan {
 
+/// A picture's waypoint CSV (render, profile, view) read as `dsmplan plan` reads it: x,y,z in the
+/// CRS, or, when its header names the third column "agl", heights above `ground` (the DTM, else
+/// the DSM, as plan counts them: waypoints_in_crs()) turned into the CRS's. InputError naming the
+/// file: an agl file with no `ground` (the message says `give_ground`, e.g. "give --dtm or
+/// --dsm"), a waypoint over no ground, and every error of read_waypoints_csv().
+std::vector<Point3> read_picture_waypoints(const std::string& path, const Grid* ground, const std::string& ground_name,
+                                           const std::string& give_ground);
+
 /// Appends ("total", sum of the stages) to a report's stage seconds.
 inline void add_total(std::vector<std::pair<std::string, double>>& seconds) {
   double total = 0;

@@ -182,8 +182,6 @@ std::pair<Image, ProfileReport> profile_picture(const ProfileJobOptions& options
   check_profile_options(options);
   const std::vector<Point3> path = options.path_points.empty() ? read_waypoints_csv(options.path) : options.path_points;
   if (path.size() < 2) throw InputError(options.path, "", "a path needs at least two points");
-  const std::vector<Point3> waypoints =
-      options.waypoints.empty() ? options.profile.waypoints : read_waypoints_csv(options.waypoints);
 
   // Only the windows around the path are read: the DSM may be a whole city's mosaic.
   const std::unique_ptr<GridSource> dsm_source =
@@ -216,7 +214,10 @@ std::pair<Image, ProfileReport> profile_picture(const ProfileJobOptions& options
   report(progress, 0.8);
 
   ProfileOptions drawing = options.profile;
-  drawing.waypoints = waypoints;
+  // Heights above the ground from the DTM, else the DSM, as `dsmplan plan` counts them.
+  if (!options.waypoints.empty())
+    drawing.waypoints = read_picture_waypoints(options.waypoints, terrain_window.source ? &dtm : &dsm,
+                                               terrain_window.source ? "dtm" : "dsm", "");
   const LowestClear clear = lowest_clear_along(path, dsm, options.profile.safety);
   drawing.lowest_clear = clear.line;
   drawing.zones = std::move(zones);

@@ -74,6 +74,9 @@ std::pair<Image, RenderReport> render_picture(const RenderJobOptions& options, c
   check_render_options(options, panels);
   Grid dsm =
       options.dsm_grid ? *options.dsm_grid : read_raster(options.dsm, options.read, sub_progress(progress, 0, 0.25));
+  // Heights above the ground are measured from the DSM as read, as `dsmplan plan` counts them without a DTM.
+  const std::vector<Point3> waypoints =
+      options.waypoints.empty() ? std::vector<Point3>{} : read_picture_waypoints(options.waypoints, &dsm, "dsm", "");
   if (options.resolution && (*options.resolution != dsm.cell_x || *options.resolution != dsm.cell_y)) {
     dsm = resample(dsm, *options.resolution, Resampling::Median, sub_progress(progress, 0.25, 0.3));
   }
@@ -103,7 +106,7 @@ std::pair<Image, RenderReport> render_picture(const RenderJobOptions& options, c
     if (line.polylines.back().size() < 2) throw InputError(path, "", "a path needs at least two points");
     layered.lines.push_back(std::move(line));
   }
-  if (!options.waypoints.empty()) layered.markers.push_back(MarkerLayer{read_waypoints_csv(options.waypoints)});
+  if (!options.waypoints.empty()) layered.markers.push_back(MarkerLayer{waypoints});
   layered.lines.insert(layered.lines.end(), options.render.lines.begin(), options.render.lines.end());
   layered.markers.insert(layered.markers.end(), options.render.markers.begin(), options.render.markers.end());
 

@@ -11,6 +11,7 @@
 #include <fstream>
 #include <map>
 #include <memory>
+#include <optional>
 #include <sstream>
 
 #include "core/text.hpp"
@@ -96,6 +97,8 @@ fs::path checked_viewer_dir(const ViewOptions& options) {
   check_glb(options.mesh);
   if (!options.path.empty()) check_csv(options.path, "path");
   if (!options.waypoints.empty()) check_csv(options.waypoints, "waypoints");
+  for (const std::string& raster : {options.dtm, options.dsm})
+    if (!raster.empty() && !fs::is_regular_file(raster)) throw InputError(raster, "", "no such file");
   if (options.port < 0 || options.port > 65535)
     throw ArgumentError("--port", "must be 0 (any free port) to 65535, got " + std::to_string(options.port));
   if (!(options.request_deadline_seconds >= 0.001 && options.request_deadline_seconds <= 86400))
@@ -187,6 +190,25 @@ struct ViewFiles {
   }
 };
 
+// The waypoints as the page draws them, x,y,z in the CRS: an agl file's heights measured as
+// `dsmplan plan` measures them (read_picture_waypoints()).
+std::string waypoints_csv(const ViewOptions& options) {
+  const std::string& ground_file = options.dtm.empty() ? options.dsm : options.dtm;
+  std::optional<Grid> ground;
+  bool agl = false;
+  read_waypoints_csv(options.waypoints, &agl);
+  if (agl && !ground_file.empty()) ground = read_raster(ground_file);
+  const std::vector<Point3> points = read_picture_waypoints(options.waypoints, ground ? &*ground : nullptr,
+                                                            options.dtm.empty() ? "dsm" : "dtm", "give --dtm or --dsm");
+  std::string csv = "x,y,z\n";
+  char line[96];
+  for (const Point3& p : points) {
+    std::snprintf(line, sizeof line, "%.3f,%.3f,%.3f\n", p[0], p[1], p[2]);
+    csv += line;
+  }
+  return csv;
+}
+
 }  // namespace
 
 void serve_view(const ViewOptions& options, const std::function<void(const std::string& url)>& listening) {
@@ -196,7 +218,7 @@ void serve_view(const ViewOptions& options, const std::function<void(const std::
   files.viewer_real = fs::canonical(files.viewer);
   if (!options.path.empty()) files.data["/data/path.csv"] = options.path, files.query += "&path=/data/path.csv";
   if (!options.waypoints.empty())
-    files.data["/data/waypoints.csv"] = options.waypoints, files.query += "&waypoints=/data/waypoints.csv";
+    files.made["/data/waypoints.csv"] = waypoints_csv(options), files.query += "&waypoints=/data/waypoints.csv";
   if (!options.no_fly.files.empty())
     files.made["/data/zones.json"] = view_zones_json(options.no_fly, options.mesh),
     files.query += "&zones=/data/zones.json";

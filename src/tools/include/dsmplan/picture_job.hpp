@@ -37,9 +37,9 @@ struct RenderJobOptions {
   RenderOptions render;
   std::shared_ptr<const Grid> dsm_grid;  ///< the DSM in memory: drawn instead of reading `dsm` (its name)
   std::vector<std::string> paths;        ///< path CSVs (x,y,z as `dsmplan plan` writes them), drawn on every panel
-  std::string waypoints;                 ///< waypoint CSV: numbered discs on every panel
-  std::string roadmap;                   ///< roadmap file (`dsmplan plan --roadmap`): its edges, thin, under the paths
-  ZoneFiles no_fly;                      ///< zones drawn on every panel (RenderOptions::zones), under the paths
+  std::string waypoints;  ///< waypoint CSV (x,y,z, or x,y,agl above the DSM): numbered discs on every panel
+  std::string roadmap;    ///< roadmap file (`dsmplan plan --roadmap`): its edges, thin, under the paths
+  ZoneFiles no_fly;       ///< zones drawn on every panel (RenderOptions::zones), under the paths
 };
 
 struct RenderReport {
@@ -67,7 +67,7 @@ struct ProfileJobOptions {
   std::string path;       ///< path CSV (x,y,z as `dsmplan plan` writes them), in the DSM's CRS
   std::string output;     ///< .png
   std::string dtm;        ///< terrain raster (optional): the ground of the ceiling, a brown line
-  std::string waypoints;  ///< waypoint CSV (optional): numbered markers on the path
+  std::string waypoints;  ///< waypoint CSV (optional; x,y,agl above the DTM, else the DSM): numbered markers
   /// size, title (empty: "PATH over DSM"), safety, max_agl; its waypoints (used when `waypoints`
   /// is empty) and zones (drawn with `no_fly`'s) in memory
   ProfileOptions profile;

@@ -13,7 +13,10 @@ namespace dsmplan {
 struct ViewOptions {
   std::string mesh;       ///< GLB of `dsmplan mesh|simplify -o X.glb`
   std::string path;       ///< optional path CSV (x,y,z in the mesh's CRS, as `dsmplan plan -o X.csv`)
-  std::string waypoints;  ///< optional waypoint CSV (x,y,z)
+  std::string waypoints;  ///< optional waypoint CSV (x,y,z, or x,y,agl measured from `dtm`, else `dsm`)
+  /// Rasters an x,y,agl waypoint file's heights are measured from, as `dsmplan plan --dtm` and
+  /// `--dsm` count them (the DTM when given, else the DSM); an agl file without either is refused.
+  std::string dtm, dsm;
   std::string host = "127.0.0.1";
   int port = 8080;  ///< 0: any free port (the URL names the one taken)
   /// The viewer's static files: index.html, viewer.js and node_modules/three (the build puts
