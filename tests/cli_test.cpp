@@ -3780,3 +3780,111 @@ TEST(CliProfile, AnAglWaypointFileIsDrawnWhereThePlanFliesIt) {
     EXPECT_FALSE(std::filesystem::exists(out.path("no.png"))) << command;
   }
 }
+
+// Issue 52: a .plan carries the zones it was planned around as QGC geofence exclusion polygons,
+// as far as a flat fence can: every ring of each blocking zone the mission keeps out of seen from
+// above, its corners those of the zones file (WGS 84, the oracle) through the CRS and back; the
+// zones the path passes under or over (a floor 90 m up, an AMSL band) left out and named, since
+// the autopilot would call the planned flight a breach. The mission's own legs, home to home,
+// enter no polygon (QGC's even-odd test of a coordinate, and no leg crossing an edge).
+TEST(CliNoFly, PlanGeofenceKeepsOutTheZonesTheMissionKeepsOutOf) {
+  NoFlyFixture f;
+  TempDir out;
+  const std::string plan = out.path("m.plan"), stats = out.path("s.json");
+  const auto run = run_cli({"plan",
+                            f.mesh,
+                            "--dsm",
+                            testkit::data_path(kSample),
+                            "--waypoints",
+                            testkit::data_path("nrw-dom1/low_waypoints.csv"),
+                            "--max-agl",
+                            "30",
+                            "--no-fly",
+                            kNrwZones,
+                            "--no-fly-blocking",
+                            "PROHIBITED,REQ_AUTHORISATION",
+                            "--vertical-crs",
+                            "EPSG:7837",
+                            "--allow-approximate-vertical",
+                            "-o",
+                            plan,
+                            "--stats",
+                            stats,
+                            "-q"});
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  const json report = json::parse(testkit::read_file(stats));
+  const json mission = json::parse(testkit::read_file(plan));
+  const json file = json::parse(testkit::read_file(kNrwZones));
+  std::set<std::string> left_out;
+  for (const auto& zone : report["geofence_left_out"]) {
+    left_out.insert(zone["zone"].get<std::string>());
+    EXPECT_NE(zone["why"].get<std::string>().find("passes over or under"), std::string::npos) << zone.dump();
+  }
+  EXPECT_EQ(left_out, (std::set<std::string>{"High corridor above the roofs", "East band"}));
+  using LatLon = std::array<double, 2>;
+  std::vector<std::vector<LatLon>> fences;
+  for (const auto& fence : mission["geoFence"]["polygons"]) {
+    EXPECT_EQ(fence["inclusion"], false);
+    EXPECT_EQ(fence["version"], 1);
+    auto& ring = fences.emplace_back();
+    for (const auto& c : fence["polygon"]) ring.push_back({c[0].get<double>(), c[1].get<double>()});
+    EXPECT_GE(ring.size(), 3u);
+    EXPECT_NE(ring.front(), ring.back()) << "QGC keeps its polygons open";
+  }
+  // Every ring of every blocking zone not left out, its corners where the file has them.
+  size_t rings = 0, zones = 0;
+  for (const auto& zone : file["features"]) {
+    const std::string restriction = zone["restriction"];
+    if ((restriction != "PROHIBITED" && restriction != "REQ_AUTHORISATION") || left_out.count(zone["name"])) continue;
+    ++zones;
+    const auto& shape = zone["geometry"][0]["horizontalProjection"];
+    if (shape["type"] != "Polygon") {
+      ++rings;  // a circle: drawn as a ring of its own
+      continue;
+    }
+    for (const auto& ring : shape["coordinates"]) {
+      ++rings;
+      for (const auto& corner : ring) {
+        const double lon = corner[0], lat = corner[1];
+        const bool found = std::any_of(fences.begin(), fences.end(), [&](const auto& fence) {
+          return std::any_of(fence.begin(), fence.end(), [&](const LatLon& c) {
+            return std::abs(c[0] - lat) < 1e-7 && std::abs(c[1] - lon) < 1e-7;
+          });
+        });
+        EXPECT_TRUE(found) << zone["name"] << ": " << lon << ", " << lat;
+      }
+    }
+  }
+  EXPECT_EQ(report["geofence_zones"].get<size_t>(), zones);
+  EXPECT_EQ(fences.size(), rings);
+  // The mission as flown: home, the items with a position, back home (RTL).
+  std::vector<LatLon> legs{
+      {mission["mission"]["plannedHomePosition"][0], mission["mission"]["plannedHomePosition"][1]}};
+  for (const auto& item : mission["mission"]["items"])
+    if (item["frame"] != 2) legs.push_back({item["params"][4].get<double>(), item["params"][5].get<double>()});
+  legs.push_back(legs.front());
+  const auto inside = [](const std::vector<LatLon>& ring, const LatLon& p) {  // winding number
+    int winding = 0;
+    for (size_t i = 0; i < ring.size(); ++i) {
+      const LatLon &a = ring[i], &b = ring[(i + 1) % ring.size()];
+      const double side = (b[0] - a[0]) * (p[1] - a[1]) - (p[0] - a[0]) * (b[1] - a[1]);
+      if (a[1] <= p[1] && b[1] > p[1] && side > 0) ++winding;
+      if (a[1] > p[1] && b[1] <= p[1] && side < 0) --winding;
+    }
+    return winding != 0;
+  };
+  const auto cross = [](const LatLon& p, const LatLon& q, const LatLon& a, const LatLon& b) {  // proper or touching
+    const auto orient = [](const LatLon& o, const LatLon& u, const LatLon& v) {
+      const double d = (u[0] - o[0]) * (v[1] - o[1]) - (u[1] - o[1]) * (v[0] - o[0]);
+      return (d > 0) - (d < 0);
+    };
+    return orient(p, q, a) * orient(p, q, b) <= 0 && orient(a, b, p) * orient(a, b, q) <= 0;
+  };
+  for (size_t z = 0; z < fences.size(); ++z)
+    for (size_t k = 0; k + 1 < legs.size(); ++k) {
+      EXPECT_FALSE(inside(fences[z], legs[k])) << "point " << k << " inside fence " << z;
+      for (size_t i = 0; i < fences[z].size(); ++i)
+        EXPECT_FALSE(cross(legs[k], legs[k + 1], fences[z][i], fences[z][(i + 1) % fences[z].size()]))
+            << "leg " << k << " crosses fence " << z;
+    }
+}

@@ -1909,6 +1909,52 @@ TEST(MissionText, PlanMatchesTheGoldenFileAndPassesTheQgcSchema) {
   EXPECT_FALSE(plan_schema_errors(broken).empty());
 }
 
+// Issue 52: keep-out areas are the .plan's geofence as QGC saves its own polygons: exclusion
+// (inclusion false), version 1, [latitude, longitude] corners, open and clockwise by QGC's own
+// test (QGCMapPolygon::verifyClockwiseWinding: the sum of (lon2 - lon1) (lat2 + lat1) over the
+// edges positive), whatever the winding and closure given; the schema holds; a ring of two
+// corners is refused.
+TEST(MissionText, PlanCarriesKeepOutAreasAsQgcFencePolygons) {
+  Mission mission = sample_mission(MissionEnd::rtl);
+  const std::vector<std::array<double, 2>> anticlockwise_closed{
+      {6.9330, 51.4260}, {6.9340, 51.4260}, {6.9340, 51.4266}, {6.9330, 51.4266}, {6.9330, 51.4260}};
+  const std::vector<std::array<double, 2>> clockwise_open{{6.9350, 51.4280}, {6.9360, 51.4275}, {6.9350, 51.4270}};
+  mission.keep_out = {anticlockwise_closed, clockwise_open};
+  const auto plan = nlohmann::json::parse(mission_to_qgc_plan(mission));
+  const auto errors = plan_schema_errors(plan);
+  EXPECT_TRUE(errors.empty()) << errors.front();
+  const auto& polygons = plan["geoFence"]["polygons"];
+  ASSERT_EQ(polygons.size(), 2u);
+  for (size_t z = 0; z < polygons.size(); ++z) {
+    const auto& fence = polygons[z];
+    EXPECT_EQ(fence["inclusion"], false);
+    EXPECT_EQ(fence["version"], 1);
+    const auto& corners = fence["polygon"];
+    const auto& given = mission.keep_out[z];
+    const size_t open = given.front() == given.back() ? given.size() - 1 : given.size();
+    ASSERT_EQ(corners.size(), open) << "closed, or a corner lost";
+    double turn = 0;
+    for (size_t k = 0; k < corners.size(); ++k) {
+      const auto &a = corners[k], &b = corners[(k + 1) % corners.size()];
+      turn += (b[1].get<double>() - a[1].get<double>()) * (b[0].get<double>() + a[0].get<double>());
+    }
+    EXPECT_GT(turn, 0) << "not clockwise as QGC keeps it: polygon " << z;
+    for (const auto& corner : given) {  // every corner given is there, latitude first
+      const bool found = std::any_of(corners.begin(), corners.end(), [&](const auto& c) {
+        return std::abs(c[0].template get<double>() - corner[1]) < 1e-9 &&
+               std::abs(c[1].template get<double>() - corner[0]) < 1e-9;
+      });
+      EXPECT_TRUE(found) << corner[0] << ", " << corner[1];
+    }
+  }
+  EXPECT_TRUE(plan["geoFence"]["circles"].empty());
+  auto broken = plan;
+  broken["geoFence"]["polygons"][0].erase("inclusion");
+  EXPECT_FALSE(plan_schema_errors(broken).empty());
+  mission.keep_out = {{{6.93, 51.42}, {6.94, 51.42}}};
+  EXPECT_THROW(mission_to_qgc_plan(mission), ArgumentError);
+}
+
 TEST(MissionText, WplMatchesTheGoldenFileAndReadsAsQgcReadsIt) {
   const Mission mission = sample_mission(MissionEnd::rtl);
   const std::string text = mission_to_qgc_wpl(mission);

@@ -161,6 +161,37 @@ std::string xml_escaped(const std::string& text) {
   return out;
 }
 
+// The keep-out rings as QGC's geofence polygons (QGCFencePolygon::saveToJson: version 1,
+// inclusion, then QGCMapPolygon's "polygon" of [latitude, longitude] without altitude). QGC keeps
+// its polygons open and clockwise (QGCMapPolygon::verifyClockwiseWinding: the sum over the edges
+// of (lon2 - lon1) (lat2 + lat1) positive), so they are written so.
+std::string fence_polygons(const std::vector<std::vector<std::array<double, 2>>>& keep_out) {
+  if (keep_out.empty()) return "[]";
+  std::string text = "[\n";
+  for (size_t z = 0; z < keep_out.size(); ++z) {
+    std::vector<std::array<double, 2>> ring = keep_out[z];
+    if (ring.size() > 1 && ring.front() == ring.back()) ring.pop_back();
+    for (const auto& c : ring)
+      if (!std::isfinite(c[0]) || !std::isfinite(c[1]) || std::abs(c[0]) > 180 || std::abs(c[1]) > 90)
+        throw ArgumentError("mission", "keep-out area " + std::to_string(z + 1) + " has a corner not in degrees");
+    if (ring.size() < 3)
+      throw ArgumentError("mission", "keep-out area " + std::to_string(z + 1) + " has fewer than 3 corners");
+    double turn = 0;
+    for (size_t k = 0; k < ring.size(); ++k) {
+      const auto &a = ring[k], &b = ring[(k + 1) % ring.size()];
+      turn += (b[0] - a[0]) * (b[1] + a[1]);
+    }
+    if (turn < 0) std::reverse(ring.begin(), ring.end());
+    text += "            {\n                \"inclusion\": false,\n                \"polygon\": [\n";
+    for (size_t k = 0; k < ring.size(); ++k)
+      text += "                    [\n                        " + degrees(ring[k][1]) + ",\n                        " +
+              degrees(ring[k][0]) + "\n                    ]" + (k + 1 < ring.size() ? ",\n" : "\n");
+    text += "                ],\n                \"version\": 1\n            }";
+    text += z + 1 < keep_out.size() ? ",\n" : "\n";
+  }
+  return text + "        ]";
+}
+
 }  // namespace
 
 std::string mission_to_qgc_plan(const Mission& mission, const MissionOptions& options) {
@@ -172,7 +203,9 @@ std::string mission_to_qgc_plan(const Mission& mission, const MissionOptions& op
       "    \"fileType\": \"Plan\",\n"
       "    \"geoFence\": {\n"
       "        \"circles\": [],\n"
-      "        \"polygons\": [],\n"
+      "        \"polygons\": " +
+      fence_polygons(mission.keep_out) +
+      ",\n"
       "        \"version\": 2\n"
       "    },\n"
       "    \"groundStation\": \"QGroundControl\",\n"

@@ -114,4 +114,14 @@ std::string view_zones_json(const ZoneFiles& files, const std::string& glb);
 /// relative to the ground, CRS heights above mean sea level; empty without zones.
 std::vector<KmlZone> kml_zones_of(const ZoneLayer& layer, const Wgs84Transform& to_msl);
 
+/// The zones a mission's flat geofence can carry (fence_zones.cpp): the blocking ones whose rings
+/// the path as flown (`flown`, CRS) keeps out of seen from above, every ring a keep-out area in
+/// WGS 84 longitude, latitude; the others named in `left_out` with why.
+struct KeepOut {
+  std::vector<std::vector<std::array<double, 2>>> areas;
+  size_t zones = 0;                                           ///< zones whose rings are in `areas`
+  std::vector<std::pair<std::string, std::string>> left_out;  ///< zone caption, why
+};
+KeepOut keep_out_areas(const ZoneLayer& zones, const std::vector<Point3>& flown, const Wgs84Transform& to_wgs84);
+
 }  // namespace dsmplan

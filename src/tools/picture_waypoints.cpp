@@ -20,7 +20,10 @@ std::vector<Point3> read_picture_waypoints(const std::string& path, const Grid* 
   const GroundGrid measured(*ground);
   return waypoints_in_crs(
       std::move(waypoints), WaypointHeights::agl,
-      [&](double x, double y) { return -measured.height_above({x, y, 0}); }, path, ground_name);
+      [&](double x, double y) {
+        return -measured.height_above({x, y, 0});
+      },
+      path, ground_name);
 }
 
 }  // namespace dsmplan

@@ -299,9 +299,14 @@ std::string flight_text(const PlanJobOptions& options, const OutputKind& kind, c
     // The zones it was planned around, drawn with it (kml_zones.cpp).
     return path_to_kml(lonlatamsl, marks, kml, kml_zones_of(out.zones, *t.to_msl));
   }
-  const Mission mission = flight_mission(flight, lonlatamsl, t, report);
-  return kind.ext == "plan" ? mission_to_qgc_plan(mission, options.mission.format)
-                            : mission_to_qgc_wpl(mission, options.mission.format);
+  Mission mission = flight_mission(flight, lonlatamsl, t, report);
+  if (kind.ext != "plan") return mission_to_qgc_wpl(mission, options.mission.format);
+  // The zones it was planned around, as far as a flat geofence holds them (fence_zones.cpp).
+  KeepOut fence = keep_out_areas(out.zones, flown_path(flight), *t.to_msl);
+  mission.keep_out = std::move(fence.areas);
+  report.geofence_zones = fence.zones;
+  report.geofence_left_out = std::move(fence.left_out);
+  return mission_to_qgc_plan(mission, options.mission.format);
 }
 
 Mission flight_mission(const FlightPlan& flight, const std::vector<Point3>& lonlatamsl, const Transforms& t,
@@ -511,6 +516,12 @@ Json to_json(const PlanReport& r) {
     j["takeoff_height_m"] = r.takeoff_height_m;
     j["mission_end"] = r.mission_end;
   }
+  if (r.geofence_zones || !r.geofence_left_out.empty()) {
+    j["geofence_zones"] = r.geofence_zones;
+    Json left = Json::array();
+    for (const auto& [zone, why] : r.geofence_left_out) left.push_back({{"zone", zone}, {"why", why}});
+    j["geofence_left_out"] = std::move(left);
+  }
   if (!r.no_fly_zones.empty()) {
     Json zones = Json::array();
     for (const FlightReport::ZoneFigure& z : r.no_fly_zones)
@@ -581,6 +592,12 @@ std::string to_text(const PlanReport& r) {
                                       : "DSM",
         r.home_ground_uncertainty_m, r.takeoff_height_m, r.path_points - 1, r.mission_end.c_str());
     text += mission;
+  }
+  if (r.geofence_zones || !r.geofence_left_out.empty()) {
+    text +=
+        "geofence: " + std::to_string(r.geofence_zones) + (r.geofence_zones == 1 ? " zone" : " zones") + " kept out";
+    for (const auto& [zone, why] : r.geofence_left_out) text += "; left out: " + zone + " (" + why + ")";
+    text += "\n";
   }
   if (const FlightReport::ZoneFigure* nearest = nearest_zone(r)) {
     char zone[64];

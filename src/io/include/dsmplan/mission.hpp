@@ -3,6 +3,7 @@
 // Formatting only: the caller transforms coordinates (wgs84.hpp).
 #pragma once
 
+#include <array>
 #include <cmath>
 #include <string>
 #include <vector>
@@ -45,6 +46,9 @@ struct Mission {
   std::vector<Point3> route;   ///< lon, lat, AMSL; route[0] is the top of the takeoff, above home
   MissionEnd end = MissionEnd::rtl;
   Point3 land{NAN, NAN, NAN};  ///< end == land: lon, lat, AMSL height of the ground it lands on
+  /// Areas the vehicle must stay out of (a .plan's geofence exclusion polygons): each the
+  /// longitude, latitude (degrees) of a ring's corners, in any winding, closed or not.
+  std::vector<std::vector<std::array<double, 2>>> keep_out;
 };
 
 /// Takeoff tops closer to home than this are refused: PX4 accepts a takeoff only 1 m above its
@@ -80,7 +84,11 @@ struct MissionOptions {
 /// 2 with firmwareType, vehicleType, cruiseSpeed, hoverSpeed, globalPlanAltitudeMode (1 relative,
 /// 2 absolute), plannedHomePosition [lat, lon, AMSL] of home; SimpleItems {autoContinue true,
 /// command, doJumpId 1.., frame, params [p1..p4, lat, lon, alt], type}; positional items also
-/// AMSLAltAboveTerrain null, Altitude, AltitudeMode. Empty geoFence and rallyPoints (version 2).
+/// AMSLAltAboveTerrain null, Altitude, AltitudeMode. geoFence version 2: no circles, each of
+/// `keep_out` an exclusion polygon {inclusion false, polygon [[lat, lon], ...] clockwise and
+/// not closed, as QGC saves its own (QGCMapPolygon::verifyClockwiseWinding), version 1}; QGC's
+/// fences hold no heights. Empty rallyPoints (version 2). ArgumentError also for a keep-out
+/// ring of fewer than 3 corners or a corner not in degrees.
 std::string mission_to_qgc_plan(const Mission& mission, const MissionOptions& options = {});
 
 /// A MAVLink plain-text mission, "QGC WPL 110" (Mission Planner's .waypoints, ArduPilot's): the

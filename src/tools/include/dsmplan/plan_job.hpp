@@ -100,7 +100,11 @@ struct PlanReport : FlightReport {
   /// The PROJ operation(s) used: GeoJSON waypoints' and GeoJSON output's (to ellipsoidal
   /// heights), then "; path by: " the missions' and KML's (to EGM96 heights); empty when none.
   std::string transformation;
-  size_t mission_items = 0;              ///< missions: the items written (takeoff, speed, waypoints, end)
+  size_t mission_items = 0;  ///< missions: the items written (takeoff, speed, waypoints, end)
+  /// .plan: the blocking zones its geofence keeps out (every ring an exclusion polygon), and those
+  /// left out (caption, why: a flat fence the path passes over or under would be breached).
+  size_t geofence_zones = 0;
+  std::vector<std::pair<std::string, std::string>> geofence_left_out;
   std::optional<RenderReport> render;    ///< --render: its window and zoom
   std::optional<ProfileReport> profile;  ///< --profile: its figures
 };
