@@ -38,7 +38,7 @@ struct PlanArguments {
   std::string planner = "prm", objective = "low";
   int64_t seed = 1;  // signed: CLI11 would wrap -3 round to 2^64 - 3 as an unsigned
   bool json = false;
-  std::string home, end, altitude_frame = "relative", firmware = "generic";
+  std::string home, end, altitude_frame = "relative", firmware = "generic", drone = "m3e";
   double hover_speed = NAN;
 };
 
@@ -66,6 +66,7 @@ void run_plan(PlanArguments& request, Session& session) {
   if (!request.end.empty()) plan.mission.end = parse_mission_end(request.end);
   plan.mission.format.altitude_frame = parse_altitude_frame(request.altitude_frame);
   plan.mission.format.firmware = parse_firmware(request.firmware);
+  plan.mission.format.drone = parse_drone(request.drone);
   plan.mission.format.hover_speed = std::isnan(request.hover_speed) ? plan.mission.format.speed : request.hover_speed;
   // The roadmap and index files are read when they exist and written when not: each may be
   // none of the others.
@@ -184,6 +185,8 @@ Command plan_command(CLI::App& app, Session& session) {
       ->add_option("--no-fly-blocking", plan.no_fly_blocking,
                    "Restrictions that block (default PROHIBITED,REQ_AUTHORISATION); the others are shown")
       ->delimiter(',');
+  command->add_option("--no-fly-buffer", plan.plan.no_fly_buffer,
+                      "Least distance from the blocking no-fly zones (m), apart from --safety (default: --safety)");
   command->add_option("--dtm", plan.dtm,
                       "Terrain raster (the mesh's CRS, any resolution): the ground --max-agl counts from");
   command->add_option("--vertical-crs", plan.vertical.vertical_crs,
@@ -205,6 +208,10 @@ Command plan_command(CLI::App& app, Session& session) {
                    "Missions: relative (m above home) or amsl (m above mean sea level)")
       ->capture_default_str();
   command->add_option("--firmware", request->firmware, "Missions: px4, ardupilot or generic")->capture_default_str();
+  command
+      ->add_option("--drone", request->drone,
+                   "DJI .kmz: the aircraft, m350, m300, m30, m30t, m3e, m3t, m3m, m3d or m3td (docs/formats.md)")
+      ->capture_default_str();
   command->add_option("--speed", plan.mission.format.speed, "Missions: speed along the route (m/s, (0, 100])")
       ->capture_default_str();
   command->add_flag("--extrude", plan.mission.format.extrude,

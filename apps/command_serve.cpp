@@ -52,6 +52,9 @@ Command serve_command(CLI::App& app, Session& session) {
       ->add_option("--no-fly-blocking", serve.no_fly_blocking,
                    "Restrictions that block (default PROHIBITED,REQ_AUTHORISATION)")
       ->delimiter(',');
+  command->add_option("--no-fly-buffer", serve.plan.no_fly_buffer,
+                      "Least distance from the blocking no-fly zones (m), apart from --safety; a request may ask "
+                      "for more (default: --safety)");
   command->add_option("--index", serve.index, "Index file of the mesh: opened when it fits, else built and saved");
   command->add_option("--roadmap", serve.roadmap,
                       "Roadmap file of the server's options: read when it fits, else built and saved");

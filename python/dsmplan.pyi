@@ -83,6 +83,7 @@ class Flight:
         speed: float = 5.0,
         vertical_crs: str = "",
         allow_approximate_vertical: bool = False,
+        drone: str = "m3e",
     ) -> None:
         """Writes the path as `dsmplan plan -o`: .csv, .geojson, .kml; a mission also .plan,
         .waypoints, .kmz."""
@@ -128,6 +129,7 @@ def plan(
     snap: float = 0.0,
     waypoint_heights: str = "crs",
     objective: str = "low",
+    no_fly_buffer: float | None = None,
 ) -> Flight:
     """A collision-free path through the waypoints with every check of `dsmplan plan`."""
 
@@ -148,6 +150,7 @@ def plan_routes(
     snap: float = 0.0,
     waypoint_heights: str = "crs",
     objective: str = "low",
+    no_fly_buffer: float | None = None,
 ) -> list[Flight | InputError]:
     """Many routes over one roadmap, as `dsmplan plan --routes`: a Flight a route, or the
     InputError plan() would raise for it (returned, not raised: one route stops no other)."""

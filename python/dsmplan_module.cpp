@@ -201,8 +201,10 @@ void share_data(FlightData& data, const std::shared_ptr<PyMesh>& mesh, const std
   if (dtm) data.dtm = std::shared_ptr<const Grid>(dtm, &dtm->grid);
 }
 void set_limits(FlightQuery& query, double safety, double max_agl, double spacing, const std::string& planner,
-                double snap, const std::string& waypoint_heights, const std::string& objective) {
+                double snap, const std::string& waypoint_heights, const std::string& objective,
+                std::optional<double> no_fly_buffer) {
   query.options.safety = safety;
+  query.options.no_fly_buffer = no_fly_buffer.value_or(NAN);
   query.options.max_agl = max_agl;
   query.options.spacing = spacing;
   query.options.planner = parse_planner(planner);
@@ -232,11 +234,12 @@ std::shared_ptr<PyFlight> plan(const std::shared_ptr<PyMesh>& mesh,
                                std::optional<std::array<double, 2>> home, std::optional<std::string> end,
                                const std::string& vertical_crs, const std::vector<std::string>& no_fly,
                                std::optional<std::vector<std::string>> no_fly_blocking, bool allow_approximate_vertical,
-                               double snap, const std::string& waypoint_heights, const std::string& objective) {
+                               double snap, const std::string& waypoint_heights, const std::string& objective,
+                               std::optional<double> no_fly_buffer) {
   FlightRequest request;
   request.waypoints = points_of(waypoints);
   request.names = {"mesh", "waypoints", "dsm", "dtm"};
-  set_limits(request, safety, max_agl, spacing, planner, snap, waypoint_heights, objective);
+  set_limits(request, safety, max_agl, spacing, planner, snap, waypoint_heights, objective, no_fly_buffer);
   share_data(request, mesh, dsm, dtm);
   if (!mission && (home || end)) throw ArgumentError("home", "home and end belong to a mission (mission=True)");
   const auto stop = std::make_shared<StopToken>();
@@ -270,12 +273,13 @@ py::list plan_routes_of(const std::shared_ptr<PyMesh>& mesh,
                         double max_agl, double spacing, const std::string& planner,
                         const std::vector<std::string>& no_fly, std::optional<std::vector<std::string>> no_fly_blocking,
                         const std::string& vertical_crs, bool allow_approximate_vertical, double snap,
-                        const std::string& waypoint_heights, const std::string& objective) {
+                        const std::string& waypoint_heights, const std::string& objective,
+                        std::optional<double> no_fly_buffer) {
   FlightData data;
   data.names = {"mesh", "routes", "dsm", "dtm"};
   share_data(data, mesh, dsm, dtm);
   FlightQuery common;
-  set_limits(common, safety, max_agl, spacing, planner, snap, waypoint_heights, objective);
+  set_limits(common, safety, max_agl, spacing, planner, snap, waypoint_heights, objective, no_fly_buffer);
   std::vector<std::vector<Point3>> points;
   for (const auto& route : routes) points.push_back(points_of(route));
   std::shared_ptr<const Grid> terrain = data.dtm;
@@ -823,7 +827,7 @@ PYBIND11_MODULE(dsmplan, m) {
           "write",
           [](PyFlight& f, const std::string& path, const std::string& format, const std::string& firmware,
              const std::string& altitude_frame, double speed, const std::string& vertical_crs,
-             bool allow_approximate_vertical) {
+             bool allow_approximate_vertical, const std::string& drone) {
             PlanJobOptions options;
             options.output = path;
             options.format = format;
@@ -831,18 +835,20 @@ PYBIND11_MODULE(dsmplan, m) {
             MissionOptions& m = options.mission.format;
             m.speed = m.hover_speed = speed;
             m.firmware = parse_firmware(firmware);
+            m.drone = parse_drone(drone);
             m.altitude_frame = parse_altitude_frame(altitude_frame);
             py::gil_scoped_release release;
             write_flight(f.flight, f.waypoints, f.crs, f.zones, options, f.report);
           },
           py::arg("path"), py::arg("format") = "", py::arg("firmware") = "generic",
           py::arg("altitude_frame") = "relative", py::arg("speed") = 5.0, py::arg("vertical_crs") = "",
-          py::arg("allow_approximate_vertical") = false,
+          py::arg("allow_approximate_vertical") = false, py::arg("drone") = "m3e",
           "Writes the path as `dsmplan plan -o` does, atomically.\n\n"
           "path: .csv (x,y,z in the CRS), .geojson (WGS 84), .kml; a flight planned with mission=True also "
           ".plan (QGroundControl), .waypoints (ArduPilot), .kmz (DJI WPML).\n"
           "format: the format's name when the extension does not say it (as --of).\n"
           "firmware: missions: px4, ardupilot or generic.\n"
+          "drone: .kmz: the DJI aircraft (m350, m300, m30, m30t, m3e, m3t, m3m, m3d, m3td).\n"
           "altitude_frame: missions: relative (to home) or amsl.\n"
           "speed: missions: the cruise and hover speed, m/s.\n"
           "vertical_crs: the heights' vertical CRS when the mesh's CRS has none (e.g. \"EPSG:7837\").\n"
@@ -853,7 +859,7 @@ PYBIND11_MODULE(dsmplan, m) {
         py::arg("planner") = "prm", py::arg("mission") = false, py::arg("home") = py::none(),
         py::arg("end") = py::none(), py::arg("vertical_crs") = "", py::arg("no_fly") = std::vector<std::string>{},
         py::arg("no_fly_blocking") = py::none(), py::arg("allow_approximate_vertical") = false, py::arg("snap") = 0.0,
-        py::arg("waypoint_heights") = "crs", py::arg("objective") = "low",
+        py::arg("waypoint_heights") = "crs", py::arg("objective") = "low", py::arg("no_fly_buffer") = py::none(),
         "A collision-free path through the waypoints by the plan stage's plan_flight(), with every check of "
         "`dsmplan plan`; returns a Flight. Raises InputError when there is no path, naming the waypoint.\n\n"
         "mesh: the obstacle Mesh (simplify(..., conservative=True)), in metres.\n"
@@ -881,13 +887,14 @@ PYBIND11_MODULE(dsmplan, m) {
         "waypoint_heights: \"crs\" (z in the mesh's CRS) or \"agl\" (z above the ground: the DTM, else the "
         "DSM, else the mesh's floor).\n"
         "objective: freespace only: \"low\" (climb only where it pays) or \"shortest\" (over low roofs where "
-        "shorter).");
+        "shorter).\n"
+        "no_fly_buffer: metres kept from the no-fly zones that block, apart from `safety` (None: `safety`).");
   m.def("plan_routes", &plan_routes_of, py::arg("mesh").none(false), py::arg("routes").none(false), py::kw_only(),
         py::arg("dsm") = nullptr, py::arg("dtm") = nullptr, py::arg("safety") = 2.0, py::arg("max_agl") = 120.0,
         py::arg("spacing") = 20.0, py::arg("planner") = "prm", py::arg("no_fly") = std::vector<std::string>{},
         py::arg("no_fly_blocking") = py::none(), py::arg("vertical_crs") = "",
         py::arg("allow_approximate_vertical") = false, py::arg("snap") = 0.0, py::arg("waypoint_heights") = "crs",
-        py::arg("objective") = "low",
+        py::arg("objective") = "low", py::arg("no_fly_buffer") = py::none(),
         "Many routes over one roadmap, as `dsmplan plan --routes` (the same library function, plan_routes()): the "
         "roadmap built once, every route a query against it, in parallel, each held to every rule of plan() and "
         "verified. Returns a list in the routes' order: a Flight for a route with a path, else the InputError "
@@ -907,7 +914,8 @@ PYBIND11_MODULE(dsmplan, m) {
         "allow_approximate_vertical: take heights of an unknown or grid-less vertical datum as EGM96.\n"
         "snap: metres (0: off): a refused waypoint moved to the nearest valid point within it, as plan().\n"
         "waypoint_heights: \"crs\" or \"agl\" (z above the ground), as plan().\n"
-        "objective: freespace only: \"low\" or \"shortest\", as plan().");
+        "objective: freespace only: \"low\" or \"shortest\", as plan().\n"
+        "no_fly_buffer: metres kept from the no-fly zones that block (None: `safety`), as plan().");
   m.def("render", &render, py::arg("dsm").none(false), py::arg("output"), py::kw_only(), py::arg("meshes") = py::none(),
         py::arg("titles") = py::none(), py::arg("paths") = py::none(), py::arg("waypoints") = py::none(),
         py::arg("roadmap") = py::none(), py::arg("window") = py::none(), py::arg("zoom") = 4.0, py::arg("edges") = true,

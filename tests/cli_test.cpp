@@ -914,6 +914,7 @@ TEST(CliBadInput, PlanChoicesAreTheLibrarysNames) {
       {"--planner", "rrt", refusal([] { dsmplan::parse_planner("rrt"); })},
       {"--end", "hover", refusal([] { dsmplan::parse_mission_end("hover"); })},
       {"--firmware", "dji", refusal([] { dsmplan::parse_firmware("dji"); })},
+      {"--drone", "m3x", refusal([] { dsmplan::parse_drone("m3x"); })},
       {"--altitude-frame", "agl", refusal([] { dsmplan::parse_altitude_frame("agl"); })}};
   for (const auto& [flag, value, library] : cases) {
     SCOPED_TRACE(flag);
@@ -3887,4 +3888,57 @@ TEST(CliNoFly, PlanGeofenceKeepsOutTheZonesTheMissionKeepsOutOf) {
         EXPECT_FALSE(cross(legs[k], legs[k + 1], fences[z][i], fences[z][(i + 1) % fences[z].size()]))
             << "leg " << k << " crosses fence " << z;
     }
+}
+
+// Issue 52: --no-fly-buffer keeps the blocking zones farther than --safety keeps the obstacles:
+// the path's distance to a square zone on the free path, sampled from the written path (the
+// oracle) and as reported, is at least the buffer, on a mesh and along a corridor; a waypoint
+// within the buffer is refused naming the zone, and a negative buffer is a usage error.
+TEST(CliNoFly, ABufferKeepsTheZonesFartherThanTheSafety) {
+  NoFlyFixture f;
+  f.write_waypoints(f.corners());
+  TempDir out;
+  const std::string dsm = testkit::data_path(kSample);
+  ASSERT_EQ(
+      run_cli({"plan", f.mesh, "--waypoints", f.waypoints, "--dsm", dsm, "-o", out.path("free.csv"), "-q"}).exit_code,
+      0);
+  const auto free = read_path_csv(out.path("free.csv"));
+  const std::array<double, 2> centre{(free[free.size() / 2][0] + free[free.size() / 2 - 1][0]) / 2,
+                                     (free[free.size() / 2][1] + free[free.size() / 2 - 1][1]) / 2};
+  const double half = 10, buffer = 12;
+  for (const auto& w : f.corners()) ASSERT_GT(square_distance(w[0], w[1], centre, half), buffer + 1);
+  ASSERT_LT(sampled_square_distance(free, centre, half), buffer);
+  const std::string zones = f.in.path("zones.geojson");
+  write_square_zone(zones, "buffered block", centre, half);
+  for (const std::string& input : {f.mesh, dsm}) {
+    std::vector<std::string> args{"plan",
+                                  input,
+                                  "--waypoints",
+                                  f.waypoints,
+                                  "--no-fly",
+                                  zones,
+                                  "--no-fly-buffer",
+                                  "12",
+                                  "-o",
+                                  out.path("around.csv"),
+                                  "--stats",
+                                  out.path("around.json"),
+                                  "-q"};
+    if (input == f.mesh) args.insert(args.end(), {"--dsm", dsm});
+    const auto run = run_cli(args);
+    ASSERT_EQ(run.exit_code, 0) << input << ": " << run.err;
+    EXPECT_GE(sampled_square_distance(read_path_csv(out.path("around.csv")), centre, half), buffer - 0.01) << input;
+    const json stats = json::parse(testkit::read_file(out.path("around.json")));
+    EXPECT_GE(stats["no_fly_zones"][0]["min_distance_m"].get<double>(), buffer - 0.01) << input;
+  }
+  double nearest = INFINITY;
+  for (const auto& w : f.corners()) nearest = std::min(nearest, square_distance(w[0], w[1], centre, half));
+  TempDir none;
+  const auto refused = run_cli({"plan", f.mesh, "--waypoints", f.waypoints, "--dsm", dsm, "--no-fly", zones,
+                                "--no-fly-buffer", std::to_string(nearest + 3), "-o", none.path("no.csv"), "-q"});
+  expect_clean_failure(refused, none, f.waypoints, {"no-fly zone 'buffered block'"});
+  const auto negative = run_cli({"plan", f.mesh, "--waypoints", f.waypoints, "--no-fly", zones, "--no-fly-buffer", "-1",
+                                 "-o", out.path("no.csv"), "-q"});
+  EXPECT_EQ(negative.exit_code, 2) << negative.err;
+  EXPECT_NE(negative.err.find("--no-fly-buffer: must be from 0 to 1000, got -1"), std::string::npos) << negative.err;
 }

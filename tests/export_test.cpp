@@ -2716,6 +2716,34 @@ TEST(MissionWpml, EntriesAreDatedAndTheArchiveTestsClean) {
   expect_wpml_mission(path, sample_mission(MissionEnd::rtl), MissionOptions{});
 }
 
+// Issue 52: --drone names the aircraft in droneInfo, as DJI's Cloud API demo keys its drones
+// ("domain-type-subType", cloud-sdk DeviceEnum.java: transcribed here, the oracle), in both
+// files; an aircraft WPML does not name is refused before anything is written.
+TEST(MissionWpml, DroneInfoNamesTheAircraftAsDjiKeysIt) {
+  const std::vector<std::pair<std::string, std::string>> dji_keys{
+      {"m350", "0-89-0"}, {"m300", "0-60-0"}, {"m30", "0-67-0"}, {"m30t", "0-67-1"}, {"m3e", "0-77-0"},
+      {"m3t", "0-77-1"},  {"m3m", "0-77-2"},  {"m3d", "0-91-0"}, {"m3td", "0-91-1"}};
+  ASSERT_EQ(dji_drones().size(), dji_keys.size());
+  testkit::TempDir dir;
+  for (const auto& [name, key] : dji_keys) {
+    MissionOptions options;
+    options.drone = name;
+    const std::string path = dir.path(name + ".kmz");
+    write_wpml_kmz(sample_mission(MissionEnd::rtl), options, path);
+    const WpmlKmz kmz = open_wpml_kmz(path);
+    for (const CPLXMLNode* root : {kmz.template_root, kmz.waylines_root}) {
+      const CPLXMLNode* info = CPLGetXMLNode(root, "Document.wpml:missionConfig.wpml:droneInfo");
+      ASSERT_TRUE(info) << name;
+      EXPECT_EQ("0-" + xml_text(info, "wpml:droneEnumValue") + "-" + xml_text(info, "wpml:droneSubEnumValue"), key)
+          << name;
+    }
+  }
+  MissionOptions unknown;
+  unknown.drone = "phantom4";
+  EXPECT_THROW(write_wpml_kmz(sample_mission(MissionEnd::rtl), unknown, dir.path("no.kmz")), ArgumentError);
+  EXPECT_EQ(dir.files().size(), dji_keys.size());
+}
+
 TEST(MissionWpml, ALongerRouteKeepsItsOrderAndOverwritesInPlace) {
   Mission mission = sample_mission(MissionEnd::rtl);
   for (int i = 1; i <= 40; ++i) mission.route.push_back({6.935 + 1e-5 * i, 51.4271 - 7e-6 * i, 179 + 0.125 * (i % 7)});

@@ -272,6 +272,7 @@ TEST(Serve, RefusesBadRequestsWithTheStatusAndOneLine) {
   expect("[1,2]", 400, "JSON object");
   expect("{\"waypoints\":[[1,2]]}", 400, "waypoints[0]");
   expect("{\"waypoints\":" + wp + ",\"safety\":1}", 400, "safety: must be at least 2");
+  expect("{\"waypoints\":" + wp + ",\"no_fly_buffer\":1}", 400, "no_fly_buffer: must be at least 2");
   expect("{\"waypoints\":" + wp + ",\"max_agl\":500}", 400, "max_agl: must lie in (0, 120]");
   expect("{\"waypoints\":" + wp + ",\"saftey\":3}", 400, "saftey: unknown key");
   expect("{\"waypoints\":" + wp + ",\"format\":\"shp\"}", 400,

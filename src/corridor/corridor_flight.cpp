@@ -106,7 +106,7 @@ FlightPlan plan_flight_along(GridSource& city, const CorridorRequest& request, c
   if (along.terrain) check_corridor_terrain(city, *along.terrain, waypoints, site, names);
   if (site) {
     check_vertical_legs_in(city, *site, waypoints, request.options.safety,
-                           {&request.no_fly, request.airspace, along.terrain});
+                           {&request.no_fly, request.airspace, along.terrain, zone_keep_distance(request.options)});
     route = route_waypoints(waypoints, *site);
   }
   report.seconds_load = clock.lap();

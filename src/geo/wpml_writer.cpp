@@ -140,8 +140,11 @@ std::string mission_config(const Mission& mission, const MissionOptions& options
   // RTL's altitude to the autopilot. A height written here would apply on any return, from any
   // point of the route, along a straight line the planner never checked; DJI's own sample
   // waylines.wpml leaves it out too.
-  // droneInfo is required, but no option names the aircraft: 77/0 is the Mavic 3 Enterprise
-  // (M3E), one of the models the spec enumerates.
+  // droneInfo is required: the aircraft --drone names (dji_drones(), mission.hpp; default m3e).
+  const auto& drones = dji_drones();
+  const auto drone =
+      std::find_if(drones.begin(), drones.end(), [&](const DjiDrone& d) { return options.drone == d.name; });
+  if (drone == drones.end()) throw ArgumentError("drone", "is not a DJI aircraft WPML names: '" + options.drone + "'");
   return "    <wpml:missionConfig>\n"
          "      <wpml:flyToWaylineMode>safely</wpml:flyToWaylineMode>\n"
          "      <wpml:finishAction>" +
@@ -154,8 +157,12 @@ std::string mission_config(const Mission& mission, const MissionOptions& options
          "      <wpml:globalTransitionalSpeed>" + metres(options.speed) +
          "</wpml:globalTransitionalSpeed>\n"
          "      <wpml:droneInfo>\n"
-         "        <wpml:droneEnumValue>77</wpml:droneEnumValue>\n"
-         "        <wpml:droneSubEnumValue>0</wpml:droneSubEnumValue>\n"
+         "        <wpml:droneEnumValue>" +
+         std::to_string(drone->enum_value) +
+         "</wpml:droneEnumValue>\n"
+         "        <wpml:droneSubEnumValue>" +
+         std::to_string(drone->sub_enum_value) +
+         "</wpml:droneSubEnumValue>\n"
          "      </wpml:droneInfo>\n"
          "    </wpml:missionConfig>\n";
 }

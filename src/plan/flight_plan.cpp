@@ -385,8 +385,9 @@ void measure_zones(FlightPlan& out, const FlightData& data, const FlightRules& r
     for (const FlightConstraint* rule : rules.constraints)
       if (const FlightConstraint* zone = rule->refused_by(path[k - 1], path[k]))
         throw InputError(data.names.mesh, "",
-                         "the path enters " + zone->name() + " or comes closer to it than --safety (segment " +
-                             std::to_string(k) + "): a bug, please report it; nothing written");
+                         "the path enters " + zone->name() +
+                             " or comes closer to it than the zones are kept (segment " + std::to_string(k) +
+                             "): a bug, please report it; nothing written");
   for (const AirspaceZone& zone : data.no_fly)
     check_stop(rules.stop),
         out.report.no_fly_zones.push_back({zone_label(zone), zone.id, zone.name, zone.source_file,
@@ -618,7 +619,7 @@ PlanOptions FlightArea::planner_options(const PlanOptions& options) const {
   PlanOptions plan = options;
   plan.ground = terrain_ ? terrain_ : dsm_ground_;
   if (!plans_on_columns(options)) plan.safety += safety_margin();  // on the columns: nothing to widen
-  for (std::shared_ptr<const FlightConstraint>& zone : zone_constraints(options.safety))
+  for (std::shared_ptr<const FlightConstraint>& zone : zone_constraints(zone_keep_distance(options)))
     plan.constraints.push_back(std::move(zone));
   return plan;
 }

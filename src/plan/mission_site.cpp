@@ -89,7 +89,7 @@ void check_vertical(const Point3& top, double ground, const FlightRules& limits,
       if (const FlightConstraint* zone = rule->refused_by(foot, top))
         throw ArgumentError(flag, std::string("the ") + what + " at x " + two_decimals(top[0]) + ", y " +
                                       two_decimals(top[1]) + " enters " + zone->name() +
-                                      " or comes closer to it than --safety " + two_decimals(safety));
+                                      " or comes closer to it than the distance kept from the zones");
     return;
   }
   const double surface = dsm_z ? dsm_z(top[0], top[1]) : NAN;
@@ -214,7 +214,8 @@ void check_vertical_legs_in(GridSource& dsm, const MissionSite& site, const std:
     fill_holes_from_rim(columns, RimHeight::highest);
     const ColumnsClearance obstacles(columns, safety);
     FlightRules limits{&obstacles, nullptr, INFINITY, {}};
-    const auto held = zones.zones ? airspace_constraints(*zones.zones, safety, zone_ground, zones.airspace)
+    const double keep = std::isnan(zones.distance) ? safety : zones.distance;
+    const auto held = zones.zones ? airspace_constraints(*zones.zones, keep, zone_ground, zones.airspace)
                                   : std::vector<std::shared_ptr<const FlightConstraint>>{};
     for (const auto& zone : held) limits.constraints.push_back(zone.get());
     check_vertical(

@@ -29,6 +29,8 @@ void check_plan_options(const PlanOptions& o) {
   };
   if (!(o.safety >= 0) || !(o.safety <= 1000))
     throw ArgumentError("safety", "must be from 0 to 1000, got " + short_number(o.safety));
+  if (!std::isnan(o.no_fly_buffer) && !(o.no_fly_buffer >= 0 && o.no_fly_buffer <= 1000))
+    throw ArgumentError("no_fly_buffer", "must be from 0 to 1000, got " + short_number(o.no_fly_buffer));
   positive(o.spacing, "--spacing", 1e4);
   positive(o.max_edge, "--max-edge", 1e4);
   positive(o.max_agl, "--max-agl", 1e5);

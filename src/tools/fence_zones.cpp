@@ -17,15 +17,17 @@ namespace {
 
 using Xy = std::array<double, 2>;
 
-double cross(const Xy& o, const Xy& a, const Xy& b) { return (a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0]); }
+double cross(const Xy& o, const Xy& a, const Xy& b) {
+  return (a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0]);
+}
 
 // Closed segments [a, b] and [c, d] share a point (touching counts).
 bool meet(const Xy& a, const Xy& b, const Xy& c, const Xy& d) {
   const double d1 = cross(c, d, a), d2 = cross(c, d, b), d3 = cross(a, b, c), d4 = cross(a, b, d);
   if (((d1 > 0 && d2 < 0) || (d1 < 0 && d2 > 0)) && ((d3 > 0 && d4 < 0) || (d3 < 0 && d4 > 0))) return true;
   const auto on = [](const Xy& p, const Xy& q, const Xy& r, double side) {  // r on [p, q], collinear
-    return side == 0 && std::min(p[0], q[0]) <= r[0] && r[0] <= std::max(p[0], q[0]) &&
-           std::min(p[1], q[1]) <= r[1] && r[1] <= std::max(p[1], q[1]);
+    return side == 0 && std::min(p[0], q[0]) <= r[0] && r[0] <= std::max(p[0], q[0]) && std::min(p[1], q[1]) <= r[1] &&
+           r[1] <= std::max(p[1], q[1]);
   };
   return on(c, d, a, d1) || on(c, d, b, d2) || on(a, b, c, d3) || on(a, b, d, d4);
 }
@@ -62,9 +64,9 @@ KeepOut keep_out_areas(const ZoneLayer& zones, const std::vector<Point3>& flown,
     const bool entered = std::any_of(zone.rings.begin(), zone.rings.end(),
                                      [&](const std::vector<Xy>& ring) { return enters(ring, flown); });
     if (entered) {
-      out.left_out.push_back(
-          {zone_caption(zone, i), zone.rings.size() > 1 ? "the path passes over or under it, or through a hole in it"
-                                                        : "the path passes over or under it"});
+      out.left_out.push_back({zone_caption(zone, i), zone.rings.size() > 1
+                                                         ? "the path passes over or under it, or through a hole in it"
+                                                         : "the path passes over or under it"});
       continue;
     }
     for (const std::vector<Xy>& ring : zone.rings) {

@@ -448,6 +448,12 @@ Firmware parse_firmware(const std::string& name) {
       "firmware", name, {{"px4", Firmware::px4}, {"ardupilot", Firmware::ardupilot}, {"generic", Firmware::generic}});
 }
 
+std::string parse_drone(const std::string& name) {
+  std::vector<std::pair<std::string, std::string>> choices;
+  for (const DjiDrone& d : dji_drones()) choices.push_back({d.name, d.name});
+  return parse_choice<std::string>("drone", name, choices);
+}
+
 AltitudeFrame parse_altitude_frame(const std::string& name) {
   return parse_choice<AltitudeFrame>("altitude_frame", name,
                                      {{"relative", AltitudeFrame::relative}, {"amsl", AltitudeFrame::amsl}});

@@ -83,7 +83,7 @@ void read_waypoints(const Json& value, PlanRequest& request) {
 
 void read_mission(const Json& value, MissionJobOptions& mission) {
   if (!value.is_object())
-    throw ArgumentError("mission", "must be an object: home, end, altitude_frame, firmware, speed");
+    throw ArgumentError("mission", "must be an object: home, end, altitude_frame, firmware, drone, speed");
   bool hover_given = false;
   for (const auto& [key, item] : value.items()) {
     const std::string name = "mission." + key;
@@ -97,25 +97,34 @@ void read_mission(const Json& value, MissionJobOptions& mission) {
       mission.format.altitude_frame = parse_altitude_frame(text(item, name));
     } else if (key == "firmware") {
       mission.format.firmware = parse_firmware(text(item, name));
+    } else if (key == "drone") {
+      mission.format.drone = parse_drone(text(item, name));
     } else if (key == "speed") {
       mission.format.speed = number(item, name);
     } else if (key == "hover_speed") {
       mission.format.hover_speed = number(item, name);
       hover_given = true;
     } else {
-      throw ArgumentError(name, "unknown key (home, end, altitude_frame, firmware, speed, hover_speed)");
+      throw ArgumentError(name, "unknown key (home, end, altitude_frame, firmware, drone, speed, hover_speed)");
     }
   }
   if (!hover_given) mission.format.hover_speed = mission.format.speed;  // as `dsmplan plan --hover-speed`
 }
 
-// safety and max_agl within the server's bounds: never less safety, never a higher ceiling.
+// safety, no_fly_buffer and max_agl within the server's bounds: never less distance from the
+// obstacles or the zones, never a higher ceiling.
 void read_limits(const Json& doc, const PlanOptions& server, PlanOptions& plan) {
   if (doc.contains("safety")) {
     plan.safety = number(doc["safety"], "safety");
     if (plan.safety < server.safety)
       throw ArgumentError("safety", "must be at least " + short_number(server.safety) + " m, the server's least, got " +
                                         short_number(plan.safety));
+  }
+  if (doc.contains("no_fly_buffer")) {
+    plan.no_fly_buffer = number(doc["no_fly_buffer"], "no_fly_buffer");
+    if (plan.no_fly_buffer < zone_keep_distance(server))
+      throw ArgumentError("no_fly_buffer", "must be at least " + short_number(zone_keep_distance(server)) +
+                                               " m, the server's least, got " + short_number(plan.no_fly_buffer));
   }
   if (doc.contains("max_agl")) {
     plan.max_agl = number(doc["max_agl"], "max_agl");
@@ -134,11 +143,13 @@ std::string request_key(const std::string& field) {
                                                        {"--end", "mission.end"},
                                                        {"end", "mission.end"},
                                                        {"firmware", "mission.firmware"},
+                                                       {"drone", "mission.drone"},
                                                        {"altitude_frame", "mission.altitude_frame"},
                                                        {"--speed", "mission.speed"},
                                                        {"--hover-speed", "mission.hover_speed"},
                                                        {"--extrude", "extrude"},
                                                        {"--safety", "safety"},
+                                                       {"--no-fly-buffer", "no_fly_buffer"},
                                                        {"--max-agl", "max_agl"},
                                                        {"--seed", "seed"},
                                                        {"snap", "snap_m"}};
@@ -191,11 +202,11 @@ PlanRequest parse_plan_request(const std::string& body, const ServeOptions& serv
     } else if (key == "waypoint_heights") {
       job.waypoint_heights = text(value, key);
       parse_waypoint_heights(job.waypoint_heights);  // refused now, naming the key
-    } else if (key != "safety" && key != "max_agl") {
+    } else if (key != "safety" && key != "max_agl" && key != "no_fly_buffer") {
       throw ArgumentError(
           key,
-          "unknown key (waypoints, safety, max_agl, planner, objective, seed, format, stats, mission, extrude, "
-          "snap_m, waypoint_heights)");
+          "unknown key (waypoints, safety, max_agl, no_fly_buffer, planner, objective, seed, format, stats, "
+          "mission, extrude, snap_m, waypoint_heights)");
     }
   }
   read_limits(doc, server.plan, job.plan);

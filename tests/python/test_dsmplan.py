@@ -365,6 +365,19 @@ def test_no_fly_zones_give_the_command_lines_path_and_refusal(sample_plan, tmp_p
     assert flight.report["no_fly_zones"] == cli_zones
     assert all(z["min_distance_m"] >= 2.0 - 0.01 for z in cli_zones if z["blocks"])
 
+    # A zone buffer apart from the safety (issue 52): both faces keep it, to the byte.
+    result = run_cli("plan", mesh_file, *common, "--no-fly", NRW_ZONES, *vertical, "--no-fly-buffer", "8",
+                     "-o", cli_csv, "--json", "-q")
+    assert result.returncode == 0, result.stderr
+    buffered_zones = json.loads(result.stdout)["no_fly_zones"]
+    buffered = dsmplan.plan(mesh, waypoints, dsm=dsm, max_agl=30, spacing=10, no_fly=[NRW_ZONES],
+                            vertical_crs="EPSG:7837", allow_approximate_vertical=True, no_fly_buffer=8)
+    buffered.write(py_csv)
+    assert open(py_csv, "rb").read() == open(cli_csv, "rb").read()
+    assert buffered.report["no_fly_zones"] == buffered_zones
+    assert all(z["min_distance_m"] >= 8.0 - 0.01 for z in buffered_zones if z["blocks"])
+    assert min(z["min_distance_m"] for z in cli_zones if z["blocks"]) < 8.0, "the buffer changed nothing"
+
     inside = waypoints.copy()
     inside[1] = (356550.0, 5699500.0, 160.0)  # the centre of the 40 m circle, 30 m above the roofs
     moved = str(tmp_path / "inside.csv")

@@ -34,6 +34,17 @@ std::string path_to_geojson(const std::vector<Point3>& lonlath, const std::strin
 // OGC KML 2.2): mission_writers.cpp.
 
 enum class Firmware { generic, px4, ardupilot };  ///< MAV_AUTOPILOT 0, 12, 3
+
+/// The DJI aircraft a WPML mission (.kmz) names in its droneInfo: the enterprise models DJI's
+/// Cloud API enumerates (its demo's DeviceEnum: domain 0, type = droneEnumValue, sub-type =
+/// droneSubEnumValue). A mission is accepted by the pilot app only for the aircraft it names.
+struct DjiDrone {
+  const char* name;  ///< as --drone takes it: "m3e"
+  int enum_value, sub_enum_value;
+  const char* model;  ///< "Mavic 3 Enterprise (M3E)"
+};
+/// Every DjiDrone, in the order the docs list them: m350, m300, m30, m30t, m3e, m3t, m3m, m3d, m3td.
+const std::vector<DjiDrone>& dji_drones();
 enum class AltitudeFrame {
   relative,  ///< metres above home (MAV_FRAME_GLOBAL_RELATIVE_ALT, QGC AltitudeMode 1): how most missions fly
   amsl       ///< metres above mean sea level (MAV_FRAME_GLOBAL, QGC AltitudeMode 2)
@@ -66,6 +77,7 @@ struct MissionOptions {
   std::string name = "dsmplan path";  ///< KML: the Document's name
   std::string description;            ///< KML: the Document's description (e.g. the transformation), may be empty
   bool extrude = false;               ///< KML: <extrude>1</extrude>, a wall from the path down to the ground
+  std::string drone = "m3e";          ///< .kmz: the aircraft (dji_drones()'s name); ArgumentError("drone") else
 };
 
 /// The mission items, in this order for both formats: MAV_CMD_NAV_TAKEOFF (22) at home to the

@@ -468,6 +468,7 @@ struct ZonesAround {
   const std::vector<AirspaceZone>* zones = nullptr;
   AirspaceOptions airspace;
   std::shared_ptr<const GroundGrid> terrain;
+  double distance = NAN;  ///< kept from the zones (zone_keep_distance()); NaN: the legs' safety
 };
 
 /// check_vertical_legs() for a DSM read window by window (along a corridor): the columns around

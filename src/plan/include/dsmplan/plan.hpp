@@ -145,13 +145,16 @@ struct PlanOptions {
   PlannerKind planner = PlannerKind::prm;  ///< what plan_path() runs
   Objective objective = Objective::low;    ///< freespace only: what its search minimises
   double safety = 2;                       ///< least distance to the mesh, CRS units (the paper's 2 m)
-  double spacing = 20;                     ///< relative sample distance: samples = volume / spacing^3
-  double max_edge = 34.5;                  ///< longest roadmap edge, CRS units
-  double max_agl = 120;                    ///< the ceiling: no point of a path higher above the ground (see `ground`)
-  int connections = 10;                    ///< roadmap samples each waypoint is joined to, at most
-  bool smooth = true;                      ///< shortcut smoothing
-  bool spline = true;                      ///< then corner rounding by a quadratic B-spline, each chord re-checked
-  int threads = 0;                         ///< 0: every core
+  /// Least distance from the no-fly zones that block, CRS units: a zone's own margin apart from
+  /// the obstacles' (`--no-fly-buffer`); NaN: `safety`. zone_keep_distance() is the rule.
+  double no_fly_buffer = NAN;
+  double spacing = 20;     ///< relative sample distance: samples = volume / spacing^3
+  double max_edge = 34.5;  ///< longest roadmap edge, CRS units
+  double max_agl = 120;    ///< the ceiling: no point of a path higher above the ground (see `ground`)
+  int connections = 10;    ///< roadmap samples each waypoint is joined to, at most
+  bool smooth = true;      ///< shortcut smoothing
+  bool spline = true;      ///< then corner rounding by a quadratic B-spline, each chord re-checked
+  int threads = 0;         ///< 0: every core
   /// RRT-Connect only (the PRM's samples are quasi-random, it has none): its random numbers.
   /// The same seed, mesh and waypoints give the same path.
   uint64_t seed = 1;
@@ -180,8 +183,14 @@ struct PlanOptions {
 };
 
 /// Throws ArgumentError naming the option ("--safety", "--spacing", "--max-edge", "--max-agl",
-/// "connections", "--threads") when it is out of range: safety >= 0, the others > 0, finite.
+/// "connections", "--threads", "no_fly_buffer") when it is out of range: safety and a given
+/// no_fly_buffer from 0 to 1000, the others > 0, finite.
 void check_plan_options(const PlanOptions& options);
+
+/// The distance every path keeps from the no-fly zones that block: no_fly_buffer, else safety.
+inline double zone_keep_distance(const PlanOptions& options) {
+  return std::isnan(options.no_fly_buffer) ? options.safety : options.no_fly_buffer;
+}
 
 /// A roadmap: nodes and undirected edges in compressed adjacency form, CRS coordinates.
 namespace detail {

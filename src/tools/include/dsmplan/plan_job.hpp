@@ -128,6 +128,7 @@ PlannerKind parse_planner(const std::string& name);               ///< prm, rrtc
 Objective parse_objective(const std::string& name);               ///< low, shortest
 MissionEnd parse_mission_end(const std::string& name);            ///< rtl, land, none
 Firmware parse_firmware(const std::string& name);                 ///< px4, ardupilot, generic
+std::string parse_drone(const std::string& name);                 ///< a dji_drones() name: m350, m300, ..., m3td
 AltitudeFrame parse_altitude_frame(const std::string& name);      ///< relative, amsl
 WaypointHeights parse_waypoint_heights(const std::string& name);  ///< crs, agl ("waypoint_heights")
 
