@@ -2834,19 +2834,23 @@ struct NoFlyFixture : PlanFixture {
         run_cli({"simplify", testkit::data_path(kSample), "--max-error", "0.4", "--conservative", "-o", mesh, "-q"});
     if (made.exit_code != 0) throw std::runtime_error("simplify failed: " + made.err);
   }
+  // The path through the corners without zones, over the mesh with the DSM (written to `out`).
+  std::vector<std::array<double, 3>> free_path(const TempDir& out) const {
+    write_waypoints(corners());
+    const auto run = run_cli({"plan", mesh, "--waypoints", waypoints, "--dsm", testkit::data_path(kSample), "-o",
+                              out.path("free.csv"), "-q"});
+    if (run.exit_code != 0) throw std::runtime_error("the free path failed: " + run.err);
+    return read_path_csv(out.path("free.csv"));
+  }
 };
 
 }  // namespace
 
 TEST(CliNoFly, ZoneOnThePathIsFlownAroundOnAMeshAndAlongACorridor) {
   NoFlyFixture f;
-  f.write_waypoints(f.corners());
   TempDir out;
   const std::string dsm = testkit::data_path(kSample);
-  ASSERT_EQ(
-      run_cli({"plan", f.mesh, "--waypoints", f.waypoints, "--dsm", dsm, "-o", out.path("free.csv"), "-q"}).exit_code,
-      0);
-  const auto free = read_path_csv(out.path("free.csv"));
+  const auto free = f.free_path(out);
   // The square on the free path's point a quarter along, away from the waypoints: the path
   // without the zone runs through it.
   double length = 0;
@@ -3896,13 +3900,9 @@ TEST(CliNoFly, PlanGeofenceKeepsOutTheZonesTheMissionKeepsOutOf) {
 // within the buffer is refused naming the zone, and a negative buffer is a usage error.
 TEST(CliNoFly, ABufferKeepsTheZonesFartherThanTheSafety) {
   NoFlyFixture f;
-  f.write_waypoints(f.corners());
   TempDir out;
   const std::string dsm = testkit::data_path(kSample);
-  ASSERT_EQ(
-      run_cli({"plan", f.mesh, "--waypoints", f.waypoints, "--dsm", dsm, "-o", out.path("free.csv"), "-q"}).exit_code,
-      0);
-  const auto free = read_path_csv(out.path("free.csv"));
+  const auto free = f.free_path(out);
   const std::array<double, 2> centre{(free[free.size() / 2][0] + free[free.size() / 2 - 1][0]) / 2,
                                      (free[free.size() / 2][1] + free[free.size() / 2 - 1][1]) / 2};
   const double half = 10, buffer = 12;
