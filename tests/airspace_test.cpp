@@ -589,3 +589,32 @@ TEST(AirspacePlan, FliesAroundTheZonesOfTheNrwFileAndRefusesWaypointsUnderAFloor
   everything.restriction = "CONDITIONAL";
   EXPECT_TRUE(airspace_constraints({everything}, options.safety, ground).empty());
 }
+
+// A mission's flat geofence (issue 52): path_meets_zone_rings() against samples every 5 cm along
+// random two-leg paths, each ring by itself (the concave outer ring, and the hole, which a path
+// through it meets); paths that pass within 5 cm of an edge are left out (the samples cannot
+// tell). Heights play no part.
+TEST(AirspaceZone, APathMeetsTheRingsExactlyWhereItsSamplesDo) {
+  AirspaceZone zone;
+  zone.rings = {{{0, 0}, {0, 60}, {30, 40}, {60, 60}, {60, 0}, {0, 0}}, {{20, 10}, {40, 10}, {40, 25}, {20, 25}}};
+  const auto rings = open_rings(zone);
+  std::mt19937_64 rng(52);
+  std::uniform_real_distribution<double> x(-30, 90), step(-40, 40), z(0, 200);
+  int met = 0, missed = 0;
+  for (int i = 0; i < 2000; ++i) {
+    const Point3 a{x(rng), x(rng), z(rng)}, b{a[0] + step(rng), a[1] + step(rng), z(rng)},
+        c{b[0] + step(rng), b[1] + step(rng), z(rng)};
+    double nearest = INFINITY;  // least distance of a sample to one ring's area, over the rings
+    for (const auto& ring : rings)
+      for (const auto& [p, q] : {std::pair{a, b}, std::pair{b, c}})
+        each_sample(p, q, [&](const Point3& s) { nearest = std::min(nearest, area_distance({ring}, {s[0], s[1]})); });
+    if (nearest > 0 && nearest < 0.05) continue;
+    const bool meets = path_meets_zone_rings(zone, {a, b, c});
+    EXPECT_EQ(meets, nearest == 0) << i;
+    (meets ? met : missed)++;
+  }
+  EXPECT_GT(met, 200);
+  EXPECT_GT(missed, 200);
+  EXPECT_TRUE(path_meets_zone_rings(zone, {{25, 15, 0}, {35, 20, 0}}));   // wholly in the hole
+  EXPECT_FALSE(path_meets_zone_rings(zone, {{30, 45, 0}, {30, 55, 0}}));  // in the notch, outside
+}

@@ -473,25 +473,14 @@ std::vector<Point3> drop_straight_points(const std::vector<Point3>& path, double
   return kept;
 }
 
-}  // namespace dsmplan
-
-namespace dsmplan {
-
 // DJI's Cloud API demo (github.com/dji-sdk/DJI-Cloud-API-Demo, cloud-sdk .../device/DeviceEnum.java
 // and DeviceTypeEnum.java, v1.7+): the drones' "domain-type-subType" keys 0-89-0 (M350 RTK),
 // 0-60-0 (M300 RTK), 0-67-0/1 (M30/M30T), 0-77-0/1/2 (M3E/M3T/M3M), 0-91-0/1 (M3D/M3TD). WPML's
 // droneInfo takes the type as droneEnumValue and the sub-type as droneSubEnumValue.
 const std::vector<DjiDrone>& dji_drones() {
   static const std::vector<DjiDrone> drones{
-      {"m350", 89, 0, "Matrice 350 RTK"},
-      {"m300", 60, 0, "Matrice 300 RTK"},
-      {"m30", 67, 0, "Matrice 30"},
-      {"m30t", 67, 1, "Matrice 30T"},
-      {"m3e", 77, 0, "Mavic 3 Enterprise (M3E)"},
-      {"m3t", 77, 1, "Mavic 3 Thermal (M3T)"},
-      {"m3m", 77, 2, "Mavic 3 Multispectral (M3M)"},
-      {"m3d", 91, 0, "Matrice 3D"},
-      {"m3td", 91, 1, "Matrice 3TD"},
+      {"m350", 89, 0}, {"m300", 60, 0}, {"m30", 67, 0}, {"m30t", 67, 1}, {"m3e", 77, 0},
+      {"m3t", 77, 1},  {"m3m", 77, 2},  {"m3d", 91, 0}, {"m3td", 91, 1},
   };
   return drones;
 }

@@ -116,4 +116,18 @@ bool zone_contains(const AirspaceZone& zone, const Point3& p, const GroundGrid* 
   return true;
 }
 
+bool path_meets_zone_rings(const AirspaceZone& zone, const std::vector<Point3>& path) {
+  for (const auto& corners : zone.rings) {
+    const std::vector<detail::Ring> ring{detail::open_ring(corners)};
+    for (const Point3& p : path)
+      if (detail::inside_rings(ring, {p[0], p[1]})) return true;
+    const detail::Ring& edges = ring.front();
+    for (size_t k = 1; k < path.size(); ++k)
+      for (size_t i = 0, j = edges.size() - 1; i < edges.size(); j = i++)
+        if (detail::segments_meet({path[k - 1][0], path[k - 1][1]}, {path[k][0], path[k][1]}, edges[j], edges[i]))
+          return true;
+  }
+  return false;
+}
+
 }  // namespace dsmplan

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <functional>
 #include <optional>
 #include <string>
 #include <utility>
@@ -23,12 +24,13 @@
 namespace dsmplan {
 
 /// A picture's waypoint CSV (render, profile, view) read as `dsmplan plan` reads it: x,y,z in the
-/// CRS, or, when its header names the third column "agl", heights above `ground` (the DTM, else
-/// the DSM, as plan counts them: waypoints_in_crs()) turned into the CRS's. InputError naming the
-/// file: an agl file with no `ground` (the message says `give_ground`, e.g. "give --dtm or
-/// --dsm"), a waypoint over no ground, and every error of read_waypoints_csv().
-std::vector<Point3> read_picture_waypoints(const std::string& path, const Grid* ground, const std::string& ground_name,
-                                           const std::string& give_ground);
+/// CRS, or, when its header names the third column "agl", heights above the ground `ground_of`
+/// gives (the DTM, else the DSM, as plan counts them: waypoints_in_crs()), asked only then,
+/// turned into the CRS's. InputError naming the file: an agl file whose `ground_of` gives null
+/// (the message says `give_ground`, e.g. "give --dtm or --dsm"), a waypoint over no ground, and
+/// every error of read_waypoints_csv().
+std::vector<Point3> read_picture_waypoints(const std::string& path, const std::function<const Grid*()>& ground_of,
+                                           const std::string& ground_name, const std::string& give_ground);
 
 /// Appends ("total", sum of the stages) to a report's stage seconds.
 inline void add_total(std::vector<std::pair<std::string, double>>& seconds) {

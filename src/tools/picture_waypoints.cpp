@@ -7,11 +7,12 @@
 
 namespace dsmplan {
 
-std::vector<Point3> read_picture_waypoints(const std::string& path, const Grid* ground, const std::string& ground_name,
-                                           const std::string& give_ground) {
+std::vector<Point3> read_picture_waypoints(const std::string& path, const std::function<const Grid*()>& ground_of,
+                                           const std::string& ground_name, const std::string& give_ground) {
   bool agl = false;
   std::vector<Point3> waypoints = read_waypoints_csv(path, &agl);
   if (!agl) return waypoints;
+  const Grid* ground = ground_of();
   if (!ground)
     throw InputError(path, "line 1",
                      "its header names the height column agl (heights above the ground): " + give_ground +

@@ -216,8 +216,9 @@ std::pair<Image, ProfileReport> profile_picture(const ProfileJobOptions& options
   ProfileOptions drawing = options.profile;
   // Heights above the ground from the DTM, else the DSM, as `dsmplan plan` counts them.
   if (!options.waypoints.empty())
-    drawing.waypoints = read_picture_waypoints(options.waypoints, terrain_window.source ? &dtm : &dsm,
-                                               terrain_window.source ? "dtm" : "dsm", "");
+    drawing.waypoints = read_picture_waypoints(
+        options.waypoints, [&] { return terrain_window.source ? &dtm : &dsm; }, terrain_window.source ? "dtm" : "dsm",
+        "");
   const LowestClear clear = lowest_clear_along(path, dsm, options.profile.safety);
   drawing.lowest_clear = clear.line;
   drawing.zones = std::move(zones);

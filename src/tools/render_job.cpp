@@ -75,8 +75,10 @@ std::pair<Image, RenderReport> render_picture(const RenderJobOptions& options, c
   Grid dsm =
       options.dsm_grid ? *options.dsm_grid : read_raster(options.dsm, options.read, sub_progress(progress, 0, 0.25));
   // Heights above the ground are measured from the DSM as read, as `dsmplan plan` counts them without a DTM.
-  const std::vector<Point3> waypoints =
-      options.waypoints.empty() ? std::vector<Point3>{} : read_picture_waypoints(options.waypoints, &dsm, "dsm", "");
+  const std::vector<Point3> waypoints = options.waypoints.empty()
+                                            ? std::vector<Point3>{}
+                                            : read_picture_waypoints(
+                                                  options.waypoints, [&] { return &dsm; }, "dsm", "");
   if (options.resolution && (*options.resolution != dsm.cell_x || *options.resolution != dsm.cell_y)) {
     dsm = resample(dsm, *options.resolution, Resampling::Median, sub_progress(progress, 0.25, 0.3));
   }

@@ -194,19 +194,14 @@ struct ViewFiles {
 // `dsmplan plan` measures them (read_picture_waypoints()).
 std::string waypoints_csv(const ViewOptions& options) {
   const std::string& ground_file = options.dtm.empty() ? options.dsm : options.dtm;
-  std::optional<Grid> ground;
-  bool agl = false;
-  read_waypoints_csv(options.waypoints, &agl);
-  if (agl && !ground_file.empty()) ground = read_raster(ground_file);
-  const std::vector<Point3> points = read_picture_waypoints(options.waypoints, ground ? &*ground : nullptr,
-                                                            options.dtm.empty() ? "dsm" : "dtm", "give --dtm or --dsm");
-  std::string csv = "x,y,z\n";
-  char line[96];
-  for (const Point3& p : points) {
-    std::snprintf(line, sizeof line, "%.3f,%.3f,%.3f\n", p[0], p[1], p[2]);
-    csv += line;
-  }
-  return csv;
+  std::optional<Grid> ground;  // read only for an agl file
+  const auto ground_of = [&]() -> const Grid* {
+    if (ground_file.empty()) return nullptr;
+    ground = read_raster(ground_file);
+    return &*ground;
+  };
+  return path_to_csv(
+      read_picture_waypoints(options.waypoints, ground_of, options.dtm.empty() ? "dsm" : "dtm", "give --dtm or --dsm"));
 }
 
 }  // namespace

@@ -41,7 +41,6 @@ enum class Firmware { generic, px4, ardupilot };  ///< MAV_AUTOPILOT 0, 12, 3
 struct DjiDrone {
   const char* name;  ///< as --drone takes it: "m3e"
   int enum_value, sub_enum_value;
-  const char* model;  ///< "Mavic 3 Enterprise (M3E)"
 };
 /// Every DjiDrone, in the order the docs list them: m350, m300, m30, m30t, m3e, m3t, m3m, m3d, m3td.
 const std::vector<DjiDrone>& dji_drones();

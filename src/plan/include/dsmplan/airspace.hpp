@@ -85,6 +85,11 @@ bool zone_blocks(const AirspaceZone& zone, const AirspaceOptions& options = {});
 /// see the top). O(corners).
 bool zone_contains(const AirspaceZone& zone, const Point3& p, const GroundGrid* ground);
 
+/// True when `path` (CRS), seen from above, meets one of the zone's rings, each ring taken by
+/// itself (its edges or its inside, a hole's ring too), whatever the heights: a flat fence of the
+/// zone's rings (a mission's geofence) would be breached by it. O(path points x corners).
+bool path_meets_zone_rings(const AirspaceZone& zone, const std::vector<Point3>& path);
+
 /// A zone kept at `safety` metres, as a FlightConstraint (flight_space.hpp): a point or motion is
 /// refused when it comes within `safety` of the zone's volume, horizontally or vertically:
 ///   - horizontally, within `safety` of the area (exact: the segment is cut where it enters and
