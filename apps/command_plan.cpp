@@ -128,6 +128,9 @@ Command plan_command(CLI::App& app, Session& session) {
   command->add_option("--routes", plan.routes,
                       "Many routes instead of --waypoints, over one roadmap: .csv (route,x,y,z) or .geojson "
                       "(LineStrings with an id); -o a .geojson FeatureCollection or a folder/ (exit 4: some failed)");
+  command->add_option("--route-budget", plan.route_budget,
+                      "With --routes: each route's own time limit in seconds; a route past it fails (code "
+                      "route_budget) and the others go on (0: none, at most 3600)");
   command
       ->add_option("-o,--output", request->outputs,
                    "Path: .csv (x,y,z in the mesh's CRS), .geojson (WGS 84, ellipsoidal heights), or with heights "

@@ -106,6 +106,7 @@ std::string flag_message(const ArgumentError& error) {
       {"window", "--window"},
       {"max_agl", "--max-agl"},
       {"snap", "--snap"},
+      {"route_budget", "--route-budget"},
       {"waypoint_heights", "--waypoint-heights"},
       {"no_fly_blocking", "--no-fly-blocking"},
       {"no_fly_buffer", "--no-fly-buffer"},

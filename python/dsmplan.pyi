@@ -151,9 +151,14 @@ def plan_routes(
     waypoint_heights: str = "crs",
     objective: str = "low",
     no_fly_buffer: float | None = None,
+    route_budget: float = 0.0,
 ) -> list[Flight | InputError]:
     """Many routes over one roadmap, as `dsmplan plan --routes`: a Flight a route, or the
-    InputError plan() would raise for it (returned, not raised: one route stops no other)."""
+    InputError plan() would raise for it (returned, not raised: one route stops no other),
+    with the route's failure as attributes: code ("waypoint_refused", "no_path",
+    "home_refused", "end_refused", "route_budget", "refused"), waypoint, leg (from, to),
+    nearest_valid_point (x, y, z in the mesh's CRS) or None. route_budget: each route's own
+    time limit in seconds (0: none)."""
 
 def render(
     dsm: str | Dsm,

@@ -274,7 +274,7 @@ py::list plan_routes_of(const std::shared_ptr<PyMesh>& mesh,
                         const std::vector<std::string>& no_fly, std::optional<std::vector<std::string>> no_fly_blocking,
                         const std::string& vertical_crs, bool allow_approximate_vertical, double snap,
                         const std::string& waypoint_heights, const std::string& objective,
-                        std::optional<double> no_fly_buffer) {
+                        std::optional<double> no_fly_buffer, double route_budget) {
   FlightData data;
   data.names = {"mesh", "routes", "dsm", "dtm"};
   share_data(data, mesh, dsm, dtm);
@@ -291,13 +291,22 @@ py::list plan_routes_of(const std::shared_ptr<PyMesh>& mesh,
     read_zones(data, no_fly, no_fly_blocking, VerticalOptions{vertical_crs, allow_approximate_vertical});
     zones = {data.no_fly, data.airspace};
     const FlightArea area(std::move(data));
-    return plan_routes(area, points, common);
+    return plan_routes(area, points, common, {}, route_budget);
   });
   const py::object input_error = py::module_::import("dsmplan").attr("InputError");
   py::list out;
   for (RouteResult& route : planned.routes) {
     if (!route.solved) {
-      out.append(input_error(route.place.empty() ? route.why : route.place + ": " + route.why));
+      // The RouteFailure as attributes, as `plan --routes` writes its "failure" object.
+      py::object error = input_error(route.place.empty() ? route.why : route.place + ": " + route.why);
+      const RouteFailure& f = route.failure;
+      error.attr("code") = f.code;
+      error.attr("waypoint") = f.code == "waypoint_refused" ? py::object(py::int_(f.waypoint)) : py::none();
+      error.attr("leg") = f.code == "no_path" ? py::object(py::make_tuple(f.leg[0], f.leg[1])) : py::none();
+      error.attr("nearest_valid_point") = std::isfinite(f.nearest[0])
+                                              ? py::object(py::make_tuple(f.nearest[0], f.nearest[1], f.nearest[2]))
+                                              : py::none();
+      out.append(error);
       continue;
     }
     out.append(flight_of(std::move(route.plan), mesh->mesh.crs, zones, terrain, safety, max_agl));
@@ -329,6 +338,8 @@ auto naming_keywords(const std::map<std::string, std::string>& names, Call&& cal
     return call();
   } catch (const ArgumentError& error) {
     throw ArgumentError(keyword_for(error.field(), names), error.problem());
+  } catch (const DataFault& fault) {
+    throw DataFault(keyword_for(fault.field(), names), fault.problem(), fault.nearest());
   }
 }
 
@@ -894,7 +905,7 @@ PYBIND11_MODULE(dsmplan, m) {
         py::arg("spacing") = 20.0, py::arg("planner") = "prm", py::arg("no_fly") = std::vector<std::string>{},
         py::arg("no_fly_blocking") = py::none(), py::arg("vertical_crs") = "",
         py::arg("allow_approximate_vertical") = false, py::arg("snap") = 0.0, py::arg("waypoint_heights") = "crs",
-        py::arg("objective") = "low", py::arg("no_fly_buffer") = py::none(),
+        py::arg("objective") = "low", py::arg("no_fly_buffer") = py::none(), py::arg("route_budget") = 0.0,
         "Many routes over one roadmap, as `dsmplan plan --routes` (the same library function, plan_routes()): the "
         "roadmap built once, every route a query against it, in parallel, each held to every rule of plan() and "
         "verified. Returns a list in the routes' order: a Flight for a route with a path, else the InputError "
@@ -915,7 +926,11 @@ PYBIND11_MODULE(dsmplan, m) {
         "snap: metres (0: off): a refused waypoint moved to the nearest valid point within it, as plan().\n"
         "waypoint_heights: \"crs\" or \"agl\" (z above the ground), as plan().\n"
         "objective: freespace only: \"low\" or \"shortest\", as plan().\n"
-        "no_fly_buffer: metres kept from the no-fly zones that block (None: `safety`), as plan().");
+        "no_fly_buffer: metres kept from the no-fly zones that block (None: `safety`), as plan().\n"
+        "route_budget: each route's own time limit in seconds (0: none); a route past it fails (code "
+        "\"route_budget\") and the others go on.\n"
+        "A route without a path: its InputError has code, waypoint, leg (from, to; 0 the takeoff above home) "
+        "and nearest_valid_point (x, y, z or None), as `plan --routes` writes its \"failure\".");
   m.def("render", &render, py::arg("dsm").none(false), py::arg("output"), py::kw_only(), py::arg("meshes") = py::none(),
         py::arg("titles") = py::none(), py::arg("paths") = py::none(), py::arg("waypoints") = py::none(),
         py::arg("roadmap") = py::none(), py::arg("window") = py::none(), py::arg("zoom") = 4.0, py::arg("edges") = true,

@@ -3098,6 +3098,124 @@ TEST(CliRoutes, AnInterruptedRunLeavesTheOldOutputsOrTheNewNeverAMix) {
             << " left the old outputs, " << news << " the new\n";
 }
 
+// A route without a path says why for a program too (issue 52, point 5): a code, the waypoint or
+// the leg as the route numbers them, and the nearest valid point, which a single run accepts in
+// the refused waypoint's place (the oracle); a route past --route-budget fails on its own.
+TEST(CliRoutes, AFailedRouteSaysItsCodeLegWaypointAndNearestValidPoint) {
+  MissionFixture f;
+  TempDir out;
+  const auto low = read_waypoints_csv_file(f.low);
+  ASSERT_GE(low.size(), 2u);
+  const std::string dsm = testkit::data_path(kSample);
+  std::ostringstream rows;
+  rows.precision(17);
+  const auto row = [&](const std::string& id, double x, double y, double z) {
+    rows << id << "," << x << "," << y << "," << z << "\n";
+  };
+  rows << "route,x,y,z\n";
+  row("ok", low[0][0], low[0][1], low[0][2]);
+  row("ok", low[1][0], low[1][1], low[1][2]);
+  row("under", low[0][0], low[0][1], low[0][2]);
+  const double below = f.cell(low[1][0], low[1][1]) - 1;  // a metre under the DSM's surface
+  row("under", low[1][0], low[1][1], below);
+  // Two street-level regions no path joins under a 10 m ceiling (CliPlan.FreespaceKeeps...).
+  row("apart", 356681.5, 5699302.5, 127.44);
+  row("apart", 356570.5, 5699579.5, 127.15);
+  const std::string routes = f.in.path("failing.csv");
+  testkit::write_file(routes, rows.str());
+  const std::vector<std::string> common{"plan",      f.bounded, "--routes",  routes,      "--dsm", dsm,
+                                        "--max-agl", "10",      "--planner", "freespace", "-q"};
+  const auto with = [&](std::vector<std::string> more) {
+    std::vector<std::string> args = common;
+    args.insert(args.end(), more.begin(), more.end());
+    return run_cli(args);
+  };
+  const std::string folder = out.path("paths") + "/";
+  const auto run = with({"-o", folder, "--stats", out.path("stats.json")});
+  ASSERT_EQ(run.exit_code, 4) << run.err;
+  const json listed = json::parse(testkit::read_file(folder + "routes.json"));
+  ASSERT_EQ(listed.size(), 3u);
+  EXPECT_TRUE(listed[0]["solved"]);
+  EXPECT_FALSE(listed[0].contains("failure"));
+  const json& under = listed[1]["failure"];
+  EXPECT_EQ(under["code"], "waypoint_refused") << under.dump();
+  EXPECT_EQ(under["waypoint"], 2) << under.dump();
+  EXPECT_TRUE(under["leg"].is_null());
+  EXPECT_EQ(under["message"], listed[1]["reason"]);
+  ASSERT_EQ(under["nearest_valid_point"].size(), 3u) << under.dump();
+  const std::array<double, 3> nearest{under["nearest_valid_point"][0], under["nearest_valid_point"][1],
+                                      under["nearest_valid_point"][2]};
+  EXPECT_LE(std::hypot(nearest[0] - low[1][0], nearest[1] - low[1][1], nearest[2] - below), 50);
+  // The nearest valid point in the refused one's place: the single run refuses no waypoint (a
+  // leg without a path under this ceiling may still be refused, but not the point).
+  f.write_waypoints({low[0], nearest});
+  std::vector<std::string> single{
+      "plan",      f.bounded, "--waypoints", f.waypoints, "--dsm", dsm, "-o", out.path("single.csv"),
+      "--max-agl", "10",      "--planner",   "freespace", "-q"};
+  const auto alone = run_cli(single);
+  EXPECT_EQ(alone.err.find("waypoint 2:"), std::string::npos) << alone.err;
+  const json& apart = listed[2]["failure"];
+  EXPECT_EQ(apart["code"], "no_path") << apart.dump();
+  EXPECT_EQ(apart["leg"], json::array({1, 2})) << apart.dump();
+  EXPECT_TRUE(apart["waypoint"].is_null());
+  EXPECT_TRUE(apart["nearest_valid_point"].is_null());
+  // --stats lists the same failures with their ids.
+  const json stats = json::parse(testkit::read_file(out.path("stats.json")));
+  ASSERT_EQ(stats["failures"].size(), 2u) << stats.dump();
+  EXPECT_EQ(stats["failures"][0]["id"], "under");
+  EXPECT_EQ(stats["failures"][0]["code"], "waypoint_refused");
+  EXPECT_EQ(stats["failures"][1]["id"], "apart");
+  EXPECT_EQ(stats["failures"][1]["leg"], apart["leg"]);
+
+  // In the FeatureCollection the nearest valid point is in WGS 84, as its paths are.
+  const auto collected = with({"-o", out.path("routes.geojson"), "--vertical-crs", "EPSG:5773"});
+  ASSERT_EQ(collected.exit_code, 4) << collected.err;
+  const json doc = json::parse(testkit::read_file(out.path("routes.geojson")));
+  const json& lonlat = doc["features"][1]["properties"]["failure"]["nearest_valid_point"];
+  ASSERT_EQ(lonlat.size(), 3u) << doc["features"][1].dump();
+  double lon = nearest[0], lat = nearest[1];
+  ASSERT_TRUE(GdalTransform("EPSG:25832", "EPSG:4326")(lon, lat));
+  EXPECT_NEAR(lonlat[0].get<double>(), lon, 1e-7);
+  EXPECT_NEAR(lonlat[1].get<double>(), lat, 1e-7);
+
+  // A budget no route can keep: each fails with its own code, none stops the run.
+  const auto hurried = with({"-o", out.path("hurried") + "/", "--route-budget", "0.000001"});
+  ASSERT_EQ(hurried.exit_code, 4) << hurried.err;
+  const json late = json::parse(testkit::read_file(out.path("hurried/routes.json")));
+  ASSERT_EQ(late.size(), 3u);
+  for (const json& route : late) {
+    EXPECT_EQ(route["failure"]["code"], "route_budget") << route.dump();
+    EXPECT_NE(route["reason"].get<std::string>().find("--route-budget"), std::string::npos) << route.dump();
+  }
+  for (const std::string bad : {"-1", "nan", "4000"}) {
+    const auto refused = with({"-o", out.path("bad") + "/", "--route-budget", bad});
+    EXPECT_EQ(refused.exit_code, 2) << bad << ": " << refused.err;
+    EXPECT_NE(refused.err.find("--route-budget"), std::string::npos) << refused.err;
+  }
+  single.insert(single.end(), {"--route-budget", "5"});
+  EXPECT_EQ(run_cli(single).exit_code, 2);
+
+  // A home against a wall: every route's mission refused with home_refused and the nearest clear
+  // spot on the ground, where a single run takes off.
+  const std::array<double, 2> wall = f.home_against_wall();
+  ASSERT_FALSE(std::isnan(wall[0]));
+  char at[64];
+  std::snprintf(at, sizeof at, "%.2f,%.2f", wall[0], wall[1]);
+  const auto missions = run_cli({"plan", f.bounded, "--routes", routes, "--dsm", dsm, "--max-agl", "30", "--spacing",
+                                 "10", "--vertical-crs", "EPSG:5773", "--of", "waypoints", "--home", at, "-o",
+                                 out.path("missions") + "/", "-q"});
+  ASSERT_EQ(missions.exit_code, 4) << missions.err;
+  const json homes = json::parse(testkit::read_file(out.path("missions/routes.json")));
+  const json& home = homes[0]["failure"];
+  EXPECT_EQ(home["code"], "home_refused") << home.dump();
+  ASSERT_EQ(home["nearest_valid_point"].size(), 3u) << home.dump();
+  const double hx = home["nearest_valid_point"][0], hy = home["nearest_valid_point"][1];
+  EXPECT_LE(std::hypot(hx - wall[0], hy - wall[1]), 10) << home.dump();
+  char moved[64];
+  std::snprintf(moved, sizeof moved, "%.2f,%.2f", hx, hy);
+  EXPECT_EQ(f.plan(out.path("moved.waypoints"), {"--home", moved}).exit_code, 0);
+}
+
 // ---- zones seen: KML, render and profile -----------------------------------------------------
 
 namespace {
@@ -3551,7 +3669,7 @@ TEST(CliPlan, SnapMovesAHomeAgainstAWallToTheNearestClearSpot) {
   char at[64];
   std::snprintf(at, sizeof at, "%.2f,%.2f", wall[0], wall[1]);
   const auto refused = f.plan(out.path("never.plan"), {"--home", at});
-  ASSERT_EQ(refused.exit_code, 2) << refused.err;
+  ASSERT_EQ(refused.exit_code, 1) << refused.err;  // a well-formed home the data refuse: the data's fault
   const std::string said = "the nearest clear spot: --home ";
   const size_t named = refused.err.find(said);
   ASSERT_NE(named, std::string::npos) << refused.err;

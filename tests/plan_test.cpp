@@ -24,6 +24,7 @@
 
 #include "dsmplan/columns.hpp"
 #include "dsmplan/corridor.hpp"
+#include "dsmplan/flight.hpp"
 #include "dsmplan/mesh.hpp"
 #include "dsmplan/raster.hpp"
 #include "dsmplan/raster_io.hpp"
@@ -2073,4 +2074,42 @@ TEST(NoFlyZone, EveryPlannerGoesAroundItAndAWaypointInsideIsRefused) {
   const testkit::TempDir dir;
   EXPECT_THROW(write_roadmap(dir.path("zone.roadmap"), Roadmap{}, 1, options), ArgumentError);
   EXPECT_TRUE(dir.files().empty());
+}
+
+// A failed route's numbers (RouteFailure) and its words (failure_in_words()) name the same
+// waypoint and leg, along a mission's route [takeoff top, 1, 2, 3, takeoff top] and a route alone.
+TEST(RouteFailure, NumbersTheWaypointsAndLegsAsTheWordsNameThem) {
+  dsmplan::MissionSite site;
+  site.leading = true, site.returns = true;
+  const size_t user = 3, route = user + 2;
+  const auto number = [](size_t n) { return n == 0 ? std::string("takeoff") : std::to_string(n); };
+  const std::vector<const dsmplan::MissionSite*> sites{&site, nullptr};
+  for (const dsmplan::MissionSite* s : sites) {
+    const size_t count = s ? route : user;
+    for (size_t w = 0; w + 1 < count; ++w) {
+      dsmplan::PlanResult leg;
+      leg.status = dsmplan::PlanStatus::NoPath;
+      leg.waypoint = w;
+      const dsmplan::RouteFailure f = dsmplan::route_failure(leg, s, user);
+      EXPECT_EQ(f.code, "no_path");
+      const std::string words = dsmplan::failure_in_words(leg, s, user).place;
+      if (f.leg[0] == 0)
+        EXPECT_NE(words.find("takeoff above --home to waypoint " + number(f.leg[1])), std::string::npos) << words;
+      else if (f.leg[1] == 0)
+        EXPECT_NE(words.find("waypoint " + number(f.leg[0]) + " back above home"), std::string::npos) << words;
+      else
+        EXPECT_EQ(words, "waypoints " + number(f.leg[0]) + " to " + number(f.leg[1]));
+    }
+    for (size_t w = 0; w < count; ++w) {
+      dsmplan::PlanResult refused;
+      refused.status = dsmplan::PlanStatus::InvalidWaypoint;
+      refused.waypoint = w;
+      refused.invalid = {{w, "under the surface", {1, 2, 3}}};
+      const dsmplan::RouteFailure f = dsmplan::route_failure(refused, s, user);
+      EXPECT_EQ(f.code, "waypoint_refused");
+      EXPECT_EQ(f.nearest, (dsmplan::Point3{1, 2, 3}));
+      const std::string words = dsmplan::failure_in_words(refused, s, user).place;
+      EXPECT_EQ(words, f.waypoint == 0 ? "the takeoff's top above --home" : "waypoint " + number(f.waypoint));
+    }
+  }
 }

@@ -71,9 +71,11 @@ const std::string& sample_mesh() {
 // `dsmplan serve MESH ... --port 0` for the life of the object.
 class Server {
 public:
-  explicit Server(std::vector<std::string> args = {}) : log_(dir_.path("server.log")) {
+  // `vertical`: the sample's vertical reference given (the DSM itself names none).
+  explicit Server(std::vector<std::string> args = {}, bool vertical = true) : log_(dir_.path("server.log")) {
     args.insert(args.begin(), {DSMPLAN_CLI, "serve", sample_mesh()});
-    args.insert(args.end(), {"--port", "0", "-q", "--vertical-crs", "EPSG:7837", "--allow-approximate-vertical"});
+    args.insert(args.end(), {"--port", "0", "-q"});
+    if (vertical) args.insert(args.end(), {"--vertical-crs", "EPSG:7837", "--allow-approximate-vertical"});
     // A request's first roadmap takes seconds on a machine the whole suite shares: the default
     // 10 s budget is tested on its own (504), not by the load of the other tests.
     if (std::find(args.begin(), args.end(), "--budget") == args.end()) args.insert(args.end(), {"--budget", "600"});
@@ -288,7 +290,33 @@ TEST(Serve, RefusesBadRequestsWithTheStatusAndOneLine) {
   expect("{\"waypoints\":" + wp + ",\"x\":\"" + std::string(5000, 'a') + "\"}", 413, "");
   // Under the roofs: the planner's own reason, naming the waypoint.
   expect("{\"waypoints\":[[356320,5699270,130],[356560,5699500,100]]}", 422, "waypoint 2");
+  // A home the data refuse is the data's fault (422), named by its key; a malformed one is 400.
+  expect("{\"waypoints\":" + wp + ",\"format\":\"plan\",\"mission\":{\"home\":[356000,5699000]}}", 422,
+         "mission.home: x 356000.00, y 5699000.00 lies outside the DSM");
+  expect("{\"waypoints\":" + wp + ",\"format\":\"plan\",\"mission\":{\"home\":[356000]}}", 400, "mission.home");
   EXPECT_EQ(get(port, "/v1/nothing").status, 404);
+}
+
+// A server over the sample as it comes, its DSM naming no vertical reference: a request without
+// "format" gets the CSV `dsmplan plan` writes (no vertical reference needed), /v1/info says so,
+// and GeoJSON, whose heights need one, is refused as the data's fault (422) naming the key.
+TEST(Serve, AnswersTheSampleByDefaultWithoutAVerticalReference) {
+  Server server({}, false);
+  const Json info = Json::parse(get(server.port(), "/v1/info").body);
+  EXPECT_EQ(info["limits"]["default_format"], "csv") << info.dump();
+  const Reply reply = post(server.port(), Json{{"waypoints", waypoints_json(kPoints)}}.dump());
+  ASSERT_EQ(reply.status, 200) << reply.body;
+  EXPECT_EQ(reply.json()["format"], "csv");
+  testkit::TempDir dir;
+  EXPECT_EQ(reply.json()["path"], cli_path(dir, testkit::data_path(kWaypoints), "csv"));
+  const Reply geojson = post(server.port(), Json{{"waypoints", waypoints_json(kPoints)}, {"format", "geojson"}}.dump());
+  EXPECT_EQ(geojson.status, 422) << geojson.body;
+  const std::string error = geojson.json()["error"];
+  EXPECT_EQ(error.rfind("format: 'geojson' needs heights", 0), 0u) << error;
+  EXPECT_NE(error.find("csv needs none"), std::string::npos) << error;
+  // With the vertical reference given, GeoJSON is the default again.
+  Server named;
+  EXPECT_EQ(Json::parse(get(named.port(), "/v1/info").body)["limits"]["default_format"], "geojson");
 }
 
 TEST(Serve, RequiresTheTokenWhenGivenOne) {

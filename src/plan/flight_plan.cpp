@@ -334,11 +334,15 @@ std::string point_in_words(const Point3& p) {
   return "x " + two_decimals(p[0]) + ", y " + two_decimals(p[1]) + ", z " + two_decimals(p[2]);
 }
 
-// Where a refused point could be instead, for its message: the nearest valid point within 50 m
-// (within 10 m first, on the finer steps of a smaller radius).
-std::string nearest_in_words(const Point3& p, const WaypointRules& rules) {
-  Spot spot = nearest_valid_point(p, 10, false, rules, kMaxNearTries);
-  if (!spot.found) spot = nearest_valid_point(p, kWiderSearch, false, rules, kMaxTries);
+// Where a refused point could be instead: the nearest valid point within 50 m (within 10 m
+// first, on the finer steps of a smaller radius).
+Spot nearest_spot(const Point3& p, const WaypointRules& rules) {
+  const Spot spot = nearest_valid_point(p, 10, false, rules, kMaxNearTries);
+  return spot.found ? spot : nearest_valid_point(p, kWiderSearch, false, rules, kMaxTries);
+}
+
+// nearest_spot() for a refusal's message.
+std::string nearest_in_words(const Spot& spot) {
   if (!spot.found && spot.bound) return "; no valid point among the " + std::to_string(spot.bound) + " nearest tried";
   if (!spot.found) return "; no valid point within " + two_decimals(kWiderSearch) + " m";
   return "; the nearest valid point: " + point_in_words(spot.at) + " (" + two_decimals(spot.distance) +
@@ -351,7 +355,11 @@ std::vector<PlanResult::Invalid> naming_nearest(std::vector<PlanResult::Invalid>
   // Only for those the message names (waypoint_problems()): 3,000 waypoints under the ground cost
   // 79 s of searches before, whose answers nobody read.
   for (size_t k = 0; k < invalid.size() && k <= kListedWaypoints; ++k)
-    if (invalid[k].waypoint < points.size()) invalid[k].reason += nearest_in_words(points[invalid[k].waypoint], rules);
+    if (invalid[k].waypoint < points.size()) {
+      const Spot spot = nearest_spot(points[invalid[k].waypoint], rules);
+      invalid[k].reason += nearest_in_words(spot);
+      if (spot.found) invalid[k].nearest = spot.at;
+    }
   return invalid;
 }
 
@@ -366,9 +374,12 @@ std::vector<PlanResult::Invalid> snap_waypoints(std::vector<Point3>& waypoints, 
     if (why.empty()) continue;
     const Spot spot = nearest_valid_point(waypoints[i], radius, true, rules, kMaxNearTries);
     if (!spot.found) {
-      refused.push_back({i, why + "; no valid point within --snap " + two_decimals(radius) + " m" +
-                                (spot.bound ? " among the " + std::to_string(spot.bound) + " nearest tried" : "") +
-                                nearest_in_words(waypoints[i], rules)});
+      const Spot nearest = nearest_spot(waypoints[i], rules);
+      refused.push_back({i,
+                         why + "; no valid point within --snap " + two_decimals(radius) + " m" +
+                             (spot.bound ? " among the " + std::to_string(spot.bound) + " nearest tried" : "") +
+                             nearest_in_words(nearest),
+                         nearest.found ? nearest.at : Point3{NAN, NAN, NAN}});
       continue;
     }
     report.snapped.push_back({i + 1, "waypoint " + std::to_string(i + 1), waypoints[i], spot.at, spot.distance, why});

@@ -33,7 +33,7 @@ MissionSite mission_site(const MissionEnds& options, const std::vector<Point3>& 
   const Point3& last = waypoints.back();
   const double under_first = ground_z(first[0], first[1]);
   if (!std::isfinite(under_first))
-    throw ArgumentError("--home", "no ground under the first waypoint to count its height from");
+    throw DataFault("--home", "no ground under the first waypoint to count its height from");
   double x = first[0], y = first[1];
   const auto& [a, b] = options.home;
   if (!std::isnan(a) || !std::isnan(b)) {
@@ -47,8 +47,8 @@ MissionSite mission_site(const MissionEnds& options, const std::vector<Point3>& 
   }
   const double ground = ground_z(x, y);
   if (!std::isfinite(ground))
-    throw ArgumentError("--home", "x " + two_decimals(x) + ", y " + two_decimals(y) +
-                                      " lies outside the DSM (no ground known there to take off from)");
+    throw DataFault("--home", "x " + two_decimals(x) + ", y " + two_decimals(y) +
+                                  " lies outside the DSM (no ground known there to take off from)");
   site.home = {x, y, ground};
   site.takeoff_top = {x, y, ground + (first[2] - under_first)};
   site.leading = std::hypot(x - first[0], y - first[1]) > kSameSpot;
@@ -56,7 +56,7 @@ MissionSite mission_site(const MissionEnds& options, const std::vector<Point3>& 
   site.returns = site.end == MissionEnd::rtl && !same_point(last, site.takeoff_top);
   if (site.end == MissionEnd::land) {
     const double below = ground_z(last[0], last[1]);
-    if (!std::isfinite(below)) throw ArgumentError("--end", "no ground known under the last waypoint to land on");
+    if (!std::isfinite(below)) throw DataFault("--end", "no ground known under the last waypoint to land on");
     site.land = {last[0], last[1], below};
   }
   return site;
@@ -82,27 +82,26 @@ void check_vertical(const Point3& top, double ground, const FlightRules& limits,
   if (d >= safety - kWrittenRounding) {
     if (limits.ground && std::isfinite(limits.max_agl) &&
         !limits.ground->below_ceiling(bottom, top, limits.max_agl + 0.05))
-      throw ArgumentError(flag, std::string("the ") + what + " rises above --max-agl " + two_decimals(limits.max_agl));
+      throw DataFault(flag, std::string("the ") + what + " rises above --max-agl " + two_decimals(limits.max_agl));
     // A zone holds from the ground up: a drone on the ground is in it too.
     const Point3 foot{top[0], top[1], std::min(top[2], ground)};
     for (const FlightConstraint* rule : limits.constraints)
       if (const FlightConstraint* zone = rule->refused_by(foot, top))
-        throw ArgumentError(flag, std::string("the ") + what + " at x " + two_decimals(top[0]) + ", y " +
-                                      two_decimals(top[1]) + " enters " + zone->name() +
-                                      " or comes closer to it than the distance kept from the zones");
+        throw DataFault(flag, std::string("the ") + what + " at x " + two_decimals(top[0]) + ", y " +
+                                  two_decimals(top[1]) + " enters " + zone->name() +
+                                  " or comes closer to it than the distance kept from the zones");
     return;
   }
   const double surface = dsm_z ? dsm_z(top[0], top[1]) : NAN;
   if (surface > ground + kTouchdown)
-    throw ArgumentError(flag, std::string("under a roof or tree: the DSM stands ") + two_decimals(surface - ground) +
-                                  " m above the ground there (x " + two_decimals(top[0]) + ", y " +
-                                  two_decimals(top[1]) + ")");
-  throw ArgumentError(flag, std::string("the ") + what + " at x " + two_decimals(top[0]) + ", y " +
-                                two_decimals(top[1]) +
-                                (d <= 0 ? " goes through an obstacle"
-                                        : " passes " + two_decimals(d) + " m from an obstacle, closer than --safety " +
-                                              two_decimals(safety)) +
-                                " (checked from " + two_decimals(kTouchdown) + " m plus --safety above the ground up)");
+    throw DataFault(flag, std::string("under a roof or tree: the DSM stands ") + two_decimals(surface - ground) +
+                              " m above the ground there (x " + two_decimals(top[0]) + ", y " + two_decimals(top[1]) +
+                              ")");
+  throw DataFault(flag, std::string("the ") + what + " at x " + two_decimals(top[0]) + ", y " + two_decimals(top[1]) +
+                            (d <= 0 ? " goes through an obstacle"
+                                    : " passes " + two_decimals(d) + " m from an obstacle, closer than --safety " +
+                                          two_decimals(safety)) +
+                            " (checked from " + two_decimals(kTouchdown) + " m plus --safety above the ground up)");
 }
 
 // The nearest place to `top` (within `radius`, horizontally, on the ground's cells) whose climb,
@@ -121,7 +120,7 @@ std::array<double, 2> nearest_clear_climb(const Point3& top, double ground, cons
     if (!std::isfinite(g)) return INFINITY;
     try {
       check_vertical({x, y, g + above}, g, limits, dsm_z, "--home", "climb from home");
-    } catch (const ArgumentError&) {
+    } catch (const DataFault&) {
       return INFINITY;
     }
     if (top_valid && !top_valid({x, y, g + above})) return INFINITY;
@@ -137,13 +136,14 @@ void check_vertical_legs(const MissionSite& site, const std::vector<Point3>& way
                          const std::function<double(double, double)>& dsm_z) {
   try {
     check_vertical(site.takeoff_top, site.home[2], limits, dsm_z, "--home", "climb from home");
-  } catch (const ArgumentError& error) {
+  } catch (const DataFault& error) {
     // Where it could take off instead: a user moves home there and runs again.
     const auto [x, y] = nearest_clear_climb(site.takeoff_top, site.home[2], limits, dsm_z);
-    if (std::isnan(x)) throw ArgumentError("--home", error.problem() + "; no clear spot within 50 m");
-    throw ArgumentError("--home", error.problem() + "; the nearest clear spot: --home " + two_decimals(x) + "," +
-                                      two_decimals(y) + " (" +
-                                      two_decimals(std::hypot(x - site.home[0], y - site.home[1])) + " m away)");
+    if (std::isnan(x)) throw DataFault("--home", error.problem() + "; no clear spot within 50 m");
+    throw DataFault("--home",
+                    error.problem() + "; the nearest clear spot: --home " + two_decimals(x) + "," + two_decimals(y) +
+                        " (" + two_decimals(std::hypot(x - site.home[0], y - site.home[1])) + " m away)",
+                    {x, y, -limits.ground->height_above({x, y, 0})});
   }
   if (site.end == MissionEnd::land)
     check_vertical(waypoints.back(), site.land[2], limits, dsm_z, "--end", "descent to land");
@@ -157,7 +157,7 @@ std::optional<FlightReport::Snap> snap_home(MissionSite& site, const std::vector
   try {
     check_vertical(site.takeoff_top, site.home[2], limits, dsm_z, "--home", "climb from home");
     return std::nullopt;
-  } catch (const ArgumentError& error) {
+  } catch (const DataFault& error) {
     why = error.problem();
   }
   const auto [x, y] = nearest_clear_climb(site.takeoff_top, site.home[2], limits, dsm_z, radius, top_valid);
@@ -188,6 +188,26 @@ std::string mission_place(const PlanResult& result, const MissionSite& site, siz
   return {};
 }
 
+RouteFailure route_failure(const PlanResult& result, const MissionSite* site, size_t user_waypoints) {
+  const size_t leading = site && site->leading ? 1 : 0;
+  const size_t count = user_waypoints + leading + (site && site->returns ? 1 : 0);
+  // A waypoint of the planner's route as the user numbers it: 0 for the takeoff's top.
+  const auto user_number = [&](size_t w) -> size_t {
+    if ((leading && w == 0) || (site && site->returns && w + 1 == count)) return 0;
+    return w - leading + 1;
+  };
+  RouteFailure failure;
+  if (result.status == PlanStatus::InvalidWaypoint) {
+    failure.code = "waypoint_refused";
+    failure.waypoint = user_number(result.waypoint);
+    if (!result.invalid.empty()) failure.nearest = result.invalid.front().nearest;
+  } else if (result.status == PlanStatus::NoPath) {
+    failure.code = "no_path";
+    failure.leg = {user_number(result.waypoint), user_number(result.waypoint + 1)};
+  }
+  return failure;
+}
+
 FailureInWords failure_in_words(const PlanResult& result, const MissionSite* site, size_t user_waypoints) {
   const auto place = [&](const PlanResult& r) { return site ? mission_place(r, *site, user_waypoints) : r.place(); };
   return {place(result), result.problems([&](size_t k) {
@@ -206,7 +226,7 @@ void check_vertical_legs_in(GridSource& dsm, const MissionSite& site, const std:
     const int r0 = std::max(0, static_cast<int>(std::floor((frame.y0 - top[1] - r) / frame.cell_y)));
     const int c1 = std::min(frame.width, static_cast<int>(std::ceil((top[0] + r - frame.x0) / frame.cell_x)));
     const int r1 = std::min(frame.height, static_cast<int>(std::ceil((frame.y0 - top[1] + r) / frame.cell_y)));
-    if (c1 <= c0 || r1 <= r0) throw ArgumentError(flag, "lies outside the DSM");
+    if (c1 <= c0 || r1 <= r0) throw DataFault(flag, "lies outside the DSM");
     Grid columns = read_window(dsm, c0, r0, c1 - c0, r1 - r0);
     // The zones' AGL limits count from the terrain, else from the DSM read here.
     const std::shared_ptr<const GroundGrid> zone_ground =

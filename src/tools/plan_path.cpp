@@ -364,6 +364,7 @@ PlanReport plan_job(const PlanJobOptions& options, const Progress& progress) {
   if (options.waypoints.empty())
     throw ArgumentError("--waypoints", "is required: the waypoints to fly through (or --routes, many routes)");
   if (!options.routes.empty()) throw ArgumentError("--routes", "is planned by plan_routes_job(), not plan_job()");
+  if (options.route_budget != 0) throw ArgumentError("--route-budget", "is a time limit of each of --routes");
   const Outputs outputs = plan_outputs(options);
   check_plan_options(options.plan);
   for (const auto& [output, kind] : outputs.files)

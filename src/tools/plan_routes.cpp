@@ -9,6 +9,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
+#include <functional>
 #include <map>
 #include <memory>
 #include <mutex>
@@ -59,6 +60,7 @@ void check_routes_options(const PlanJobOptions& options) {
     throw ArgumentError("--roadmap", std::string("only the prm planner keeps a roadmap; ") +
                                          planner_name(options.plan.planner) + " keeps none");
   check_plan_options(options.plan);
+  check_route_budget(options.route_budget);
 }
 
 // A route's id made a file name: letters, digits, '.', '-' and '_' kept, the rest '_'.
@@ -78,10 +80,35 @@ void check_route_files(const std::vector<Route>& routes) {
       throw ArgumentError("--routes", "the ids '" + it->second + "' and '" + route.id + "' make one file name");
 }
 
-Json route_figures(const Route& route, const RouteResult& result) {
+std::string reason_of(const RouteResult& result) {
+  return result.place.empty() ? result.why : result.place + ": " + result.why;
+}
+
+// A route's RouteFailure as JSON: every key always there (null where it does not apply), the
+// nearest valid point as `place` gives it (the CRS's coordinates, or WGS 84's).
+Json failure_json(const RouteResult& result, const std::function<Point3(const Point3&)>& place) {
+  const RouteFailure& f = result.failure;
+  const bool near = std::isfinite(f.nearest[0]) && std::isfinite(f.nearest[1]) && std::isfinite(f.nearest[2]);
+  Json nearest = nullptr;
+  if (near) {
+    const Point3 p = place(f.nearest);
+    nearest = {p[0], p[1], p[2]};
+  }
+  return Json{{"code", f.code},
+              {"waypoint", f.code == "waypoint_refused" ? Json(f.waypoint) : Json(nullptr)},
+              {"leg", f.code == "no_path" ? Json{f.leg[0], f.leg[1]} : Json(nullptr)},
+              {"nearest_valid_point", nearest},
+              {"message", reason_of(result)}};
+}
+
+Point3 as_is(const Point3& p) { return p; }
+
+Json route_figures(const Route& route, const RouteResult& result,
+                   const std::function<Point3(const Point3&)>& place = as_is) {
   Json p{{"id", route.id}, {"solved", result.solved}, {"waypoints", route.waypoints.size()}};
   if (!result.solved) {
-    p["reason"] = result.place.empty() ? result.why : result.place + ": " + result.why;
+    p["reason"] = reason_of(result);
+    p["failure"] = failure_json(result, place);
     return p;
   }
   const FlightReport& r = result.plan.report;
@@ -118,8 +145,8 @@ std::string routes_geojson(const std::vector<Route>& routes, const RoutesPlan& p
         }
         geometry = {{"type", "LineString"}, {"coordinates", line}};
       }
-      features[i] =
-          Json{{"type", "Feature"}, {"properties", route_figures(routes[i], result)}, {"geometry", geometry}}.dump();
+      const Json properties = route_figures(routes[i], result, [&](const Point3& p) { return mine->to_wgs84(p); });
+      features[i] = Json{{"type", "Feature"}, {"properties", properties}, {"geometry", geometry}}.dump();
     }
   });
   size_t bytes = 0;
@@ -256,7 +283,8 @@ RoutesReport plan_routes_job(const PlanJobOptions& options, const Progress& prog
   }
   std::vector<std::vector<Point3>> waypoints;
   for (const Route& route : routes) waypoints.push_back(route.waypoints);
-  const RoutesPlan planned = plan_routes(area, waypoints, common, sub_progress(progress, 0.1, 0.95));
+  const RoutesPlan planned =
+      plan_routes(area, waypoints, common, sub_progress(progress, 0.1, 0.95), options.route_budget);
   report.seconds_index = planned.seconds_index;
   report.seconds_roadmap = planned.seconds_roadmap;
   report.seconds_plan = planned.seconds - planned.seconds_index - planned.seconds_roadmap;
@@ -264,10 +292,14 @@ RoutesReport plan_routes_job(const PlanJobOptions& options, const Progress& prog
   report.roadmap_reused = planned.roadmap_reused;
   for (size_t i = 0; i < routes.size(); ++i) {
     const RouteResult& r = planned.routes[i];
-    if (r.solved)
+    if (r.solved) {
       ++report.solved;
-    else
-      report.failed.push_back(routes[i].id + ": " + (r.place.empty() ? r.why : r.place + ": " + r.why));
+      continue;
+    }
+    report.failed.push_back(routes[i].id + ": " + reason_of(r));
+    Json failure = failure_json(r, as_is);
+    failure["id"] = routes[i].id;
+    report.failures.push_back(std::move(failure));
   }
   clock.lap();
   if (is_folder(options.output))
@@ -284,6 +316,7 @@ Json to_json(const RoutesReport& r) {
   return Json{{"routes", r.routes},
               {"solved", r.solved},
               {"failed", r.failed},
+              {"failures", r.failures},
               {"roadmap_nodes", r.roadmap_nodes},
               {"roadmap_edges", r.roadmap_edges},
               {"roadmap_reused", r.roadmap_reused},

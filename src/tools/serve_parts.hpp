@@ -27,7 +27,10 @@ struct PlanRequest {
 /// ArgumentError(key, why) naming the request's key ("safety", "mission.home", "waypoints") for a
 /// body that is not a JSON object of the keys docs/commands.md lists, a value of the wrong type, or
 /// one beyond the server's bounds (`server`). Nesting deeper than 32 is refused before parsing.
-PlanRequest parse_plan_request(const std::string& body, const ServeOptions& server);
+/// A request without "format" asks for `default_format` (PlanService: geojson when the server
+/// knows the heights above the WGS 84 ellipsoid, else csv).
+PlanRequest parse_plan_request(const std::string& body, const ServeOptions& server,
+                               const std::string& default_format = "geojson");
 
 /// The request's key for a field the library's errors name by `dsmplan plan`'s flag ("--home"
 /// -> "mission.home"); the field itself when it has none.

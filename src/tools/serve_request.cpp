@@ -157,7 +157,7 @@ std::string request_key(const std::string& field) {
   return it == keys.end() ? field : it->second;
 }
 
-PlanRequest parse_plan_request(const std::string& body, const ServeOptions& server) {
+PlanRequest parse_plan_request(const std::string& body, const ServeOptions& server, const std::string& default_format) {
   if (nesting(body) > kMaxDepth) throw ArgumentError("body", "nested deeper than 32 arrays or objects");
   Json doc;
   try {
@@ -175,7 +175,7 @@ PlanRequest parse_plan_request(const std::string& body, const ServeOptions& serv
   job.plan = server.plan;
   job.plan.threads = 1;  // a worker plans on its own thread; the pool is the parallelism
   job.vertical = server.vertical;
-  job.format = "geojson";
+  job.format = default_format;
   if (!doc.contains("waypoints")) throw ArgumentError("waypoints", "missing: [[x, y, z], ...] or GeoJSON");
   for (const auto& [key, value] : doc.items()) {
     if (key == "waypoints") {

@@ -32,6 +32,9 @@ struct PlanService::State {
   mutable RoadmapShelf shelf{4};  // the server's roadmap, and four for requests with another safety or ceiling
   Json loaded;                    // what /v1/info says was loaded
   std::string vertical_geojson, vertical_msl;  // the transformations' names, or why there is none
+  // What a request without "format" gets: GeoJSON when its heights above the ellipsoid are
+  // known, else the CSV in the mesh's CRS, which needs no vertical reference.
+  std::string default_format = "geojson";
 };
 
 namespace {
@@ -116,6 +119,7 @@ void prepare(PlanService::State& state, FlightData data, const Progress& progres
   report(progress, 0.7);
   state.vertical_geojson = transformation_name(area.crs(), HeightReference::Ellipsoid, options.vertical);
   state.vertical_msl = transformation_name(area.crs(), HeightReference::MeanSeaLevel, options.vertical);
+  if (state.vertical_geojson.rfind("unavailable: ", 0) == 0) state.default_format = "csv";
   if (options.plan.planner != PlannerKind::prm) return;
   const PlanOptions plan = area.planner_options(options.plan);
   const uint64_t key = area.roadmap_key();  // as plan_flight() asks FlightStore::kept_roadmap
@@ -148,7 +152,16 @@ std::string plan_answer(const PlanService::State& state, PlanRequest& request, T
   const Outputs outputs = plan_outputs(request.job);
   Stopwatch clock;
   PlanReport report;
-  make_transforms(t, crs, request.geojson, outputs, request.job.vertical, report.transformation);
+  try {
+    make_transforms(t, crs, request.geojson, outputs, request.job.vertical, report.transformation);
+  } catch (const ArgumentError& e) {
+    // The server's data lack what the request's heights need: the request is well-formed (422).
+    if (e.field() != "vertical_crs") throw;
+    throw DataFault(request.geojson ? "waypoints" : "format",
+                    "'" + (request.geojson ? std::string("geojson") : request.job.format) +
+                        "' needs heights the server cannot give: " + e.problem() +
+                        " (the server's option; csv needs none)");
+  }
   const WaypointHeights heights = request.job.waypoint_heights.empty()
                                       ? WaypointHeights::crs
                                       : parse_waypoint_heights(request.job.waypoint_heights);
@@ -231,13 +244,17 @@ const ServeOptions& PlanService::options() const { return state_->options; }
 PlanService::Answer PlanService::plan(const std::string& body, Worker& worker, const Progress& progress,
                                       std::shared_ptr<const StopToken> stop) const {
   try {
-    PlanRequest request = in_stage("reading the request", [&] { return parse_plan_request(body, state_->options); });
+    PlanRequest request = in_stage("reading the request",
+                                   [&] { return parse_plan_request(body, state_->options, state_->default_format); });
     return {200, plan_answer(*state_, request, worker.transforms, progress, std::move(stop))};
   } catch (const Cancelled& cancelled) {
     return {504, error_body(budget_message(state_->options.budget_seconds, cancelled.stage()))};
   } catch (const ArgumentError& e) {
     const std::string key = request_key(e.field());
     return {400, error_body(key.empty() ? e.problem() : key + ": " + e.problem())};
+  } catch (const DataFault& e) {  // a well-formed value the data refuse: a home under a roof
+    const std::string key = request_key(e.field());
+    return {422, error_body(key.empty() ? e.problem() : key + ": " + e.problem())};
   } catch (const InputError& e) {
     return {422, error_body(e.what())};  // waypoints that cannot be flown, a leg without a path
   } catch (const std::bad_alloc&) {
@@ -259,6 +276,7 @@ std::string PlanService::info() const {
               {"refine_rounds", o.plan.refine_rounds},
               {"planner", planner_name(o.plan.planner)},
               {"formats", {"geojson", "csv", "kml", "plan", "waypoints", "kmz"}},
+              {"default_format", s.default_format},
               {"max_body_bytes", o.max_body_bytes},
               {"budget_seconds", o.budget_seconds},
               {"threads", o.threads},

@@ -508,8 +508,17 @@ def test_plan_routes_gives_the_command_lines_routes_and_reasons(sample_plan, tmp
     assert isinstance(flights[3], dsmplan.InputError)
     assert not listed[3]["solved"] and str(flights[3]) == listed[3]["reason"]
     assert "waypoint 1: inside the DSM" in str(flights[3])
+    # The failure for a program, as routes.json's "failure" object says it.
+    failure = listed[3]["failure"]
+    assert (flights[3].code, flights[3].waypoint, flights[3].leg) == (failure["code"], failure["waypoint"], None)
+    assert list(flights[3].nearest_valid_point or []) == (failure["nearest_valid_point"] or [])
+    assert flights[3].code == "waypoint_refused" and flights[3].waypoint == 1
     with pytest.raises(dsmplan.ArgumentError, match="^planner: "):
         dsmplan.plan_routes(mesh, routes, planner="astar")
+    with pytest.raises(dsmplan.ArgumentError, match="^route_budget: "):
+        dsmplan.plan_routes(mesh, routes, route_budget=-1)
+    late = dsmplan.plan_routes(mesh, routes, dsm=dsm, max_agl=30, spacing=10, route_budget=1e-6)
+    assert [f.code for f in late] == ["route_budget"] * 4
 
 
 def test_delft_zones_are_kept_away_from_and_one_on_the_path_is_flown_around(tmp_path):

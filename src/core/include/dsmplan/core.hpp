@@ -17,8 +17,10 @@
 #include <array>
 #include <atomic>
 #include <chrono>
+#include <cmath>
 #include <cstdint>
 #include <functional>
+#include <memory>
 #include <stdexcept>
 #include <string>
 #include <utility>
@@ -61,6 +63,25 @@ public:
 
 private:
   std::string field_, problem_;
+};
+
+/// A well-formed option value that the data refuse: a mission's home under a roof or inside a
+/// zone, a landing outside the DSM. An InputError (the data's fault: exit 1, HTTP 422) that
+/// still names the option's `field` as ArgumentError does, so every face names it as it names
+/// the option (the CLI its flag, the service its key, Python its keyword). `nearest`: where the
+/// value would be accepted (x, y, z in the data's CRS), NaN when none was found.
+class DataFault : public InputError {
+public:
+  DataFault(const std::string& field, const std::string& problem,
+            const std::array<double, 3>& nearest = {NAN, NAN, NAN})
+      : InputError("", field, problem), field_(field), problem_(problem), nearest_(nearest) {}
+  const std::string& field() const { return field_; }
+  const std::string& problem() const { return problem_; }
+  const std::array<double, 3>& nearest() const { return nearest_; }
+
+private:
+  std::string field_, problem_;
+  std::array<double, 3> nearest_;
 };
 
 class OutputError : public Error {
@@ -114,10 +135,14 @@ public:
   using Clock = std::chrono::steady_clock;
   StopToken() = default;
   explicit StopToken(Clock::time_point deadline) : deadline_(deadline) {}
+  /// Stops at `deadline` or when `parent` stops (a part's own time limit within a whole's).
+  StopToken(Clock::time_point deadline, std::shared_ptr<const StopToken> parent)
+      : deadline_(deadline), parent_(std::move(parent)) {}
   void request_stop() noexcept { stopped_.store(true, std::memory_order_relaxed); }
   bool stop_requested() const noexcept {
     return stopped_.load(std::memory_order_relaxed) ||
-           (deadline_ != Clock::time_point::max() && Clock::now() >= deadline_);
+           (deadline_ != Clock::time_point::max() && Clock::now() >= deadline_) ||
+           (parent_ && parent_->stop_requested());
   }
   /// Throws Cancelled when a stop was requested or the deadline passed.
   void check() const {
@@ -127,6 +152,7 @@ public:
 private:
   std::atomic<bool> stopped_{false};
   Clock::time_point deadline_ = Clock::time_point::max();
+  std::shared_ptr<const StopToken> parent_;
 };
 
 /// check() when there is a token.

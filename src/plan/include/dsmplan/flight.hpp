@@ -330,9 +330,9 @@ std::vector<Point3> flown_path(const FlightPlan& flight);
 
 /// Plans the request and verifies the path against the data, as the top of this header says:
 /// FlightArea(request) then plan_flight(area, request).
-/// Errors: ArgumentError for options out of range (check_plan_options()) or a home or landing
-/// that cannot be flown ("--home", "--end"); InputError(names.waypoints, "waypoint N" or
-/// "waypoints N to M", why) for waypoints that cannot be flown to or legs without a path;
+/// Errors: ArgumentError for options out of range (check_plan_options()); DataFault("--home",
+/// "--end") for a home or landing the data refuse (its nearest() the nearest clear spot); InputError(names.waypoints,
+/// "waypoint N" or "waypoints N to M", why) for waypoints that cannot be flown to or legs without a path;
 /// InputError(names.dsm / names.dtm / names.mesh, ...) for data that disagree. Deterministic.
 FlightPlan plan_flight(const FlightRequest& request, const Progress& progress = {});
 
@@ -351,13 +351,33 @@ struct FlightAttempt {
 };
 FlightAttempt attempt_flight(const FlightArea& area, const FlightQuery& query, const Progress& progress = {});
 
+/// Why a route has no flight, for a program. Waypoints are numbered from 1 as the route gives
+/// them; 0 is the takeoff's top above a mission's home. `code`:
+///   "waypoint_refused"  `waypoint` cannot be flown to (the first of those refused)
+///   "no_path"           no path on `leg` (from, to)
+///   "home_refused"      a mission's home or its climb; "end_refused" its landing
+///   "route_budget"      past the route's own time limit (plan_routes()'s `route_budget`)
+///   "refused"           another refusal of the data (a DTM above the DSM, ...)
+/// `nearest`: where it would be accepted (CRS), NaN when not searched or none found: the nearest
+/// valid point to a refused waypoint, the nearest clear spot on the ground for a refused home.
+struct RouteFailure {
+  std::string code;
+  size_t waypoint = 0;
+  std::array<size_t, 2> leg{0, 0};
+  Point3 nearest{NAN, NAN, NAN};
+};
+
+/// RouteFailure of a failed plan, numbered as failure_in_words() names it.
+RouteFailure route_failure(const PlanResult& result, const MissionSite* site, size_t user_waypoints);
+
 /// One route of plan_routes(): its flight, or why there is none in the user's words (`place`
 /// as "waypoint 2" or "waypoints 1 to 2", empty when the refusal was not a waypoint's: then `why`
-/// is the whole line, e.g. "--home: ...").
+/// is the whole line, e.g. "--home: ...") and for a program (`failure`).
 struct RouteResult {
   bool solved = false;
   FlightPlan plan;
   std::string place, why;
+  RouteFailure failure;
 };
 
 struct RoutesPlan {
@@ -373,9 +393,15 @@ struct RoutesPlan {
 /// rule and verified as plan_flight() does. A route that fails does not stop the others: its
 /// RouteResult says why. With the rrtconnect planner every route grows its own trees.
 /// Deterministic: the same routes give the same paths whatever the number of threads.
+/// `route_budget` (s, [0, 3600], 0: none): each route's own time limit, counted from its start;
+/// a route past it fails ("route_budget") and the others go on. The roadmap or free airspace
+/// the routes share is then made first, on no route's time. A stop of `common.options.stop`
+/// still stops the whole call (Cancelled).
 /// Errors: ArgumentError for options out of range; everything else is a route's.
 RoutesPlan plan_routes(const FlightArea& area, const std::vector<std::vector<Point3>>& routes,
-                       const FlightQuery& common, const Progress& progress = {});
+                       const FlightQuery& common, const Progress& progress = {}, double route_budget = 0);
+/// ArgumentError("route_budget") unless `seconds` lies in [0, 3600].
+void check_route_budget(double seconds);
 
 // ---- the rules, one implementation each ------------------------------------------------------
 
@@ -434,7 +460,8 @@ std::vector<Point3> merge_straight_legs(const std::vector<Point3>& path, const s
                                         const FlightRules& rules);
 
 /// The site of a mission through `waypoints` (CRS). `ground_z(x, y)`: the ground's height there,
-/// not finite where unknown. ArgumentError("--home"/"--end") for a home or landing over no ground.
+/// not finite where unknown. DataFault("--home"/"--end") for a home or landing over no ground;
+/// ArgumentError("--home") for a home that is not two finite numbers.
 MissionSite mission_site(const MissionEnds& ends, const std::vector<Point3>& waypoints,
                          const std::function<double(double, double)>& ground_z);
 
@@ -442,12 +469,13 @@ MissionSite mission_site(const MissionEnds& ends, const std::vector<Point3>& way
 /// the takeoff top last when the mission returns.
 std::vector<Point3> route_waypoints(const std::vector<Point3>& waypoints, const MissionSite& site);
 
-/// ArgumentError("--home") or ArgumentError("--end") when the vertical climb at home or the
+/// DataFault("--home") or DataFault("--end") when the vertical climb at home or the
 /// descent at the landing passes nearer the obstacles than the safety distance (less 1 cm) from
 /// 1 m plus `safety` above the ground up, rises above the ceiling, or breaks a constraint from
 /// the ground up (a no-fly zone over home); `dsm_z`, when given, also
 /// refuses a home or landing under a roof or tree (DSM more than 1 m above the ground). A home
-/// that fails is answered with the nearest clear spot within 50 m.
+/// that fails is answered with the nearest clear spot within 50 m (DataFault::nearest(): on the
+/// ground there).
 void check_vertical_legs(const MissionSite& site, const std::vector<Point3>& waypoints, const FlightRules& rules,
                          const std::function<double(double, double)>& dsm_z);
 

@@ -256,6 +256,7 @@ struct PlanResult {
   struct Invalid {
     size_t waypoint = 0;
     std::string reason;
+    Point3 nearest{NAN, NAN, NAN};  ///< the nearest valid point, when plan_flight() searched and found one
   };
   std::vector<Invalid> invalid;
   /// "waypoint N" or "waypoints N to N+1" (1-based), empty when solved.

@@ -78,6 +78,9 @@ struct PlanJobOptions {
   VerticalOptions vertical;  ///< heights for GeoJSON, missions, KML: --vertical-crs, --allow-approximate-vertical
   /// Many routes instead of `waypoints` (plan_routes_job()): CSV "route,x,y,z" or GeoJSON LineStrings.
   std::string routes;
+  /// With `routes`: each route's own time limit (s, [0, 3600], 0: none); a route past it fails
+  /// ("route_budget") and the others go on (plan_routes()).
+  double route_budget = 0;
   /// No-fly zones (ED-269 JSON or GeoJSON: read_airspace()), and which restrictions block
   /// (empty: PROHIBITED and REQ_AUTHORISATION).
   std::vector<std::string> no_fly, no_fly_blocking;
@@ -162,6 +165,9 @@ struct RoutesReport {
   std::string output;
   size_t routes = 0, solved = 0;
   std::vector<std::string> failed;  ///< "ID: why", one line each, in the routes' order
+  /// Each failed route for a program, in the routes' order: {"id", "code", "waypoint", "leg",
+  /// "nearest_valid_point" ([x, y, z] in the mesh's CRS, or null), "message"} (RouteFailure).
+  Json failures = Json::array();
   size_t roadmap_nodes = 0, roadmap_edges = 0;
   bool roadmap_reused = false;
   double seconds_read = 0, seconds_index = 0, seconds_roadmap = 0, seconds_plan = 0, seconds_write = 0;
@@ -174,9 +180,10 @@ struct RoutesReport {
 /// reason), or a folder (a name ending in '/', or an existing directory) with one file per
 /// route (its id, made safe as a file name, then the extension of options.format, default csv;
 /// any path or mission format) and routes.json beside them (every route's id, status, reason or
-/// figures). A route that fails stops no other: the report lists it (the CLI exits 4 then).
-/// Errors as plan_job() for the inputs and options; ArgumentError("--routes") with --waypoints or
-/// a DSM input (routes are planned over a mesh).
+/// figures). A route without a path has a "failure" object (code, waypoint, leg,
+/// nearest_valid_point: in WGS 84 in the FeatureCollection, in the mesh's CRS in routes.json). A route that fails stops
+/// no other: the report lists it (the CLI exits 4 then). Errors as plan_job() for the inputs and options;
+/// ArgumentError("--routes") with --waypoints or a DSM input (routes are planned over a mesh).
 RoutesReport plan_routes_job(const PlanJobOptions& options, const Progress& progress = {});
 Json to_json(const RoutesReport& report);
 std::string to_text(const RoutesReport& report);
