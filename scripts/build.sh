@@ -1,14 +1,20 @@
 #!/usr/bin/env bash
 # Configures and builds dsmplan into build/ (Release), or with --sanitize into build-sanitize/
-# (AddressSanitizer + UndefinedBehaviorSanitizer, tests only).
+# (AddressSanitizer + UndefinedBehaviorSanitizer, tests only). DSMPLAN_TARGETS="a b" builds those
+# targets only (scripts/sample.sh: what it runs), without the viewer's npm packages.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 scripts/deps.sh
 dir=build
 [ "${1:-}" = "--sanitize" ] && dir=build-sanitize
-# three for the 3D viewer (dsmplan view), pinned by web/viewer/package-lock.json, into
-# $dir/web/viewer/node_modules beside the page the build copies there (only when the lock changed).
-scripts/npm_pinned.sh web/viewer "$dir/web/viewer" node_modules/three/build/three.module.js
+targets=()
+[ -n "${DSMPLAN_TARGETS:-}" ] && read -r -a targets <<< "--target $DSMPLAN_TARGETS"
+if [ ${#targets[@]} -eq 0 ]; then
+  # three for the 3D viewer (dsmplan view), pinned by web/viewer/package-lock.json, into
+  # $dir/web/viewer/node_modules beside the page the build copies there (only when the lock changed).
+  scripts/deps.sh --npm
+  scripts/npm_pinned.sh web/viewer "$dir/web/viewer" node_modules/three/build/three.module.js
+fi
 if [ "${1:-}" = "--sanitize" ]; then
   # -O1 -g1: the optimisation AddressSanitizer's manual advises, and line tables only, enough for
   # the sanitizers' reports. -O1 compiles in two thirds of -O2's time under the sanitizers
@@ -26,5 +32,5 @@ if [ "${1:-}" = "--sanitize" ]; then
 else
   # DSMPLAN_BENCH=OFF (scripts/test.sh): the test suite does not need the benchmarks.
   cmake -S . -B build -DCMAKE_BUILD_TYPE=Release -DDSMPLAN_BUILD_BENCH="${DSMPLAN_BENCH:-ON}" >/dev/null
-  cmake --build build -j"$(nproc)"
+  cmake --build build -j"$(nproc)" "${targets[@]}"
 fi

@@ -8,13 +8,23 @@
 # mission between the buildings of Delft under a ceiling counted from the terrain (AHN3 LiDAR),
 # and a DSM made from four aerial views rendered from the sample (dsmplan stereo), scored against
 # the sample and meshed, simplified and planned on like it; and the same views through COLMAP's
-# structure-from-motion (dsmplan stereo --colmap) when colmap is or can be installed.
+# structure-from-motion (dsmplan stereo --colmap) when colmap is installed by then.
+#
+# Builds only what it runs (dsmplan, bench/aerial_sample). COLMAP, a large desktop dependency
+# set, is installed in the background while dsmplan builds (log: out/sample/colmap-install.log);
+# its step is skipped with a note when the install is not done by then, and runs next time.
 set -euo pipefail
 cd "$(dirname "$0")/.."
-scripts/build.sh
 dsm=data/nrw-dom1/nrw_dom1_crop500m_1m.tif
 out=out/sample
 mkdir -p "$out"
+scripts/deps.sh  # in the foreground first: one apt-get at a time
+colmap_install=""
+if ! command -v colmap > /dev/null 2>&1; then
+  scripts/deps.sh colmap > "$out/colmap-install.log" 2>&1 &
+  colmap_install=$!
+fi
+DSMPLAN_TARGETS="dsmplan aerial_sample" scripts/build.sh
 build/dsmplan info "$dsm" | tee "$out/info.txt"
 build/dsmplan info "$dsm" --json > "$out/info.json"
 for res in 1 2; do
@@ -101,7 +111,10 @@ build/dsmplan plan "$out/stereo_bounded.ply" --waypoints "$aerial/waypoints.csv"
 # on the CPU; dsmplan puts its model into EPSG:25832 by the cameras' centres and makes the DSM.
 echo
 colmap_route=0
-if command -v colmap > /dev/null 2>&1 || scripts/deps.sh colmap > /dev/null 2>&1; then
+if [ -n "$colmap_install" ] && kill -0 "$colmap_install" 2> /dev/null; then
+  echo "The COLMAP route (dsmplan stereo --colmap) is skipped: COLMAP is still installing in the background" \
+    "($out/colmap-install.log); run scripts/sample.sh again once it is done."
+elif command -v colmap > /dev/null 2>&1; then
   echo "From images by structure-from-motion: six more views of the same scene (3 x 2, no lens distortion; the"
   echo "four above have a distorted one, which COLMAP given only the focal length cannot model), COLMAP on the"
   echo "CPU (SIFT, exhaustive matching, mapper; the focal length given, the poses its own), then"
@@ -125,7 +138,8 @@ if command -v colmap > /dev/null 2>&1 || scripts/deps.sh colmap > /dev/null 2>&1
   build/bench/aerial_sample score "$out/colmap_dsm.tif" "$aerial/truth.tif"
   colmap_route=1
 else
-  echo "The COLMAP route (dsmplan stereo --colmap) is skipped: colmap is not installed and scripts/deps.sh colmap could not install it."
+  echo "The COLMAP route (dsmplan stereo --colmap) is skipped: scripts/deps.sh colmap could not install colmap" \
+    "($out/colmap-install.log)."
 fi
 build/dsmplan render "$dsm" --mesh "$out/bounded_1m.ply" --no-edges --roadmap "$out/bounded_1m.roadmap" \
   --path "$out/path.csv" --waypoints data/nrw-dom1/sample_waypoints.csv --zoom 2 \
@@ -167,5 +181,7 @@ echo
 echo "Outputs in $out/:"
 ls -l "$out"
 echo
-echo "To see the conservative mesh and the path in 3D in a browser (serves until Ctrl-C):"
-echo "  build/dsmplan view $out/bounded_1m.glb --path $out/path.csv --waypoints data/nrw-dom1/sample_waypoints.csv"
+echo "To see the conservative mesh and the path in 3D in a browser (serves until Ctrl-C; scripts/build.sh"
+echo "installs the viewer's three.js first, scripts/test.sh does too):"
+echo "  scripts/build.sh && build/dsmplan view $out/bounded_1m.glb --path $out/path.csv \\"
+echo "    --waypoints data/nrw-dom1/sample_waypoints.csv"

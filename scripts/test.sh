@@ -3,6 +3,8 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 DSMPLAN_BENCH=OFF scripts/build.sh "$@"
+# The real structure-from-motion of colmap_test (ColmapBinary.*).
+scripts/deps.sh colmap
 # The viewer's test (tests/view_test.cpp) screenshots the page with Debian's headless Chromium.
 scripts/deps.sh chromium
 # The files open where users open them (tests/export_test.cpp, OpensWhereUsersOpenIt):
