@@ -15,7 +15,7 @@ struct RenderArguments {
   double resolution = 0;
   CLI::Option* res = nullptr;  // given or not: without --res the DSM keeps its own
   std::string window, of;
-  bool no_edges = false, json = false;
+  bool no_edges = false, no_grid = false, json = false;
 };
 
 void run_render(RenderArguments& request, bool quiet) {
@@ -23,6 +23,7 @@ void run_render(RenderArguments& request, bool quiet) {
   if (request.res->count()) render.resolution = request.resolution;
   if (!request.window.empty()) render.render.window = parse_window(request.window);
   render.render.edges = !request.no_edges;
+  render.render.grid = !request.no_grid;
   std::vector<NamedFile> inputs{{"DSM", render.dsm}, {"--waypoints", render.waypoints}, {"--roadmap", render.roadmap}};
   for (const std::string& m : render.meshes) inputs.push_back({"--mesh", m});
   for (const std::string& p : render.paths) inputs.push_back({"--path", p});
@@ -47,6 +48,7 @@ Command render_command(CLI::App& app, Session& session) {
   command->add_option("--window", request->window, "Area to draw: xmin,ymin,xmax,ymax in the CRS (m) (default: all)");
   command->add_option("--zoom", render.render.pixels_per_cell, "Pixels per DSM cell")->capture_default_str();
   command->add_flag("--no-edges", request->no_edges, "Do not draw the meshes' edges");
+  command->add_flag("--no-grid", request->no_grid, "Do not draw the coordinate grid and its labels");
   command->add_option("--path", render.paths, "Path CSV (from dsmplan plan) to draw; repeatable");
   command->add_option("--waypoints", render.waypoints, "Waypoint CSV: numbered discs");
   command->add_option("--roadmap", render.roadmap, "Roadmap file (dsmplan plan --roadmap): its edges");

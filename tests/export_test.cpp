@@ -668,7 +668,7 @@ RenderOptions plain(std::optional<Window> window, double zoom = 4) {
   RenderOptions options;
   options.window = window;
   options.pixels_per_cell = zoom;
-  options.scale_bar = options.north_arrow = options.legend = false;
+  options.scale_bar = options.north_arrow = options.legend = options.grid = false;
   return options;
 }
 
@@ -871,6 +871,58 @@ TEST(Render, FurnitureIsNeverCoveredAndNumbersAvoidItAndEachOther) {
   const uint8_t* p = pixel(moved, wx, wy);
   EXPECT_TRUE(p[0] > 200 && p[1] > 150 && p[2] < 80)
       << int(p[0]) << "," << int(p[1]) << "," << int(p[2]);  // the disc's yellow
+}
+
+// The coordinate grid (issue 52, point 3) read back: each label's box is centred on the pixel
+// column (x) or row (y) of the coordinate it prints, and the lines drawn (the pixels that differ
+// from the same picture without the grid, outside the labels and the furniture) lie on those
+// columns and rows and on no others, every round step apart.
+TEST(Render, GridLabelsSitOnTheLinesTheyName) {
+  const Grid& grid = nrw_grid();
+  RenderOptions options;
+  options.window = Window{grid.x0 + 40, grid.y0 - 460, grid.x0 + 460, grid.y0 - 40};
+  options.pixels_per_cell = 1.5;
+  options.title = "grid";
+  const double scale = options.pixels_per_cell / grid.cell_x;
+  const Image with = render_view(grid, nullptr, options);
+  options.grid = false;
+  const Image without = render_view(grid, nullptr, options);
+  ASSERT_EQ(with.width, without.width);
+  std::vector<double> xs, ys;
+  std::vector<ImageRegion> boxes;
+  for (const ImageRegion& r : with.regions) {
+    boxes.push_back(r);
+    const bool is_x = r.what.rfind("x ", 0) == 0, is_y = r.what.rfind("y ", 0) == 0;
+    if (!is_x && !is_y) continue;
+    const double value = std::stod(r.what.substr(2));
+    const double at = is_x ? (value - options.window->xmin) * scale : (options.window->ymax - value) * scale;
+    EXPECT_NEAR((is_x ? r.x0 + r.x1 : r.y0 + r.y1) / 2.0, at, 1.0) << r.what;
+    (is_x ? xs : ys).push_back(value);
+  }
+  ASSERT_GE(xs.size(), 2u);
+  ASSERT_GE(ys.size(), 2u);
+  std::sort(xs.begin(), xs.end());
+  const double step = xs[1] - xs[0];
+  EXPECT_GT(step, 0);
+  for (const auto& v : {xs, ys})
+    for (double value : v) EXPECT_NEAR(std::remainder(value, step), 0, 1e-9) << value;
+  // Every pixel the grid changed, outside the boxes, lies within a pixel of a line every step.
+  const auto in_box = [&](int x, int y) {
+    return std::any_of(boxes.begin(), boxes.end(),
+                       [&](const ImageRegion& r) { return x >= r.x0 && x < r.x1 && y >= r.y0 && y < r.y1; });
+  };
+  const auto near_line = [&](double pixel, double origin_value, bool x_axis) {
+    const double value = x_axis ? options.window->xmin + pixel / scale : options.window->ymax - pixel / scale;
+    return std::abs(std::remainder(value - origin_value, step)) * scale <= 1.0 + 1e-9;
+  };
+  size_t changed = 0;
+  for (int y = 0; y < with.height; ++y)
+    for (int x = 0; x < with.width; ++x) {
+      if (in_box(x, y) || std::memcmp(pixel(with, x, y), pixel(without, x, y), 3) == 0) continue;
+      ++changed;
+      EXPECT_TRUE(near_line(x + 0.5, xs[0], true) || near_line(y + 0.5, ys[0], false)) << x << "," << y;
+    }
+  EXPECT_GT(changed, static_cast<size_t>(with.width));  // the lines are there
 }
 
 TEST(Render, NodataAndOutsideHaveTheirOwnColours) {

@@ -153,26 +153,6 @@ PathProfile profile_path(const std::vector<Point3>& path, const Grid& dsm, const
 
 namespace {
 
-// The smallest 1, 2 or 5 x 10^k that cuts `range` into at most `count` parts.
-double nice_step(double range, double count) {
-  const double raw = range / std::max(1.0, count);
-  const double power = std::pow(10.0, std::floor(std::log10(raw)));
-  for (double m : {1.0, 2.0, 5.0, 10.0})
-    if (m * power >= raw * (1 - 1e-9)) return m * power;
-  return 10 * power;
-}
-
-// A tick value with as many decimals as the step needs ("120", "2.5").
-std::string tick_label(double value, double step) {
-  const int decimals = step >= 1 ? 0 : static_cast<int>(std::ceil(-std::log10(step) - 1e-9));
-  char text[48];
-  std::snprintf(text, sizeof text, "%.*f", decimals, value + 0.0);
-  std::string s = text;
-  if (s == "-0" || s.find_first_not_of("-0.") == std::string::npos)
-    s = decimals ? "0." + std::string(decimals, '0') : "0";
-  return s;
-}
-
 std::string number(double value) {
   char text[32];
   std::snprintf(text, sizeof text, "%g", value);

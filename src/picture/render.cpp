@@ -12,6 +12,7 @@
 #include <cstdio>
 #include <numbers>
 #include <string>
+#include <tuple>
 #include <vector>
 
 #include "dsmplan/picture.hpp"
@@ -267,6 +268,7 @@ void draw_edges(Canvas& canvas, const Grid& dsm, const Mesh& mesh, const View& v
 // ---- decorations ----------------------------------------------------------------------------
 
 std::string metres(double length) {
+  if (length == 0) length = 0;  // -0 reads "0 m", not "-0 m"
   char buffer[32];
   std::snprintf(buffer, sizeof buffer, "%g m", length);
   return buffer;
@@ -318,9 +320,27 @@ void draw_scale_bar(Canvas& canvas, const ScaleBar& scale, const Box& box, int s
   }
 }
 
+// The heights of the cells under the picture, lowest to highest (every valid cell), and the
+// tint's ends: the legend's ramp runs over the whole range, each height in the colour the map
+// gives it (one colour below the tint's low end and above its high end: heights_range()).
 struct Legend {
-  std::string low, high;  // the tint's ends, in metres
+  float lowest = 0, highest = 1, tint_low = 0, tint_high = 1;
+  std::string low, high;  // lowest and highest, in metres to a decimal
 };
+
+Legend make_legend(const Grid& dsm, const CellRange& range) {
+  Legend legend;
+  std::tie(legend.tint_low, legend.tint_high) = height_range(dsm, range);
+  float lo = INFINITY, hi = -INFINITY;
+  for (int r = range.r0; r <= range.r1; ++r)
+    for (int c = range.c0; c <= range.c1; ++c)
+      if (dsm.valid(c, r)) lo = std::min(lo, dsm.at(c, r)), hi = std::max(hi, dsm.at(c, r));
+  if (!(lo <= hi)) lo = legend.tint_low, hi = legend.tint_high;  // no valid cell: the tint's own range
+  legend.lowest = lo, legend.highest = hi;
+  // Rounded outwards, so the labels bound every height shown.
+  legend.low = metres(std::floor(lo * 10) / 10), legend.high = metres(std::ceil(hi * 10) / 10);
+  return legend;
+}
 
 Box legend_size(const Legend& legend, int s) {
   const int pad = 4 * s, ramp = 64 * s;
@@ -336,11 +356,72 @@ void draw_legend(Canvas& canvas, const Legend& legend, const Box& box, int s) {
   const int x0 = box.x0 + pad, x1 = box.x1 - pad, y0 = box.y0 + pad + kGlyph * s + 2 * s, y1 = y0 + 6 * s;
   for (int x = x0; x < x1; ++x) {
     const float t = x1 - x0 > 1 ? static_cast<float>(x - x0) / (x1 - x0 - 1) : 0;
-    canvas.fill(x, y0, x + 1, y1, scaled(height_tint(t), 0.85f), 1);
+    const float height = legend.lowest + t * (legend.highest - legend.lowest);
+    const float tint = (height - legend.tint_low) / (legend.tint_high - legend.tint_low);
+    canvas.fill(x, y0, x + 1, y1, scaled(height_tint(tint), 0.85f), 1);
   }
   const int text_y = y1 + 2 * s;
   draw_text(canvas, x0, text_y, legend.low, kInk, s);
   draw_text(canvas, x1 - text_width(legend.high, s), text_y, legend.high, kInk, s);
+}
+
+// ---- the coordinate grid: faint lines every round step of the CRS, labelled at the edges ------
+
+constexpr float kGridAlpha = 0.3f;  // seen on every tint, under the paths and the edges' weight
+
+struct GridLine {
+  bool vertical = true;  // a line of constant x
+  double at = 0;         // its pixel column or row
+  std::string label;
+};
+
+std::vector<GridLine> grid_lines(const View& view) {
+  const Window& w = view.window;
+  const double step = nice_step(std::max(w.xmax - w.xmin, w.ymax - w.ymin), 5);
+  std::vector<GridLine> lines;
+  for (double x = std::ceil(w.xmin / step) * step; x < w.xmax; x += step)
+    lines.push_back({true, view.px(x), tick_label(x, step)});
+  for (double y = std::ceil(w.ymin / step) * step; y < w.ymax; y += step)
+    lines.push_back({false, view.py(y), tick_label(y, step)});
+  return lines;
+}
+
+void draw_grid_lines(Canvas& canvas, const View& view, const std::vector<GridLine>& lines) {
+  for (const GridLine& line : lines) {
+    if (line.vertical)
+      draw_line(canvas, line.at, 0, line.at, view.height, kInk, kGridAlpha, 1.0);
+    else
+      draw_line(canvas, 0, line.at, view.width, line.at, kInk, kGridAlpha, 1.0);
+  }
+}
+
+// Each line's label on a light box centred on it: x along the top edge (else the bottom), y
+// along the left (else the right), where it stays in the picture and meets none of `taken`
+// (which it joins); a line with no such place is left unlabelled.
+void draw_grid_labels(Canvas& canvas, const View& view, const std::vector<GridLine>& lines, int s,
+                      std::vector<Box>& taken, std::vector<ImageRegion>& regions) {
+  const int pad = s, edge = 2 * s;
+  for (const GridLine& line : lines) {
+    const int w = text_width(line.label, s) + 2 * pad, h = kGlyph * s + 2 * pad;
+    const int centre = static_cast<int>(std::lround(line.at));
+    const std::array<Box, 2> places =
+        line.vertical
+            ? std::array<Box, 2>{Box{centre - w / 2, edge, centre - w / 2 + w, edge + h},
+                                 Box{centre - w / 2, view.height - edge - h, centre - w / 2 + w, view.height - edge}}
+            : std::array<Box, 2>{Box{edge, centre - h / 2, edge + w, centre - h / 2 + h},
+                                 Box{view.width - edge - w, centre - h / 2, view.width - edge, centre - h / 2 + h}};
+    const auto free = [&](const Box& box) {
+      return box.inside(view.width, view.height) &&
+             std::none_of(taken.begin(), taken.end(), [&](const Box& t) { return box.meets(t); });
+    };
+    const auto found = std::find_if(places.begin(), places.end(), free);
+    if (found == places.end()) continue;
+    const Box box = *found;
+    canvas.fill(box.x0, box.y0, box.x1, box.y1, kPaper, 1);
+    draw_text(canvas, box.x0 + pad, box.y0 + pad, line.label, kInk, s);
+    taken.push_back(box);
+    regions.push_back({(line.vertical ? "x " : "y ") + line.label, box.x0, box.y0, box.x1, box.y1});
+  }
 }
 
 Box north_arrow_size(int s) {
@@ -505,6 +586,8 @@ Image render_view(const Grid& dsm, const Mesh* mesh, const RenderOptions& option
         },
         zone_scale, zone_regions);
   }
+  const std::vector<GridLine> grid = options.grid ? grid_lines(view) : std::vector<GridLine>{};
+  draw_grid_lines(canvas, view, grid);  // under the paths and the markers
   for (const LineLayer& layer : options.lines) draw_lines(canvas, view, layer);
   for (const MarkerLayer& layer : options.markers) draw_markers(canvas, view, layer);
 
@@ -550,8 +633,7 @@ Image render_view(const Grid& dsm, const Mesh* mesh, const RenderOptions& option
   // The scale bar and the legend share the bottom corners: the arrangement covering fewer waypoints.
   const bool scale_bar = options.scale_bar && !dsm.crs.geographic;
   const ScaleBar bar = measure_scale_bar(view);
-  const auto [lo, hi] = height_range(dsm, cells_under(dsm, view.window));
-  const Legend legend{metres(std::round(lo * 10) / 10), metres(std::round(hi * 10) / 10)};
+  const Legend legend = make_legend(dsm, cells_under(dsm, view.window));
   const Box bar_left = place(scale_bar_size(bar, s), false, true),
             bar_right = place(scale_bar_size(bar, s), true, true);
   const Box legend_right = place(legend_size(legend, s), true, true),
@@ -570,6 +652,7 @@ Image render_view(const Grid& dsm, const Mesh* mesh, const RenderOptions& option
       draw_legend(canvas, legend, box, s), furniture.push_back(box),
           regions.push_back({"legend", box.x0, box.y0, box.x1, box.y1});
   }
+  draw_grid_labels(canvas, view, grid, s, furniture, regions);
   const int label_scale = std::clamp(std::min(view.width, view.height) / 280, 1, 4);
   draw_labels(canvas, view, options, furniture, label_scale, regions);
   Image image = canvas.take();

@@ -252,8 +252,9 @@ std::string to_text(const ProfileReport& r) {
   const char* ground = r.ground_is_dtm ? "DTM" : "DSM";
   char below[128], above[160];
   if (std::isfinite(r.min_above_dsm)) {
-    std::snprintf(below, sizeof below, "least %.2f m above the DSM below it (at %.1f m)", r.min_above_dsm,
-                  r.min_above_dsm_at);
+    // Within half a centimetre of zero it reads "0.00", not "-0.00".
+    const double least = std::abs(r.min_above_dsm) < 0.005 ? 0.0 : r.min_above_dsm;
+    std::snprintf(below, sizeof below, "least %.2f m above the DSM below it (at %.1f m)", least, r.min_above_dsm_at);
   } else {
     std::snprintf(below, sizeof below, "no DSM data under it");
   }

@@ -21,7 +21,9 @@ namespace dsmplan {
 
 /// Where a part of a picture lies, in pixels: [x0, x1) x [y0, y1).
 struct ImageRegion {
-  std::string what;  ///< "title", "north arrow", "scale bar", "legend", "label N"
+  /// "title", "north arrow", "scale bar", "legend", "label N", "x VALUE" / "y VALUE" (a grid
+  /// line's label, VALUE as printed: the box's centre lies on the line)
+  std::string what;
   int x0 = 0, y0 = 0, x1 = 0, y1 = 0;
 };
 
@@ -82,7 +84,8 @@ struct RenderOptions {
   double pixels_per_cell = 4;        ///< zoom: pixels per cell along x (y keeps the same scale)
   bool edges = true;                 ///< draw the mesh's triangle edges
   bool scale_bar = true, north_arrow = true;
-  bool legend = true;  ///< the height tint's ramp with its two ends in metres
+  bool legend = true;  ///< the height tint's ramp from the lowest to the highest cell, in metres
+  bool grid = true;    ///< faint grid lines in the CRS, labelled along the top and left edges
   std::string title;   ///< drawn at the top-left (built-in 8x8 bitmap font, ASCII; others print as '?')
 };
 
@@ -98,8 +101,11 @@ struct RenderOptions {
 /// (crisp lines at even zooms), and they are drawn lighter the shorter they are and the more of
 /// the picture they would cover (a full-resolution mesh seen from afar). The scale bar
 /// (bottom-left, a round 1/2/5 x 10^k length, labelled in metres; left out for geographic CRSs),
-/// the height legend (the tint of flat ground from the 2nd to the 98th percentile, its ends in
-/// metres), the north arrow (top-right) and the title (top-left, shortened with "..." when too
+/// the height legend (the tint of flat ground as the map colours each height, from the lowest
+/// cell under the picture to the highest, its ends in metres rounded outwards), the coordinate
+/// grid (faint lines every round 1/2/5 x 10^k CRS units, about five across, each labelled with
+/// its coordinate on a light box centred on the line along the top edge for x, the left edge for
+/// y, where it meets no other box), the north arrow (top-right) and the title (top-left, shortened with "..." when too
 /// long) sit on light boxes that grow with the picture, are drawn over the map and the markers,
 /// and are left out when they do not fit. The scale bar and the legend take the bottom corners,
 /// scale bar left, unless the other way round covers fewer markers. Marker numbers are placed
