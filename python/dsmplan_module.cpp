@@ -298,14 +298,13 @@ py::list plan_routes_of(const std::shared_ptr<PyMesh>& mesh,
   for (RouteResult& route : planned.routes) {
     if (!route.solved) {
       // The RouteFailure as attributes, as `plan --routes` writes its "failure" object.
-      py::object error = input_error(route.place.empty() ? route.why : route.place + ": " + route.why);
+      py::object error = input_error(route.reason());
       const RouteFailure& f = route.failure;
       error.attr("code") = f.code;
-      error.attr("waypoint") = f.code == "waypoint_refused" ? py::object(py::int_(f.waypoint)) : py::none();
-      error.attr("leg") = f.code == "no_path" ? py::object(py::make_tuple(f.leg[0], f.leg[1])) : py::none();
-      error.attr("nearest_valid_point") = std::isfinite(f.nearest[0])
-                                              ? py::object(py::make_tuple(f.nearest[0], f.nearest[1], f.nearest[2]))
-                                              : py::none();
+      error.attr("waypoint") = f.waypoint ? py::object(py::int_(*f.waypoint)) : py::none();
+      error.attr("leg") = f.leg ? py::object(py::make_tuple((*f.leg)[0], (*f.leg)[1])) : py::none();
+      error.attr("nearest_valid_point") =
+          f.nearest ? py::object(py::make_tuple((*f.nearest)[0], (*f.nearest)[1], (*f.nearest)[2])) : py::none();
       out.append(error);
       continue;
     }

@@ -2092,24 +2092,29 @@ TEST(RouteFailure, NumbersTheWaypointsAndLegsAsTheWordsNameThem) {
       leg.waypoint = w;
       const dsmplan::RouteFailure f = dsmplan::route_failure(leg, s, user);
       EXPECT_EQ(f.code, "no_path");
+      ASSERT_TRUE(f.leg.has_value());
+      EXPECT_FALSE(f.waypoint.has_value());
+      const auto [from, to] = *f.leg;
       const std::string words = dsmplan::failure_in_words(leg, s, user).place;
-      if (f.leg[0] == 0)
-        EXPECT_NE(words.find("takeoff above --home to waypoint " + number(f.leg[1])), std::string::npos) << words;
-      else if (f.leg[1] == 0)
-        EXPECT_NE(words.find("waypoint " + number(f.leg[0]) + " back above home"), std::string::npos) << words;
+      if (from == 0)
+        EXPECT_NE(words.find("takeoff above --home to waypoint " + number(to)), std::string::npos) << words;
+      else if (to == 0)
+        EXPECT_NE(words.find("waypoint " + number(from) + " back above home"), std::string::npos) << words;
       else
-        EXPECT_EQ(words, "waypoints " + number(f.leg[0]) + " to " + number(f.leg[1]));
+        EXPECT_EQ(words, "waypoints " + number(from) + " to " + number(to));
     }
     for (size_t w = 0; w < count; ++w) {
       dsmplan::PlanResult refused;
       refused.status = dsmplan::PlanStatus::InvalidWaypoint;
       refused.waypoint = w;
-      refused.invalid = {{w, "under the surface", {1, 2, 3}}};
+      refused.invalid = {{w, "under the surface", dsmplan::Point3{1, 2, 3}}};
       const dsmplan::RouteFailure f = dsmplan::route_failure(refused, s, user);
       EXPECT_EQ(f.code, "waypoint_refused");
       EXPECT_EQ(f.nearest, (dsmplan::Point3{1, 2, 3}));
       const std::string words = dsmplan::failure_in_words(refused, s, user).place;
-      EXPECT_EQ(words, f.waypoint == 0 ? "the takeoff's top above --home" : "waypoint " + number(f.waypoint));
+      ASSERT_TRUE(f.waypoint.has_value());
+      EXPECT_FALSE(f.leg.has_value());
+      EXPECT_EQ(words, *f.waypoint == 0 ? "the takeoff's top above --home" : "waypoint " + number(*f.waypoint));
     }
   }
 }

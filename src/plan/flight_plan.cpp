@@ -379,7 +379,7 @@ std::vector<PlanResult::Invalid> snap_waypoints(std::vector<Point3>& waypoints, 
                          why + "; no valid point within --snap " + two_decimals(radius) + " m" +
                              (spot.bound ? " among the " + std::to_string(spot.bound) + " nearest tried" : "") +
                              nearest_in_words(nearest),
-                         nearest.found ? nearest.at : Point3{NAN, NAN, NAN}});
+                         nearest.found ? std::optional(nearest.at) : std::nullopt});
       continue;
     }
     report.snapped.push_back({i + 1, "waypoint " + std::to_string(i + 1), waypoints[i], spot.at, spot.distance, why});

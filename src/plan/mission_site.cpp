@@ -143,7 +143,7 @@ void check_vertical_legs(const MissionSite& site, const std::vector<Point3>& way
     throw DataFault("--home",
                     error.problem() + "; the nearest clear spot: --home " + two_decimals(x) + "," + two_decimals(y) +
                         " (" + two_decimals(std::hypot(x - site.home[0], y - site.home[1])) + " m away)",
-                    {x, y, -limits.ground->height_above({x, y, 0})});
+                    Point3{x, y, -limits.ground->height_above({x, y, 0})});
   }
   if (site.end == MissionEnd::land)
     check_vertical(waypoints.back(), site.land[2], limits, dsm_z, "--end", "descent to land");
@@ -203,7 +203,7 @@ RouteFailure route_failure(const PlanResult& result, const MissionSite* site, si
     if (!result.invalid.empty()) failure.nearest = result.invalid.front().nearest;
   } else if (result.status == PlanStatus::NoPath) {
     failure.code = "no_path";
-    failure.leg = {user_number(result.waypoint), user_number(result.waypoint + 1)};
+    failure.leg = {{user_number(result.waypoint), user_number(result.waypoint + 1)}};
   }
   return failure;
 }

@@ -80,25 +80,20 @@ void check_route_files(const std::vector<Route>& routes) {
       throw ArgumentError("--routes", "the ids '" + it->second + "' and '" + route.id + "' make one file name");
 }
 
-std::string reason_of(const RouteResult& result) {
-  return result.place.empty() ? result.why : result.place + ": " + result.why;
-}
-
 // A route's RouteFailure as JSON: every key always there (null where it does not apply), the
 // nearest valid point as `place` gives it (the CRS's coordinates, or WGS 84's).
 Json failure_json(const RouteResult& result, const std::function<Point3(const Point3&)>& place) {
   const RouteFailure& f = result.failure;
-  const bool near = std::isfinite(f.nearest[0]) && std::isfinite(f.nearest[1]) && std::isfinite(f.nearest[2]);
   Json nearest = nullptr;
-  if (near) {
-    const Point3 p = place(f.nearest);
+  if (f.nearest) {
+    const Point3 p = place(*f.nearest);
     nearest = {p[0], p[1], p[2]};
   }
   return Json{{"code", f.code},
-              {"waypoint", f.code == "waypoint_refused" ? Json(f.waypoint) : Json(nullptr)},
-              {"leg", f.code == "no_path" ? Json{f.leg[0], f.leg[1]} : Json(nullptr)},
+              {"waypoint", f.waypoint ? Json(*f.waypoint) : Json(nullptr)},
+              {"leg", f.leg ? Json{(*f.leg)[0], (*f.leg)[1]} : Json(nullptr)},
               {"nearest_valid_point", nearest},
-              {"message", reason_of(result)}};
+              {"message", result.reason()}};
 }
 
 Point3 as_is(const Point3& p) { return p; }
@@ -107,7 +102,7 @@ Json route_figures(const Route& route, const RouteResult& result,
                    const std::function<Point3(const Point3&)>& place = as_is) {
   Json p{{"id", route.id}, {"solved", result.solved}, {"waypoints", route.waypoints.size()}};
   if (!result.solved) {
-    p["reason"] = reason_of(result);
+    p["reason"] = result.reason();
     p["failure"] = failure_json(result, place);
     return p;
   }
@@ -296,7 +291,7 @@ RoutesReport plan_routes_job(const PlanJobOptions& options, const Progress& prog
       ++report.solved;
       continue;
     }
-    report.failed.push_back(routes[i].id + ": " + reason_of(r));
+    report.failed.push_back(routes[i].id + ": " + r.reason());
     Json failure = failure_json(r, as_is);
     failure["id"] = routes[i].id;
     report.failures.push_back(std::move(failure));

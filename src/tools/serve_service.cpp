@@ -98,11 +98,15 @@ std::string kmz_bytes(const PlanJobOptions& job, const OutputKind& kind, const F
   return std::move(bytes).str();
 }
 
-// The name of a transformation to WGS 84, or why there is none.
-std::string transformation_name(const Crs& crs, HeightReference target, const VerticalOptions& vertical) {
+// The name of a transformation to WGS 84, or why there is none; `made` says which.
+std::string transformation_name(const Crs& crs, HeightReference target, const VerticalOptions& vertical,
+                                bool* made = nullptr) {
   try {
-    return Wgs84Transform(crs, target, vertical).description();
+    std::string name = Wgs84Transform(crs, target, vertical).description();
+    if (made) *made = true;
+    return name;
   } catch (const Error& e) {
+    if (made) *made = false;
     return std::string("unavailable: ") + e.what();
   }
 }
@@ -117,9 +121,11 @@ void prepare(PlanService::State& state, FlightData data, const Progress& progres
   report(progress, 0.4);
   (void)area.index();  // built now, not by the first request
   report(progress, 0.7);
-  state.vertical_geojson = transformation_name(area.crs(), HeightReference::Ellipsoid, options.vertical);
+  bool ellipsoid_known = false;
+  state.vertical_geojson =
+      transformation_name(area.crs(), HeightReference::Ellipsoid, options.vertical, &ellipsoid_known);
   state.vertical_msl = transformation_name(area.crs(), HeightReference::MeanSeaLevel, options.vertical);
-  if (state.vertical_geojson.rfind("unavailable: ", 0) == 0) state.default_format = "csv";
+  if (!ellipsoid_known) state.default_format = "csv";
   if (options.plan.planner != PlannerKind::prm) return;
   const PlanOptions plan = area.planner_options(options.plan);
   const uint64_t key = area.roadmap_key();  // as plan_flight() asks FlightStore::kept_roadmap

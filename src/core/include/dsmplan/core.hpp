@@ -17,10 +17,10 @@
 #include <array>
 #include <atomic>
 #include <chrono>
-#include <cmath>
 #include <cstdint>
 #include <functional>
 #include <memory>
+#include <optional>
 #include <stdexcept>
 #include <string>
 #include <utility>
@@ -69,19 +69,19 @@ private:
 /// zone, a landing outside the DSM. An InputError (the data's fault: exit 1, HTTP 422) that
 /// still names the option's `field` as ArgumentError does, so every face names it as it names
 /// the option (the CLI its flag, the service its key, Python its keyword). `nearest`: where the
-/// value would be accepted (x, y, z in the data's CRS), NaN when none was found.
+/// value would be accepted (x, y, z in the data's CRS), when one was found.
 class DataFault : public InputError {
 public:
   DataFault(const std::string& field, const std::string& problem,
-            const std::array<double, 3>& nearest = {NAN, NAN, NAN})
+            std::optional<std::array<double, 3>> nearest = std::nullopt)
       : InputError("", field, problem), field_(field), problem_(problem), nearest_(nearest) {}
   const std::string& field() const { return field_; }
   const std::string& problem() const { return problem_; }
-  const std::array<double, 3>& nearest() const { return nearest_; }
+  const std::optional<std::array<double, 3>>& nearest() const { return nearest_; }
 
 private:
   std::string field_, problem_;
-  std::array<double, 3> nearest_;
+  std::optional<std::array<double, 3>> nearest_;
 };
 
 class OutputError : public Error {

@@ -358,13 +358,13 @@ FlightAttempt attempt_flight(const FlightArea& area, const FlightQuery& query, c
 ///   "home_refused"      a mission's home or its climb; "end_refused" its landing
 ///   "route_budget"      past the route's own time limit (plan_routes()'s `route_budget`)
 ///   "refused"           another refusal of the data (a DTM above the DSM, ...)
-/// `nearest`: where it would be accepted (CRS), NaN when not searched or none found: the nearest
-/// valid point to a refused waypoint, the nearest clear spot on the ground for a refused home.
+/// `nearest`: where it would be accepted (CRS), when searched and found: the nearest valid point
+/// to a refused waypoint, the nearest clear spot on the ground for a refused home.
 struct RouteFailure {
   std::string code;
-  size_t waypoint = 0;
-  std::array<size_t, 2> leg{0, 0};
-  Point3 nearest{NAN, NAN, NAN};
+  std::optional<size_t> waypoint;            ///< waypoint_refused
+  std::optional<std::array<size_t, 2>> leg;  ///< no_path
+  std::optional<Point3> nearest;
 };
 
 /// RouteFailure of a failed plan, numbered as failure_in_words() names it.
@@ -378,6 +378,8 @@ struct RouteResult {
   FlightPlan plan;
   std::string place, why;
   RouteFailure failure;
+  /// The one line a failed route is reported by: "place: why", or `why` alone.
+  std::string reason() const { return place.empty() ? why : place + ": " + why; }
 };
 
 struct RoutesPlan {

@@ -16,6 +16,7 @@
 #include <functional>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -256,7 +257,7 @@ struct PlanResult {
   struct Invalid {
     size_t waypoint = 0;
     std::string reason;
-    Point3 nearest{NAN, NAN, NAN};  ///< the nearest valid point, when plan_flight() searched and found one
+    std::optional<Point3> nearest;  ///< the nearest valid point, when plan_flight() searched and found one
   };
   std::vector<Invalid> invalid;
   /// "waypoint N" or "waypoints N to N+1" (1-based), empty when solved.
